@@ -1,0 +1,23 @@
+/* plod.h -- Planet LOD core, umbrella header.  One header per stage:
+ *   plod_status.h      status codes and messages
+ *   plod_projection.h  TSC / CSC / QSC / spherified / CAR mappings
+ *   plod_cubemap.h     cube maps, seamless sampling, min/max pyramid
+ *   plod_image.h       images and OpenImageIO file I/O
+ *   plod_resample.h    the CubeResampler (CAR -> cube)
+ *   plod_planet.h      planet description and heights
+ *   plod_cull.h        camera and visibility tests
+ *   plod_refine.h      HRTMR split/merge refinement
+ *   plod_mesh.h        sector templates and buffer emission
+ */
+#ifndef PLOD_H
+#define PLOD_H
+#include "plod_status.h"
+#include "plod_projection.h"
+#include "plod_cubemap.h"
+#include "plod_image.h"
+#include "plod_resample.h"
+#include "plod_planet.h"
+#include "plod_cull.h"
+#include "plod_refine.h"
+#include "plod_mesh.h"
+#endif

@@ -1,0 +1,50 @@
+/* plod_cull.h -- the camera in Blender's conventions, and conservative
+ * visibility tests of sector prisms (horizon/backface and frustum).
+ */
+#ifndef PLOD_CULL_H
+#define PLOD_CULL_H
+
+#include "plod_planet.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef enum plod_sensor_fit {
+    PLOD_SENSOR_AUTO = 0, PLOD_SENSOR_HORIZONTAL, PLOD_SENSOR_VERTICAL
+} plod_sensor_fit;
+
+/* Given: what Blender's Object.matrix_world and Camera data hold.  The
+ * camera looks down its local -Z with +Y up; matrix in planet space (the
+ * planet object's inverse world matrix already applied by the caller). */
+typedef struct plod_camera_desc {
+    double matrix_world[16];   /* row-major 4x4, as Blender's Matrix rows */
+    int orthographic;          /* 0 perspective, 1 orthographic */
+    double lens;               /* mm */
+    double sensor_width, sensor_height; /* mm */
+    plod_sensor_fit sensor_fit;
+    double ortho_scale;
+    double shift_x, shift_y;
+    double clip_start, clip_end;
+    int resolution_x, resolution_y;
+    double pixel_aspect_x, pixel_aspect_y;
+} plod_camera_desc;
+
+/* Returned by plod_camera_init: derived, planet-space quantities. */
+typedef struct plod_camera {
+    plod_camera_desc desc;
+    double position[3];
+    double right[3], up[3], forward[3]; /* unit; forward = -Z column */
+    double planes[6][4];       /* inward frustum planes: n.x + d >= 0 inside */
+    double pixels_per_radian;  /* perspective: screen scale at unit depth */
+    double pixels_per_metre;   /* orthographic */
+} plod_camera;
+
+/* PLOD_ERR_BAD_CAMERA for non-finite values, a singular matrix, lens <= 0,
+ * zero resolution, ortho_scale <= 0, clip_start >= clip_end ... */
+plod_status plod_camera_init(plod_camera *camera, const plod_camera_desc *desc);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* PLOD_CULL_H */

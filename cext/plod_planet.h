@@ -1,0 +1,36 @@
+/* plod_planet.h -- the planet being refined: radius, mapping, heights.
+ * A plain value struct; the height map is borrowed (caller keeps it alive).
+ */
+#ifndef PLOD_PLANET_H
+#define PLOD_PLANET_H
+
+#include "plod_cubemap.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct plod_planet {
+    double radius;              /* metres, [1, 1e8] */
+    plod_projection projection; /* mapping used for sectors */
+    const plod_cubemap *heightmap; /* borrowed; NULL = perfect sphere.  Its
+                                      projection equals `projection` (CAR:
+                                      an equirectangular map). */
+    double height_scale;        /* metres per unit of sampled height */
+    int has_sea_level;          /* non-zero: sea_level is set */
+    double sea_level;           /* metres; sectors whose heights are all
+                                   <= sea_level may be skipped */
+} plod_planet;
+
+/* Validates fields (finite, radius range, pyramid built).  */
+plod_status plod_planet_check(const plod_planet *planet);
+/* Height in metres above `radius` at a unit direction. */
+double plod_planet_height(const plod_planet *planet, const double dir[3]);
+/* Global height bounds in metres (0, 0 without a map). */
+void plod_planet_height_range(const plod_planet *planet, double *min_m,
+                              double *max_m);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* PLOD_PLANET_H */

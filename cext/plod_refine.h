@@ -1,0 +1,104 @@
+/* plod_refine.h -- HRTMR split/merge refinement of spherical triangle
+ * sectors (thesis 000, sections 5.2-5.3), leaves only, implicit ids.
+ *
+ * Cube-sphere: 12 base sectors, two per face, on the 8 cube corners; CAR:
+ * 8 octahedron sectors in the octahedral square.  Split = longest-edge
+ * bisection with forced splits across the split edge (conforming); merge =
+ * a diamond of 4 sectors back into 2.  Incremental from frame to frame.
+ */
+#ifndef PLOD_REFINE_H
+#define PLOD_REFINE_H
+
+#include <stdint.h>
+#include "plod_cull.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define PLOD_MAX_LEVEL 52   /* deepest bisection level supported */
+
+/* Value-type sector (<= 64 bytes).  Corners are dyadic face coordinates
+ * u = cu / 2^PLOD_COORD_BITS on `face` (octahedral square for CAR), in
+ * counter-clockwise order seen from outside the planet; corner 1 is the
+ * right-angle apex, edge 0-2 the longest edge. */
+#define PLOD_COORD_BITS 28
+typedef struct plod_sector {
+    uint64_t id;          /* base index (4 bits) << 56 | bisection path */
+    int32_t cu[3], cv[3]; /* corner face coordinates, fixed point */
+    float height_min;     /* metres, over the sector (conservative) */
+    float height_max;
+    uint32_t birth;       /* refine frame in which it was created */
+    uint16_t flags;       /* PLOD_SECTOR_* */
+    uint8_t face;
+    uint8_t level;        /* bisection depth, 0 = base sector */
+} plod_sector;
+
+enum {
+    PLOD_SECTOR_VISIBLE = 1u << 0,   /* passed every enabled test */
+    PLOD_SECTOR_BACKFACING = 1u << 1,
+    PLOD_SECTOR_OUTSIDE_FRUSTUM = 1u << 2,
+    PLOD_SECTOR_OVER_BUDGET = 1u << 3,
+    PLOD_SECTOR_SEA = 1u << 4        /* all heights at sea level */
+};
+
+typedef enum plod_criterion {
+    PLOD_CRITERION_PIXEL_ERROR = 0, /* screen-space error in pixels */
+    PLOD_CRITERION_SIDE_DISTANCE    /* thesis: side / distance borders */
+} plod_criterion;
+
+typedef struct plod_refine_params {
+    plod_criterion criterion;
+    double max_pixel_error;  /* pixels, default 1 */
+    double split_border;     /* side/distance, default 0.5 */
+    double merge_border;     /* default 0.25; used only with hysteresis */
+    int hysteresis;          /* 1: keep splits until below merge border
+                                (viewport); 0: deterministic (renders) */
+    int template_level;      /* 0..7: 4^level triangles per sector */
+    int max_level;           /* <= PLOD_MAX_LEVEL */
+    size_t budget;           /* max visible sectors, 0 = unlimited */
+    int backface_culling;
+    int frustum_culling;
+    int skip_sea;            /* drop PLOD_SECTOR_SEA sectors from visible */
+} plod_refine_params;
+
+void plod_refine_params_default(plod_refine_params *params);
+
+typedef struct plod_refine_stats {
+    size_t sectors_total;
+    size_t sectors_after_backface;
+    size_t sectors_after_frustum;
+    size_t sectors_after_budget;  /* = visible (after sea skipping) */
+    size_t sectors_sea_skipped;
+    size_t splits, merges;
+    double refine_us, cull_us;
+    int max_level_reached;
+} plod_refine_stats;
+
+typedef struct plod_refiner plod_refiner; /* opaque */
+
+/* The planet (and its height map) is borrowed and must outlive the refiner. */
+plod_status plod_refiner_create(plod_refiner **out, const plod_planet *planet);
+void plod_refiner_destroy(plod_refiner *refiner);
+/* Back to the base sectors. */
+void plod_refiner_reset(plod_refiner *refiner);
+/* One frame: merge pass, split pass, culling; fills stats (may be NULL). */
+plod_status plod_refiner_update(plod_refiner *refiner, const plod_camera *camera,
+                                const plod_refine_params *params,
+                                plod_refine_stats *stats);
+/* Every leaf sector (visible or not), valid until the next update/reset. */
+const plod_sector *plod_refiner_sectors(const plod_refiner *refiner,
+                                        size_t *count);
+/* Unit directions of a sector's corners, bit-identical wherever two sectors
+ * share a corner. */
+void plod_sector_corners(const plod_planet *planet, const plod_sector *sector,
+                         double corners[3][3]);
+
+/* Horizon-distance correction: recommended clip range for a camera. */
+void plod_recommended_clip(const plod_planet *planet, const plod_camera *camera,
+                           double *clip_start, double *clip_end);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* PLOD_REFINE_H */

@@ -1,0 +1,35 @@
+/* plod_status.h -- status codes shared by every stage of the Planet LOD core.
+ *
+ * Every fallible C entry point returns a plod_status; PLOD_OK is 0.  The
+ * Python module maps each code to one exception type in one place
+ * (pymodule.c), so a new code needs a message here and a mapping there.
+ */
+#ifndef PLOD_STATUS_H
+#define PLOD_STATUS_H
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef enum plod_status {
+    PLOD_OK = 0,
+    PLOD_ERR_NULL,            /* a required pointer argument was NULL */
+    PLOD_ERR_BAD_PROJECTION,  /* unknown projection code or name */
+    PLOD_ERR_BAD_COORD,       /* NaN/inf or out-of-domain coordinate */
+    PLOD_ERR_BAD_PARAM,       /* an argument outside its documented range */
+    PLOD_ERR_NO_MEMORY,       /* allocation failed or size would overflow */
+    PLOD_ERR_IO,              /* file missing, unreadable or unwritable */
+    PLOD_ERR_BAD_IMAGE,       /* corrupt image or unsupported pixel layout */
+    PLOD_ERR_BAD_CAMERA,      /* singular/non-finite camera or bad intrinsics */
+    PLOD_ERR_CANCELLED,       /* a progress callback asked to stop */
+    PLOD_STATUS_COUNT
+} plod_status;
+
+/* Human-readable message for a status; never NULL (unknown codes get a
+ * generic message). */
+const char *plod_status_message(plod_status status);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* PLOD_STATUS_H */

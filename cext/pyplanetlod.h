@@ -1,0 +1,48 @@
+/* pyplanetlod.h -- shared internals of the Python module `planetlod`.
+ * Only the py_*.c files include this; the core (plod_*.h) never sees Python.
+ */
+#ifndef PYPLANETLOD_H
+#define PYPLANETLOD_H
+
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#include "plod.h"
+
+/* ---- exported buffers ----------------------------------------------------
+ * planetlod.Buffer: a 1-D, C-contiguous, read-write buffer that honours
+ * PyBUF_SIMPLE|PyBUF_FORMAT (Blender's foreach_set accepts it, a memoryview
+ * does not), supports len(), indexing and .tolist().  format is one struct
+ * character: 'f' float32, 'd' float64, 'i' int32, 'I' uint32, 'B' uint8,
+ * 'H' uint16, 'Q' uint64. */
+
+/* New zero-filled buffer of `count` items; *data receives its storage. */
+PyObject *plod_py_buffer_new(char format, size_t count, void **data);
+/* Wraps memory from malloc (ownership moves to the buffer, even on failure). */
+PyObject *plod_py_buffer_steal(char format, size_t count, void *data);
+/* Storage pointer of a planetlod.Buffer (NULL + TypeError otherwise). */
+void *plod_py_buffer_data(PyObject *buffer, size_t *count, char *format);
+
+/* ---- errors --------------------------------------------------------------
+ * Raises the exception for `status` ("context: message") and returns NULL.
+ * Mapping: argument errors -> planetlod.InvalidArgument (a ValueError),
+ * PLOD_ERR_IO -> planetlod.FileError (an OSError), PLOD_ERR_BAD_IMAGE ->
+ * planetlod.ImageError (a ValueError), PLOD_ERR_NO_MEMORY -> MemoryError,
+ * PLOD_ERR_CANCELLED -> planetlod.Cancelled.  All but MemoryError derive
+ * from planetlod.PlanetLODError. */
+PyObject *plod_py_raise(plod_status status, const char *context);
+PyObject *plod_py_raise_detail(plod_status status, const char *context,
+                               const char *detail);
+
+/* ---- argument helpers ---------------------------------------------------- */
+/* Projection from a Python str; InvalidArgument listing valid names. */
+int plod_py_projection_arg(PyObject *name, plod_projection *out);
+/* Reads a float64 sequence or buffer into a new malloc'ed array. */
+double *plod_py_doubles(PyObject *obj, size_t *count, const char *what);
+
+/* ---- per-stage registration (each py_*.c defines one) --------------------- */
+int plod_py_init_projection(PyObject *module);
+int plod_py_init_cubemap(PyObject *module);
+int plod_py_init_planet(PyObject *module);
+int plod_py_init_mesh(PyObject *module);
+
+#endif /* PYPLANETLOD_H */

@@ -1,0 +1,25 @@
+"""Shared fixtures: the built module and the real planetary maps."""
+import os
+import sys
+
+import pytest
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, ROOT)
+
+DATA_DIRS = [os.path.join(ROOT, "data"), os.path.join(os.path.dirname(ROOT), "shared", "data")]
+
+
+def data_path(name):
+    """Path of a bundled map (data/), else of ../shared/data; skip if absent."""
+    for d in DATA_DIRS:
+        p = os.path.join(d, name)
+        if os.path.exists(p):
+            return p
+    pytest.skip(f"data file {name} not available")
+
+
+@pytest.fixture(scope="session")
+def planetlod():
+    import planetlod as module
+    return module
