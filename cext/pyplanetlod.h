@@ -39,6 +39,21 @@ int plod_py_projection_arg(PyObject *name, plod_projection *out);
 /* Reads a float64 sequence or buffer into a new malloc'ed array. */
 double *plod_py_doubles(PyObject *obj, size_t *count, const char *what);
 
+/* ---- mesh glue (py_mesh.c; called by Planet.mesh / Planet.instances) ----
+ * `sectors` are the refiner's leaves; only those with PLOD_SECTOR_VISIBLE are
+ * emitted when visible_only.  `camera` (the last refine's, may be NULL)
+ * places the float64 origin on the surface point nearest the camera and
+ * drives geomorphing; `params` is the last refine's parameters. */
+PyObject *plod_py_mesh_emit(const plod_planet *planet, const plod_camera *camera,
+                            const plod_refine_params *params,
+                            const plod_sector *sectors, size_t count,
+                            int template_level, int morph, int threads,
+                            int visible_only);
+PyObject *plod_py_instances(const plod_planet *planet, const plod_camera *camera,
+                            const plod_refine_params *params,
+                            const plod_sector *sectors, size_t count,
+                            int template_level);
+
 /* ---- per-stage registration (each py_*.c defines one) --------------------- */
 int plod_py_init_projection(PyObject *module);
 int plod_py_init_cubemap(PyObject *module);
