@@ -39,6 +39,18 @@ int plod_py_projection_arg(PyObject *name, plod_projection *out);
 /* Reads a float64 sequence or buffer into a new malloc'ed array. */
 double *plod_py_doubles(PyObject *obj, size_t *count, const char *what);
 
+/* ---- cube map glue (py_cubemap.c; used by Planet) ----------------------
+ * planetlod.CubeMap wraps an owned plod_cubemap with its pyramid built. */
+/* Borrowed pointer to the cube map inside a planetlod.CubeMap, or NULL with
+ * TypeError if `obj` is not one. */
+plod_cubemap *plod_py_cubemap_get(PyObject *obj);
+/* New planetlod.CubeMap from an image file: an equirectangular (2:1) image
+ * is resampled into `projection` at `size` (0 = chosen from the image), a
+ * cross-layout (4:3) image is taken as a cube map already.  channels 0 =
+ * keep the image's.  Raises FileError/ImageError/InvalidArgument. */
+PyObject *plod_py_cubemap_from_image(const char *path, plod_projection projection,
+                                     int size, int channels);
+
 /* ---- mesh glue (py_mesh.c; called by Planet.mesh / Planet.instances) ----
  * `sectors` are the refiner's leaves; only those with PLOD_SECTOR_VISIBLE are
  * emitted when visible_only.  `camera` (the last refine's, may be NULL)
