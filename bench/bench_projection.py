@@ -15,7 +15,10 @@ import argparse
 import math
 import os
 import platform
+import shutil
+import subprocess
 import sys
+import tempfile
 import time
 
 import numpy as np
@@ -73,6 +76,23 @@ def roundtrips(proj):
     return sph.max(), face.max()
 
 
+def c_kernels(points):
+    """Builds bench_projection_c.c against cext/projection.c (same flags as
+    setup.py) and returns its table, or a note if there is no compiler."""
+    cc = shutil.which("cc") or shutil.which("gcc") or shutil.which("clang")
+    if not cc:
+        return "(no C compiler: C-level table skipped)"
+    with tempfile.TemporaryDirectory() as tmp:
+        exe = os.path.join(tmp, "bench_projection_c")
+        subprocess.run([cc, "-std=c11", "-O2", "-ffp-contract=off", "-D_POSIX_C_SOURCE=200809L",
+                        "-I", os.path.join(ROOT, "cext"),
+                        os.path.join(ROOT, "bench", "bench_projection_c.c"),
+                        os.path.join(ROOT, "cext", "projection.c"), "-lm", "-o", exe],
+                       check=True)
+        return subprocess.run([exe, str(points)], check=True, capture_output=True,
+                              text=True).stdout.rstrip()
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--points", type=int, default=2_000_000)
@@ -81,6 +101,10 @@ def main():
     print(f"machine: {platform.machine()} {platform.processor() or ''} python {platform.python_version()}")
     print(f"points per call: {args.points}; best of 5; single thread")
     print()
+    print("C kernels alone (plod_*_n loops, no Python):")
+    print(c_kernels(args.points))
+    print()
+    print("Through the Python module (includes output allocation):")
     print("| mapping | fwd M/s (lon/lat) | inv M/s (lon/lat) | fwd+inv M/s (lon/lat) | fwd M/s (dir) | inv M/s (dir) | fwd+inv M/s (dir) |")
     print("|---|---|---|---|---|---|---|")
     for proj in planetlod.PROJECTIONS:

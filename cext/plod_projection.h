@@ -10,7 +10,13 @@
  *     (u, v) in this code; their orientation is WCSLIB's.
  *   - cross layout [deg]: x = phi_c + 45 chi, y = theta_c + 45 psi.
  *   - CAR: x = lon, y = lat [deg]; its refinement domain is the octahedral
- *     square (face 0, (u, v) in [-1, 1]^2, |u|+|v| <= 1 northern hemisphere).
+ *     square (face 0, (u, v) in [-1, 1]^2, |u|+|v| <= 1 northern hemisphere):
+ *     lat = 90 (1 - |u| - |v|); lon = 90 |v| / (|u| + |v|) north of the
+ *     equator, 90 (1 - |u|) / (2 - |u| - |v|) south of it (the outer
+ *     triangles fold), then x takes the sign of u and y the sign of v
+ *     ((1,0) lon 0, (0,1) lon 90, (-1,0) lon 180, (0,-1) lon -90; the
+ *     border maps onto the meridians south of the equator, the corners onto
+ *     the south pole).  Details in projection.c.
  * Angles at the API are degrees; internal maths is double precision.
  */
 #ifndef PLOD_PROJECTION_H

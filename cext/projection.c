@@ -652,6 +652,8 @@ static const double plod__face_y0[PLOD_FACE_COUNT] = {2.0, 0.0, 0.0, 0.0, 0.0, -
 /* Wraps a finite longitude into [-180, 180] exactly. */
 PLOD__HOT double plod__wrap_lon(double lon)
 {
+    if (fabs(lon) <= 180.0) /* the common case skips the libm call */
+        return lon;
     lon = fmod(lon, 360.0);
     if (lon > 180.0)
         lon -= 360.0;
