@@ -280,6 +280,36 @@ static void plod__store(const plod__resample_job *job, int face, int i, int j,
         plod__write_norm(plod_cubemap_texel_type(m), job->faces[face], index + (size_t)k, value[k]);
 }
 
+/* Per-thread scratch for one face row. */
+typedef struct plod__row_scratch {
+    int *faces;
+    double *u, *v, *dirs, *sx, *sy;
+} plod__row_scratch;
+
+static void plod__scratch_free(plod__row_scratch *rs)
+{
+    free(rs->faces);
+    free(rs->u);
+    free(rs->v);
+    free(rs->dirs);
+    free(rs->sx);
+    free(rs->sy);
+}
+
+static int plod__scratch_alloc(plod__row_scratch *rs, size_t width)
+{
+    rs->faces = malloc(width * sizeof *rs->faces);
+    rs->u = malloc(width * sizeof *rs->u);
+    rs->v = malloc(width * sizeof *rs->v);
+    rs->dirs = malloc(3 * width * sizeof *rs->dirs);
+    rs->sx = malloc(width * sizeof *rs->sx);
+    rs->sy = malloc(width * sizeof *rs->sy);
+    if (rs->faces && rs->u && rs->v && rs->dirs && rs->sx && rs->sy)
+        return 0;
+    plod__scratch_free(rs);
+    return -1;
+}
+
 /* Job row r: for a cube map with rotated_equator, rows [0, n) are the
  * equator band (faces 1..4, row r), then with polar_mirror [n, 2n) face 0
  * row j together with face 5 row n-1-j, else [n, 2n) face 0, [2n, 3n)
@@ -292,7 +322,7 @@ static int plod__row_weight(const plod__resample_job *job, int r)
     return r < job->n ? 4 : job->polar_mirror ? 2 : 1;
 }
 
-static plod_status plod__resample_row(plod__resample_job *job, int r, double *sx, double *sy)
+static plod_status plod__resample_row(plod__resample_job *job, int r, void *scratch)
 {
     plod_cubemap *m = job->cubemap;
     const plod_image *src = job->source;
@@ -319,16 +349,20 @@ static plod_status plod__resample_row(plod__resample_job *job, int r, double *sx
         face = r / n;
         j = r % n;
     }
-    plod_projection projection = plod_cubemap_projection(m);
+    plod__row_scratch *rs = scratch;
     double v = -1.0 + (j + 0.5) * 2.0 / n;
     for (int i = 0; i < n; i++) {
-        double u = -1.0 + (i + 0.5) * 2.0 / n;
-        double d[3];
-        plod_status s = plod_face_to_dir(projection, face, u, v, d);
-        if (s != PLOD_OK)
-            return s;
-        plod__dir_to_source(src, d, &sx[i], &sy[i]);
+        rs->faces[i] = face;
+        rs->u[i] = -1.0 + (i + 0.5) * 2.0 / n;
+        rs->v[i] = v;
     }
+    plod_status s = plod_face_to_dir_n(plod_cubemap_projection(m), (size_t)n, rs->faces, rs->u,
+                                       rs->v, rs->dirs, NULL);
+    if (s != PLOD_OK)
+        return s;
+    double *sx = rs->sx, *sy = rs->sy;
+    for (int i = 0; i < n; i++)
+        plod__dir_to_source(src, rs->dirs + 3 * i, &sx[i], &sy[i]);
     int copies = (job->rotated_equator && face == 1) ? 4 : 1;
     for (int k = 0; k < copies; k++) {
         double shift = k * (src->width / 4.0);
@@ -353,11 +387,8 @@ static void plod__resample_work(plod__resample_job *job, int report, plod_progre
                                 void *user)
 {
     size_t width = (size_t)plod_cubemap_face_width(job->cubemap);
-    double *sx = malloc(width * sizeof *sx);
-    double *sy = malloc(width * sizeof *sy);
-    if (!sx || !sy) {
-        free(sx);
-        free(sy);
+    plod__row_scratch scratch;
+    if (plod__scratch_alloc(&scratch, width) < 0) {
         atomic_store(&job->failed, PLOD_ERR_NO_MEMORY);
         atomic_store(&job->cancel, 1);
         return;
@@ -373,7 +404,7 @@ static void plod__resample_work(plod__resample_job *job, int report, plod_progre
         int r1 = r0 + PLOD__CHUNK_ROWS < job->rows_total ? r0 + PLOD__CHUNK_ROWS : job->rows_total;
         long weight = 0;
         for (int r = r0; r < r1; r++) {
-            plod_status s = plod__resample_row(job, r, sx, sy);
+            plod_status s = plod__resample_row(job, r, &scratch);
             if (s != PLOD_OK) {
                 atomic_store(&job->failed, s);
                 atomic_store(&job->cancel, 1);
@@ -391,8 +422,7 @@ static void plod__resample_work(plod__resample_job *job, int report, plod_progre
             }
         }
     }
-    free(sx);
-    free(sy);
+    plod__scratch_free(&scratch);
 }
 
 static void *plod__resample_thread(void *arg)
