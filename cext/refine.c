@@ -1099,6 +1099,9 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
         plod_sector *sec = &r->leaves[i];
         plod__leaf_wants_split(r, i); /* fills the cached cull flags */
         unsigned flags = r->geom[i].eval_flags;
+        int sea = r->planet->has_sea_level && sec->height_max <= r->planet->sea_level;
+        if (sea)
+            flags |= PLOD_SECTOR_SEA;
         deepest = sec->level > deepest ? sec->level : deepest;
         if (flags & PLOD_SECTOR_BACKFACING) {
             sec->flags = (uint16_t)flags;
@@ -1110,8 +1113,7 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
             continue;
         }
         s.sectors_after_frustum++;
-        if (r->planet->has_sea_level && sec->height_max <= r->planet->sea_level) {
-            flags |= PLOD_SECTOR_SEA;
+        if (sea) {
             if (params->skip_sea) {
                 s.sectors_sea_skipped++;
                 sec->flags = (uint16_t)flags;
