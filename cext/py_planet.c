@@ -604,6 +604,7 @@ static PyObject *plod__planet_get(plod_py_planet *self, void *closure)
     const plod_sector *sec = plod_refiner_sectors(self->refiner, &count);
     switch ((int)(intptr_t)closure) {
     case 0: return PyLong_FromSize_t(count);
+    case 7: return PyLong_FromSize_t(plod_refiner_memory_bytes(self->refiner));
     case 1: {
         size_t n = 0;
         for (size_t i = 0; i < count; i++)
@@ -617,6 +618,7 @@ static PyObject *plod__planet_get(plod_py_planet *self, void *closure)
         if (!self->planet.has_sea_level)
             Py_RETURN_NONE;
         return PyFloat_FromDouble(self->planet.sea_level);
+    case 6:
     default:
         if (!self->heightmap)
             Py_RETURN_NONE;
@@ -633,6 +635,8 @@ static PyGetSetDef plod__planet_getset[] = {
     {"height_scale", (getter)plod__planet_get, NULL, "metres per height unit", (void *)4},
     {"sea_level", (getter)plod__planet_get, NULL, "metres or None", (void *)5},
     {"heightmap", (getter)plod__planet_get, NULL, "CubeMap or None", (void *)6},
+    {"memory_bytes", (getter)plod__planet_get, NULL,
+     "bytes held by the refiner (sectors, bounds, adjacency, internal nodes)", (void *)7},
     {NULL},
 };
 

@@ -50,12 +50,18 @@
 
 /* ---- per-leaf bounds ------------------------------------------------------ */
 
+/* A node's cap prism and the per-node constants of its tests. */
 typedef struct plod__bound {
     double axis[3];
     double angle, cos_angle, sin_angle;
-    double size;        /* longest corner chord, metres at the radius */
-    double extent;      /* largest (u, v) extent of the corners */
-    float hmin, hmax;   /* metres, outward-rounded */
+    double r_min, r_max;  /* metres from the centre */
+    double size;          /* longest corner chord, metres at the radius */
+    double extent;        /* largest (u, v) extent of the corners */
+    double horizon_angle; /* cap angle + angle at which r_max peeks over
+                             the occluder ball (< 0: never hidden) */
+    double horizon_cos, horizon_sin;
+    double sphere_z, sphere_radius; /* bounding ball: centre axis*sphere_z */
+    float hmin, hmax;     /* metres, outward-rounded */
 } plod__bound;
 
 typedef struct plod__geom {
@@ -94,7 +100,9 @@ struct plod_refiner {
     /* per-update evaluation context */
     const plod_camera *camera;
     const plod_refine_params *params;
-    double eye[3], eye_dist, occluder, eye_horizon_angle;
+    double eye[3], eye_unit[3], eye_dist, occluder;
+    double eye_horizon_angle, eye_horizon_cos, eye_horizon_sin;
+    int horizon_on;
     double merge_ratio, error_scale;
     double texels_per_unit; /* height map texels per unit of u or v */
     size_t max_sectors;
@@ -492,44 +500,56 @@ static void plod__compute_bound(const plod_refiner *r, const plod_sector *s,
         fmax_ = nextafterf(fmax_, INFINITY);
     b->hmin = fmin_;
     b->hmax = fmax_;
+    b->r_min = planet->radius + fmin_;
+    b->r_max = planet->radius + fmax_;
+    double rho = r->occluder;
+    if (b->r_max >= rho) {
+        b->horizon_angle = b->angle + atan2(sqrt((b->r_max - rho) * (b->r_max + rho)), rho);
+        b->horizon_cos = cos(b->horizon_angle);
+        b->horizon_sin = sin(b->horizon_angle);
+    } else {
+        b->horizon_angle = -1.0;
+    }
+    if (b->angle < 0.5 * 3.141592653589793) {
+        double z0 = b->r_min * b->cos_angle, lateral = b->r_max * b->sin_angle;
+        b->sphere_z = 0.5 * (z0 + b->r_max);
+        double half = 0.5 * (b->r_max - z0);
+        b->sphere_radius = sqrt(half * half + lateral * lateral) * (1.0 + 1e-12);
+    } else {
+        b->sphere_z = 0.0;
+        b->sphere_radius = b->r_max;
+    }
 }
 
-/* Culling flags of a bound (PLOD_SECTOR_BACKFACING / OUTSIDE_FRUSTUM, the
- * first failing test only) and the eye distance. */
+/* Culling flags of a bound (PLOD_SECTOR_BACKFACING or OUTSIDE_FRUSTUM,
+ * the first failing test only) and, when not culled, the eye distance.
+ * Angles are compared through cosines with per-node constants, so a test
+ * costs a few dot products (no trigonometry). */
 static unsigned plod__cull(const plod_refiner *r, const plod__bound *b,
                            double *distance)
 {
     const plod_refine_params *pr = r->params;
     const plod_camera *cam = r->camera;
-    double dot = b->axis[0] * r->eye[0] + b->axis[1] * r->eye[1] +
-                 b->axis[2] * r->eye[2];
-    double cr[3] = {b->axis[1] * r->eye[2] - b->axis[2] * r->eye[1],
-                    b->axis[2] * r->eye[0] - b->axis[0] * r->eye[2],
-                    b->axis[0] * r->eye[1] - b->axis[1] * r->eye[0]};
-    double phi = atan2(sqrt(cr[0] * cr[0] + cr[1] * cr[1] + cr[2] * cr[2]), dot);
-    double delta = phi - b->angle;
-    double r_min = r->planet->radius + b->hmin, r_max = r->planet->radius + b->hmax;
-    double dist = r->eye_dist;
-    if (delta <= 0.0) {
-        *distance = dist > r_max ? dist - r_max : (dist < r_min ? r_min - dist : 0.0);
-    } else {
-        double t = dist * cos(delta);
-        t = t < r_min ? r_min : (t > r_max ? r_max : t);
-        double s = sin(0.5 * delta), radial = dist - t;
-        *distance = sqrt(radial * radial + 4.0 * dist * t * s * s);
-    }
-    if (pr->backface_culling && !cam->desc.orthographic &&
-        r->eye_horizon_angle >= 0.0 && r_max >= r->occluder) {
-        double rho = r->occluder;
-        double over = atan2(sqrt((r_max - rho) * (r_max + rho)), rho);
-        double limit = r->eye_horizon_angle + over;
-        if (delta > limit * (1.0 + 1e-9) + 1e-9)
+    const double *e = r->eye_unit;
+    double cphi = b->axis[0] * e[0] + b->axis[1] * e[1] + b->axis[2] * e[2];
+    *distance = 0.0;
+    if (r->horizon_on && b->horizon_angle >= 0.0 &&
+        b->horizon_angle + r->eye_horizon_angle < 3.141592653589793) {
+        /* hidden iff phi > horizon_angle + eye angle */
+        double limit = b->horizon_cos * r->eye_horizon_cos - b->horizon_sin * r->eye_horizon_sin;
+        if (cphi < limit - 1e-12)
             return PLOD_SECTOR_BACKFACING;
     }
     if (pr->frustum_culling) {
         for (int i = 0; i < 6; i++) {
             const double *pl = cam->planes[i];
             double c = pl[0] * b->axis[0] + pl[1] * b->axis[1] + pl[2] * b->axis[2];
+            double centre = c * b->sphere_z + pl[3];
+            double margin = 1e-9 * (b->r_max + fabs(pl[3]));
+            if (centre >= b->sphere_radius)
+                continue; /* the bounding ball is inside this plane */
+            if (centre < -b->sphere_radius - margin)
+                return PLOD_SECTOR_OUTSIDE_FRUSTUM;
             double best;
             if (c >= b->cos_angle) {
                 best = 1.0;
@@ -537,11 +557,28 @@ static unsigned plod__cull(const plod_refiner *r, const plod__bound *b,
                 double s = sqrt(fmax(0.0, 1.0 - c * c));
                 best = c * b->cos_angle + s * b->sin_angle;
             }
-            double reach = best * (best >= 0.0 ? r_max : r_min);
-            if (reach + pl[3] < -1e-9 * (r_max + fabs(pl[3])))
+            double reach = best * (best >= 0.0 ? b->r_max : b->r_min);
+            if (reach + pl[3] < -margin)
                 return PLOD_SECTOR_OUTSIDE_FRUSTUM;
         }
     }
+    double dist = r->eye_dist;
+    if (cphi >= b->cos_angle) {
+        *distance = dist > b->r_max ? dist - b->r_max
+                                    : (dist < b->r_min ? b->r_min - dist : 0.0);
+        return 0;
+    }
+    double cr[3] = {b->axis[1] * e[2] - b->axis[2] * e[1], b->axis[2] * e[0] - b->axis[0] * e[2],
+                    b->axis[0] * e[1] - b->axis[1] * e[0]};
+    double sphi = sqrt(cr[0] * cr[0] + cr[1] * cr[1] + cr[2] * cr[2]);
+    /* delta = phi - angle > 0: the eye direction's angle beyond the cap */
+    double cdelta = cphi * b->cos_angle + sphi * b->sin_angle;
+    double sdelta = sphi * b->cos_angle - cphi * b->sin_angle;
+    double one_minus = cdelta > 0.0 ? sdelta * sdelta / (1.0 + cdelta) : 1.0 - cdelta;
+    double t = dist * cdelta;
+    t = t < b->r_min ? b->r_min : (t > b->r_max ? b->r_max : t);
+    double radial = dist - t;
+    *distance = sqrt(radial * radial + 2.0 * dist * t * one_minus);
     return 0;
 }
 
@@ -561,8 +598,7 @@ static double plod__score(const plod_refiner *r, const plod__bound *b, double di
     if (pr->criterion == PLOD_CRITERION_SIDE_DISTANCE)
         return b->size / d / pr->split_border;
     double cell = b->size * r->error_scale;
-    double r_min = r->planet->radius + b->hmin;
-    double sag = cell * cell / (8.0 * r_min);
+    double sag = cell * cell / (8.0 * b->r_min);
     double relief = ((double)b->hmax - (double)b->hmin) * r->error_scale;
     double texels = b->extent * r->texels_per_unit;
     if (texels < 1.0)
@@ -934,6 +970,7 @@ plod_status plod_refiner_create(plod_refiner **out, const plod_planet *planet)
     r->texels_per_unit =
         planet->heightmap ? 0.5 * plod_cubemap_size(planet->heightmap) : 0.0;
     plod_planet_height_range(planet, &r->global_hmin, &r->global_hmax);
+    r->occluder = planet->radius + r->global_hmin;
     st = plod__build_base(r);
     if (st != PLOD_OK) {
         plod_refiner_destroy(r);
@@ -1050,12 +1087,16 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
     r->params = params;
     memcpy(r->eye, camera->position, sizeof r->eye);
     r->eye_dist = eye_dist;
-    r->occluder = r->planet->radius + r->global_hmin;
+    for (int k = 0; k < 3; k++)
+        r->eye_unit[k] = camera->position[k] / eye_dist;
+    r->horizon_on = params->backface_culling && !camera->desc.orthographic &&
+                    eye_dist > r->occluder;
     r->eye_horizon_angle =
-        eye_dist > r->occluder
-            ? atan2(sqrt((eye_dist - r->occluder) * (eye_dist + r->occluder)),
-                    r->occluder)
-            : -1.0;
+        r->horizon_on ? atan2(sqrt((eye_dist - r->occluder) * (eye_dist + r->occluder)),
+                              r->occluder)
+                      : 0.0;
+    r->eye_horizon_cos = cos(r->eye_horizon_angle);
+    r->eye_horizon_sin = sin(r->eye_horizon_angle);
     r->merge_ratio = params->merge_border / params->split_border;
     r->error_scale = ldexp(1.0, -params->template_level);
     r->max_sectors = params->max_sectors;
@@ -1155,6 +1196,18 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
     if (stats)
         *stats = s;
     return PLOD_OK;
+}
+
+size_t plod_refiner_memory_bytes(const plod_refiner *r)
+{
+    if (!r)
+        return 0;
+    size_t bytes = sizeof *r + r->capacity * (sizeof(plod_sector) + sizeof(plod__geom));
+    if (r->edges)
+        bytes += (r->edge_mask + 1) * sizeof(plod__edge);
+    if (r->nodes)
+        bytes += (r->node_mask + 1) * sizeof(plod__node);
+    return bytes;
 }
 
 /* ---- invariants ---------------------------------------------------------------- */
