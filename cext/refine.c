@@ -93,6 +93,8 @@ struct plod_refiner {
     size_t count, capacity;
     plod__edge *edges;
     size_t edge_mask, edge_used; /* capacity - 1, live entries */
+    size_t *pending;             /* split pass: in-place children to revisit */
+    size_t pending_count, pending_capacity;
     plod__node *nodes;           /* internal nodes, open addressing by id */
     size_t node_mask, node_used;
     uint32_t frame;
@@ -769,6 +771,23 @@ static void plod__split_diamond(plod_refiner *r, size_t i, size_t n)
         }
     }
     r->splits += 2;
+    r->pending[r->pending_count++] = i;
+    r->pending[r->pending_count++] = n;
+}
+
+static plod_status plod__pending_reserve(plod_refiner *r, size_t extra)
+{
+    if (r->pending_count + extra <= r->pending_capacity)
+        return PLOD_OK;
+    size_t capacity = r->pending_capacity ? 2 * r->pending_capacity : 256;
+    while (capacity < r->pending_count + extra)
+        capacity *= 2;
+    size_t *fresh = realloc(r->pending, capacity * sizeof *fresh);
+    if (!fresh)
+        return PLOD_ERR_NO_MEMORY;
+    r->pending = fresh;
+    r->pending_capacity = capacity;
+    return PLOD_OK;
 }
 
 /* Splits leaf i, first splitting the coarser neighbour across its
@@ -784,7 +803,7 @@ static int plod__split(plod_refiner *r, size_t i)
             return 1;
         if (r->leaves[n].level == r->leaves[i].level) {
             if (r->count + 2 > r->max_sectors || plod__reserve(r, 2) != PLOD_OK ||
-                plod__node_reserve(r, 2) != PLOD_OK) {
+                plod__node_reserve(r, 2) != PLOD_OK || plod__pending_reserve(r, 2) != PLOD_OK) {
                 r->truncated = 1;
                 return 0;
             }
@@ -828,6 +847,24 @@ static int plod__same_point(const plod_refiner *r, const plod_sector *a, int ka,
 
 /* Tries to merge the diamond whose child-0 leaf is at index ia.  Returns 1
  * if merged (leaves[ia] then holds the restored parent). */
+static int plod__try_merge(plod_refiner *r, size_t ia);
+
+/* After a merge restored a leaf at `index`, tries its own diamond (a merge
+ * can only become possible when one of its four subtrees collapses). */
+static void plod__cascade(plod_refiner *r, size_t index)
+{
+    const plod_sector *s = &r->leaves[index];
+    if (s->level == 0)
+        return;
+    if (!(s->id & 1)) {
+        plod__try_merge(r, index);
+        return;
+    }
+    int32_t sibling = plod__across(r, index, 1); /* child 1's edge (m, c1) */
+    if (sibling >= 0 && (r->leaves[sibling].id ^ s->id) == 1)
+        plod__try_merge(r, (size_t)sibling);
+}
+
 static int plod__try_merge(plod_refiner *r, size_t ia)
 {
     const plod_sector *a = &r->leaves[ia];
@@ -880,9 +917,20 @@ static int plod__try_merge(plod_refiner *r, size_t ia)
     plod__leaf_link(r, ia);
     plod__leaf_link(r, ic_);
     size_t hi = ib_ > id2 ? ib_ : id2, lo = ib_ > id2 ? id2 : ib_;
-    plod__drop_unlinked(r, hi);
-    plod__drop_unlinked(r, lo);
+    size_t at[2] = {ia, ic_};
+    for (int k = 0; k < 2; k++) {
+        size_t hole = k ? lo : hi, last = r->count - 1;
+        for (int j = 0; j < 2; j++)
+            if (at[j] == last)
+                at[j] = hole;
+        plod__drop_unlinked(r, hole);
+    }
     r->merges += 2;
+    uint64_t q_id = r->leaves[at[1]].id;
+    plod__cascade(r, at[0]);
+    /* the first cascade may have moved q: find it again by its slot */
+    if (at[1] < r->count && r->leaves[at[1]].id == q_id)
+        plod__cascade(r, at[1]);
     return 1;
 }
 
@@ -988,6 +1036,7 @@ void plod_refiner_destroy(plod_refiner *refiner)
     free(refiner->geom);
     free(refiner->edges);
     free(refiner->nodes);
+    free(refiner->pending);
     free(refiner);
 }
 
@@ -1103,30 +1152,32 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
     r->truncated = 0;
     r->splits = r->merges = 0;
 
-    /* merge pass: every diamond whose parents fail the split predicate */
-    for (int changed = 1; changed;) {
-        changed = 0;
-        for (size_t i = 0; i < r->count;) {
-            if (plod__try_merge(r, i))
-                changed = 1; /* retry the restored parent at i */
-            else
-                i++;
+    /* merge pass: every diamond whose parents fail the split predicate;
+     * downwards, so the leaves moved into holes were already visited, and
+     * merges cascade upwards as subtrees collapse */
+    for (size_t i = r->count; i-- > 0;) {
+        if (i >= r->count)
+            i = r->count - 1;
+        plod__try_merge(r, i);
+    }
+    /* split pass: one sweep (children appended at the end are swept too);
+     * children written in place of earlier leaves are revisited after */
+    r->pending_count = 0;
+    for (size_t i = 0; i < r->count && !r->truncated; i++) {
+        while (!r->truncated && plod__leaf_wants_split(r, i)) {
+            size_t before = r->splits;
+            plod__split(r, i);
+            if (r->splits == before)
+                break; /* at PLOD_MAX_LEVEL or truncated */
         }
     }
-    /* split pass: until every leaf is stable */
-    for (int changed = 1; changed && !r->truncated;) {
-        changed = 0;
-        for (size_t i = 0; i < r->count && !r->truncated;) {
-            if (plod__leaf_wants_split(r, i)) {
-                size_t before = r->splits;
-                plod__split(r, i);
-                if (r->splits == before)
-                    i++; /* at PLOD_MAX_LEVEL or truncated */
-                else
-                    changed = 1;
-            } else {
-                i++;
-            }
+    while (r->pending_count && !r->truncated) {
+        size_t i = r->pending[--r->pending_count];
+        while (!r->truncated && plod__leaf_wants_split(r, i)) {
+            size_t before = r->splits;
+            plod__split(r, i);
+            if (r->splits == before)
+                break;
         }
     }
     double t1 = plod__now_us();
