@@ -60,7 +60,12 @@ typedef struct plod_refine_params {
     int backface_culling;
     int frustum_culling;
     int skip_sea;            /* drop PLOD_SECTOR_SEA sectors from visible */
+    size_t max_sectors;      /* hard cap on leaves (memory bound); default
+                                PLOD_DEFAULT_MAX_SECTORS; when reached the
+                                split pass stops (stats.truncated) */
 } plod_refine_params;
+
+#define PLOD_DEFAULT_MAX_SECTORS ((size_t)1 << 20)
 
 void plod_refine_params_default(plod_refine_params *params);
 
@@ -73,6 +78,8 @@ typedef struct plod_refine_stats {
     size_t splits, merges;
     double refine_us, cull_us;
     int max_level_reached;
+    int truncated;                /* 1: max_sectors stopped the split pass */
+    unsigned frame;               /* refine frame counter (sector.birth) */
 } plod_refine_stats;
 
 typedef struct plod_refiner plod_refiner; /* opaque */
@@ -93,6 +100,15 @@ const plod_sector *plod_refiner_sectors(const plod_refiner *refiner,
  * share a corner. */
 void plod_sector_corners(const plod_planet *planet, const plod_sector *sector,
                          double corners[3][3]);
+
+/* Bytes held by the refiner (sector records, per-leaf bounds, edge table,
+ * internal-node table), capacities included. */
+size_t plod_refiner_memory_bytes(const plod_refiner *refiner);
+
+/* Verifies the internal invariants (edge table matches the leaves, every
+ * edge shared by two leaves within one level, internal nodes = leaves -
+ * base sectors).  PLOD_OK or PLOD_ERR_BAD_PARAM; O(count). For tests. */
+plod_status plod_refiner_check(const plod_refiner *refiner);
 
 /* Horizon-distance correction: recommended clip range for a camera. */
 void plod_recommended_clip(const plod_planet *planet, const plod_camera *camera,

@@ -1,0 +1,144 @@
+#!/usr/bin/env python3
+"""Refine+cull cost per frame along a descent from 20,000 km to 2 m over an
+Earth-radius planet with the Earth topology map (1 px at 1920x1080).
+
+    /usr/bin/python3 bench/bench_refine.py [--frames 240] [--size 0] [--sphere]
+
+Prints a table (every --every frames) and a summary: refine and cull µs
+per frame (mean, median, max), sectors per frame, splits/merges, bytes per
+sector.  Also the same path on a perfect sphere, and a "fresh" column: the
+cost of refining each frame from the base sectors (what incrementality saves).
+Not a test: figures only.
+"""
+import argparse
+import math
+import os
+import statistics
+import sys
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, ROOT)
+
+import planetlod  # noqa: E402
+
+R = 6371000.0
+
+
+def look_at(eye, target, up):
+    def sub(a, b):
+        return [a[i] - b[i] for i in range(3)]
+
+    def norm(a):
+        n = math.sqrt(sum(x * x for x in a))
+        return [x / n for x in a]
+
+    def cross(a, b):
+        return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+
+    f = norm(sub(target, eye))
+    r = norm(cross(f, up))
+    u = cross(r, f)
+    return [[r[0], u[0], -f[0], eye[0]], [r[1], u[1], -f[1], eye[1]],
+            [r[2], u[2], -f[2], eye[2]], [0.0, 0.0, 0.0, 1.0]]
+
+
+def descent(frames, lat_deg=27.9, lon_deg=86.9, terrain_top=0.0):
+    """Cameras from 20,000 km to 2 m above the terrain top, pitching from
+    straight down to 10 degrees below the horizon while moving east."""
+    lat, lon0 = math.radians(lat_deg), math.radians(lon_deg)
+    for k in range(frames):
+        t = k / (frames - 1)
+        alt = math.exp(math.log(2e7) * (1 - t) + math.log(2.0) * t)
+        lon = lon0 + 0.002 * t
+        d = [math.cos(lat) * math.cos(lon), math.cos(lat) * math.sin(lon), math.sin(lat)]
+        east = [-math.sin(lon), math.cos(lon), 0.0]
+        pitch = math.radians(-90 + 80 * min(1.0, t * 1.25))
+        view = [east[i] * math.cos(pitch) + d[i] * math.sin(pitch) for i in range(3)]
+        eye = [d[i] * (R + terrain_top + alt) for i in range(3)]
+        target = [eye[i] + view[i] for i in range(3)]
+        up = d if abs(pitch) < math.radians(89) else [-math.sin(lat) * math.cos(lon),
+                                                        -math.sin(lat) * math.sin(lon),
+                                                        math.cos(lat)]
+        yield alt, look_at(eye, target, up)
+
+
+def run(planet, frames, every, label, terrain_top, fresh_too=True):
+    print(f"\n== {label}: {frames} frames, 1 px, 1920x1080, template 16 triangles ==")
+    head = (f"{'altitude m':>12} {'total':>7} {'backface':>8} {'frustum':>8} {'visible':>8} "
+            f"{'splits':>6} {'merges':>6} {'level':>5} {'refine µs':>9} {'cull µs':>8} {'fresh µs':>9}")
+    print(head)
+    rows = []
+    fresh_planet = None
+    for k, (alt, m) in enumerate(descent(frames, terrain_top=terrain_top)):
+        cam = planetlod.Camera(m, lens=50.0, sensor_width=36.0, resolution_x=1920,
+                               resolution_y=1080, clip_start=0.1, clip_end=1e9)
+        near, far = planet.recommended_clip(cam)
+        cam = planetlod.Camera(m, lens=50.0, sensor_width=36.0, resolution_x=1920,
+                               resolution_y=1080, clip_start=near, clip_end=far)
+        s = planet.refine(cam)
+        fresh_us = float("nan")
+        if fresh_too and k % every == 0:
+            fresh_planet = fresh_planet or planetlod.Planet(
+                planet.radius, projection=planet.projection, heightmap=planet.heightmap,
+                height_scale=planet.height_scale)
+            fresh_planet.reset()
+            t = time.perf_counter()
+            fresh_planet.refine(cam)
+            fresh_us = (time.perf_counter() - t) * 1e6
+        rows.append((alt, s))
+        if k % every == 0 or k == frames - 1:
+            print(f"{alt:12.1f} {s['sectors_total']:7d} {s['sectors_after_backface']:8d} "
+                  f"{s['sectors_after_frustum']:8d} {s['sectors_after_budget']:8d} "
+                  f"{s['splits']:6d} {s['merges']:6d} {s['max_level']:5d} "
+                  f"{s['refine_us']:9.1f} {s['cull_us']:8.1f} {fresh_us:9.1f}")
+    per = [s["refine_us"] + s["cull_us"] for _, s in rows]
+    total = [s["sectors_total"] for _, s in rows]
+    vis = [s["sectors_after_budget"] for _, s in rows]
+    print(f"refine+cull µs/frame: mean {statistics.mean(per):.1f}, median "
+          f"{statistics.median(per):.1f}, p95 {sorted(per)[int(0.95 * len(per))]:.1f}, "
+          f"max {max(per):.1f}; frames over 1000 µs: {sum(p > 1000 for p in per)}/{len(per)}")
+    print(f"sectors/frame: total mean {statistics.mean(total):.0f} max {max(total)}; "
+          f"visible mean {statistics.mean(vis):.0f} max {max(vis)} "
+          f"(x16 triangles: max {16 * max(vis)})")
+    print(f"bytes: sector record {planet.SECTOR_SIZE}; refiner state "
+          f"{planet.memory_bytes} B for {planet.sector_count} sectors "
+          f"= {planet.memory_bytes / planet.sector_count:.0f} B/sector (capacities included)")
+    return per
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--frames", type=int, default=240)
+    ap.add_argument("--every", type=int, default=20)
+    ap.add_argument("--size", type=int, default=0, help="cube map face size (0 = from image)")
+    ap.add_argument("--sphere", action="store_true", help="only the perfect sphere")
+    args = ap.parse_args()
+    print(f"planetlod refine benchmark; python {sys.version.split()[0]}; "
+          f"{os.cpu_count()} cpus; single thread")
+    if not args.sphere:
+        path = os.path.join(ROOT, "data", "earth-topology.png")
+        t = time.perf_counter()
+        earth = planetlod.Planet(R, projection="qsc", heightmap=path, height_scale=8848.0,
+                                 sea_level=0.0, heightmap_size=args.size)
+        lo, hi = earth.height_range()
+        print(f"Earth topology -> QSC cube map {earth.heightmap.size}^2 x 6 in "
+              f"{time.perf_counter() - t:.2f} s; heights {lo:.0f}..{hi:.0f} m")
+        run(earth, args.frames, args.every, "Earth topology (QSC), descent to 2 m over Everest",
+            terrain_top=hi)
+    sphere = planetlod.Planet(R, projection="qsc")
+    run(sphere, args.frames, args.every, "perfect sphere (QSC)", terrain_top=0.0)
+    side = planetlod.Planet(R, projection="qsc")
+    print("\n(side/distance criterion, split 0.5, on the sphere)")
+    per = []
+    for alt, m in descent(args.frames):
+        cam = planetlod.Camera(m, clip_start=0.1, clip_end=1e9)
+        s = side.refine(cam, criterion="side_distance")
+        per.append(s["refine_us"] + s["cull_us"])
+    print(f"side/distance: refine+cull µs/frame mean {statistics.mean(per):.1f}, max "
+          f"{max(per):.1f}; final sectors {side.sector_count}, max level "
+          f"{max(side.sector_levels(visible_only=False).tolist())}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,1345 @@
+/* refine.c -- HRTMR split/merge refinement (thesis 000, 5.2-5.3), leaves
+ * only, with implicit longest-edge-bisection ids.
+ *
+ * Bit rules (libleb-style heap ids):
+ *   id        = base << 56 | heap,  heap = 1 << level | path bits
+ *   child(b)  = heap * 2 + b        parent = heap >> 1
+ *   parent (c0, c1, c2), apex c1, hypotenuse c0-c2, m = (c0 + c2) / 2:
+ *     child 0 = (c1, m, c0)         child 1 = (c2, m, c1)
+ *   so every child keeps the counter-clockwise order and has its apex at m.
+ * Base mesh: cube, per face the diagonal (-1,-1)-(1,1) splits the square
+ * into two sectors that form the level-0 diamond; CAR, the octahedral
+ * square's 8 octant triangles, each inner (northern) one paired with the
+ * outer (southern) one across the equator line |u|+|v| = 1.
+ *
+ * Adjacency: every sector edge is keyed by the sum of its two endpoints'
+ * canonical integer points on the cube (or octahedron) surface, which is
+ * unique for the edges of a conforming mesh and equal from both faces of a
+ * cube edge.  A hash table maps each key to the two leaves sharing it, so
+ * forced splits and diamond lookups are O(1) and exact across faces.
+ *
+ * Determinism: the raw split predicate P of a node is a pure function of the
+ * node and the camera (its own bounding cap prism; heights from range
+ * queries).  Caps of children do not nest in their parents' (projection
+ * distortion), so P alone is not monotone; the refinement uses
+ * P*(node) = P(node) and P*(parent), which is.  The bounds of the internal
+ * (split) nodes are kept in a hash table by id, so P* costs one memoised
+ * evaluation per node per frame.  Each frame merges every diamond whose two
+ * parents fail P*, then splits every leaf that passes it (with forced
+ * splits), until stable: the unique minimal conforming refinement of
+ * {P* true}, whatever the previous frame was.  With `hysteresis` the merge
+ * test uses the merge border instead and the result depends on history.
+ */
+#include "plod_refine.h"
+
+#include <assert.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#define PLOD__ONE ((int32_t)1 << PLOD_COORD_BITS)
+#define PLOD__BASE_SHIFT 56
+#define PLOD__HEAP_MASK (((uint64_t)1 << PLOD__BASE_SHIFT) - 1)
+/* Cap angle inflation: slack against rounding in the corner angles. */
+#define PLOD__CAP_INFLATE 1.0001
+/* Height-range query box grows by this fraction of the sector's (u, v)
+ * extent: mapped great-circle edges bulge out of the straight (u, v) ones
+ * in the non-gnomonic projections. */
+#define PLOD__RANGE_MARGIN 0.25
+
+/* ---- per-leaf bounds ------------------------------------------------------ */
+
+/* A node's cap prism and the per-node constants of its tests. */
+typedef struct plod__bound {
+    double axis[3];
+    double angle, cos_angle, sin_angle;
+    double r_min, r_max;  /* metres from the centre */
+    double size;          /* longest corner chord, metres at the radius */
+    double extent;        /* largest (u, v) extent of the corners */
+    double horizon_angle; /* cap angle + angle at which r_max peeks over
+                             the occluder ball (< 0: never hidden) */
+    double horizon_cos, horizon_sin;
+    double sphere_z, sphere_radius; /* bounding ball: centre axis*sphere_z */
+    float hmin, hmax;     /* metres, outward-rounded */
+} plod__bound;
+
+typedef struct plod__geom {
+    plod__bound self;
+    uint32_t eval_frame;   /* frame of the cached evaluation below */
+    uint8_t eval_split;    /* predicate result */
+    uint8_t eval_flags;    /* PLOD_SECTOR_BACKFACING | OUTSIDE_FRUSTUM */
+    double eval_distance;
+} plod__geom;
+
+typedef struct plod__edge {
+    int32_t key[3];
+    int32_t leaf[2]; /* -1 = none; both -1 = empty slot */
+} plod__edge;
+
+/* An internal (split) node: its bound and this frame's effective predicate
+ * P*(node) = P(node) and P*(parent), memoised per frame. */
+typedef struct plod__node {
+    uint64_t id;        /* 0 = empty slot */
+    plod__bound bound;
+    uint32_t eval_frame;
+    uint8_t wants;      /* P*(node) */
+} plod__node;
+
+struct plod_refiner {
+    const plod_planet *planet;
+    plod_sector *leaves;
+    plod__geom *geom;
+    size_t count, capacity;
+    plod__edge *edges;
+    size_t edge_mask, edge_used; /* capacity - 1, live entries */
+    size_t *pending;             /* split pass: in-place children to revisit */
+    size_t pending_count, pending_capacity;
+    plod__node *nodes;           /* internal nodes, open addressing by id */
+    size_t node_mask, node_used;
+    uint32_t frame;
+    double global_hmin, global_hmax;
+    /* per-update evaluation context */
+    const plod_camera *camera;
+    const plod_refine_params *params;
+    double eye[3], eye_unit[3], eye_dist, occluder;
+    double eye_horizon_angle, eye_horizon_cos, eye_horizon_sin;
+    int horizon_on;
+    double merge_ratio, error_scale;
+    double texels_per_unit; /* height map texels per unit of u or v */
+    size_t max_sectors;
+    int truncated;
+    size_t splits, merges;
+};
+
+/* ---- canonical points and edge keys -------------------------------------- */
+
+static const int plod__face_axes[6][3][3] = {
+    /* centre, u axis, v axis (FITS/WCSLIB face orientation) */
+    {{0, 0, 1}, {0, 1, 0}, {-1, 0, 0}},
+    {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}},
+    {{0, 1, 0}, {-1, 0, 0}, {0, 0, 1}},
+    {{-1, 0, 0}, {0, -1, 0}, {0, 0, 1}},
+    {{0, -1, 0}, {1, 0, 0}, {0, 0, 1}},
+    {{0, 0, -1}, {0, 1, 0}, {1, 0, 0}},
+};
+
+static void plod__canon(const plod_refiner *r, int face, int32_t u, int32_t v,
+                        int32_t out[3])
+{
+    if (plod_projection_is_cube(r->planet->projection)) {
+        const int(*ax)[3] = plod__face_axes[face];
+        for (int i = 0; i < 3; i++)
+            out[i] = ax[0][i] * PLOD__ONE + ax[1][i] * u + ax[2][i] * v;
+        return;
+    }
+    /* octahedral square folded onto the octahedron |x|+|y|+|z| = ONE */
+    int32_t au = u < 0 ? -u : u, av = v < 0 ? -v : v;
+    int32_t z = PLOD__ONE - au - av;
+    if (z >= 0) {
+        out[0] = u;
+        out[1] = v;
+    } else {
+        out[0] = (u < 0 ? -1 : 1) * (PLOD__ONE - av);
+        out[1] = (v < 0 ? -1 : 1) * (PLOD__ONE - au);
+    }
+    out[2] = z;
+}
+
+/* Edge e joins corners e and (e + 1) % 3; edge 2 is the hypotenuse. */
+static void plod__edge_key(const plod_refiner *r, const plod_sector *s, int e,
+                           int32_t key[3])
+{
+    int a = e, b = (e + 1) % 3;
+    int32_t pa[3], pb[3];
+    plod__canon(r, s->face, s->cu[a], s->cv[a], pa);
+    plod__canon(r, s->face, s->cu[b], s->cv[b], pb);
+    for (int i = 0; i < 3; i++)
+        key[i] = pa[i] + pb[i];
+}
+
+static size_t plod__hash(const int32_t key[3])
+{
+    uint64_t h = (uint32_t)key[0];
+    h = h * 0x9E3779B97F4A7C15ull ^ (uint32_t)key[1];
+    h = h * 0xC2B2AE3D27D4EB4Full ^ (uint32_t)key[2];
+    h ^= h >> 31;
+    h *= 0x94D049BB133111EBull;
+    h ^= h >> 29;
+    return (size_t)h;
+}
+
+static int plod__key_eq(const int32_t a[3], const int32_t b[3])
+{
+    return a[0] == b[0] && a[1] == b[1] && a[2] == b[2];
+}
+
+static int plod__slot_empty(const plod__edge *e)
+{
+    return e->leaf[0] < 0 && e->leaf[1] < 0;
+}
+
+static size_t plod__edge_find(const plod_refiner *r, const int32_t key[3])
+{
+    size_t i = plod__hash(key) & r->edge_mask;
+    for (;;) {
+        const plod__edge *e = &r->edges[i];
+        if (plod__slot_empty(e))
+            return (size_t)-1;
+        if (plod__key_eq(e->key, key))
+            return i;
+        i = (i + 1) & r->edge_mask;
+    }
+}
+
+static plod_status plod__edge_grow(plod_refiner *r, size_t capacity)
+{
+    plod__edge *fresh = malloc(capacity * sizeof *fresh);
+    if (!fresh)
+        return PLOD_ERR_NO_MEMORY;
+    for (size_t i = 0; i < capacity; i++)
+        fresh[i].leaf[0] = fresh[i].leaf[1] = -1;
+    plod__edge *old = r->edges;
+    size_t old_capacity = old ? r->edge_mask + 1 : 0;
+    r->edges = fresh;
+    r->edge_mask = capacity - 1;
+    for (size_t i = 0; i < old_capacity; i++) {
+        if (plod__slot_empty(&old[i]))
+            continue;
+        size_t j = plod__hash(old[i].key) & r->edge_mask;
+        while (!plod__slot_empty(&fresh[j]))
+            j = (j + 1) & r->edge_mask;
+        fresh[j] = old[i];
+    }
+    free(old);
+    return PLOD_OK;
+}
+
+/* Capacity is ensured by the caller (plod__reserve). */
+static void plod__edge_add(plod_refiner *r, const int32_t key[3], int32_t leaf)
+{
+    size_t i = plod__hash(key) & r->edge_mask;
+    for (;;) {
+        plod__edge *e = &r->edges[i];
+        if (plod__slot_empty(e)) {
+            memcpy(e->key, key, sizeof e->key);
+            e->leaf[0] = leaf;
+            e->leaf[1] = -1;
+            r->edge_used++;
+            return;
+        }
+        if (plod__key_eq(e->key, key)) {
+            assert(e->leaf[0] < 0 || e->leaf[1] < 0);
+            e->leaf[e->leaf[0] < 0 ? 0 : 1] = leaf;
+            return;
+        }
+        i = (i + 1) & r->edge_mask;
+    }
+}
+
+static void plod__edge_remove(plod_refiner *r, const int32_t key[3], int32_t leaf)
+{
+    size_t i = plod__edge_find(r, key);
+    assert(i != (size_t)-1);
+    plod__edge *e = &r->edges[i];
+    if (e->leaf[0] == leaf)
+        e->leaf[0] = -1;
+    else if (e->leaf[1] == leaf)
+        e->leaf[1] = -1;
+    else
+        assert(!"leaf not on its edge");
+    if (!plod__slot_empty(e))
+        return;
+    /* backward-shift deletion keeps linear probing chains intact */
+    r->edge_used--;
+    size_t hole = i, j = i;
+    for (;;) {
+        j = (j + 1) & r->edge_mask;
+        plod__edge *n = &r->edges[j];
+        if (plod__slot_empty(n))
+            break;
+        size_t home = plod__hash(n->key) & r->edge_mask;
+        /* move n into the hole unless its home lies cyclically in (hole, j] */
+        int stays = hole <= j ? (home > hole && home <= j) : (home > hole || home <= j);
+        if (stays)
+            continue;
+        r->edges[hole] = *n;
+        n->leaf[0] = n->leaf[1] = -1;
+        hole = j;
+    }
+}
+
+static void plod__edge_replace(plod_refiner *r, const int32_t key[3], int32_t from,
+                               int32_t to)
+{
+    size_t i = plod__edge_find(r, key);
+    assert(i != (size_t)-1);
+    plod__edge *e = &r->edges[i];
+    if (e->leaf[0] == from)
+        e->leaf[0] = to;
+    else {
+        assert(e->leaf[1] == from);
+        e->leaf[1] = to;
+    }
+}
+
+/* The other leaf on edge `e` of leaf `index`, or -1. */
+static int32_t plod__across(const plod_refiner *r, size_t index, int e)
+{
+    int32_t key[3];
+    plod__edge_key(r, &r->leaves[index], e, key);
+    size_t i = plod__edge_find(r, key);
+    if (i == (size_t)-1)
+        return -1;
+    const plod__edge *edge = &r->edges[i];
+    return edge->leaf[0] == (int32_t)index ? edge->leaf[1] : edge->leaf[0];
+}
+
+static void plod__leaf_link(plod_refiner *r, size_t index)
+{
+    for (int e = 0; e < 3; e++) {
+        int32_t key[3];
+        plod__edge_key(r, &r->leaves[index], e, key);
+        plod__edge_add(r, key, (int32_t)index);
+    }
+}
+
+static void plod__leaf_unlink(plod_refiner *r, size_t index)
+{
+    for (int e = 0; e < 3; e++) {
+        int32_t key[3];
+        plod__edge_key(r, &r->leaves[index], e, key);
+        plod__edge_remove(r, key, (int32_t)index);
+    }
+}
+
+/* Room for `extra` more leaves (and their edges). */
+static plod_status plod__reserve(plod_refiner *r, size_t extra)
+{
+    size_t need = r->count + extra;
+    if (need > r->capacity) {
+        size_t capacity = r->capacity ? r->capacity : 64;
+        while (capacity < need)
+            capacity *= 2;
+        plod_sector *leaves = realloc(r->leaves, capacity * sizeof *leaves);
+        if (!leaves)
+            return PLOD_ERR_NO_MEMORY;
+        r->leaves = leaves;
+        plod__geom *geom = realloc(r->geom, capacity * sizeof *geom);
+        if (!geom)
+            return PLOD_ERR_NO_MEMORY;
+        r->geom = geom;
+        r->capacity = capacity;
+    }
+    /* every leaf has 3 edges, each shared by 2 leaves: 1.5 keys per leaf */
+    size_t keys = r->edge_used + 3 * extra + 8;
+    size_t edge_capacity = r->edges ? r->edge_mask + 1 : 0;
+    if (keys * 2 > edge_capacity) {
+        size_t capacity = edge_capacity ? edge_capacity : 256;
+        while (keys * 2 > capacity)
+            capacity *= 2;
+        return plod__edge_grow(r, capacity);
+    }
+    return PLOD_OK;
+}
+
+/* ---- internal nodes ----------------------------------------------------------- */
+
+static size_t plod__id_hash(uint64_t id)
+{
+    uint64_t h = id * 0x9E3779B97F4A7C15ull;
+    h ^= h >> 32;
+    return (size_t)h;
+}
+
+static plod__node *plod__node_find(const plod_refiner *r, uint64_t id)
+{
+    size_t i = plod__id_hash(id) & r->node_mask;
+    for (;;) {
+        plod__node *n = &r->nodes[i];
+        if (n->id == id)
+            return n;
+        if (n->id == 0)
+            return NULL;
+        i = (i + 1) & r->node_mask;
+    }
+}
+
+static plod_status plod__node_reserve(plod_refiner *r, size_t extra)
+{
+    size_t capacity = r->nodes ? r->node_mask + 1 : 0;
+    size_t need = (r->node_used + extra) * 2;
+    if (need <= capacity)
+        return PLOD_OK;
+    size_t fresh_capacity = capacity ? capacity : 64;
+    while (fresh_capacity < need)
+        fresh_capacity *= 2;
+    plod__node *fresh = calloc(fresh_capacity, sizeof *fresh);
+    if (!fresh)
+        return PLOD_ERR_NO_MEMORY;
+    size_t mask = fresh_capacity - 1;
+    for (size_t i = 0; i < capacity; i++) {
+        if (!r->nodes[i].id)
+            continue;
+        size_t j = plod__id_hash(r->nodes[i].id) & mask;
+        while (fresh[j].id)
+            j = (j + 1) & mask;
+        fresh[j] = r->nodes[i];
+    }
+    free(r->nodes);
+    r->nodes = fresh;
+    r->node_mask = mask;
+    return PLOD_OK;
+}
+
+/* Capacity ensured by plod__node_reserve. */
+static void plod__node_add(plod_refiner *r, uint64_t id, const plod__bound *bound)
+{
+    size_t i = plod__id_hash(id) & r->node_mask;
+    while (r->nodes[i].id) {
+        assert(r->nodes[i].id != id);
+        i = (i + 1) & r->node_mask;
+    }
+    plod__node *n = &r->nodes[i];
+    n->id = id;
+    n->bound = *bound;
+    n->eval_frame = 0;
+    r->node_used++;
+}
+
+static void plod__node_remove(plod_refiner *r, uint64_t id)
+{
+    plod__node *n = plod__node_find(r, id);
+    assert(n);
+    size_t hole = (size_t)(n - r->nodes), j = hole;
+    n->id = 0;
+    r->node_used--;
+    for (;;) {
+        j = (j + 1) & r->node_mask;
+        plod__node *m = &r->nodes[j];
+        if (!m->id)
+            break;
+        size_t home = plod__id_hash(m->id) & r->node_mask;
+        int stays = hole <= j ? (home > hole && home <= j) : (home > hole || home <= j);
+        if (stays)
+            continue;
+        r->nodes[hole] = *m;
+        m->id = 0;
+        hole = j;
+    }
+}
+
+/* ---- geometry of a node ---------------------------------------------------- */
+
+void plod_sector_corners(const plod_planet *planet, const plod_sector *sector,
+                         double corners[3][3])
+{
+    const double scale = 1.0 / (double)PLOD__ONE;
+    for (int k = 0; k < 3; k++) {
+        plod_status st = plod_face_to_dir(planet->projection, sector->face,
+                                          sector->cu[k] * scale,
+                                          sector->cv[k] * scale, corners[k]);
+        (void)st;
+        assert(st == PLOD_OK);
+    }
+}
+
+static double plod__angle(const double a[3], const double b[3])
+{
+    double c[3] = {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                   a[0] * b[1] - a[1] * b[0]};
+    return atan2(sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]),
+                 a[0] * b[0] + a[1] * b[1] + a[2] * b[2]);
+}
+
+static void plod__compute_bound(const plod_refiner *r, const plod_sector *s,
+                                plod__bound *b)
+{
+    const plod_planet *planet = r->planet;
+    double c[3][3];
+    plod_sector_corners(planet, s, c);
+    double axis[3] = {c[0][0] + c[1][0] + c[2][0], c[0][1] + c[1][1] + c[2][1],
+                      c[0][2] + c[1][2] + c[2][2]};
+    double len = sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
+    double angle = 0.0, chord = 0.0;
+    for (int k = 0; k < 3; k++) {
+        b->axis[k] = axis[k] / len;
+    }
+    for (int k = 0; k < 3; k++) {
+        double a = plod__angle(b->axis, c[k]);
+        angle = a > angle ? a : angle;
+        const double *p = c[k], *q = c[(k + 1) % 3];
+        double d[3] = {p[0] - q[0], p[1] - q[1], p[2] - q[2]};
+        double ch = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        chord = ch > chord ? ch : chord;
+    }
+    b->angle = angle * PLOD__CAP_INFLATE + 1e-15;
+    b->cos_angle = cos(b->angle);
+    b->sin_angle = sin(b->angle);
+    b->size = chord * planet->radius;
+
+    const double scale = 1.0 / (double)PLOD__ONE;
+    double u0 = 2, u1 = -2, v0 = 2, v1 = -2;
+    for (int k = 0; k < 3; k++) {
+        double u = s->cu[k] * scale, v = s->cv[k] * scale;
+        u0 = u < u0 ? u : u0;
+        u1 = u > u1 ? u : u1;
+        v0 = v < v0 ? v : v0;
+        v1 = v > v1 ? v : v1;
+    }
+    b->extent = fmax(u1 - u0, v1 - v0);
+    double mu = (u1 - u0) * PLOD__RANGE_MARGIN, mv = (v1 - v0) * PLOD__RANGE_MARGIN;
+    u0 = fmax(-1.0, u0 - mu);
+    u1 = fmin(1.0, u1 + mu);
+    v0 = fmax(-1.0, v0 - mv);
+    v1 = fmin(1.0, v1 + mv);
+    double hmin, hmax;
+    plod_planet_height_range_uv(planet, s->face, u0, v0, u1, v1, &hmin, &hmax);
+    float fmin_ = (float)hmin, fmax_ = (float)hmax;
+    if ((double)fmin_ > hmin)
+        fmin_ = nextafterf(fmin_, -INFINITY);
+    if ((double)fmax_ < hmax)
+        fmax_ = nextafterf(fmax_, INFINITY);
+    b->hmin = fmin_;
+    b->hmax = fmax_;
+    b->r_min = planet->radius + fmin_;
+    b->r_max = planet->radius + fmax_;
+    double rho = r->occluder;
+    if (b->r_max >= rho) {
+        b->horizon_angle = b->angle + atan2(sqrt((b->r_max - rho) * (b->r_max + rho)), rho);
+        b->horizon_cos = cos(b->horizon_angle);
+        b->horizon_sin = sin(b->horizon_angle);
+    } else {
+        b->horizon_angle = -1.0;
+    }
+    if (b->angle < 0.5 * 3.141592653589793) {
+        double z0 = b->r_min * b->cos_angle, lateral = b->r_max * b->sin_angle;
+        b->sphere_z = 0.5 * (z0 + b->r_max);
+        double half = 0.5 * (b->r_max - z0);
+        b->sphere_radius = sqrt(half * half + lateral * lateral) * (1.0 + 1e-12);
+    } else {
+        b->sphere_z = 0.0;
+        b->sphere_radius = b->r_max;
+    }
+}
+
+/* Culling flags of a bound (PLOD_SECTOR_BACKFACING or OUTSIDE_FRUSTUM,
+ * the first failing test only) and, when not culled, the eye distance.
+ * Angles are compared through cosines with per-node constants, so a test
+ * costs a few dot products (no trigonometry). */
+static unsigned plod__cull(const plod_refiner *r, const plod__bound *b,
+                           double *distance)
+{
+    const plod_refine_params *pr = r->params;
+    const plod_camera *cam = r->camera;
+    const double *e = r->eye_unit;
+    double cphi = b->axis[0] * e[0] + b->axis[1] * e[1] + b->axis[2] * e[2];
+    *distance = 0.0;
+    if (r->horizon_on && b->horizon_angle >= 0.0 &&
+        b->horizon_angle + r->eye_horizon_angle < 3.141592653589793) {
+        /* hidden iff phi > horizon_angle + eye angle */
+        double limit = b->horizon_cos * r->eye_horizon_cos - b->horizon_sin * r->eye_horizon_sin;
+        if (cphi < limit - 1e-12)
+            return PLOD_SECTOR_BACKFACING;
+    }
+    if (pr->frustum_culling) {
+        for (int i = 0; i < 6; i++) {
+            const double *pl = cam->planes[i];
+            double c = pl[0] * b->axis[0] + pl[1] * b->axis[1] + pl[2] * b->axis[2];
+            double centre = c * b->sphere_z + pl[3];
+            double margin = 1e-9 * (b->r_max + fabs(pl[3]));
+            if (centre >= b->sphere_radius)
+                continue; /* the bounding ball is inside this plane */
+            if (centre < -b->sphere_radius - margin)
+                return PLOD_SECTOR_OUTSIDE_FRUSTUM;
+            double best;
+            if (c >= b->cos_angle) {
+                best = 1.0;
+            } else {
+                double s = sqrt(fmax(0.0, 1.0 - c * c));
+                best = c * b->cos_angle + s * b->sin_angle;
+            }
+            double reach = best * (best >= 0.0 ? b->r_max : b->r_min);
+            if (reach + pl[3] < -margin)
+                return PLOD_SECTOR_OUTSIDE_FRUSTUM;
+        }
+    }
+    double dist = r->eye_dist;
+    if (cphi >= b->cos_angle) {
+        *distance = dist > b->r_max ? dist - b->r_max
+                                    : (dist < b->r_min ? b->r_min - dist : 0.0);
+        return 0;
+    }
+    double cr[3] = {b->axis[1] * e[2] - b->axis[2] * e[1], b->axis[2] * e[0] - b->axis[0] * e[2],
+                    b->axis[0] * e[1] - b->axis[1] * e[0]};
+    double sphi = sqrt(cr[0] * cr[0] + cr[1] * cr[1] + cr[2] * cr[2]);
+    /* delta = phi - angle > 0: the eye direction's angle beyond the cap */
+    double cdelta = cphi * b->cos_angle + sphi * b->sin_angle;
+    double sdelta = sphi * b->cos_angle - cphi * b->sin_angle;
+    double one_minus = cdelta > 0.0 ? sdelta * sdelta / (1.0 + cdelta) : 1.0 - cdelta;
+    double t = dist * cdelta;
+    t = t < b->r_min ? b->r_min : (t > b->r_max ? b->r_max : t);
+    double radial = dist - t;
+    *distance = sqrt(radial * radial + 2.0 * dist * t * one_minus);
+    return 0;
+}
+
+/* Refinement score of a bound: > 1 wants a split (ignoring culling).
+ * Pixel criterion: the geometric error of the sector drawn with a template
+ * of 2^t cells per edge, projected at the bound's distance:
+ *   curvature sag of a cell   (size / 2^t)^2 / (8 r_min)
+ * + relief left between cells (hmax - hmin) * min(1, extent / texel) / 2^t
+ * (below one texel the bilinear surface varies ~linearly, so the relief of
+ * the texel footprint shrinks with the sector).  Both only decrease from a
+ * parent to its children. */
+static double plod__score(const plod_refiner *r, const plod__bound *b, double distance)
+{
+    const plod_refine_params *pr = r->params;
+    double floor_ = 1e-9 * r->planet->radius;
+    double d = distance > floor_ ? distance : floor_;
+    if (pr->criterion == PLOD_CRITERION_SIDE_DISTANCE)
+        return b->size / d / pr->split_border;
+    double cell = b->size * r->error_scale;
+    double sag = cell * cell / (8.0 * b->r_min);
+    double relief = ((double)b->hmax - (double)b->hmin) * r->error_scale;
+    double texels = b->extent * r->texels_per_unit;
+    if (texels < 1.0)
+        relief *= texels;
+    double error_m = sag + relief;
+    double px = r->camera->desc.orthographic
+                    ? error_m * r->camera->pixels_per_metre
+                    : error_m * r->camera->pixels_per_radian / d;
+    return px / pr->max_pixel_error;
+}
+
+/* Split predicate P of a node (level = its level), from its own bound. */
+static int plod__wants_split(const plod_refiner *r, const plod__bound *b, int level,
+                             unsigned *flags, double *distance)
+{
+    *flags = plod__cull(r, b, distance);
+    if (level >= r->params->max_level || *flags)
+        return 0;
+    return plod__score(r, b, *distance) > 1.0;
+}
+
+static int plod__id_level(uint64_t id)
+{
+    uint64_t heap = id & PLOD__HEAP_MASK;
+    int level = -1;
+    while (heap) {
+        heap >>= 1;
+        level++;
+    }
+    return level;
+}
+
+static uint64_t plod__parent_id(uint64_t id)
+{
+    return (id & ~PLOD__HEAP_MASK) | ((id & PLOD__HEAP_MASK) >> 1);
+}
+
+/* P*(node) = P(node) and P*(parent): monotone by construction, so the
+ * refinement it defines has a unique minimal conforming closure.  For an
+ * internal node, memoised per frame. */
+static int plod__node_wants(plod_refiner *r, plod__node *n)
+{
+    if (n->eval_frame == r->frame)
+        return n->wants;
+    int level = plod__id_level(n->id);
+    unsigned flags;
+    double distance;
+    int wants = plod__wants_split(r, &n->bound, level, &flags, &distance);
+    if (wants && level > 0) {
+        plod__node *parent = plod__node_find(r, plod__parent_id(n->id));
+        assert(parent);
+        wants = parent ? plod__node_wants(r, parent) : 1;
+    }
+    n->wants = (uint8_t)wants;
+    n->eval_frame = r->frame;
+    return wants;
+}
+
+/* Whether an internal node may be merged back (its children removed). */
+static int plod__allows_merge(plod_refiner *r, plod__node *n)
+{
+    if (!r->params->hysteresis)
+        return !plod__node_wants(r, n);
+    int level = plod__id_level(n->id);
+    if (level > 0) {
+        plod__node *parent = plod__node_find(r, plod__parent_id(n->id));
+        if (parent && !plod__node_wants(r, parent))
+            return 1;
+    }
+    double distance;
+    unsigned flags = plod__cull(r, &n->bound, &distance);
+    return flags || level >= r->params->max_level ||
+           plod__score(r, &n->bound, distance) < r->merge_ratio;
+}
+
+/* P*(leaf), caching P(leaf) and its cull flags for this frame. */
+static int plod__leaf_wants_split(plod_refiner *r, size_t i)
+{
+    plod__geom *g = &r->geom[i];
+    if (g->eval_frame != r->frame) {
+        unsigned flags;
+        g->eval_split = (uint8_t)plod__wants_split(r, &g->self, r->leaves[i].level,
+                                                   &flags, &g->eval_distance);
+        g->eval_flags = (uint8_t)flags;
+        g->eval_frame = r->frame;
+    }
+    if (!g->eval_split || r->leaves[i].level == 0)
+        return g->eval_split;
+    plod__node *parent = plod__node_find(r, plod__parent_id(r->leaves[i].id));
+    assert(parent);
+    return parent ? plod__node_wants(r, parent) : 1;
+}
+
+/* ---- node algebra ---------------------------------------------------------- */
+
+static void plod__child(const plod_sector *p, int bit, uint32_t frame,
+                        plod_sector *c)
+{
+    int32_t mu = (int32_t)(((int64_t)p->cu[0] + p->cu[2]) / 2);
+    int32_t mv = (int32_t)(((int64_t)p->cv[0] + p->cv[2]) / 2);
+    memset(c, 0, sizeof *c);
+    int a = bit ? 2 : 1, b = bit ? 1 : 0; /* corners 0 and 2 of the child */
+    c->cu[0] = p->cu[a];
+    c->cv[0] = p->cv[a];
+    c->cu[1] = mu;
+    c->cv[1] = mv;
+    c->cu[2] = p->cu[b];
+    c->cv[2] = p->cv[b];
+    uint64_t base = p->id >> PLOD__BASE_SHIFT, heap = p->id & PLOD__HEAP_MASK;
+    c->id = base << PLOD__BASE_SHIFT | (heap * 2 + (uint64_t)bit);
+    c->face = p->face;
+    c->level = (uint8_t)(p->level + 1);
+    c->birth = frame;
+}
+
+static void plod__parent(const plod_sector *c, plod_sector *p)
+{
+    uint64_t base = c->id >> PLOD__BASE_SHIFT, heap = c->id & PLOD__HEAP_MASK;
+    int bit = (int)(heap & 1);
+    memset(p, 0, sizeof *p);
+    if (!bit) { /* c = (c1, m, c0) */
+        p->cu[0] = c->cu[2];
+        p->cv[0] = c->cv[2];
+        p->cu[1] = c->cu[0];
+        p->cv[1] = c->cv[0];
+        p->cu[2] = 2 * c->cu[1] - c->cu[2];
+        p->cv[2] = 2 * c->cv[1] - c->cv[2];
+    } else { /* c = (c2, m, c1) */
+        p->cu[0] = 2 * c->cu[1] - c->cu[0];
+        p->cv[0] = 2 * c->cv[1] - c->cv[0];
+        p->cu[1] = c->cu[2];
+        p->cv[1] = c->cv[2];
+        p->cu[2] = c->cu[0];
+        p->cv[2] = c->cv[0];
+    }
+    p->id = base << PLOD__BASE_SHIFT | (heap >> 1);
+    p->face = c->face;
+    p->level = (uint8_t)(c->level - 1);
+}
+
+static void plod__apply_bound(plod_sector *s, const plod__bound *b)
+{
+    s->height_min = b->hmin;
+    s->height_max = b->hmax;
+}
+
+/* ---- split ----------------------------------------------------------------- */
+
+/* Both leaves share their hypotenuse and have the same level. */
+static void plod__split_diamond(plod_refiner *r, size_t i, size_t n)
+{
+    size_t pair[2] = {i, n};
+    plod_sector parents[2] = {r->leaves[i], r->leaves[n]};
+    plod__leaf_unlink(r, i);
+    plod__leaf_unlink(r, n);
+    plod__node_add(r, parents[0].id, &r->geom[i].self);
+    plod__node_add(r, parents[1].id, &r->geom[n].self);
+    for (int k = 0; k < 2; k++) {
+        for (int bit = 0; bit < 2; bit++) {
+            size_t at = bit ? r->count++ : pair[k];
+            plod_sector *c = &r->leaves[at];
+            plod__child(&parents[k], bit, r->frame, c);
+            plod__geom *g = &r->geom[at];
+            plod__compute_bound(r, c, &g->self);
+            g->eval_frame = r->frame - 1;
+            plod__apply_bound(c, &g->self);
+            plod__leaf_link(r, at);
+        }
+    }
+    r->splits += 2;
+    r->pending[r->pending_count++] = i;
+    r->pending[r->pending_count++] = n;
+}
+
+static plod_status plod__pending_reserve(plod_refiner *r, size_t extra)
+{
+    if (r->pending_count + extra <= r->pending_capacity)
+        return PLOD_OK;
+    size_t capacity = r->pending_capacity ? 2 * r->pending_capacity : 256;
+    while (capacity < r->pending_count + extra)
+        capacity *= 2;
+    size_t *fresh = realloc(r->pending, capacity * sizeof *fresh);
+    if (!fresh)
+        return PLOD_ERR_NO_MEMORY;
+    r->pending = fresh;
+    r->pending_capacity = capacity;
+    return PLOD_OK;
+}
+
+/* Splits leaf i, first splitting the coarser neighbour across its
+ * hypotenuse when needed.  Returns 0 when the sector cap stopped it. */
+static int plod__split(plod_refiner *r, size_t i)
+{
+    if (r->leaves[i].level >= PLOD_MAX_LEVEL)
+        return 1; /* edge of domain: a no-op */
+    for (int attempt = 0; attempt < 2; attempt++) {
+        int32_t n = plod__across(r, i, 2);
+        assert(n >= 0);
+        if (n < 0)
+            return 1;
+        if (r->leaves[n].level == r->leaves[i].level) {
+            if (r->count + 2 > r->max_sectors || plod__reserve(r, 2) != PLOD_OK ||
+                plod__node_reserve(r, 2) != PLOD_OK || plod__pending_reserve(r, 2) != PLOD_OK) {
+                r->truncated = 1;
+                return 0;
+            }
+            plod__split_diamond(r, i, (size_t)n);
+            return 1;
+        }
+        assert(r->leaves[n].level + 1 == r->leaves[i].level);
+        if (!plod__split(r, (size_t)n))
+            return 0;
+    }
+    assert(!"forced split did not produce a diamond");
+    return 1;
+}
+
+/* ---- merge ----------------------------------------------------------------- */
+
+/* Drops leaf x, already unlinked, moving the last leaf into its slot. */
+static void plod__drop_unlinked(plod_refiner *r, size_t x)
+{
+    size_t last = r->count - 1;
+    if (x != last) {
+        for (int e = 0; e < 3; e++) {
+            int32_t key[3];
+            plod__edge_key(r, &r->leaves[last], e, key);
+            plod__edge_replace(r, key, (int32_t)last, (int32_t)x);
+        }
+        r->leaves[x] = r->leaves[last];
+        r->geom[x] = r->geom[last];
+    }
+    r->count--;
+}
+
+static int plod__same_point(const plod_refiner *r, const plod_sector *a, int ka,
+                            const plod_sector *b, int kb)
+{
+    int32_t pa[3], pb[3];
+    plod__canon(r, a->face, a->cu[ka], a->cv[ka], pa);
+    plod__canon(r, b->face, b->cu[kb], b->cv[kb], pb);
+    return plod__key_eq(pa, pb);
+}
+
+/* Tries to merge the diamond whose child-0 leaf is at index ia.  Returns 1
+ * if merged (leaves[ia] then holds the restored parent). */
+static int plod__try_merge(plod_refiner *r, size_t ia);
+
+/* After a merge restored a leaf at `index`, tries its own diamond (a merge
+ * can only become possible when one of its four subtrees collapses). */
+static void plod__cascade(plod_refiner *r, size_t index)
+{
+    const plod_sector *s = &r->leaves[index];
+    if (s->level == 0)
+        return;
+    if (!(s->id & 1)) {
+        plod__try_merge(r, index);
+        return;
+    }
+    int32_t sibling = plod__across(r, index, 1); /* child 1's edge (m, c1) */
+    if (sibling >= 0 && (r->leaves[sibling].id ^ s->id) == 1)
+        plod__try_merge(r, (size_t)sibling);
+}
+
+static int plod__try_merge(plod_refiner *r, size_t ia)
+{
+    const plod_sector *a = &r->leaves[ia];
+    if (a->level == 0 || (a->id & 1))
+        return 0;
+    int level = a->level;
+    plod__node *pn = plod__node_find(r, plod__parent_id(a->id));
+    assert(pn);
+    if (!pn || !plod__allows_merge(r, pn))
+        return 0;
+    int32_t ib = plod__across(r, ia, 0), ic = plod__across(r, ia, 1);
+    if (ib < 0 || ic < 0)
+        return 0;
+    const plod_sector *b = &r->leaves[ib], *c = &r->leaves[ic];
+    if (b->level != level || c->level != level || (a->id ^ b->id) != 1)
+        return 0;
+    if (!plod__same_point(r, a, 1, c, 1))
+        return 0; /* c is not the partner parent's child (it is split) */
+    int32_t id_ = plod__across(r, (size_t)ib, 0);
+    if (id_ < 0)
+        return 0;
+    const plod_sector *d = &r->leaves[id_];
+    if (d->level != level || (c->id ^ d->id) != 1 || !plod__same_point(r, a, 1, d, 1))
+        return 0;
+    plod__node *qn = plod__node_find(r, plod__parent_id(c->id));
+    assert(qn);
+    if (!qn || !plod__allows_merge(r, qn))
+        return 0;
+
+    plod_sector p, q;
+    plod__parent(a, &p);
+    plod__parent(c, &q);
+    plod__geom gp = {.self = pn->bound, .eval_frame = r->frame - 1};
+    plod__geom gq = {.self = qn->bound, .eval_frame = r->frame - 1};
+    p.birth = q.birth = r->frame;
+    plod__apply_bound(&p, &gp.self);
+    plod__apply_bound(&q, &gq.self);
+    plod__node_remove(r, p.id);
+    plod__node_remove(r, q.id);
+    size_t ib_ = (size_t)ib, ic_ = (size_t)ic, id2 = (size_t)id_;
+    /* all four out before the parents go in: their outer edges are shared */
+    plod__leaf_unlink(r, ia);
+    plod__leaf_unlink(r, ib_);
+    plod__leaf_unlink(r, ic_);
+    plod__leaf_unlink(r, id2);
+    r->leaves[ia] = p;
+    r->geom[ia] = gp;
+    r->leaves[ic_] = q;
+    r->geom[ic_] = gq;
+    plod__leaf_link(r, ia);
+    plod__leaf_link(r, ic_);
+    size_t hi = ib_ > id2 ? ib_ : id2, lo = ib_ > id2 ? id2 : ib_;
+    size_t at[2] = {ia, ic_};
+    for (int k = 0; k < 2; k++) {
+        size_t hole = k ? lo : hi, last = r->count - 1;
+        for (int j = 0; j < 2; j++)
+            if (at[j] == last)
+                at[j] = hole;
+        plod__drop_unlinked(r, hole);
+    }
+    r->merges += 2;
+    uint64_t q_id = r->leaves[at[1]].id;
+    plod__cascade(r, at[0]);
+    /* the first cascade may have moved q: find it again by its slot */
+    if (at[1] < r->count && r->leaves[at[1]].id == q_id)
+        plod__cascade(r, at[1]);
+    return 1;
+}
+
+/* ---- create / reset ---------------------------------------------------------- */
+
+static void plod__add_base(plod_refiner *r, unsigned base, int face,
+                           const int32_t cu[3], const int32_t cv[3])
+{
+    size_t at = r->count++;
+    plod_sector *s = &r->leaves[at];
+    memset(s, 0, sizeof *s);
+    s->id = (uint64_t)base << PLOD__BASE_SHIFT | 1u;
+    s->face = (uint8_t)face;
+    s->level = 0;
+    s->birth = r->frame;
+    for (int k = 0; k < 3; k++) {
+        s->cu[k] = cu[k];
+        s->cv[k] = cv[k];
+    }
+    plod__geom *g = &r->geom[at];
+    memset(g, 0, sizeof *g);
+    plod__compute_bound(r, s, &g->self);
+    g->eval_frame = r->frame - 1;
+    plod__apply_bound(s, &g->self);
+    plod__leaf_link(r, at);
+}
+
+
+static plod_status plod__build_base(plod_refiner *r)
+{
+    r->count = 0;
+    r->edge_used = 0;
+    r->node_used = 0;
+    if (r->nodes)
+        memset(r->nodes, 0, (r->node_mask + 1) * sizeof *r->nodes);
+    if (r->edges)
+        for (size_t i = 0; i <= r->edge_mask; i++)
+            r->edges[i].leaf[0] = r->edges[i].leaf[1] = -1;
+    plod_status st = plod__reserve(r, 12);
+    if (st != PLOD_OK)
+        return st;
+    const int32_t O = PLOD__ONE;
+    if (plod_projection_is_cube(r->planet->projection)) {
+        for (int f = 0; f < 6; f++) {
+            const int32_t au[3] = {-O, O, O}, av[3] = {-O, -O, O};
+            const int32_t bu[3] = {O, -O, -O}, bv[3] = {O, O, -O};
+            plod__add_base(r, (unsigned)(2 * f), f, au, av);
+            plod__add_base(r, (unsigned)(2 * f + 1), f, bu, bv);
+        }
+    } else {
+        unsigned base = 0;
+        for (int q = 0; q < 4; q++) {
+            int32_t su = (q & 1) ? -O : O, sv = (q & 2) ? -O : O;
+            /* counter-clockwise when su * sv > 0; else swap the ends */
+            int flip = (su > 0) != (sv > 0);
+            int32_t iu[3] = {0, 0, su}, iv[3] = {sv, 0, 0};
+            int32_t ou[3] = {su, su, 0}, ov[3] = {0, sv, sv};
+            if (flip) {
+                int32_t t;
+                t = iu[0]; iu[0] = iu[2]; iu[2] = t;
+                t = iv[0]; iv[0] = iv[2]; iv[2] = t;
+                t = ou[0]; ou[0] = ou[2]; ou[2] = t;
+                t = ov[0]; ov[0] = ov[2]; ov[2] = t;
+            }
+            plod__add_base(r, base++, 0, iu, iv);
+            plod__add_base(r, base++, 0, ou, ov);
+        }
+    }
+    return PLOD_OK;
+}
+
+plod_status plod_refiner_create(plod_refiner **out, const plod_planet *planet)
+{
+    if (!out)
+        return PLOD_ERR_NULL;
+    *out = NULL;
+    plod_status st = plod_planet_check(planet);
+    if (st != PLOD_OK)
+        return st;
+    plod_refiner *r = calloc(1, sizeof *r);
+    if (!r)
+        return PLOD_ERR_NO_MEMORY;
+    r->planet = planet;
+    r->frame = 1;
+    r->texels_per_unit =
+        planet->heightmap ? 0.5 * plod_cubemap_size(planet->heightmap) : 0.0;
+    plod_planet_height_range(planet, &r->global_hmin, &r->global_hmax);
+    r->occluder = planet->radius + r->global_hmin;
+    st = plod__build_base(r);
+    if (st != PLOD_OK) {
+        plod_refiner_destroy(r);
+        return st;
+    }
+    *out = r;
+    return PLOD_OK;
+}
+
+void plod_refiner_destroy(plod_refiner *refiner)
+{
+    if (!refiner)
+        return;
+    free(refiner->leaves);
+    free(refiner->geom);
+    free(refiner->edges);
+    free(refiner->nodes);
+    free(refiner->pending);
+    free(refiner);
+}
+
+void plod_refiner_reset(plod_refiner *refiner)
+{
+    if (!refiner)
+        return;
+    refiner->frame++;
+    plod_status st = plod__build_base(refiner);
+    (void)st; /* capacity for 12 leaves exists since create */
+}
+
+const plod_sector *plod_refiner_sectors(const plod_refiner *refiner, size_t *count)
+{
+    if (count)
+        *count = refiner ? refiner->count : 0;
+    return refiner ? refiner->leaves : NULL;
+}
+
+void plod_refine_params_default(plod_refine_params *params)
+{
+    memset(params, 0, sizeof *params);
+    params->criterion = PLOD_CRITERION_PIXEL_ERROR;
+    params->max_pixel_error = 1.0;
+    params->split_border = 0.5;
+    params->merge_border = 0.25;
+    params->hysteresis = 0;
+    params->template_level = 4;
+    params->max_level = 48;
+    params->budget = 0;
+    params->backface_culling = 1;
+    params->frustum_culling = 1;
+    params->skip_sea = 0;
+    params->max_sectors = PLOD_DEFAULT_MAX_SECTORS;
+}
+
+/* ---- update ------------------------------------------------------------------ */
+
+static double plod__now_us(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec * 1e6 + ts.tv_nsec * 1e-3;
+}
+
+typedef struct plod__rank {
+    double distance;
+    uint64_t id;
+    size_t index;
+} plod__rank;
+
+static int plod__rank_cmp(const void *pa, const void *pb)
+{
+    const plod__rank *a = pa, *b = pb;
+    if (a->distance != b->distance)
+        return a->distance < b->distance ? -1 : 1;
+    return a->id < b->id ? -1 : (a->id > b->id);
+}
+
+static plod_status plod__check_params(const plod_refine_params *p)
+{
+    if ((unsigned)p->criterion > PLOD_CRITERION_SIDE_DISTANCE)
+        return PLOD_ERR_BAD_PARAM;
+    if (!(isfinite(p->max_pixel_error) && p->max_pixel_error > 0))
+        return PLOD_ERR_BAD_PARAM;
+    if (!(isfinite(p->split_border) && p->split_border > 0 &&
+          isfinite(p->merge_border) && p->merge_border > 0 &&
+          p->merge_border <= p->split_border))
+        return PLOD_ERR_BAD_PARAM;
+    if (p->template_level < 0 || p->template_level > 7)
+        return PLOD_ERR_BAD_PARAM;
+    if (p->max_level < 0 || p->max_level > PLOD_MAX_LEVEL)
+        return PLOD_ERR_BAD_PARAM;
+    if (p->max_sectors < 12)
+        return PLOD_ERR_BAD_PARAM;
+    return PLOD_OK;
+}
+
+plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
+                                const plod_refine_params *params,
+                                plod_refine_stats *stats)
+{
+    if (!r || !camera || !params)
+        return PLOD_ERR_NULL;
+    plod_status st = plod__check_params(params);
+    if (st != PLOD_OK)
+        return st;
+    double eye_dist = sqrt(camera->position[0] * camera->position[0] +
+                           camera->position[1] * camera->position[1] +
+                           camera->position[2] * camera->position[2]);
+    if (!isfinite(eye_dist) || !(eye_dist > 1e-6 * r->planet->radius))
+        return PLOD_ERR_BAD_CAMERA; /* at (or numerically at) the centre */
+
+    double t0 = plod__now_us();
+    r->frame++;
+    r->camera = camera;
+    r->params = params;
+    memcpy(r->eye, camera->position, sizeof r->eye);
+    r->eye_dist = eye_dist;
+    for (int k = 0; k < 3; k++)
+        r->eye_unit[k] = camera->position[k] / eye_dist;
+    r->horizon_on = params->backface_culling && !camera->desc.orthographic &&
+                    eye_dist > r->occluder;
+    r->eye_horizon_angle =
+        r->horizon_on ? atan2(sqrt((eye_dist - r->occluder) * (eye_dist + r->occluder)),
+                              r->occluder)
+                      : 0.0;
+    r->eye_horizon_cos = cos(r->eye_horizon_angle);
+    r->eye_horizon_sin = sin(r->eye_horizon_angle);
+    r->merge_ratio = params->merge_border / params->split_border;
+    r->error_scale = ldexp(1.0, -params->template_level);
+    r->max_sectors = params->max_sectors;
+    r->truncated = 0;
+    r->splits = r->merges = 0;
+
+    /* merge pass: every diamond whose parents fail the split predicate;
+     * downwards, so the leaves moved into holes were already visited, and
+     * merges cascade upwards as subtrees collapse */
+    for (size_t i = r->count; i-- > 0;) {
+        if (i >= r->count)
+            i = r->count - 1;
+        plod__try_merge(r, i);
+    }
+    /* split pass: one sweep (children appended at the end are swept too);
+     * children written in place of earlier leaves are revisited after */
+    r->pending_count = 0;
+    for (size_t i = 0; i < r->count && !r->truncated; i++) {
+        while (!r->truncated && plod__leaf_wants_split(r, i)) {
+            size_t before = r->splits;
+            plod__split(r, i);
+            if (r->splits == before)
+                break; /* at PLOD_MAX_LEVEL or truncated */
+        }
+    }
+    while (r->pending_count && !r->truncated) {
+        size_t i = r->pending[--r->pending_count];
+        while (!r->truncated && plod__leaf_wants_split(r, i)) {
+            size_t before = r->splits;
+            plod__split(r, i);
+            if (r->splits == before)
+                break;
+        }
+    }
+    double t1 = plod__now_us();
+
+    /* culling and statistics */
+    plod_refine_stats s;
+    memset(&s, 0, sizeof s);
+    size_t visible = 0;
+    int deepest = 0;
+    for (size_t i = 0; i < r->count; i++) {
+        plod_sector *sec = &r->leaves[i];
+        plod__leaf_wants_split(r, i); /* fills the cached cull flags */
+        unsigned flags = r->geom[i].eval_flags;
+        int sea = r->planet->has_sea_level && sec->height_max <= r->planet->sea_level;
+        if (sea)
+            flags |= PLOD_SECTOR_SEA;
+        deepest = sec->level > deepest ? sec->level : deepest;
+        if (flags & PLOD_SECTOR_BACKFACING) {
+            sec->flags = (uint16_t)flags;
+            continue;
+        }
+        s.sectors_after_backface++;
+        if (flags & PLOD_SECTOR_OUTSIDE_FRUSTUM) {
+            sec->flags = (uint16_t)flags;
+            continue;
+        }
+        s.sectors_after_frustum++;
+        if (sea) {
+            if (params->skip_sea) {
+                s.sectors_sea_skipped++;
+                sec->flags = (uint16_t)flags;
+                continue;
+            }
+        }
+        sec->flags = (uint16_t)(flags | PLOD_SECTOR_VISIBLE);
+        visible++;
+    }
+    if (params->budget > 0 && visible > params->budget) {
+        plod__rank *ranks = malloc(visible * sizeof *ranks);
+        if (!ranks)
+            return PLOD_ERR_NO_MEMORY;
+        size_t k = 0;
+        for (size_t i = 0; i < r->count; i++)
+            if (r->leaves[i].flags & PLOD_SECTOR_VISIBLE)
+                ranks[k++] = (plod__rank){r->geom[i].eval_distance, r->leaves[i].id, i};
+        qsort(ranks, visible, sizeof *ranks, plod__rank_cmp);
+        for (size_t j = params->budget; j < visible; j++) {
+            plod_sector *sec = &r->leaves[ranks[j].index];
+            sec->flags = (uint16_t)((sec->flags & ~PLOD_SECTOR_VISIBLE) |
+                                    PLOD_SECTOR_OVER_BUDGET);
+        }
+        free(ranks);
+        visible = params->budget;
+    }
+    double t2 = plod__now_us();
+    s.sectors_total = r->count;
+    s.sectors_after_budget = visible;
+    s.splits = r->splits;
+    s.merges = r->merges;
+    s.refine_us = t1 - t0;
+    s.cull_us = t2 - t1;
+    s.max_level_reached = deepest;
+    s.truncated = r->truncated;
+    s.frame = r->frame;
+    r->camera = NULL;
+    r->params = NULL;
+    if (stats)
+        *stats = s;
+    return PLOD_OK;
+}
+
+size_t plod_refiner_memory_bytes(const plod_refiner *r)
+{
+    if (!r)
+        return 0;
+    size_t bytes = sizeof *r + r->capacity * (sizeof(plod_sector) + sizeof(plod__geom));
+    if (r->edges)
+        bytes += (r->edge_mask + 1) * sizeof(plod__edge);
+    if (r->nodes)
+        bytes += (r->node_mask + 1) * sizeof(plod__node);
+    return bytes;
+}
+
+/* ---- invariants ---------------------------------------------------------------- */
+
+plod_status plod_refiner_check(const plod_refiner *r)
+{
+    if (!r)
+        return PLOD_ERR_NULL;
+    size_t links = 0;
+    for (size_t i = 0; i < r->count; i++) {
+        const plod_sector *s = &r->leaves[i];
+        for (int e = 0; e < 3; e++) {
+            int32_t key[3];
+            plod__edge_key(r, s, e, key);
+            size_t slot = plod__edge_find(r, key);
+            if (slot == (size_t)-1)
+                return PLOD_ERR_BAD_PARAM;
+            const plod__edge *edge = &r->edges[slot];
+            if (edge->leaf[0] != (int32_t)i && edge->leaf[1] != (int32_t)i)
+                return PLOD_ERR_BAD_PARAM;
+            int32_t other = edge->leaf[0] == (int32_t)i ? edge->leaf[1] : edge->leaf[0];
+            if (other < 0 || (size_t)other >= r->count)
+                return PLOD_ERR_BAD_PARAM; /* closed sphere: always two */
+            int dl = (int)r->leaves[other].level - (int)s->level;
+            if (dl < -1 || dl > 1)
+                return PLOD_ERR_BAD_PARAM;
+        }
+        if (s->level > 0 && !plod__node_find(r, plod__parent_id(s->id)))
+            return PLOD_ERR_BAD_PARAM;
+        links += 3;
+    }
+    size_t used = 0;
+    for (size_t i = 0; i <= r->edge_mask; i++)
+        if (!plod__slot_empty(&r->edges[i]))
+            used++;
+    if (used != r->edge_used || 2 * used != links)
+        return PLOD_ERR_BAD_PARAM;
+    /* a binary forest with count leaves over the base sectors */
+    size_t bases = plod_projection_is_cube(r->planet->projection) ? 12 : 8;
+    if (r->node_used + bases != r->count)
+        return PLOD_ERR_BAD_PARAM;
+    return PLOD_OK;
+}
+
+/* ---- horizon-distance correction ---------------------------------------------- */
+
+void plod_recommended_clip(const plod_planet *planet, const plod_camera *camera,
+                           double *clip_start, double *clip_end)
+{
+    double hmin, hmax;
+    plod_planet_height_range(planet, &hmin, &hmax);
+    const double *p = camera->position;
+    double dist = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+    double top = planet->radius + hmax, rho = planet->radius + hmin;
+    double corner = 1.0;
+    if (!camera->desc.orthographic) {
+        double tx = fmax(fabs(camera->tan_left), fabs(camera->tan_right));
+        double ty = fmax(fabs(camera->tan_bottom), fabs(camera->tan_top));
+        corner = 1.0 / sqrt(1.0 + tx * tx + ty * ty);
+    }
+    /* nearest terrain is at least (dist - top) away; depth >= distance *
+     * cos(corner angle) inside the frustum */
+    double clearance = dist - top;
+    double near_ = clearance > 0 ? 0.9 * clearance * corner : 0.0;
+    double floor_ = fmax(1e-3, 1e-7 * planet->radius);
+    if (clearance <= 0)
+        floor_ = 1e-3;
+    if (near_ < floor_)
+        near_ = floor_;
+    /* farthest visible terrain: the horizon of the occluder ball plus the
+     * distance at which the highest peak still rises above it */
+    double far_;
+    if (dist > rho) {
+        double horizon = sqrt((dist - rho) * (dist + rho));
+        double beyond = sqrt((top - rho) * (top + rho));
+        far_ = (horizon + beyond) * 1.01;
+    } else {
+        far_ = (dist + top) * 1.01;
+    }
+    if (far_ <= near_)
+        far_ = near_ * 2.0;
+    *clip_start = near_;
+    *clip_end = far_;
+}
