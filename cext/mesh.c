@@ -238,6 +238,33 @@ size_t plod_mesh_count_sectors(plod_mesh_sector_fn source, const void *context,
 
 /* ---- per-vertex geometry ---------------------------------------------------- */
 
+/* atan2 to ~3e-9 rad, 2-3x faster than libm's: the uv outputs are float32
+ * (resolution 6e-8 of a turn), so libm's last bits are wasted there.
+ * Reduction to [0, 1] by octant, then by pi/6 to |t| <= tan(pi/12), then the
+ * odd series up to t^11 (remainder below t^13/13 = 3e-9). */
+static double plod__atan2(double y, double x)
+{
+    double ax = fabs(x), ay = fabs(y);
+    double hi = ax > ay ? ax : ay, lo = ax > ay ? ay : ax;
+    if (hi == 0.0)
+        return 0.0;
+    double a = lo / hi, base = 0.0;
+    const double tan_pi_12 = 0.26794919243112270, inv_sqrt3 = 0.57735026918962576;
+    if (a > tan_pi_12) {
+        a = (a - inv_sqrt3) / (1.0 + a * inv_sqrt3);
+        base = PLOD__PI / 6;
+    }
+    double a2 = a * a;
+    double r = a * (1.0 + a2 * (-1.0 / 3 + a2 * (1.0 / 5 + a2 * (-1.0 / 7 + a2 * (1.0 / 9 +
+                    a2 * (-1.0 / 11 + a2 * (1.0 / 13)))))));
+    r += base;
+    if (ay > ax)
+        r = PLOD__PI / 2 - r;
+    if (x < 0.0)
+        r = PLOD__PI - r;
+    return y < 0.0 ? -r : r;
+}
+
 /* Corners finite, roughly unit, no two (nearly) antipodal: every weighted
  * sum is then safely away from zero. */
 static int plod__sector_ok(const plod_mesh_sector *sector)
@@ -281,10 +308,10 @@ static void plod__vertex_direction(const double corners[3][3], const int k[3],
             v[2] = v[2] + w * corners[c][2];
         }
     }
-    double len = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-    dir[0] = v[0] / len;
-    dir[1] = v[1] / len;
-    dir[2] = v[2] / len;
+    double inv_len = 1.0 / sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    dir[0] = v[0] * inv_len;
+    dir[1] = v[1] * inv_len;
+    dir[2] = v[2] * inv_len;
 }
 
 /* Unit normal of the displaced surface d*(R+h(d)) from central differences
@@ -305,8 +332,8 @@ static void plod__surface_normal(const plod_planet *planet, const double dir[3],
     double t1[3] = {axis[1] * dir[2] - axis[2] * dir[1],
                     axis[2] * dir[0] - axis[0] * dir[2],
                     axis[0] * dir[1] - axis[1] * dir[0]};
-    double l1 = sqrt(t1[0] * t1[0] + t1[1] * t1[1] + t1[2] * t1[2]);
-    t1[0] /= l1; t1[1] /= l1; t1[2] /= l1;
+    double inv_l1 = 1.0 / sqrt(t1[0] * t1[0] + t1[1] * t1[1] + t1[2] * t1[2]);
+    t1[0] *= inv_l1; t1[1] *= inv_l1; t1[2] *= inv_l1;
     double t2[3] = {dir[1] * t1[2] - dir[2] * t1[1],
                     dir[2] * t1[0] - dir[0] * t1[2],
                     dir[0] * t1[1] - dir[1] * t1[0]};
@@ -318,8 +345,8 @@ static void plod__surface_normal(const plod_planet *planet, const double dir[3],
             double sign = s ? -step : step;
             double p[3] = {dir[0] + sign * frame[f][0], dir[1] + sign * frame[f][1],
                            dir[2] + sign * frame[f][2]};
-            double lp = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
-            p[0] /= lp; p[1] /= lp; p[2] /= lp;
+            double inv_lp = 1.0 / sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+            p[0] *= inv_lp; p[1] *= inv_lp; p[2] *= inv_lp;
             h[s] = plod_planet_height(planet, p);
         }
         slope[f] = (h[0] - h[1]) * inv_2angle;
@@ -327,10 +354,10 @@ static void plod__surface_normal(const plod_planet *planet, const double dir[3],
     double v[3];
     for (int c = 0; c < 3; c++)
         v[c] = r * dir[c] - slope[0] * t1[c] - slope[1] * t2[c];
-    double len = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-    normal[0] = v[0] / len;
-    normal[1] = v[1] / len;
-    normal[2] = v[2] / len;
+    double inv_len = 1.0 / sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    normal[0] = v[0] * inv_len;
+    normal[1] = v[1] * inv_len;
+    normal[2] = v[2] * inv_len;
 }
 
 /* Angular finite-difference step: one texel of a cube face (pi/2 / size);
@@ -426,7 +453,7 @@ static plod_status plod__emit_sector(const plod__emitter *e,
         double cx = corners[0][0] + corners[1][0] + corners[2][0];
         double cy = corners[0][1] + corners[1][1] + corners[2][1];
         if (cx != 0.0 || cy != 0.0)
-            lon_ref = atan2(cy, cx);
+            lon_ref = plod__atan2(cy, cx);
     }
 
     size_t v = vbase;
@@ -455,13 +482,13 @@ static plod_status plod__emit_sector(const plod__emitter *e,
                 double horizontal = sqrt(dir[0] * dir[0] + dir[1] * dir[1]);
                 double lon = lon_ref;
                 if (horizontal > 1e-12) {
-                    lon = atan2(dir[1], dir[0]);
+                    lon = plod__atan2(dir[1], dir[0]);
                     if (lon - lon_ref > PLOD__PI)
                         lon -= 2 * PLOD__PI;
                     else if (lon - lon_ref < -PLOD__PI)
                         lon += 2 * PLOD__PI;
                 }
-                double lat = atan2(dir[2], horizontal);
+                double lat = plod__atan2(dir[2], horizontal);
                 out->uv[2 * v + 0] = (float)(lon / (2 * PLOD__PI) + 0.5);
                 out->uv[2 * v + 1] = (float)(lat / PLOD__PI + 0.5);
             }

@@ -109,6 +109,21 @@ static PyObject *plod__origin_tuple(const double origin[3])
     return Py_BuildValue("(ddd)", origin[0], origin[1], origin[2]);
 }
 
+/* A Buffer of `count` 4-byte items over uninitialised malloc'ed storage. */
+static PyObject *plod__uninit_buffer(char format, size_t count, void **data)
+{
+    *data = NULL;
+    if (count > PY_SSIZE_T_MAX / 4)
+        return PyErr_NoMemory();
+    void *storage = malloc(count ? count * 4 : 1);
+    if (!storage)
+        return PyErr_NoMemory();
+    PyObject *buffer = plod_py_buffer_steal(format, count, storage);
+    if (buffer)
+        *data = storage;
+    return buffer;
+}
+
 /* Emits through `source` into a new Mesh; the GIL is released meanwhile. */
 static PyObject *plod__mesh_build(const plod_mesh_params *params,
                                   plod_mesh_sector_fn source, const void *context,
@@ -131,14 +146,15 @@ static PyObject *plod__mesh_build(const plod_mesh_params *params,
     mesh->template_level = params->template_level;
     PyObject_GC_Track(mesh);
 
+    /* Every item gets written by the emitter: no zero fill (malloc + steal). */
     plod_mesh_buffers out;
-    mesh->positions = plod_py_buffer_new('f', 3 * vb, (void **)&out.positions);
-    mesh->normals = plod_py_buffer_new('f', 3 * vb, (void **)&out.normals);
-    mesh->uv = plod_py_buffer_new('f', 2 * vb, (void **)&out.uv);
-    mesh->morph = plod_py_buffer_new('f', vb, (void **)&out.morph);
-    mesh->triangles = plod_py_buffer_new('i', 3 * tb, (void **)&out.triangles);
-    mesh->sector_level = plod_py_buffer_new('i', tb, (void **)&out.sector_level);
-    mesh->face = plod_py_buffer_new('i', tb, (void **)&out.face);
+    mesh->positions = plod__uninit_buffer('f', 3 * vb, (void **)&out.positions);
+    mesh->normals = plod__uninit_buffer('f', 3 * vb, (void **)&out.normals);
+    mesh->uv = plod__uninit_buffer('f', 2 * vb, (void **)&out.uv);
+    mesh->morph = plod__uninit_buffer('f', vb, (void **)&out.morph);
+    mesh->triangles = plod__uninit_buffer('i', 3 * tb, (void **)&out.triangles);
+    mesh->sector_level = plod__uninit_buffer('i', tb, (void **)&out.sector_level);
+    mesh->face = plod__uninit_buffer('i', tb, (void **)&out.face);
     mesh->origin = plod__origin_tuple(params->origin);
     if (!mesh->positions || !mesh->normals || !mesh->uv || !mesh->morph ||
         !mesh->triangles || !mesh->sector_level || !mesh->face || !mesh->origin) {
@@ -230,8 +246,8 @@ static int plod__refiner_sector(const void *context, size_t index,
     return 1;
 }
 
-/* Parameters shared by mesh and instances: template level (-1 = the refine
- * parameters'), origin under the camera, morph ramp from the criterion. */
+/* Parameters shared by mesh and instances: origin under the camera, morph
+ * scale from the refine criterion. */
 static int plod__glue_params(plod_mesh_params *params, const plod_planet *planet,
                              const plod_camera *camera,
                              const plod_refine_params *refine_params,
@@ -241,9 +257,7 @@ static int plod__glue_params(plod_mesh_params *params, const plod_planet *planet
         plod_py_raise(PLOD_ERR_NULL, "mesh");
         return -1;
     }
-    if (template_level < 0)
-        template_level = refine_params ? refine_params->template_level : 4;
-    if (template_level > PLOD_MAX_TEMPLATE_LEVEL) {
+    if (template_level < 0 || template_level > PLOD_MAX_TEMPLATE_LEVEL) {
         plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "mesh",
                              "template_level must be in 0..7");
         return -1;
