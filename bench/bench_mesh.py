@@ -57,7 +57,7 @@ def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--repeat", type=int, default=5)
     parser.add_argument("--no-map", action="store_true")
-    parser.add_argument("--levels", default="3,4,5,6,7")
+    parser.add_argument("--levels", default="4,5,6,7")
     args = parser.parse_args()
     radius = 6371e3
     planets = [("sphere", planetlod.Planet(radius))]
@@ -70,7 +70,7 @@ def main():
     print(f"{'planet':>15} {'tl':>3} {'sectors':>8} {'vertices':>10} {'thr':>4} "
           f"{'ms':>8} {'Mvert/s':>8} {'morph Mv/s':>10} {'B/vert':>7}")
     for name, planet in planets:
-        planet.refine(camera)
+        planet.refine(camera, backface=False, frustum=False)
         for tl in (int(x) for x in args.levels.split(",")):
             for threads in (1, 2):
                 dt, mesh = best_time(lambda: planet.mesh(template_level=tl, threads=threads),

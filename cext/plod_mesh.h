@@ -66,32 +66,39 @@ typedef struct plod_mesh_params {
     /* Geomorphing: odd template vertices blend toward the midpoint of their
      * two even neighbours along the template line on which their even weight
      * is constant (for an edge vertex: along the sector edge).  The factor
-     * is a function of the vertex's unmorphed position and `eye` only:
-     * continuous level L = 2*log2(morph_lod_scale / distance), f = L -
+     * is a function of the vertex's unmorphed position and `eye` only, so a
+     * shared vertex morphs identically from both sides: continuous level
+     * L = morph_level_rate * log2(morph_lod_scale / distance), f = L -
      * floor(L), morph = clamp((morph_ramp - f) / morph_ramp, 0, 1): 1 just
-     * after a split (looks like the coarser grid), 0 from morph_ramp on. */
+     * after the refiner's split distance for that level (looks like the
+     * coarser grid), 0 from morph_ramp of a level on (full detail). */
     int morph;                  /* 0 off (morph output all 0) */
     double eye[3];              /* camera position, planet space (metres) */
-    double morph_lod_scale;     /* metres, > 0 */
+    double morph_lod_scale;     /* metres, >= 0 (0: factor 0 everywhere) */
+    double morph_level_rate;    /* levels per halving of distance, > 0 */
     double morph_ramp;          /* (0, 1] */
 } plod_mesh_params;
 
-/* Defaults: origin 0, threads 1, morph off, ramp 0.5, scale = radius. */
+/* Defaults: origin 0, threads 1, morph off, ramp 0.5, scale = radius,
+ * rate 2. */
 void plod_mesh_params_init(plod_mesh_params *params, const plod_planet *planet,
                            int template_level);
 /* Surface point nearest the eye: d = eye/|eye|, d * (radius + height(d)).
  * Zero vector when the eye is at the centre or not finite. */
 void plod_mesh_origin(const plod_planet *planet, const double eye[3],
                       double origin[3]);
-/* morph_lod_scale that makes the continuous level match the refine
- * criterion's split threshold (side_distance: base side / split_border;
- * pixel: base side * pixels_per_radian / (max_pixel_error * 2^template_level),
- * an approximation of the refiner's error).  0 for orthographic cameras
- * (morph then stays 0). */
-double plod_mesh_morph_lod_scale(const plod_planet *planet,
+/* Sets params->morph_lod_scale and morph_level_rate so that the continuous
+ * level tracks the refine criterion's split distance of a level-L sector
+ * (side = longest corner chord ~ base chord * 2^(-L/2)).  side_distance: split when side/d >
+ * split_border, so scale = base side / split_border, rate 2.  pixel: the
+ * curvature-sag term of the refiner's error, (side/2^t)^2 / (8 R) *
+ * pixels_per_radian / d > max_pixel_error, so scale = base side^2 *
+ * pixels_per_radian / (8 R 4^t max_pixel_error), rate 1 (relief makes the
+ * refiner split earlier than this predicts; the ramp is an approximation).
+ * Orthographic cameras: scale 0 (no morph).  Returns the scale. */
+double plod_mesh_set_morph_scale(plod_mesh_params *params,
                                  const plod_camera *camera,
-                                 const plod_refine_params *refine_params,
-                                 int template_level);
+                                 const plod_refine_params *refine_params);
 /* Morph factor of an (unmorphed) planet-space position; 0 when morph is off
  * or the scale is 0. */
 double plod_mesh_morph_factor(const plod_mesh_params *params,

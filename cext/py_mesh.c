@@ -272,12 +272,8 @@ static int plod__glue_params(plod_mesh_params *params, const plod_planet *planet
         plod_mesh_origin(planet, camera->position, params->origin);
         for (int c = 0; c < 3; c++)
             params->eye[c] = camera->position[c];
-        if (morph && refine_params) {
-            params->morph_lod_scale = plod_mesh_morph_lod_scale(planet, camera,
-                                                                refine_params,
-                                                                template_level);
-            params->morph = params->morph_lod_scale > 0.0;
-        }
+        if (morph && refine_params)
+            params->morph = plod_mesh_set_morph_scale(params, camera, refine_params) > 0.0;
     }
     return 0;
 }
