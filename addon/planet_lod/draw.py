@@ -1,0 +1,9 @@
+"""GPU viewport preview (placeholder until shaders land)."""
+
+
+def register():
+    pass
+
+
+def unregister():
+    pass
