@@ -6,6 +6,7 @@ a time (the timer and the handlers run on Blender's main thread; `_busy`
 guards re-entry from handlers fired during a refresh).
 """
 import hashlib
+import threading
 import time
 from array import array
 
@@ -310,8 +311,14 @@ def on_frame_change_post(scene, depsgraph=None):
 
 @persistent
 def on_render_pre(scene, depsgraph=None):
-    if not _busy and core.native is not None:
-        refresh_for_render(scene)
+    """render_init / render_pre: refine for the render camera at render resolution.
+    F12 runs render_pre in the render job's thread, where bpy data must not be
+    written; there the main-thread render_init call has already done the work."""
+    if _busy or core.native is None:
+        return
+    if threading.current_thread() is not threading.main_thread():
+        return
+    refresh_for_render(scene)
 
 
 @persistent
@@ -349,6 +356,7 @@ def on_depsgraph_update(scene, depsgraph=None):
 HANDLERS = (
     (bpy.app.handlers.frame_change_pre, on_frame_change_pre),
     (bpy.app.handlers.frame_change_post, on_frame_change_post),
+    (bpy.app.handlers.render_init, on_render_pre),
     (bpy.app.handlers.render_pre, on_render_pre),
     (bpy.app.handlers.load_post, on_load_post),
     (bpy.app.handlers.undo_post, on_undo),

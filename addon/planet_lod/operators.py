@@ -60,6 +60,7 @@ class PLOD_OT_planet_add(bpy.types.Operator):
             settings = obj.planet_lod
             settings.assign(values)
             settings.enabled = True
+            settings.gpu_preview = True  # also sets the object's viewport display
             settings.preset = self.preset
             settings.quality = self.quality
             _validate(settings.as_dict())
@@ -244,6 +245,11 @@ class PLOD_MT_planet_presets(bpy.types.Menu):
                        filter_ext=lambda ext: ext.lower() == ".py")
 
 
+class PLOD_MT_quality_presets(PLOD_MT_planet_presets):
+    bl_label = "Quality Presets"
+    preset_subdir = "planet_lod_quality"
+
+
 class PLOD_OT_preset_add(AddPresetBase, bpy.types.Operator):
     """Add or remove a Planet LOD settings preset"""
     bl_idname = "object.planet_preset_add"
@@ -263,7 +269,7 @@ def menu_func(self, context):
 
 
 classes = (PLOD_OT_planet_add, PLOD_OT_planet_refresh, PLOD_OT_planet_apply_mesh,
-           PLOD_OT_planet_apply_preset, PLOD_OT_set_heightmap, PLOD_MT_planet_presets,
+           PLOD_OT_planet_apply_preset, PLOD_OT_set_heightmap, PLOD_MT_planet_presets, PLOD_MT_quality_presets,
            PLOD_OT_preset_add)
 
 

@@ -31,6 +31,13 @@ def _material_changed(self, context):
     live.mark_dirty(self.id_data, geometry=False, material=True)
 
 
+def _preview_changed(self, context):
+    obj = self.id_data
+    # the GPU preview draws the live LOD; the mesh (built for renders) shows as bounds
+    obj.display_type = 'BOUNDS' if self.gpu_preview and not bpy.app.background else 'TEXTURED'
+    _changed(self, context)
+
+
 def _camera_poll(self, obj):
     return obj.type == 'CAMERA'
 
@@ -87,7 +94,7 @@ class PLOD_PG_settings(bpy.types.PropertyGroup):
                               description="Colour faces by sector level")
     morph: BoolProperty(name="Morphing", default=False, update=_changed)
     live_update: BoolProperty(name="Live update", default=True, update=_changed)
-    gpu_preview: BoolProperty(name="GPU preview", default=True, update=_changed,
+    gpu_preview: BoolProperty(name="GPU preview", default=True, update=_preview_changed,
                               description="Draw the sectors with GLSL in the viewport")
     clip_from_horizon: BoolProperty(name="Camera clip from horizon", default=False,
                                     update=_changed,

@@ -39,6 +39,7 @@ class PLOD_PT_planet(PLOD_PT_base, bpy.types.Panel):
         row.operator("object.planet_preset_add", text="", icon='ADD')
         row.operator("object.planet_preset_add", text="", icon='REMOVE').remove_active = True
         row = layout.row(align=True)
+        row.menu("PLOD_MT_quality_presets", text="Quality")
         for key in ("DRAFT", "PREVIEW", "FINAL"):
             row.operator("object.planet_apply_preset", text=key.title()).quality = key
         col = layout.column()

@@ -44,6 +44,33 @@ def main():
     assert near["sectors_total"] != far["sectors_total"]
     assert len(earth.data.polygons) != far_polys
 
+    # Blender preset files: planet and quality presets from presets/, user preset add
+    import os
+    from planet_lod import core
+    bpy.context.view_layer.objects.active = earth
+    moon_file = os.path.join(core.resource_dirs("presets")[-1], "planet_lod", "Moon.py")
+    assert bpy.ops.script.execute_preset(filepath=moon_file,
+                                         menu_idname="PLOD_MT_planet_presets") == {'FINISHED'}
+    assert abs(earth.planet_lod.radius - 1737400.0) < 1 and earth.planet_lod.preset == 'MOON'
+    final_file = os.path.join(core.resource_dirs("presets")[-1], "planet_lod_quality", "Final.py")
+    bpy.ops.script.execute_preset(filepath=final_file, menu_idname="PLOD_MT_quality_presets")
+    assert earth.planet_lod.template_density == '256' and earth.planet_lod.max_pixel_error == 1.0
+    earth.planet_lod.budget = 777
+    assert bpy.ops.object.planet_preset_add(name="My planet") == {'FINISHED'}
+    earth.planet_lod.budget = 5
+    user_file = os.path.join(bpy.utils.user_resource('SCRIPTS', path="presets/planet_lod"),
+                             "My_planet.py")
+    assert os.path.isfile(user_file), user_file
+    bpy.ops.script.execute_preset(filepath=user_file, menu_idname="PLOD_MT_planet_presets")
+    assert earth.planet_lod.budget == 777
+    assert bpy.ops.object.planet_apply_preset(planet='EARTH', quality='DRAFT') == {'FINISHED'}
+    assert bpy.ops.object.planet_refresh() == {'FINISHED'}
+    # Apply as mesh: a plain mesh object with the same geometry
+    assert bpy.ops.object.planet_apply_mesh() == {'FINISHED'}
+    applied = bpy.data.objects["Earth LOD mesh"]
+    assert not applied.planet_lod.enabled
+    assert len(applied.data.polygons) == len(earth.data.polygons) > 0
+
     # bad height map: an error report, nothing added, nothing changed
     before = scene_state()
     try:
