@@ -35,6 +35,7 @@ class PlanetState:
         self.gpu_version = 0       # bumped when instances change
         self.frozen_camera = None  # (matrix_world planet space, params) while frozen
         self.mesh_hash = ""
+        self.render_key = None     # camera + settings of the last render refresh
 
 
 def state(obj):
@@ -76,11 +77,23 @@ def camera_object(obj, scene):
     return None
 
 
-def camera_params_from_object(obj, cam, scene):
+def _evaluated(obj, depsgraph):
+    """The evaluated object: during `-a` renders animation is evaluated in the
+    render depsgraph only, the original objects keep frame-1 transforms."""
+    if depsgraph is None:
+        return obj
+    try:
+        return obj.evaluated_get(depsgraph)
+    except (ReferenceError, RuntimeError):
+        return obj
+
+
+def camera_params_from_object(obj, cam, scene, depsgraph=None):
     """planetlod.Camera keyword arguments for a camera object at render resolution."""
+    cam = _evaluated(cam, depsgraph)
     data = cam.data
     res_x, res_y, asp_x, asp_y = _render_resolution(scene)
-    matrix = obj.matrix_world.inverted_safe() @ cam.matrix_world
+    matrix = _evaluated(obj, depsgraph).matrix_world.inverted_safe() @ cam.matrix_world
     return dict(matrix_world=[list(row) for row in matrix],
                 type='ORTHO' if data.type == 'ORTHO' else 'PERSP', lens=data.lens,
                 sensor_width=data.sensor_width, sensor_height=data.sensor_height,
@@ -116,7 +129,7 @@ def camera_params_from_view(obj, view):
                 resolution_x=max(region.width, 1), resolution_y=max(region.height, 1))
 
 
-def lod_camera_params(obj, scene, for_render=False):
+def lod_camera_params(obj, scene, for_render=False, depsgraph=None):
     """Keyword arguments for planetlod.Camera, or None when there is no camera at all.
     Falls back cleanly: chosen camera (deleted?) -> scene camera -> viewport."""
     s = obj.planet_lod
@@ -130,7 +143,7 @@ def lod_camera_params(obj, scene, for_render=False):
             return camera_params_from_view(obj, view)
     if cam is None:
         return None
-    return camera_params_from_object(obj, cam, scene)
+    return camera_params_from_object(obj, cam, scene, depsgraph)
 
 
 # ---- refresh ------------------------------------------------------------------
@@ -163,6 +176,8 @@ def refresh(obj, scene, params=None, build_mesh=False, for_render=False):
             mesh = planet.mesh(template_level=settings["template_level"],
                                morph=obj.planet_lod.morph)
             write_mesh(obj, mesh)
+            if not for_render:
+                st.render_key = None  # the mesh no longer matches the render camera
             st.stats["mesh_ms"] = round((time.perf_counter() - t0) * 1000.0, 3)
             st.stats["vertices"] = mesh.vertex_count
             st.stats["triangles"] = mesh.triangle_count
@@ -229,13 +244,21 @@ def _set_attribute(me, name, data_type, domain, field, values):
     attr.data.foreach_set(field, values)
 
 
-def refresh_for_render(scene):
+def refresh_for_render(scene, depsgraph=None):
     """Every planet in `scene`: refine for the render camera at render resolution and
     rebuild its mesh.  Returns {name: stats}; errors are printed and kept in state."""
     results = {}
     for obj in planets(scene):
         try:
-            results[obj.name] = refresh(obj, scene, build_mesh=True, for_render=True)
+            params = lod_camera_params(obj, scene, for_render=True, depsgraph=depsgraph)
+            st = state(obj)
+            key = _render_key(obj, params)
+            if key is not None and key == st.render_key and not st.dirty:
+                results[obj.name] = st.stats  # frame_set then render: refined already
+                continue
+            results[obj.name] = refresh(obj, scene, params=params, build_mesh=True,
+                                        for_render=True)
+            st.render_key = key
         except core.native_errors() as exc:
             state(obj).error = str(exc)
             print(f"planet_lod: {obj.name}: {exc}")
@@ -243,6 +266,13 @@ def refresh_for_render(scene):
 
 
 # ---- live update (viewport) -------------------------------------------------------
+
+def _render_key(obj, params):
+    if params is None:
+        return None
+    return (repr(params), repr(sorted(obj.planet_lod.as_dict().items())), obj.planet_lod.morph,
+            obj.planet_lod.show_levels, len(obj.data.polygons), tuple(obj.matrix_world.col[3]))
+
 
 def _signature(obj, scene):
     params = lod_camera_params(obj, scene)
@@ -306,7 +336,7 @@ def on_frame_change_pre(scene, depsgraph=None):
 @persistent
 def on_frame_change_post(scene, depsgraph=None):
     if not _busy and core.native is not None:
-        refresh_for_render(scene)
+        refresh_for_render(scene, depsgraph)
 
 
 @persistent

@@ -41,6 +41,7 @@ def add_camera(location, look_at=(0, 0, 0), lens=50.0, name="TestCam"):
     from mathutils import Vector
     data = bpy.data.cameras.new(name)
     data.lens = lens
+    data.clip_start, data.clip_end = 1.0, 1.0e9
     cam = bpy.data.objects.new(name, data)
     bpy.context.scene.collection.objects.link(cam)
     cam.location = location
