@@ -163,13 +163,15 @@ def make_camera(params):
     return native_or_raise().Camera(**params)
 
 
-def refine(planet, camera, settings):
-    """Refines `planet` for `camera`; returns the stats dict plus 'triangles'."""
+def refine(planet, camera, settings, hysteresis=False):
+    """Refines `planet` for `camera`; returns the stats dict plus 'triangles'.
+    hysteresis=False (renders) makes the LOD a function of the camera alone."""
     template_level = int(settings["template_level"])
     kwargs = dict(criterion="pixel" if settings["criterion"] == "PIXEL" else "side_distance",
                   max_pixel_error=float(settings["max_pixel_error"]),
                   split_border=float(settings["split_border"]),
                   merge_border=float(settings["merge_border"]),
+                  hysteresis=bool(hysteresis),
                   template_level=template_level, max_level=int(settings["max_level"]),
                   budget=int(settings["budget"]), backface=bool(settings["backface"]),
                   frustum=bool(settings["frustum"]),

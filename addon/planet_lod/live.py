@@ -164,7 +164,11 @@ def refresh(obj, scene, params=None, build_mesh=False, for_render=False):
         frozen = obj.planet_lod.freeze_lod and st.frozen_camera is not None and not for_render
         if not frozen:
             camera = core.make_camera(params)
-            st.stats = core.refine(planet, camera, settings)
+            if for_render:
+                # from the base sectors: the sector set *and order* (so the mesh
+                # bytes) depend on this camera only, not on earlier frames
+                planet.reset()
+            st.stats = core.refine(planet, camera, settings, hysteresis=not for_render)
             st.frozen_camera = params
             if obj.planet_lod.clip_from_horizon and for_render:
                 _apply_clip(obj, scene, planet, camera)

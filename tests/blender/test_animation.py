@@ -31,7 +31,7 @@ def main():
 
     def record(scene, *args):
         st = live.state(planet)
-        seen[scene.frame_current] = (len(planet.data.polygons), st.mesh_hash)
+        seen[scene.frame_current] = (st.stats["max_level"], st.mesh_hash)
     bpy.app.handlers.render_post.append(record)
     scene.render.filepath = os.path.join(lib.out_dir(), "anim_")
     bpy.ops.render.render(animation=True)

@@ -27,7 +27,7 @@ def main():
     earth = bpy.context.object
     assert bpy.ops.mesh.planet_add(preset='MOON', quality='DRAFT') == {'FINISHED'}
     moon = bpy.context.object
-    moon.location = (2.0e7, 0, 0)
+    moon.location = (6.0e6, 1.2e7, 0)  # in the camera's view
     s = earth.planet_lod
     s.projection = 'TSC'
     s.max_pixel_error = 3.5
