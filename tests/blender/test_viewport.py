@@ -46,10 +46,13 @@ def setup():
     r3d = space.region_3d
     r3d.view_perspective = 'PERSP'
     r3d.view_location = (0.0, 0.0, 0.0)
-    r3d.view_distance = 3.0 * 6371000.0
+    preset = os.environ.get("PLOD_VIEW_PRESET", "EARTH")  # manual checks of other presets
     with bpy.context.temp_override(window=window, area=area, region=region):
-        assert bpy.ops.mesh.planet_add(preset='EARTH', quality='DRAFT') == {'FINISHED'}
+        assert bpy.ops.mesh.planet_add(preset=preset, quality='DRAFT') == {'FINISHED'}
     planet = bpy.context.view_layer.objects.active
+    planet.name = "Earth"
+    r3d.view_distance = 3.0 * planet.planet_lod.radius
+    space.clip_start, space.clip_end = planet.planet_lod.radius * 1e-4, planet.planet_lod.radius * 100
     planet.planet_lod.lod_camera = 'VIEWPORT'
     planet.planet_lod.gpu_preview = True
     planet.display_type = 'BOUNDS'
