@@ -1,0 +1,416 @@
+"""Refreshing planets: LOD cameras, refinement, mesh (re)build, timers, handlers.
+
+Runtime state lives in RUNTIME keyed by object name (never a bpy reference, so
+undo/redo and file loads cannot leave dangling pointers).  One refresh runs at
+a time (the timer and the handlers run on Blender's main thread; `_busy`
+guards re-entry from handlers fired during a refresh).
+"""
+import hashlib
+import threading
+import time
+from array import array
+
+import bpy
+from bpy.app.handlers import persistent
+from mathutils import Matrix
+
+from . import core, materials
+
+RUNTIME = {}
+DEBOUNCE_S = 0.15
+TICK_S = 0.1
+_busy = False
+
+
+class PlanetState:
+    def __init__(self):
+        self.dirty = True
+        self.geometry_dirty = True
+        self.material_dirty = True
+        self.signature = None
+        self.changed_at = 0.0
+        self.stats = {}
+        self.error = ""
+        self.instances = None      # dict from planet.instances() for the GPU preview
+        self.gpu_version = 0       # bumped when instances change
+        self.frozen_camera = None  # (matrix_world planet space, params) while frozen
+        self.mesh_hash = ""
+        self.render_key = None     # camera + settings of the last render refresh
+
+
+def state(obj):
+    st = RUNTIME.get(obj.name_full)
+    if st is None:
+        st = RUNTIME[obj.name_full] = PlanetState()
+    return st
+
+
+def mark_dirty(obj, geometry=False, material=False):
+    if obj is None:
+        return
+    st = state(obj)
+    st.dirty = True
+    st.geometry_dirty |= geometry
+    st.material_dirty |= material
+
+
+def planets(scene):
+    return [o for o in scene.objects if o.type == 'MESH' and o.planet_lod.enabled]
+
+
+# ---- cameras ----------------------------------------------------------------
+
+def _render_resolution(scene):
+    r = scene.render
+    return (max(1, r.resolution_x * r.resolution_percentage // 100),
+            max(1, r.resolution_y * r.resolution_percentage // 100),
+            r.pixel_aspect_x, r.pixel_aspect_y)
+
+
+def camera_object(obj, scene):
+    """The camera object the planet refines for (None: viewport or nothing)."""
+    s = obj.planet_lod
+    if s.lod_camera == 'CAMERA' and s.camera is not None and s.camera.name in scene.objects:
+        return s.camera
+    if s.lod_camera in ('CAMERA', 'SCENE') and scene.camera is not None:
+        return scene.camera
+    return None
+
+
+def _evaluated(obj, depsgraph):
+    """The evaluated object: during `-a` renders animation is evaluated in the
+    render depsgraph only, the original objects keep frame-1 transforms."""
+    if depsgraph is None:
+        return obj
+    try:
+        return obj.evaluated_get(depsgraph)
+    except (ReferenceError, RuntimeError):
+        return obj
+
+
+def camera_params_from_object(obj, cam, scene, depsgraph=None):
+    """planetlod.Camera keyword arguments for a camera object at render resolution."""
+    cam = _evaluated(cam, depsgraph)
+    data = cam.data
+    res_x, res_y, asp_x, asp_y = _render_resolution(scene)
+    matrix = _evaluated(obj, depsgraph).matrix_world.inverted_safe() @ cam.matrix_world
+    return dict(matrix_world=[list(row) for row in matrix],
+                type='ORTHO' if data.type == 'ORTHO' else 'PERSP', lens=data.lens,
+                sensor_width=data.sensor_width, sensor_height=data.sensor_height,
+                sensor_fit=data.sensor_fit, ortho_scale=data.ortho_scale,
+                shift_x=data.shift_x, shift_y=data.shift_y, clip_start=data.clip_start,
+                clip_end=data.clip_end, resolution_x=res_x, resolution_y=res_y,
+                pixel_aspect_x=asp_x, pixel_aspect_y=asp_y)
+
+
+def viewport():
+    """(space, region, region_3d) of the largest 3D viewport, or None."""
+    best = None
+    wm = bpy.context.window_manager
+    for window in wm.windows if wm else ():
+        for area in window.screen.areas:
+            if area.type != 'VIEW_3D':
+                continue
+            for region in area.regions:
+                if region.type == 'WINDOW' and (best is None or
+                                                region.width * region.height > best[1].width * best[1].height):
+                    best = (area.spaces.active, region, area.spaces.active.region_3d)
+    return best
+
+
+def camera_params_from_view(obj, view):
+    space, region, r3d = view
+    matrix = obj.matrix_world.inverted_safe() @ r3d.view_matrix.inverted()
+    ortho = r3d.view_perspective == 'ORTHO'
+    return dict(matrix_world=[list(row) for row in matrix], type='ORTHO' if ortho else 'PERSP',
+                lens=space.lens, sensor_width=72.0, sensor_height=72.0, sensor_fit='AUTO',
+                ortho_scale=max(r3d.view_distance * 72.0 / space.lens, 1e-6),
+                clip_start=space.clip_start, clip_end=space.clip_end,
+                resolution_x=max(region.width, 1), resolution_y=max(region.height, 1))
+
+
+def lod_camera_params(obj, scene, for_render=False, depsgraph=None):
+    """Keyword arguments for planetlod.Camera, or None when there is no camera at all.
+    Falls back cleanly: chosen camera (deleted?) -> scene camera -> viewport."""
+    s = obj.planet_lod
+    cam = camera_object(obj, scene)
+    use_view = (s.lod_camera == 'VIEWPORT' and not for_render) or cam is None
+    if use_view and not bpy.app.background:
+        view = viewport()
+        if view is not None:
+            if view[2].view_perspective == 'CAMERA' and scene.camera is not None:
+                return camera_params_from_object(obj, scene.camera, scene)
+            return camera_params_from_view(obj, view)
+    if cam is None:
+        return None
+    return camera_params_from_object(obj, cam, scene, depsgraph)
+
+
+# ---- refresh ------------------------------------------------------------------
+
+def refresh(obj, scene, params=None, build_mesh=False, for_render=False):
+    """Refines `obj` for its LOD camera; optionally rebuilds its mesh.  Raises
+    core.native_errors() on bad input (callers report them)."""
+    global _busy
+    st = state(obj)
+    settings = obj.planet_lod.as_dict()
+    planet = core.build_planet(settings)
+    if params is None:
+        params = lod_camera_params(obj, scene, for_render=for_render)
+    if params is None:
+        raise RuntimeError("no LOD camera: add a camera to the scene or use the viewport")
+    _busy = True
+    try:
+        frozen = obj.planet_lod.freeze_lod and st.frozen_camera is not None and not for_render
+        if not frozen:
+            camera = core.make_camera(params)
+            if for_render:
+                # from the base sectors: the sector set *and order* (so the mesh
+                # bytes) depend on this camera only, not on earlier frames
+                planet.reset()
+            st.stats = core.refine(planet, camera, settings, hysteresis=not for_render)
+            st.frozen_camera = params
+            if obj.planet_lod.clip_from_horizon and for_render:
+                _apply_clip(obj, scene, planet, camera)
+        if obj.planet_lod.gpu_preview and not bpy.app.background:
+            st.instances = planet.instances(template_level=settings["template_level"])
+            st.gpu_version += 1
+        if build_mesh:
+            t0 = time.perf_counter()
+            mesh = planet.mesh(template_level=settings["template_level"],
+                               morph=obj.planet_lod.morph)
+            write_mesh(obj, mesh)
+            if not for_render:
+                st.render_key = None  # the mesh no longer matches the render camera
+            st.stats["mesh_ms"] = round((time.perf_counter() - t0) * 1000.0, 3)
+            st.stats["vertices"] = mesh.vertex_count
+            st.stats["triangles"] = mesh.triangle_count
+            st.mesh_hash = mesh_digest(mesh)
+            st.stats["mesh_hash"] = st.mesh_hash
+        if st.material_dirty or build_mesh:
+            materials.ensure(obj)
+            st.material_dirty = False
+        st.dirty = st.geometry_dirty = False
+        st.error = ""
+        return st.stats
+    finally:
+        _busy = False
+
+
+def _apply_clip(obj, scene, planet, camera):
+    cam = camera_object(obj, scene)
+    if cam is None:
+        return
+    near, far = planet.recommended_clip(camera)
+    cam.data.clip_start, cam.data.clip_end = near, far
+
+
+def mesh_digest(mesh):
+    h = hashlib.sha1()
+    for part in (mesh.positions, mesh.triangles, mesh.sector_level):
+        h.update(bytes(memoryview(part).cast("B")))
+    h.update(repr(tuple(mesh.origin)).encode())
+    return h.hexdigest()[:16]
+
+
+def write_mesh(obj, mesh):
+    """Replaces obj's mesh geometry from planetlod buffers via foreach_set.  The
+    topology is kept (only coordinates and attributes rewritten) when the vertex
+    and triangle counts did not change: emission uses one template, so equal
+    counts mean equal triangle lists."""
+    me = obj.data
+    nv, nt = mesh.vertex_count, mesh.triangle_count
+    if len(me.vertices) != nv or len(me.polygons) != nt:
+        me.clear_geometry()
+        me.vertices.add(nv)
+        me.loops.add(3 * nt)
+        me.polygons.add(nt)
+        me.loops.foreach_set("vertex_index", mesh.triangles)
+        me.polygons.foreach_set("loop_start", array("i", range(0, 3 * nt, 3)))
+        me.polygons.foreach_set("loop_total", array("i", [3]) * nt)
+        me.polygons.foreach_set("use_smooth", array("i", [1]) * nt)
+    me.vertices.foreach_set("co", mesh.positions)
+    origin = tuple(mesh.origin)
+    if any(origin):
+        me.transform(Matrix.Translation(origin))
+    _set_attribute(me, "planet_uv", 'FLOAT2', 'POINT', "vector", mesh.uv)
+    _set_attribute(me, "sector_level", 'INT', 'FACE', "value", mesh.sector_level)
+    me.update()
+
+
+def _set_attribute(me, name, data_type, domain, field, values):
+    attr = me.attributes.get(name)
+    if attr is not None and (attr.data_type != data_type or attr.domain != domain):
+        me.attributes.remove(attr)
+        attr = None
+    if attr is None:
+        attr = me.attributes.new(name, data_type, domain)
+    attr.data.foreach_set(field, values)
+
+
+def refresh_for_render(scene, depsgraph=None):
+    """Every planet in `scene`: refine for the render camera at render resolution and
+    rebuild its mesh.  Returns {name: stats}; errors are printed and kept in state."""
+    results = {}
+    for obj in planets(scene):
+        try:
+            params = lod_camera_params(obj, scene, for_render=True, depsgraph=depsgraph)
+            st = state(obj)
+            key = _render_key(obj, params)
+            if key is not None and key == st.render_key and not st.dirty:
+                results[obj.name] = st.stats  # frame_set then render: refined already
+                continue
+            results[obj.name] = refresh(obj, scene, params=params, build_mesh=True,
+                                        for_render=True)
+            st.render_key = key
+        except core.native_errors() as exc:
+            state(obj).error = str(exc)
+            print(f"planet_lod: {obj.name}: {exc}")
+    return results
+
+
+# ---- live update (viewport) -------------------------------------------------------
+
+def _render_key(obj, params):
+    if params is None:
+        return None
+    return (repr(params), repr(sorted(obj.planet_lod.as_dict().items())), obj.planet_lod.morph,
+            obj.planet_lod.show_levels, len(obj.data.polygons), tuple(obj.matrix_world.col[3]))
+
+
+def _signature(obj, scene):
+    params = lod_camera_params(obj, scene)
+    if params is None:
+        return None, None
+    m = params["matrix_world"]
+    sig = (tuple(round(v, 6) for row in m for v in row), params["lens"],
+           params["resolution_x"], params["resolution_y"], params["type"])
+    return sig, params
+
+
+def tick():
+    """bpy.app.timers callback: debounced refresh of planets whose view changed."""
+    if _busy or core.native is None:
+        return TICK_S
+    context = bpy.context
+    scene = getattr(context, "scene", None)
+    if scene is None:
+        return TICK_S
+    now = time.monotonic()
+    for obj in planets(scene):
+        s = obj.planet_lod
+        if not s.live_update:
+            continue
+        st = state(obj)
+        try:
+            sig, params = _signature(obj, scene)
+        except (ReferenceError, AttributeError):
+            continue
+        if sig is None:
+            continue
+        if sig != st.signature:
+            st.signature, st.changed_at, st.dirty = sig, now, True
+        if not st.dirty or now - st.changed_at < DEBOUNCE_S:
+            continue
+        try:
+            refresh(obj, scene, params=params, build_mesh=not s.gpu_preview)
+        except core.native_errors() as exc:
+            st.error, st.dirty = str(exc), False
+        _redraw_views()
+        break  # one planet per tick keeps the UI responsive
+    return TICK_S
+
+
+def _redraw_views():
+    wm = bpy.context.window_manager
+    for window in wm.windows if wm else ():
+        for area in window.screen.areas:
+            if area.type == 'VIEW_3D':
+                area.tag_redraw()
+
+
+# ---- handlers ------------------------------------------------------------------
+
+@persistent
+def on_frame_change_pre(scene, depsgraph=None):
+    from . import render
+    render.place_flyby_cameras(scene)
+
+
+@persistent
+def on_frame_change_post(scene, depsgraph=None):
+    if not _busy and core.native is not None:
+        refresh_for_render(scene, depsgraph)
+
+
+@persistent
+def on_render_pre(scene, depsgraph=None):
+    """render_init / render_pre: refine for the render camera at render resolution.
+    F12 runs render_pre in the render job's thread, where bpy data must not be
+    written; there the main-thread render_init call has already done the work."""
+    if _busy or core.native is None:
+        return
+    if threading.current_thread() is not threading.main_thread():
+        return
+    refresh_for_render(scene)
+
+
+@persistent
+def on_load_post(*_args):
+    RUNTIME.clear()
+    core.forget_planets()
+    scene = bpy.context.scene
+    if scene is None or core.native is None:
+        return
+    for obj in planets(scene):  # rebuild geometry for the saved camera
+        try:
+            refresh(obj, scene, build_mesh=True, for_render=True)
+        except core.native_errors() as exc:
+            state(obj).error = str(exc)
+            print(f"planet_lod: {obj.name}: {exc}")
+
+
+@persistent
+def on_undo(*_args):
+    for st in RUNTIME.values():
+        st.dirty = True
+
+
+@persistent
+def on_depsgraph_update(scene, depsgraph=None):
+    if depsgraph is None or _busy:
+        return
+    for update in depsgraph.updates:
+        if isinstance(update.id, bpy.types.Object) and update.is_updated_transform:
+            for obj in planets(scene):
+                if update.id.original in (obj, camera_object(obj, scene)):
+                    state(obj).dirty = True
+
+
+HANDLERS = (
+    (bpy.app.handlers.frame_change_pre, on_frame_change_pre),
+    (bpy.app.handlers.frame_change_post, on_frame_change_post),
+    (bpy.app.handlers.render_init, on_render_pre),
+    (bpy.app.handlers.render_pre, on_render_pre),
+    (bpy.app.handlers.load_post, on_load_post),
+    (bpy.app.handlers.undo_post, on_undo),
+    (bpy.app.handlers.redo_post, on_undo),
+    (bpy.app.handlers.depsgraph_update_post, on_depsgraph_update),
+)
+
+
+def register():
+    for handler_list, fn in HANDLERS:
+        if fn not in handler_list:
+            handler_list.append(fn)
+    if not bpy.app.background and not bpy.app.timers.is_registered(tick):
+        bpy.app.timers.register(tick, first_interval=TICK_S, persistent=True)
+
+
+def unregister():
+    if bpy.app.timers.is_registered(tick):
+        bpy.app.timers.unregister(tick)
+    for handler_list, fn in HANDLERS:
+        while fn in handler_list:
+            handler_list.remove(fn)
+    RUNTIME.clear()

@@ -1,0 +1,285 @@
+"""Operators.  Each one reports errors (self.report) and returns CANCELLED; none
+lets a traceback reach the user, and none leaves a half-built object behind."""
+import os
+
+import bpy
+from bl_operators.presets import AddPresetBase
+from bpy.props import BoolProperty, EnumProperty, StringProperty
+
+from . import core, live, presets
+
+
+def _report_missing(op):
+    if core.load_native() is None:
+        op.report({'ERROR'}, core.native_error)
+        return True
+    return False
+
+
+def _planet(context):
+    obj = context.object
+    if obj is None or obj.type != 'MESH' or not obj.planet_lod.enabled:
+        return None
+    return obj
+
+
+def _validate(settings):
+    """Builds the native planet for a settings dict (raises on bad input) so that
+    nothing is created or changed in the scene when the input is bad."""
+    core.build_planet(settings)
+
+
+class PLOD_OT_planet_add(bpy.types.Operator):
+    """Add a Planet LOD planet"""
+    bl_idname = "mesh.planet_add"
+    bl_label = "Planet"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    preset: EnumProperty(name="Planet", items=presets.PLANET_ITEMS, default="EARTH")
+    quality: EnumProperty(name="Quality", items=presets.QUALITY_ITEMS, default="PREVIEW")
+    heightmap: StringProperty(name="Height map", subtype='FILE_PATH',
+                              description="Override the preset's height map")
+    color_map: StringProperty(name="Colour map", subtype='FILE_PATH',
+                              description="Override the preset's colour map")
+
+    def execute(self, context):
+        if _report_missing(self):
+            return {'CANCELLED'}
+        values = presets.planet_settings(self.preset, core.data_path)
+        values.update(presets.quality_settings(self.quality))
+        if self.heightmap:
+            values["heightmap"] = bpy.path.abspath(self.heightmap)
+        if self.color_map:
+            values["color_map"] = bpy.path.abspath(self.color_map)
+        mesh = obj = None
+        try:
+            if values["color_map"] and not os.path.isfile(values["color_map"]):
+                raise FileNotFoundError(f"colour map not found: {values['color_map']}")
+            mesh = bpy.data.meshes.new(presets.PLANETS[self.preset]["label"].split(" ")[0])
+            obj = bpy.data.objects.new(mesh.name, mesh)
+            settings = obj.planet_lod
+            settings.assign(values)
+            settings.enabled = True
+            settings.gpu_preview = True  # also sets the object's viewport display
+            settings.preset = self.preset
+            settings.quality = self.quality
+            _validate(settings.as_dict())
+            context.collection.objects.link(obj)
+            obj.location = context.scene.cursor.location
+            if live.lod_camera_params(obj, context.scene, for_render=True) is not None:
+                live.refresh(obj, context.scene, build_mesh=True, for_render=True)
+            else:
+                from . import materials
+                materials.ensure(obj)
+        except core.native_errors() as exc:
+            if obj is not None:
+                bpy.data.objects.remove(obj)
+            if mesh is not None:
+                bpy.data.meshes.remove(mesh)
+            self.report({'ERROR'}, f"Planet not added: {exc}")
+            return {'CANCELLED'}
+        for other in context.selected_objects:
+            other.select_set(False)
+        obj.select_set(True)
+        context.view_layer.objects.active = obj
+        return {'FINISHED'}
+
+
+class PLOD_OT_planet_refresh(bpy.types.Operator):
+    """Refine the active planet for its LOD camera now and rebuild its mesh"""
+    bl_idname = "object.planet_refresh"
+    bl_label = "Refresh Planet LOD"
+    bl_options = {'REGISTER'}
+
+    build_mesh: BoolProperty(name="Build mesh", default=True)
+    for_render: BoolProperty(name="Render camera", default=True,
+                             description="Use the render camera at render resolution")
+
+    @classmethod
+    def poll(cls, context):
+        return _planet(context) is not None
+
+    def execute(self, context):
+        if _report_missing(self):
+            return {'CANCELLED'}
+        obj = _planet(context)
+        try:
+            stats = live.refresh(obj, context.scene, build_mesh=self.build_mesh,
+                                 for_render=self.for_render)
+        except core.native_errors() as exc:
+            live.state(obj).error = str(exc)
+            self.report({'ERROR'}, f"{obj.name}: {exc}")
+            return {'CANCELLED'}
+        self.report({'INFO'}, f"{obj.name}: {stats.get('visible', 0)} sectors, "
+                              f"{stats.get('triangles', 0)} triangles")
+        return {'FINISHED'}
+
+
+class PLOD_OT_planet_apply_mesh(bpy.types.Operator):
+    """Copy the planet's current LOD geometry into a plain mesh object"""
+    bl_idname = "object.planet_apply_mesh"
+    bl_label = "Apply as Mesh"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    @classmethod
+    def poll(cls, context):
+        return _planet(context) is not None
+
+    def execute(self, context):
+        if _report_missing(self):
+            return {'CANCELLED'}
+        obj = _planet(context)
+        wm = context.window_manager
+        wm.progress_begin(0, 2)
+        try:
+            live.refresh(obj, context.scene, build_mesh=True, for_render=True)
+            wm.progress_update(1)
+            mesh = obj.data.copy()
+            mesh.name = obj.name + " LOD mesh"
+            copy = bpy.data.objects.new(mesh.name, mesh)
+            copy.matrix_world = obj.matrix_world
+            for collection in obj.users_collection:
+                collection.objects.link(copy)
+        except core.native_errors() as exc:
+            self.report({'ERROR'}, f"{obj.name}: {exc}")
+            return {'CANCELLED'}
+        finally:
+            wm.progress_end()
+        self.report({'INFO'}, f"{copy.name}: {len(mesh.polygons)} triangles")
+        return {'FINISHED'}
+
+
+class PLOD_OT_planet_apply_preset(bpy.types.Operator):
+    """Apply a planet or quality preset to the active planet"""
+    bl_idname = "object.planet_apply_preset"
+    bl_label = "Apply Planet Preset"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    planet: EnumProperty(name="Planet", items=[("NONE", "Keep", "Keep the planet")]
+                         + presets.PLANET_ITEMS, default="NONE")
+    quality: EnumProperty(name="Quality", items=[("NONE", "Keep", "Keep the quality")]
+                          + presets.QUALITY_ITEMS, default="NONE")
+
+    @classmethod
+    def poll(cls, context):
+        return _planet(context) is not None
+
+    def execute(self, context):
+        if _report_missing(self):
+            return {'CANCELLED'}
+        obj = _planet(context)
+        values = {}
+        if self.planet != "NONE":
+            values.update(presets.planet_settings(self.planet, core.data_path))
+        if self.quality != "NONE":
+            values.update(presets.quality_settings(self.quality))
+        trial = obj.planet_lod.as_dict()
+        trial.update({k: v for k, v in values.items() if k in trial})
+        try:
+            _validate(trial)
+        except core.native_errors() as exc:
+            self.report({'ERROR'}, f"Preset not applied: {exc}")
+            return {'CANCELLED'}
+        obj.planet_lod.assign(values)
+        if self.planet != "NONE":
+            obj.planet_lod.preset = self.planet
+        if self.quality != "NONE":
+            obj.planet_lod.quality = self.quality
+        live.mark_dirty(obj, geometry=True, material=True)
+        return {'FINISHED'}
+
+
+class PLOD_OT_set_heightmap(bpy.types.Operator):
+    """Load a height map into the active planet (checked before anything changes)"""
+    bl_idname = "object.planet_set_heightmap"
+    bl_label = "Load Height Map"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    filepath: StringProperty(subtype='FILE_PATH')
+    filter_image: BoolProperty(default=True, options={'HIDDEN'})
+
+    @classmethod
+    def poll(cls, context):
+        return _planet(context) is not None
+
+    def invoke(self, context, event):
+        context.window_manager.fileselect_add(self)
+        return {'RUNNING_MODAL'}
+
+    def execute(self, context):
+        if _report_missing(self):
+            return {'CANCELLED'}
+        obj = _planet(context)
+        trial = obj.planet_lod.as_dict()
+        trial["heightmap"] = bpy.path.abspath(self.filepath)
+        try:
+            _validate(trial)
+        except core.native_errors() as exc:
+            self.report({'ERROR'}, f"Height map not loaded: {exc}")
+            return {'CANCELLED'}
+        obj.planet_lod.heightmap = self.filepath
+        return {'FINISHED'}
+
+
+# ---- Blender preset menus (bundled presets/ + the user's presets) -------------------
+
+def _preset_dirs(subdir):
+    dirs = [os.path.join(d, subdir) for d in core.resource_dirs("presets")]
+    dirs += bpy.utils.preset_paths(subdir)
+    seen, out = set(), []
+    for d in dirs:
+        if os.path.isdir(d) and os.path.realpath(d) not in seen:
+            seen.add(os.path.realpath(d))
+            out.append(d)
+    return out
+
+
+class PLOD_MT_planet_presets(bpy.types.Menu):
+    bl_label = "Planet Presets"
+    preset_subdir = "planet_lod"
+    preset_operator = "script.execute_preset"
+
+    def draw(self, context):
+        self.path_menu(_preset_dirs(self.preset_subdir), self.preset_operator,
+                       props_default={"menu_idname": self.bl_idname},
+                       filter_ext=lambda ext: ext.lower() == ".py")
+
+
+class PLOD_MT_quality_presets(PLOD_MT_planet_presets):
+    bl_label = "Quality Presets"
+    preset_subdir = "planet_lod_quality"
+
+
+class PLOD_OT_preset_add(AddPresetBase, bpy.types.Operator):
+    """Add or remove a Planet LOD settings preset"""
+    bl_idname = "object.planet_preset_add"
+    bl_label = "Add Planet Preset"
+    preset_menu = "PLOD_MT_planet_presets"
+    preset_subdir = "planet_lod"
+    preset_defines = ["settings = bpy.context.object.planet_lod"]
+    preset_values = ["settings." + name for name in (
+        "projection", "radius", "heightmap", "height_scale", "use_sea_level", "sea_level",
+        "ocean_sphere", "color_map", "criterion", "max_pixel_error", "split_border",
+        "merge_border", "template_density", "budget", "max_level", "backface", "frustum",
+        "morph")]
+
+
+def menu_func(self, context):
+    self.layout.operator(PLOD_OT_planet_add.bl_idname, text="Planet", icon='WORLD')
+
+
+classes = (PLOD_OT_planet_add, PLOD_OT_planet_refresh, PLOD_OT_planet_apply_mesh,
+           PLOD_OT_planet_apply_preset, PLOD_OT_set_heightmap, PLOD_MT_planet_presets, PLOD_MT_quality_presets,
+           PLOD_OT_preset_add)
+
+
+def register():
+    for cls in classes:
+        bpy.utils.register_class(cls)
+    bpy.types.VIEW3D_MT_mesh_add.append(menu_func)
+
+
+def unregister():
+    bpy.types.VIEW3D_MT_mesh_add.remove(menu_func)
+    for cls in reversed(classes):
+        bpy.utils.unregister_class(cls)

@@ -1,0 +1,141 @@
+"""object.planet_lod: every planet setting as a bounded, annotated property."""
+import bpy
+from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty,
+                       PointerProperty, StringProperty)
+
+from . import presets
+
+PROJECTION_ITEMS = [
+    ("QSC", "QSC", "Quadrilateralized spherical cube (equal-area)"),
+    ("TSC", "TSC", "Tangential spherical cube (gnomonic faces)"),
+    ("CSC", "CSC", "COBE quadrilateralized spherical cube"),
+    ("SPHERIFIED", "Spherified cube", "Normalised-cube mapping"),
+    ("CAR", "Quad-sphere (CAR)", "Plate carree on an octahedral quad-sphere"),
+]
+TEMPLATE_ITEMS = [(str(4 ** k), f"{4 ** k}", f"{4 ** k} triangles per sector")
+                  for k in range(8)]
+
+
+def _changed(self, context):
+    from . import live
+    live.mark_dirty(self.id_data, geometry=False)
+
+
+def _geometry_changed(self, context):
+    from . import live
+    live.mark_dirty(self.id_data, geometry=True)
+
+
+def _material_changed(self, context):
+    from . import live
+    live.mark_dirty(self.id_data, geometry=False, material=True)
+
+
+def _preview_changed(self, context):
+    obj = self.id_data
+    # the GPU preview draws the live LOD; the mesh (built for renders) shows as bounds
+    obj.display_type = 'BOUNDS' if self.gpu_preview and not bpy.app.background else 'TEXTURED'
+    _changed(self, context)
+
+
+def _camera_poll(self, obj):
+    return obj.type == 'CAMERA'
+
+
+class PLOD_PG_settings(bpy.types.PropertyGroup):
+    enabled: BoolProperty(name="Planet", description="This object is a Planet LOD planet",
+                          default=False)
+    preset: StringProperty(name="Preset", description="Planet preset this was made from")
+    projection: EnumProperty(name="Projection", items=PROJECTION_ITEMS, default="QSC",
+                             update=_geometry_changed)
+    radius: FloatProperty(name="Radius", description="Planet radius in metres",
+                          default=6371000.0, min=1.0, max=1.0e8, soft_max=1.0e7,
+                          subtype='DISTANCE', unit='LENGTH', update=_geometry_changed)
+    heightmap: StringProperty(name="Height map", subtype='FILE_PATH',
+                              description="Equirectangular or cross-layout cube map of heights",
+                              update=_geometry_changed)
+    height_scale: FloatProperty(name="Height scale", description="Metres per unit map height",
+                                default=8848.0, min=0.0, max=1.0e6, soft_max=1.0e5,
+                                update=_geometry_changed)
+    use_sea_level: BoolProperty(name="Sea level", default=False, update=_geometry_changed)
+    sea_level: FloatProperty(name="Sea level", description="Metres above the radius",
+                             default=0.0, min=-1.0e5, max=1.0e5, update=_geometry_changed)
+    ocean_sphere: BoolProperty(name="Ocean sphere", description="Add a sphere at sea level",
+                               default=False, update=_material_changed)
+    skip_sea: BoolProperty(name="Skip sea sectors", default=False, update=_changed)
+    color_map: StringProperty(name="Colour map", subtype='FILE_PATH',
+                              description="Equirectangular colour map (empty: elevation ramp)",
+                              update=_material_changed)
+    criterion: EnumProperty(name="Criterion", default="PIXEL", update=_changed, items=[
+        ("PIXEL", "Pixel error", "Split sectors whose screen-space error exceeds a pixel bound"),
+        ("BORDERS", "Split/merge borders", "Thesis criterion: side length over distance")])
+    max_pixel_error: FloatProperty(name="Max pixel error", default=2.0, min=0.1, max=64.0,
+                                   update=_changed)
+    split_border: FloatProperty(name="Split border", default=0.5, min=0.01, max=10.0,
+                                update=_changed)
+    merge_border: FloatProperty(name="Merge border", default=0.25, min=0.005, max=10.0,
+                                update=_changed)
+    template_density: EnumProperty(name="Template density", items=TEMPLATE_ITEMS, default="64",
+                                   description="Triangles per sector", update=_changed)
+    budget: IntProperty(name="Sector budget", description="Most sectors drawn (0: unlimited)",
+                        default=8000, min=0, max=1000000, update=_changed)
+    max_level: IntProperty(name="Max level", default=24, min=1, max=48, update=_changed)
+    backface: BoolProperty(name="Backface culling", default=True, update=_changed)
+    frustum: BoolProperty(name="Frustum culling", default=True, update=_changed)
+    lod_camera: EnumProperty(name="LOD camera", default="SCENE", update=_changed, items=[
+        ("SCENE", "Scene camera", "Refine for the scene's active camera"),
+        ("CAMERA", "Chosen camera", "Refine for the camera picked below"),
+        ("VIEWPORT", "Viewport", "Refine for the active 3D viewport")])
+    camera: PointerProperty(name="Camera", type=bpy.types.Object, poll=_camera_poll,
+                            update=_changed)
+    freeze_lod: BoolProperty(name="Freeze LOD", default=False, update=_changed,
+                             description="Keep the current LOD while you fly around it")
+    show_levels: BoolProperty(name="Show LOD levels", default=False, update=_material_changed,
+                              description="Colour faces by sector level")
+    morph: BoolProperty(name="Morphing", default=False, update=_changed)
+    live_update: BoolProperty(name="Live update", default=True, update=_changed)
+    gpu_preview: BoolProperty(name="GPU preview", default=True, update=_preview_changed,
+                              description="Draw the sectors with GLSL in the viewport")
+    clip_from_horizon: BoolProperty(name="Camera clip from horizon", default=False,
+                                    update=_changed,
+                                    description="Set the LOD camera's clip range before renders")
+    quality: EnumProperty(name="Quality", items=presets.QUALITY_ITEMS, default="PREVIEW")
+
+    def as_dict(self):
+        """The plain settings dict core.py works with (absolute file paths)."""
+        return {
+            "projection": self.projection, "radius": self.radius,
+            "heightmap": bpy.path.abspath(self.heightmap) if self.heightmap else "",
+            "height_scale": self.height_scale, "use_sea_level": self.use_sea_level,
+            "sea_level": self.sea_level, "skip_sea": self.skip_sea,
+            "criterion": self.criterion, "max_pixel_error": self.max_pixel_error,
+            "split_border": self.split_border, "merge_border": self.merge_border,
+            "template_level": template_level(self), "budget": self.budget,
+            "max_level": self.max_level, "backface": self.backface, "frustum": self.frustum,
+        }
+
+    def assign(self, values):
+        for key, value in values.items():
+            setattr(self, key, value)
+
+
+def template_level(settings):
+    from . import core
+    return core.template_level_from_density(int(settings.template_density))
+
+
+SETTING_NAMES = [name for name in PLOD_PG_settings.__annotations__]
+
+classes = (PLOD_PG_settings,)
+
+
+def register():
+    for cls in classes:
+        bpy.utils.register_class(cls)
+    bpy.types.Object.planet_lod = PointerProperty(type=PLOD_PG_settings)
+
+
+def unregister():
+    del bpy.types.Object.planet_lod
+    for cls in reversed(classes):
+        bpy.utils.unregister_class(cls)

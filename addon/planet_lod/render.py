@@ -1,0 +1,199 @@
+"""Flybys: the camera path, frame-by-frame rendering with stats CSV and a contact sheet.
+
+The flyby camera carries custom properties (planet name, path length, skim
+height); the frame_change_pre handler places it with core.flyby_pose(), a pure
+function of the frame number, so any sub-range renders exactly the frames of
+the full path (render-farm splits).
+"""
+import os
+import sys
+import time
+
+import bpy
+from bpy.props import IntProperty, StringProperty, FloatProperty
+from mathutils import Matrix
+
+from . import core, live
+
+FLYBY_KEY = "planet_lod_flyby"
+
+
+def ensure_flyby_camera(scene, planet_obj, path_frames, skim_height=5.0):
+    name = "Flyby " + planet_obj.name
+    cam = bpy.data.objects.get(name)
+    if cam is None or cam.type != 'CAMERA':
+        data = bpy.data.cameras.new(name)
+        data.lens = 24.0
+        cam = bpy.data.objects.new(name, data)
+        scene.collection.objects.link(cam)
+    cam[FLYBY_KEY] = planet_obj.name
+    cam["planet_lod_path_frames"] = int(path_frames)
+    cam["planet_lod_skim_height"] = float(skim_height)
+    scene.camera = cam
+    place_camera(cam, scene, scene.frame_current)
+    return cam
+
+
+def _ground_height(planet_obj):
+    """Terrain height (m) under a unit direction, from the native planet (no heights: None)."""
+    try:
+        planet = core.build_planet(planet_obj.planet_lod.as_dict())
+    except core.native_errors():
+        return None
+    return lambda d: planet.height(*d)
+
+
+def place_camera(cam, scene, frame):
+    planet_obj = bpy.data.objects.get(cam.get(FLYBY_KEY, ""))
+    if planet_obj is None:
+        return
+    s = planet_obj.planet_lod
+    pose = core.flyby_pose(frame, cam["planet_lod_path_frames"], s.radius,
+                           skim_height=cam["planet_lod_skim_height"],
+                           ground_height=_ground_height(planet_obj))
+    cam.matrix_world = planet_obj.matrix_world @ Matrix(pose)
+    altitude = (Matrix(pose).translation.length - s.radius)
+    cam.data.clip_start = max(0.05, min(altitude * 0.2, s.radius * 0.01))
+    cam.data.clip_end = s.radius * 6.0
+
+
+def place_flyby_cameras(scene):
+    for obj in scene.objects:
+        if obj.type == 'CAMERA' and obj.get(FLYBY_KEY):
+            place_camera(obj, scene, scene.frame_current)
+
+
+def _log(message):
+    print(message, flush=True)
+    sys.stdout.flush()
+
+
+def render_flyby(scene, planet_obj, first, last, out_dir, path_frames, report=_log):
+    """Renders frames first..last of the flyby to out_dir/frame_####.png; writes
+    stats.csv and contact_sheet.png.  Returns the list of per-frame stat dicts."""
+    os.makedirs(out_dir, exist_ok=True)
+    ensure_flyby_camera(scene, planet_obj, path_frames)
+    wm = bpy.context.window_manager
+    rows = []
+    csv_path = os.path.join(out_dir, "stats.csv")
+    frames = list(range(first, last + 1))
+    scene.render.image_settings.file_format = 'PNG'
+    if wm:
+        wm.progress_begin(0, len(frames))
+    t_start = time.perf_counter()
+    try:
+        with open(csv_path, "w") as csv:
+            csv.write(",".join(core.CSV_FIELDS) + "\n")
+            for index, frame in enumerate(frames):
+                scene.frame_set(frame)  # handlers: place camera, refine, rebuild mesh
+                st = live.state(planet_obj)
+                if st.error:
+                    raise RuntimeError(st.error)
+                path = os.path.join(out_dir, f"frame_{frame:04d}.png")
+                scene.render.filepath = path
+                t0 = time.perf_counter()
+                bpy.ops.render.render(write_still=True)
+                row = dict(st.stats)
+                row["frame"] = frame
+                row["render_s"] = round(time.perf_counter() - t0, 3)
+                cam = scene.camera
+                local = planet_obj.matrix_world.inverted_safe() @ cam.matrix_world
+                row["camera_altitude_m"] = round(local.translation.length
+                                                 - planet_obj.planet_lod.radius, 3)
+                rows.append(row)
+                csv.write(core.csv_row(row) + "\n")
+                csv.flush()
+                if wm:
+                    wm.progress_update(index + 1)
+                elapsed = time.perf_counter() - t_start
+                report(f"planet_lod flyby: frame {frame} ({index + 1}/{len(frames)}) "
+                       f"sectors {row.get('visible', 0)} triangles {row.get('triangles', 0)} "
+                       f"altitude {row['camera_altitude_m']:.1f} m render {row['render_s']:.2f} s "
+                       f"elapsed {elapsed:.1f} s")
+    finally:
+        if wm:
+            wm.progress_end()
+    contact_sheet([os.path.join(out_dir, f"frame_{f:04d}.png") for f in frames],
+                  os.path.join(out_dir, "contact_sheet.png"))
+    return rows
+
+
+def contact_sheet(paths, out_path, thumb_width=160):
+    """Tiles the frames into one PNG with Blender's image API (no numpy)."""
+    paths = [p for p in paths if os.path.isfile(p)]
+    if not paths:
+        return None
+    first = bpy.data.images.load(paths[0])
+    w0, h0 = first.size
+    bpy.data.images.remove(first)
+    tw = min(thumb_width, w0)
+    th = max(1, round(h0 * tw / w0))
+    sw, sh, places = core.contact_sheet_layout(len(paths), tw, th)
+    pixels = [0.08, 0.08, 0.08, 1.0] * (sw * sh)
+    for path, (x, y) in zip(paths, places):
+        image = bpy.data.images.load(path)
+        try:
+            image.scale(tw, th)
+            src = list(image.pixels)
+        finally:
+            bpy.data.images.remove(image)
+        for row in range(th):
+            dst = ((y + row) * sw + x) * 4
+            pixels[dst:dst + tw * 4] = src[row * tw * 4:(row + 1) * tw * 4]
+    sheet = bpy.data.images.new("planet_lod contact sheet", sw, sh, alpha=True)
+    try:
+        sheet.pixels.foreach_set(pixels)
+        sheet.filepath_raw = out_path
+        sheet.file_format = 'PNG'
+        sheet.save()
+    finally:
+        bpy.data.images.remove(sheet)
+    return out_path
+
+
+class PLOD_OT_flyby(bpy.types.Operator):
+    """Render a flyby of the active planet (orbit, descent, skim) to PNG frames,
+    a per-frame statistics CSV and a contact sheet"""
+    bl_idname = "render.planet_flyby"
+    bl_label = "Render Planet Flyby"
+    bl_options = {'REGISTER'}
+
+    frames: StringProperty(name="Frames", default="1-120",
+                           description="Range of frames of the path to render, e.g. 31-60")
+    path_frames: IntProperty(name="Path length", default=120, min=2, max=100000,
+                             description="Frames of the whole path (fixes the camera per frame)")
+    directory: StringProperty(name="Output", subtype='DIR_PATH', default="//flyby/")
+    skim_height: FloatProperty(name="Skim height", default=5.0, min=0.1, max=1e5)
+
+    @classmethod
+    def poll(cls, context):
+        obj = context.object
+        return obj is not None and obj.type == 'MESH' and obj.planet_lod.enabled
+
+    def execute(self, context):
+        if core.load_native() is None:
+            self.report({'ERROR'}, core.native_error)
+            return {'CANCELLED'}
+        try:
+            first, last = core.parse_frames(self.frames)
+            out_dir = bpy.path.abspath(self.directory)
+            rows = render_flyby(context.scene, context.object, first, last, out_dir,
+                                self.path_frames)
+        except core.native_errors() as exc:
+            self.report({'ERROR'}, f"Flyby failed: {exc}")
+            return {'CANCELLED'}
+        self.report({'INFO'}, f"Flyby: {len(rows)} frames in {out_dir}")
+        return {'FINISHED'}
+
+
+classes = (PLOD_OT_flyby,)
+
+
+def register():
+    for cls in classes:
+        bpy.utils.register_class(cls)
+
+
+def unregister():
+    for cls in reversed(classes):
+        bpy.utils.unregister_class(cls)

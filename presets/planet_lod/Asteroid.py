@@ -1,0 +1,3 @@
+# Planet LOD preset: Asteroid (maps from the add-on's data/ folder)
+import bpy
+bpy.ops.object.planet_apply_preset(planet='ASTEROID')

@@ -1,0 +1,3 @@
+# Planet LOD preset: Earth (maps from the add-on's data/ folder)
+import bpy
+bpy.ops.object.planet_apply_preset(planet='EARTH')

@@ -1,0 +1,104 @@
+"""Under xvfb-run: the GPU preview draws the planet in a real 3D viewport.
+Screenshots of the viewport with the preview on and off must differ over the
+planet's disk, and the preview must show many colours (texture + light)."""
+import os
+import sys
+import traceback
+
+import bpy
+
+import plod_testlib as lib
+
+STATE = {"step": 0}
+
+
+def view3d():
+    for window in bpy.context.window_manager.windows:
+        for area in window.screen.areas:
+            if area.type == 'VIEW_3D':
+                region = next(r for r in area.regions if r.type == 'WINDOW')
+                return window, area, region
+    raise AssertionError("no 3D viewport")
+
+
+def screenshot(name):
+    window, area, region = view3d()
+    path = os.path.join(lib.out_dir(), name)
+    with bpy.context.temp_override(window=window, area=area, region=region,
+                                   screen=window.screen):
+        bpy.ops.screen.screenshot_area(filepath=path)
+    image = bpy.data.images.load(path)
+    w, h = image.size
+    px = list(image.pixels)
+    bpy.data.images.remove(image)
+    return w, h, px
+
+
+def setup():
+    bpy.context.preferences.view.show_splash = False
+    lib.enable()
+    lib.clear_scene()
+    window, area, region = view3d()
+    space = area.spaces.active
+    space.overlay.show_overlays = False
+    space.clip_start, space.clip_end = 1000.0, 1.0e9
+    space.lens = 50.0
+    r3d = space.region_3d
+    r3d.view_perspective = 'PERSP'
+    r3d.view_location = (0.0, 0.0, 0.0)
+    preset = os.environ.get("PLOD_VIEW_PRESET", "EARTH")  # manual checks of other presets
+    with bpy.context.temp_override(window=window, area=area, region=region):
+        assert bpy.ops.mesh.planet_add(preset=preset, quality='DRAFT') == {'FINISHED'}
+    planet = bpy.context.view_layer.objects.active
+    planet.name = "Earth"
+    r3d.view_distance = 3.0 * planet.planet_lod.radius
+    space.clip_start, space.clip_end = planet.planet_lod.radius * 1e-4, planet.planet_lod.radius * 100
+    planet.planet_lod.lod_camera = 'VIEWPORT'
+    planet.planet_lod.gpu_preview = True
+    planet.display_type = 'BOUNDS'
+    return planet
+
+
+def step():
+    try:
+        STATE["step"] += 1
+        from planet_lod import live
+        planet = bpy.data.objects.get("Earth")
+        st = live.RUNTIME.get(planet.name_full) if planet else None
+        if STATE["step"] < 40 and (st is None or not st.instances):
+            return 0.1  # wait for the live refresh (debounced timer)
+        assert st is not None and st.instances, "live update never refined the planet"
+        if STATE["step"] < 45:
+            return 0.1  # let the viewport redraw
+        if "on" not in STATE:
+            STATE["on"] = screenshot("viewport_preview_on.png")
+            planet.planet_lod.gpu_preview = False
+            planet.hide_viewport = True
+            return 0.3
+        off = screenshot("viewport_preview_off.png")
+        w, h, on = STATE["on"]
+        differ, colours = 0, set()
+        for i in range(0, w * h * 4, 4):
+            if sum(abs(on[i + k] - off[2][i + k]) for k in range(3)) > 0.05:
+                differ += 1
+                colours.add(tuple(round(on[i + k], 1) for k in range(3)))
+        print(f"viewport {w}x{h}: {differ} px drawn by the preview, {len(colours)} colours",
+              flush=True)
+        assert differ > 0.02 * w * h, "GPU preview drew (almost) nothing"
+        assert len(colours) > 20, "GPU preview is flat (no texture/light)"
+        print("PLOD-TEST PASS", flush=True)
+        os._exit(0)
+    except BaseException:
+        traceback.print_exc()
+        print("PLOD-TEST FAIL", flush=True)
+        sys.stdout.flush()
+        os._exit(1)
+
+
+try:
+    setup()
+except BaseException:
+    traceback.print_exc()
+    print("PLOD-TEST FAIL", flush=True)
+    os._exit(1)
+bpy.app.timers.register(step, first_interval=0.5)
