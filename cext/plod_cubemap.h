@@ -41,10 +41,21 @@ int plod_cubemap_size(const plod_cubemap *cubemap);
 int plod_cubemap_channels(const plod_cubemap *cubemap);
 int plod_cubemap_face_count(const plod_cubemap *cubemap); /* 6, or 1 for CAR */
 plod_texel_type plod_cubemap_texel_type(const plod_cubemap *cubemap);
-/* Texel storage of one face (writable), and its byte size. */
+/* Texel storage of one face (writable: invalidates the pyramid, so call
+ * plod_cubemap_build_pyramid after writing), and its byte size. */
 void *plod_cubemap_face_data(plod_cubemap *cubemap, int face);
 const void *plod_cubemap_face_data_const(const plod_cubemap *cubemap, int face);
 size_t plod_cubemap_face_bytes(const plod_cubemap *cubemap);
+/* Texels per face row (size, or 2*size for CAR) and rows per face (size). */
+int plod_cubemap_face_width(const plod_cubemap *cubemap);
+int plod_cubemap_face_height(const plod_cubemap *cubemap);
+/* Edge adjacency (cube maps only), derived at creation from the
+ * projection's face frames: edge 0 is u = -1, 1 u = +1, 2 v = -1, 3 v = +1.
+ * Face `face`'s edge `edge` is the neighbour's edge `neighbour_edge`; the
+ * along-edge texel index k there is k (flip 0) or size-1-k (flip 1). */
+plod_status plod_cubemap_neighbour(const plod_cubemap *cubemap, int face,
+                                   int edge, int *neighbour_face,
+                                   int *neighbour_edge, int *flip);
 
 /* ---- sampling ----------------------------------------------------------- */
 /* Bilinear sample at a direction (finite, non-zero); out gets `channels`
@@ -53,9 +64,19 @@ size_t plod_cubemap_face_bytes(const plod_cubemap *cubemap);
  * either face (to 1e-6 relative). */
 void plod_cubemap_sample(const plod_cubemap *cubemap, const double dir[3],
                          float *out);
-/* Same, for channel 0 only, as double (heights). */
+/* Same, for channel 0 only, as double (heights).  NaN for a zero or
+ * non-finite direction (plod_cubemap_sample writes NaNs then). */
 double plod_cubemap_sample_height(const plod_cubemap *cubemap,
                                   const double dir[3]);
+/* Bilinear sample at face coordinates (u, v clamped to [-1, 1]); for CAR
+ * face 0 with u = lon / 180 deg, v = lat / 90 deg.  Seam rule: a tap one
+ * texel beyond an edge reads the neighbour's texel next to the shared edge;
+ * the tap diagonal beyond a corner reads the average of the three texels
+ * meeting at that cube corner, so the exact corner gives (A + B + C) / 3
+ * from each face.  CAR maps wrap in longitude and reflect across the poles
+ * (row -1 is row 0 at lon + 180).  NaNs for a bad face or non-finite u, v. */
+void plod_cubemap_sample_face(const plod_cubemap *cubemap, int face, double u,
+                              double v, float *out);
 
 /* ---- min/max pyramid (culling bounds) ----------------------------------- */
 /* Builds the min/max pyramid of channel 0 (idempotent; call again after
@@ -67,9 +88,14 @@ plod_status plod_cubemap_build_pyramid(plod_cubemap *cubemap);
 void plod_cubemap_range(const plod_cubemap *cubemap, int face, double u0,
                         double v0, double u1, double v1, double *min_value,
                         double *max_value);
+/* For CAR maps (u, v) are as in plod_cubemap_sample_face.  Bad arguments
+ * give the global range. */
 /* Bounds over the whole map (channel 0). */
 void plod_cubemap_global_range(const plod_cubemap *cubemap, double *min_value,
                                double *max_value);
+/* Non-zero when the pyramid is built and no face was opened for writing
+ * since. */
+int plod_cubemap_has_pyramid(const plod_cubemap *cubemap);
 
 #ifdef __cplusplus
 }

@@ -1,6 +1,19 @@
 /* plod_mesh.h -- sector templates (4^level triangles) and emission of the
  * visible sectors as flat float32 / int32 buffers (meshoptimizer-style:
  * caller-owned outputs, Bound() sizes, counts returned).
+ *
+ * The emission core does not know the refiner: a sector is three unit corner
+ * directions (counter-clockwise seen from outside), a level and a face,
+ * delivered by a callback.  Each sector becomes one copy of the template:
+ * vertex (i, j) of a template with n = 2^template_level segments per edge has
+ * the integer weights (n-i-j, j, i) on corners (0, 1, 2), direction
+ * normalise(sum of the non-zero terms w_c * corner_c, in corner order) and
+ * position direction * (radius + height(direction)).  Weights k/n are exact
+ * (n is a power of two) and a two-term sum is commutative, so a vertex on an
+ * edge shared by two sectors is bit-identical from either side; with
+ * -ffp-contract=off the whole position, normal and morph computation is a
+ * function of that direction only, hence shared vertices weld exactly.
+ * Vertices are NOT welded across sectors (each sector owns its copy).
  */
 #ifndef PLOD_MESH_H
 #define PLOD_MESH_H
@@ -12,11 +25,130 @@ extern "C" {
 #endif
 
 #define PLOD_MAX_TEMPLATE_LEVEL 7  /* 16384 triangles */
+#define PLOD_MESH_MAX_THREADS 64
 
+/* ---- templates ----------------------------------------------------------
+ * Vertex order: rows i = 0..n, inside a row j = 0..n-i; index of (i, j) is
+ * i*(n+1) - i*(i-1)/2 + j.  Triangles per row: "up" (i,j) (i,j+1) (i+1,j)
+ * for j < n-i, then "down" (i,j+1) (i+1,j+1) (i+1,j) for j < n-i-1;
+ * counter-clockwise when the corners are. */
+
+/* (n+1)(n+2)/2 and n*n for n = 2^template_level; 0 outside 0..7. */
 size_t plod_template_vertex_count(int template_level);
 size_t plod_template_triangle_count(int template_level);
+/* Barycentric weights (corner 0, 1, 2) per template vertex into `out`
+ * (3 * vertex_count floats, exact).  PLOD_ERR_BAD_PARAM for a bad level. */
+plod_status plod_template_barycentrics(float *out, int template_level);
+/* Template triangles into `out` (3 * triangle_count int32 indices). */
+plod_status plod_template_triangles(int32_t *out, int template_level);
 
-/* See mesh.c for the full contract; filled in by the mesh stage. */
+/* ---- sectors as the emitter sees them ----------------------------------- */
+typedef struct plod_mesh_sector {
+    double corners[3][3]; /* unit directions, CCW seen from outside */
+    int level;            /* written to the sector_level attribute */
+    int face;             /* written to the face attribute */
+} plod_mesh_sector;
+
+/* Sector source: returns 1 if sector `index` (0..count-1) is emitted and then
+ * fills *sector unless it is NULL (the counting pass passes NULL), 0 to skip
+ * it.  Called concurrently from several threads: must be reentrant. */
+typedef int (*plod_mesh_sector_fn)(const void *context, size_t index,
+                                   plod_mesh_sector *sector);
+
+/* ---- parameters ---------------------------------------------------------- */
+typedef struct plod_mesh_params {
+    const plod_planet *planet;  /* borrowed: radius and heights */
+    int template_level;         /* 0..PLOD_MAX_TEMPLATE_LEVEL */
+    double origin[3];           /* positions are written relative to it
+                                   (subtracted in double, then cast) */
+    int threads;                /* 1..PLOD_MESH_MAX_THREADS; output is
+                                   identical for any value */
+    /* Geomorphing: odd template vertices blend toward the midpoint of their
+     * two even neighbours along the template line on which their even weight
+     * is constant (for an edge vertex: along the sector edge).  The factor
+     * is a function of the vertex's unmorphed position and `eye` only:
+     * continuous level L = 2*log2(morph_lod_scale / distance), f = L -
+     * floor(L), morph = clamp((morph_ramp - f) / morph_ramp, 0, 1): 1 just
+     * after a split (looks like the coarser grid), 0 from morph_ramp on. */
+    int morph;                  /* 0 off (morph output all 0) */
+    double eye[3];              /* camera position, planet space (metres) */
+    double morph_lod_scale;     /* metres, > 0 */
+    double morph_ramp;          /* (0, 1] */
+} plod_mesh_params;
+
+/* Defaults: origin 0, threads 1, morph off, ramp 0.5, scale = radius. */
+void plod_mesh_params_init(plod_mesh_params *params, const plod_planet *planet,
+                           int template_level);
+/* Surface point nearest the eye: d = eye/|eye|, d * (radius + height(d)).
+ * Zero vector when the eye is at the centre or not finite. */
+void plod_mesh_origin(const plod_planet *planet, const double eye[3],
+                      double origin[3]);
+/* morph_lod_scale that makes the continuous level match the refine
+ * criterion's split threshold (side_distance: base side / split_border;
+ * pixel: base side * pixels_per_radian / (max_pixel_error * 2^template_level),
+ * an approximation of the refiner's error).  0 for orthographic cameras
+ * (morph then stays 0). */
+double plod_mesh_morph_lod_scale(const plod_planet *planet,
+                                 const plod_camera *camera,
+                                 const plod_refine_params *refine_params,
+                                 int template_level);
+/* Morph factor of an (unmorphed) planet-space position; 0 when morph is off
+ * or the scale is 0. */
+double plod_mesh_morph_factor(const plod_mesh_params *params,
+                              const double position[3]);
+
+/* ---- emission ------------------------------------------------------------ */
+/* Output buffers, caller-owned; any may be NULL (not written).  Sizes for S
+ * emitted sectors (V = plod_mesh_vertex_bound, T = plod_mesh_triangle_bound):
+ * positions 3V floats (relative to params.origin), normals 3V (unit, from
+ * central differences of the height field at each vertex's direction), uv
+ * 2V (equirectangular: u = lon/2pi + 0.5, v = lat/pi + 0.5, lon unwrapped to
+ * within pi of the sector centroid's; vertices at a pole take the centroid's
+ * longitude), morph V (applied factor, 0 for even vertices), triangles 3T
+ * int32 (indices into this output), sector_level T, face T. */
+typedef struct plod_mesh_buffers {
+    float *positions;
+    float *normals;
+    float *uv;
+    float *morph;
+    int32_t *triangles;
+    int32_t *sector_level;
+    int32_t *face;
+} plod_mesh_buffers;
+
+/* Vertices / triangles for `sector_count` sectors; 0 on a bad level or when
+ * the count would not fit int32 indices. */
+size_t plod_mesh_vertex_bound(size_t sector_count, int template_level);
+size_t plod_mesh_triangle_bound(size_t sector_count, int template_level);
+/* Number of sectors `source` emits (the counting pass). */
+size_t plod_mesh_count_sectors(plod_mesh_sector_fn source, const void *context,
+                               size_t count);
+
+/* Emits every sector `source` accepts, in index order, splitting the index
+ * range into contiguous chunks over params->threads threads (each writes its
+ * own slice; no allocation).  Buffers must hold the bounds for the emitted
+ * sector count.  Returns PLOD_ERR_NULL, PLOD_ERR_BAD_PARAM (level, threads,
+ * morph parameters, too many vertices), PLOD_ERR_BAD_COORD (a sector with
+ * non-finite or degenerate corners; output then partial).  Counts may be
+ * NULL. */
+plod_status plod_mesh_emit(const plod_mesh_params *params,
+                           plod_mesh_sector_fn source, const void *context,
+                           size_t count, const plod_mesh_buffers *out,
+                           size_t *vertex_count, size_t *triangle_count);
+/* Same over a plain array (every sector emitted). */
+plod_status plod_mesh_emit_array(const plod_mesh_params *params,
+                                 const plod_mesh_sector *sectors, size_t count,
+                                 const plod_mesh_buffers *out,
+                                 size_t *vertex_count, size_t *triangle_count);
+
+/* ---- instanced form (GPU path) ---------------------------------------------
+ * Per emitted sector: corners 9 floats (unit directions), level 1 float,
+ * morph 1 float (the morph factor at the sector's centroid on the surface).
+ * Any output may be NULL.  *instance_count gets the number written. */
+plod_status plod_mesh_instances(const plod_mesh_params *params,
+                                plod_mesh_sector_fn source, const void *context,
+                                size_t count, float *corners, float *levels,
+                                float *morph, size_t *instance_count);
 
 #ifdef __cplusplus
 }

@@ -29,6 +29,12 @@ double plod_planet_height(const plod_planet *planet, const double dir[3]);
 /* Global height bounds in metres (0, 0 without a map). */
 void plod_planet_height_range(const plod_planet *planet, double *min_m,
                               double *max_m);
+/* Conservative height bounds in metres over the face rectangle
+ * [u0,u1]x[v0,v1] (clamped to the face; CAR: the octahedral square is
+ * bounded through the global range).  Without a map: 0, 0. */
+void plod_planet_height_range_uv(const plod_planet *planet, int face, double u0,
+                                 double v0, double u1, double v1, double *min_m,
+                                 double *max_m);
 
 #ifdef __cplusplus
 }

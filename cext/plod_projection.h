@@ -55,6 +55,18 @@ plod_status plod_dir_to_face(plod_projection projection, const double dir[3],
 plod_status plod_face_to_dir(plod_projection projection, int face, double u,
                              double v, double dir[3]);
 
+/* Vectorised forms over n points; dirs is 3n doubles (x, y, z per point).
+ * stat may be NULL; otherwise stat[i] gets each point's status.  Failed
+ * points get face -1 and NaN u, v (resp. NaN directions).  Returns PLOD_OK
+ * if every point succeeded, else the first failure's status.  These are the
+ * hot paths (no per-point call overhead beyond the inline kernels). */
+plod_status plod_dir_to_face_n(plod_projection projection, size_t n,
+                               const double *dirs, int *faces, double *u,
+                               double *v, int *stat);
+plod_status plod_face_to_dir_n(plod_projection projection, size_t n,
+                               const int *faces, const double *u,
+                               const double *v, double *dirs, int *stat);
+
 /* ---- spherical <-> cross layout [deg] --------------------------------- */
 /* lon any finite value (wrapped), lat in [-90, 90]; NaN/inf -> BAD_COORD. */
 plod_status plod_sphere_to_cube(plod_projection projection, double lon_deg,

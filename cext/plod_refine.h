@@ -60,7 +60,12 @@ typedef struct plod_refine_params {
     int backface_culling;
     int frustum_culling;
     int skip_sea;            /* drop PLOD_SECTOR_SEA sectors from visible */
+    size_t max_sectors;      /* hard cap on leaves (memory bound); default
+                                PLOD_DEFAULT_MAX_SECTORS; when reached the
+                                split pass stops (stats.truncated) */
 } plod_refine_params;
+
+#define PLOD_DEFAULT_MAX_SECTORS ((size_t)1 << 20)
 
 void plod_refine_params_default(plod_refine_params *params);
 
@@ -73,6 +78,8 @@ typedef struct plod_refine_stats {
     size_t splits, merges;
     double refine_us, cull_us;
     int max_level_reached;
+    int truncated;                /* 1: max_sectors stopped the split pass */
+    unsigned frame;               /* refine frame counter (sector.birth) */
 } plod_refine_stats;
 
 typedef struct plod_refiner plod_refiner; /* opaque */

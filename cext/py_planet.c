@@ -1,8 +1,710 @@
-/* py_planet.c -- Python bindings of the planet stage (placeholder until the stage lands). */
+/* py_planet.c -- planetlod.Camera and planetlod.Planet (planet, refinement,
+ * culling; mesh output delegated to py_mesh.c).
+ *
+ * Bad input policy (documented in API.md):
+ *   - Camera: NaN/inf anywhere, singular or projective matrix, lens <= 0,
+ *     zero resolution, ortho_scale <= 0, clip_start >= clip_end ->
+ *     InvalidArgument.
+ *   - refine(): camera at the planet centre -> InvalidArgument; a camera
+ *     below the surface refines by its true distance (terrain around it at
+ *     full depth) with horizon culling off; budget 0 = unlimited;
+ *     max_sectors caps memory (default 1 << 20 leaves).
+ */
 #include "pyplanetlod.h"
+
+#include <math.h>
+#include <string.h>
+
+/* Supplied by py_cubemap.c / py_mesh.c; weak so this stage builds and
+ * tests before those land (missing ones raise NotImplementedError). */
+#pragma weak plod_py_cubemap_get
+#pragma weak plod_py_cubemap_from_image
+#pragma weak plod_py_mesh_emit
+#pragma weak plod_py_instances
+
+/* ---- Camera ---------------------------------------------------------------- */
+
+typedef struct {
+    PyObject_HEAD
+    plod_camera camera;
+} plod_py_camera;
+
+static PyTypeObject *plod__camera_type;
+
+static int plod__matrix_arg(PyObject *obj, double out[16])
+{
+    PyObject *seq = PySequence_Fast(obj, "matrix_world must be a 4x4 matrix or 16 floats");
+    if (!seq)
+        return -1;
+    Py_ssize_t n = PySequence_Fast_GET_SIZE(seq);
+    int ok = 0;
+    if (n == 16) {
+        ok = 1;
+        for (Py_ssize_t i = 0; i < 16 && ok; i++) {
+            out[i] = PyFloat_AsDouble(PySequence_Fast_GET_ITEM(seq, i));
+            ok = !(out[i] == -1.0 && PyErr_Occurred());
+        }
+    } else if (n == 4) {
+        ok = 1;
+        for (Py_ssize_t r = 0; r < 4 && ok; r++) {
+            PyObject *row = PySequence_Fast(PySequence_Fast_GET_ITEM(seq, r),
+                                            "matrix_world rows must be sequences");
+            if (!row) {
+                ok = 0;
+                break;
+            }
+            if (PySequence_Fast_GET_SIZE(row) != 4) {
+                Py_DECREF(row);
+                ok = 0;
+                PyErr_SetString(PyExc_ValueError, "matrix_world rows need 4 values");
+                break;
+            }
+            for (Py_ssize_t c = 0; c < 4 && ok; c++) {
+                out[r * 4 + c] = PyFloat_AsDouble(PySequence_Fast_GET_ITEM(row, c));
+                ok = !(out[r * 4 + c] == -1.0 && PyErr_Occurred());
+            }
+            Py_DECREF(row);
+        }
+    } else {
+        PyErr_SetString(PyExc_ValueError, "matrix_world must be 4x4 or 16 floats");
+    }
+    Py_DECREF(seq);
+    if (!ok) {
+        /* re-raise as InvalidArgument, keeping the original message */
+        PyObject *type, *value, *tb;
+        PyErr_Fetch(&type, &value, &tb);
+        PyObject *msg = value ? PyObject_Str(value) : NULL;
+        const char *text = msg ? PyUnicode_AsUTF8(msg) : NULL;
+        PyErr_Clear();
+        plod_py_raise_detail(PLOD_ERR_BAD_CAMERA, "Camera matrix_world",
+                             text ? text : "bad matrix");
+        Py_XDECREF(msg);
+        Py_XDECREF(type);
+        Py_XDECREF(value);
+        Py_XDECREF(tb);
+        return -1;
+    }
+    return 0;
+}
+
+static int plod__camera_init(plod_py_camera *self, PyObject *args, PyObject *kwds)
+{
+    static char *kwlist[] = {"matrix_world", "type", "lens", "sensor_width",
+                             "sensor_height", "sensor_fit", "ortho_scale",
+                             "shift_x", "shift_y", "clip_start", "clip_end",
+                             "resolution_x", "resolution_y", "pixel_aspect_x",
+                             "pixel_aspect_y", NULL};
+    plod_camera_desc d;
+    plod_camera_desc_default(&d);
+    PyObject *matrix = NULL;
+    const char *type = "PERSP", *fit = "AUTO";
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "|Osdddsdddddiidd", kwlist, &matrix,
+                                     &type, &d.lens, &d.sensor_width,
+                                     &d.sensor_height, &fit, &d.ortho_scale,
+                                     &d.shift_x, &d.shift_y, &d.clip_start,
+                                     &d.clip_end, &d.resolution_x, &d.resolution_y,
+                                     &d.pixel_aspect_x, &d.pixel_aspect_y))
+        return -1;
+    if (matrix && matrix != Py_None && plod__matrix_arg(matrix, d.matrix_world) < 0)
+        return -1;
+    if (!strcmp(type, "PERSP") || !strcmp(type, "PANO"))
+        d.orthographic = 0;
+    else if (!strcmp(type, "ORTHO"))
+        d.orthographic = 1;
+    else {
+        plod_py_raise_detail(PLOD_ERR_BAD_CAMERA, "Camera",
+                             "type must be 'PERSP' or 'ORTHO'");
+        return -1;
+    }
+    if (!strcmp(fit, "AUTO"))
+        d.sensor_fit = PLOD_SENSOR_AUTO;
+    else if (!strcmp(fit, "HORIZONTAL"))
+        d.sensor_fit = PLOD_SENSOR_HORIZONTAL;
+    else if (!strcmp(fit, "VERTICAL"))
+        d.sensor_fit = PLOD_SENSOR_VERTICAL;
+    else {
+        plod_py_raise_detail(PLOD_ERR_BAD_CAMERA, "Camera",
+                             "sensor_fit must be 'AUTO', 'HORIZONTAL' or 'VERTICAL'");
+        return -1;
+    }
+    plod_status st = plod_camera_init(&self->camera, &d);
+    if (st != PLOD_OK) {
+        plod_py_raise_detail(st, "Camera",
+                             "non-finite value, singular matrix, lens/sensor/ortho_scale "
+                             "<= 0, zero resolution or clip_start >= clip_end");
+        return -1;
+    }
+    return 0;
+}
+
+static PyObject *plod__vec3(const double v[3])
+{
+    return Py_BuildValue("(ddd)", v[0], v[1], v[2]);
+}
+
+static PyObject *plod__camera_get(plod_py_camera *self, void *closure)
+{
+    const plod_camera *c = &self->camera;
+    switch ((int)(intptr_t)closure) {
+    case 0: return plod__vec3(c->position);
+    case 1: return plod__vec3(c->forward);
+    case 2: return plod__vec3(c->up);
+    case 3: return plod__vec3(c->right);
+    case 4: return PyFloat_FromDouble(c->pixels_per_radian);
+    case 5: return PyFloat_FromDouble(c->pixels_per_metre);
+    case 6: {
+        PyObject *t = PyTuple_New(6);
+        for (int i = 0; t && i < 6; i++)
+            PyTuple_SET_ITEM(t, i, Py_BuildValue("(dddd)", c->planes[i][0], c->planes[i][1],
+                                                 c->planes[i][2], c->planes[i][3]));
+        return t;
+    }
+    case 7: return PyBool_FromLong(c->desc.orthographic);
+    default: return Py_BuildValue("(dddd)", c->tan_left, c->tan_right, c->tan_bottom,
+                                  c->tan_top);
+    }
+}
+
+static PyObject *plod__camera_contains(plod_py_camera *self, PyObject *args)
+{
+    double p[3];
+    if (!PyArg_ParseTuple(args, "ddd", &p[0], &p[1], &p[2]))
+        return NULL;
+    return PyBool_FromLong(plod_camera_contains(&self->camera, p));
+}
+
+static PyGetSetDef plod__camera_getset[] = {
+    {"position", (getter)plod__camera_get, NULL, "planet-space position", (void *)0},
+    {"forward", (getter)plod__camera_get, NULL, "unit view direction (-Z)", (void *)1},
+    {"up", (getter)plod__camera_get, NULL, "unit up (+Y)", (void *)2},
+    {"right", (getter)plod__camera_get, NULL, "unit right (+X)", (void *)3},
+    {"pixels_per_radian", (getter)plod__camera_get, NULL, "perspective scale", (void *)4},
+    {"pixels_per_metre", (getter)plod__camera_get, NULL, "orthographic scale", (void *)5},
+    {"planes", (getter)plod__camera_get, NULL,
+     "6 inward planes (nx, ny, nz, d): n.x + d >= 0 inside", (void *)6},
+    {"orthographic", (getter)plod__camera_get, NULL, "bool", (void *)7},
+    {"view_window", (getter)plod__camera_get, NULL,
+     "(left, right, bottom, top) at unit depth (ortho: metres)", (void *)8},
+    {NULL},
+};
+
+static PyMethodDef plod__camera_methods[] = {
+    {"contains", (PyCFunction)plod__camera_contains, METH_VARARGS,
+     "contains(x, y, z) -> bool: point inside the view frustum"},
+    {NULL},
+};
+
+static PyType_Slot plod__camera_slots[] = {
+    {Py_tp_doc, "Camera(matrix_world, type='PERSP'|'ORTHO', lens=50, sensor_width=36, "
+                "sensor_height=24, sensor_fit='AUTO', ortho_scale=7, shift_x=0, shift_y=0, "
+                "clip_start=0.1, clip_end=1000, resolution_x=1920, resolution_y=1080, "
+                "pixel_aspect_x=1, pixel_aspect_y=1): Blender camera in planet space."},
+    {Py_tp_init, plod__camera_init},
+    {Py_tp_new, PyType_GenericNew},
+    {Py_tp_getset, plod__camera_getset},
+    {Py_tp_methods, plod__camera_methods},
+    {0, NULL},
+};
+
+static PyType_Spec plod__camera_spec = {
+    .name = "planetlod.Camera",
+    .basicsize = sizeof(plod_py_camera),
+    .flags = Py_TPFLAGS_DEFAULT,
+    .slots = plod__camera_slots,
+};
+
+static const plod_camera *plod__camera_arg(PyObject *obj)
+{
+    if (!PyObject_TypeCheck(obj, plod__camera_type)) {
+        PyErr_SetString(PyExc_TypeError, "expected a planetlod.Camera");
+        return NULL;
+    }
+    return &((plod_py_camera *)obj)->camera;
+}
+
+/* ---- Planet ------------------------------------------------------------------ */
+
+typedef struct {
+    PyObject_HEAD
+    plod_planet planet;
+    PyObject *heightmap;  /* the CubeMap keeping planet.heightmap alive */
+    plod_refiner *refiner;
+    plod_camera camera;   /* last refine's */
+    plod_refine_params params;
+    plod_refine_stats stats;
+    int has_camera;
+} plod_py_planet;
+
+static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwds)
+{
+    static char *kwlist[] = {"radius", "projection", "heightmap", "height_scale",
+                             "sea_level", "heightmap_size", NULL};
+    double radius;
+    PyObject *proj = NULL, *heightmap = Py_None, *sea = Py_None;
+    double scale = 1.0;
+    int size = 0;
+    if (self->refiner) {
+        PyErr_SetString(PyExc_RuntimeError, "Planet already initialised");
+        return -1;
+    }
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "d|OOdOi", kwlist, &radius, &proj,
+                                     &heightmap, &scale, &sea, &size))
+        return -1;
+    memset(&self->planet, 0, sizeof self->planet);
+    self->planet.projection = PLOD_PROJ_QSC;
+    if (proj && proj != Py_None && plod_py_projection_arg(proj, &self->planet.projection) < 0)
+        return -1;
+    if (!isfinite(radius) || radius < 1.0 || radius > 1e8) {
+        plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "Planet",
+                             "radius must be finite, in [1, 1e8] metres");
+        return -1;
+    }
+    self->planet.radius = radius;
+    self->planet.height_scale = scale;
+    if (sea != Py_None) {
+        double s = PyFloat_AsDouble(sea);
+        if (s == -1.0 && PyErr_Occurred())
+            return -1;
+        self->planet.has_sea_level = 1;
+        self->planet.sea_level = s;
+    }
+    if (size < 0 || size > 32768) {
+        plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "Planet", "heightmap_size in [0, 32768]");
+        return -1;
+    }
+    PyObject *map = NULL;
+    if (heightmap != Py_None) {
+        if (PyUnicode_Check(heightmap) || PyBytes_Check(heightmap) ||
+            PyObject_HasAttrString(heightmap, "__fspath__")) {
+            if (!plod_py_cubemap_from_image) {
+                PyErr_SetString(PyExc_NotImplementedError, "cube maps are not built in");
+                return -1;
+            }
+            PyObject *path = NULL;
+            if (!PyUnicode_FSConverter(heightmap, &path))
+                return -1;
+            map = plod_py_cubemap_from_image(PyBytes_AS_STRING(path),
+                                             self->planet.projection, size, 1);
+            Py_DECREF(path);
+            if (!map)
+                return -1;
+        } else {
+            Py_INCREF(heightmap);
+            map = heightmap;
+        }
+        if (!plod_py_cubemap_get) {
+            Py_DECREF(map);
+            PyErr_SetString(PyExc_NotImplementedError, "cube maps are not built in");
+            return -1;
+        }
+        plod_cubemap *cm = plod_py_cubemap_get(map);
+        if (!cm) {
+            Py_DECREF(map);
+            return -1;
+        }
+        if (plod_cubemap_projection(cm) != self->planet.projection) {
+            Py_DECREF(map);
+            plod_py_raise_detail(PLOD_ERR_BAD_PROJECTION, "Planet",
+                                 "heightmap projection differs from the planet's");
+            return -1;
+        }
+        if (plod_cubemap_build_pyramid(cm) != PLOD_OK) {
+            Py_DECREF(map);
+            PyErr_NoMemory();
+            return -1;
+        }
+        self->planet.heightmap = cm;
+    }
+    self->heightmap = map;
+    plod_status st = plod_refiner_create(&self->refiner, &self->planet);
+    if (st != PLOD_OK) {
+        Py_CLEAR(self->heightmap);
+        self->planet.heightmap = NULL;
+        plod_py_raise_detail(st, "Planet", "invalid planet (radius, height_scale, sea_level "
+                                           "or height range)");
+        return -1;
+    }
+    plod_refine_params_default(&self->params);
+    return 0;
+}
+
+static void plod__planet_dealloc(plod_py_planet *self)
+{
+    plod_refiner_destroy(self->refiner);
+    Py_CLEAR(self->heightmap);
+    PyTypeObject *tp = Py_TYPE(self);
+    tp->tp_free((PyObject *)self);
+    Py_DECREF(tp);
+}
+
+static int plod__planet_ready(plod_py_planet *self)
+{
+    if (!self->refiner) {
+        PyErr_SetString(PyExc_RuntimeError, "Planet not initialised");
+        return 0;
+    }
+    return 1;
+}
+
+static PyObject *plod__planet_refine(plod_py_planet *self, PyObject *args, PyObject *kwds)
+{
+    static char *kwlist[] = {"camera", "criterion", "max_pixel_error", "split_border",
+                             "merge_border", "hysteresis", "template_level", "max_level",
+                             "budget", "backface", "frustum", "skip_sea", "max_sectors",
+                             NULL};
+    PyObject *cam_obj;
+    const char *criterion = "pixel";
+    plod_refine_params p;
+    plod_refine_params_default(&p);
+    Py_ssize_t budget = 0, max_sectors = (Py_ssize_t)PLOD_DEFAULT_MAX_SECTORS;
+    if (!plod__planet_ready(self))
+        return NULL;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O|sdddpiinpppn", kwlist, &cam_obj,
+                                     &criterion, &p.max_pixel_error, &p.split_border,
+                                     &p.merge_border, &p.hysteresis, &p.template_level,
+                                     &p.max_level, &budget, &p.backface_culling,
+                                     &p.frustum_culling, &p.skip_sea, &max_sectors))
+        return NULL;
+    const plod_camera *cam = plod__camera_arg(cam_obj);
+    if (!cam)
+        return NULL;
+    if (!strcmp(criterion, "pixel"))
+        p.criterion = PLOD_CRITERION_PIXEL_ERROR;
+    else if (!strcmp(criterion, "side_distance"))
+        p.criterion = PLOD_CRITERION_SIDE_DISTANCE;
+    else
+        return plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "refine",
+                                    "criterion must be 'pixel' or 'side_distance'");
+    if (budget < 0)
+        return plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "refine",
+                                    "budget must be >= 0 (0 = unlimited)");
+    if (max_sectors < 12)
+        return plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "refine", "max_sectors must be >= 12");
+    p.budget = (size_t)budget;
+    p.max_sectors = (size_t)max_sectors;
+    plod_refine_stats s;
+    plod_status st;
+    Py_BEGIN_ALLOW_THREADS
+    st = plod_refiner_update(self->refiner, cam, &p, &s);
+    Py_END_ALLOW_THREADS
+    if (st != PLOD_OK)
+        return plod_py_raise_detail(st, "refine",
+                                    st == PLOD_ERR_BAD_CAMERA
+                                        ? "camera at the planet centre"
+                                        : "criterion, borders (0 < merge <= split), "
+                                          "template_level 0..7, max_level 0..52, "
+                                          "max_pixel_error > 0");
+    self->camera = *cam;
+    self->params = p;
+    self->stats = s;
+    self->has_camera = 1;
+    return Py_BuildValue(
+        "{s:n,s:n,s:n,s:n,s:n,s:n,s:n,s:d,s:d,s:i,s:O,s:I}", "sectors_total",
+        (Py_ssize_t)s.sectors_total, "sectors_after_backface",
+        (Py_ssize_t)s.sectors_after_backface, "sectors_after_frustum",
+        (Py_ssize_t)s.sectors_after_frustum, "sectors_after_budget",
+        (Py_ssize_t)s.sectors_after_budget, "sectors_sea_skipped",
+        (Py_ssize_t)s.sectors_sea_skipped, "splits", (Py_ssize_t)s.splits, "merges",
+        (Py_ssize_t)s.merges, "refine_us", s.refine_us, "cull_us", s.cull_us, "max_level",
+        s.max_level_reached, "truncated", s.truncated ? Py_True : Py_False, "frame",
+        s.frame);
+}
+
+static PyObject *plod__planet_reset(plod_py_planet *self, PyObject *unused)
+{
+    (void)unused;
+    if (!plod__planet_ready(self))
+        return NULL;
+    plod_refiner_reset(self->refiner);
+    self->has_camera = 0;
+    Py_RETURN_NONE;
+}
+
+static int plod__visible_only_arg(PyObject *args, PyObject *kwds, int *visible_only)
+{
+    static char *kwlist[] = {"visible_only", NULL};
+    *visible_only = 1;
+    return PyArg_ParseTupleAndKeywords(args, kwds, "|p", kwlist, visible_only);
+}
+
+static int plod__selected(const plod_sector *s, int visible_only)
+{
+    return !visible_only || (s->flags & PLOD_SECTOR_VISIBLE);
+}
+
+/* kind: 0 ids, 1 levels, 2 corner directions, 3 flags, 4 height bounds */
+static PyObject *plod__planet_export(plod_py_planet *self, PyObject *args, PyObject *kwds,
+                                     int kind)
+{
+    int visible_only;
+    if (!plod__planet_ready(self) || !plod__visible_only_arg(args, kwds, &visible_only))
+        return NULL;
+    size_t count;
+    const plod_sector *sec = plod_refiner_sectors(self->refiner, &count);
+    size_t n = 0;
+    for (size_t i = 0; i < count; i++)
+        n += (size_t)plod__selected(&sec[i], visible_only);
+    static const char formats[] = {'Q', 'i', 'd', 'i', 'f'};
+    static const size_t per[] = {1, 1, 9, 1, 2};
+    void *data;
+    PyObject *buf = plod_py_buffer_new(formats[kind], n * per[kind], &data);
+    if (!buf)
+        return NULL;
+    size_t k = 0;
+    for (size_t i = 0; i < count; i++) {
+        if (!plod__selected(&sec[i], visible_only))
+            continue;
+        switch (kind) {
+        case 0: ((uint64_t *)data)[k] = sec[i].id; break;
+        case 1: ((int32_t *)data)[k] = sec[i].level; break;
+        case 2: plod_sector_corners(&self->planet, &sec[i], (double(*)[3])((double *)data + 9 * k)); break;
+        case 3: ((int32_t *)data)[k] = sec[i].flags; break;
+        default:
+            ((float *)data)[2 * k] = sec[i].height_min;
+            ((float *)data)[2 * k + 1] = sec[i].height_max;
+        }
+        k++;
+    }
+    return buf;
+}
+
+static PyObject *plod__planet_sector_ids(plod_py_planet *self, PyObject *a, PyObject *k)
+{
+    return plod__planet_export(self, a, k, 0);
+}
+static PyObject *plod__planet_sector_levels(plod_py_planet *self, PyObject *a, PyObject *k)
+{
+    return plod__planet_export(self, a, k, 1);
+}
+static PyObject *plod__planet_sector_corners(plod_py_planet *self, PyObject *a, PyObject *k)
+{
+    return plod__planet_export(self, a, k, 2);
+}
+static PyObject *plod__planet_sector_flags(plod_py_planet *self, PyObject *a, PyObject *k)
+{
+    return plod__planet_export(self, a, k, 3);
+}
+static PyObject *plod__planet_sector_heights(plod_py_planet *self, PyObject *a, PyObject *k)
+{
+    return plod__planet_export(self, a, k, 4);
+}
+
+static PyObject *plod__planet_sectors(plod_py_planet *self, PyObject *unused)
+{
+    (void)unused;
+    if (!plod__planet_ready(self))
+        return NULL;
+    size_t count;
+    const plod_sector *sec = plod_refiner_sectors(self->refiner, &count);
+    void *data;
+    PyObject *buf = plod_py_buffer_new('B', count * sizeof *sec, &data);
+    if (buf && count)
+        memcpy(data, sec, count * sizeof *sec);
+    return buf;
+}
+
+static PyObject *plod__planet_recommended_clip(plod_py_planet *self, PyObject *args)
+{
+    PyObject *cam_obj;
+    if (!plod__planet_ready(self) || !PyArg_ParseTuple(args, "O", &cam_obj))
+        return NULL;
+    const plod_camera *cam = plod__camera_arg(cam_obj);
+    if (!cam)
+        return NULL;
+    double a, b;
+    plod_recommended_clip(&self->planet, cam, &a, &b);
+    return Py_BuildValue("(dd)", a, b);
+}
+
+static PyObject *plod__planet_height(plod_py_planet *self, PyObject *args)
+{
+    double d[3];
+    if (!plod__planet_ready(self) || !PyArg_ParseTuple(args, "ddd", &d[0], &d[1], &d[2]))
+        return NULL;
+    double len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    if (!isfinite(len) || !(len > 0))
+        return plod_py_raise_detail(PLOD_ERR_BAD_COORD, "height",
+                                    "direction must be finite and non-zero");
+    return PyFloat_FromDouble(plod_planet_height(&self->planet, d));
+}
+
+static PyObject *plod__planet_height_range(plod_py_planet *self, PyObject *unused)
+{
+    (void)unused;
+    if (!plod__planet_ready(self))
+        return NULL;
+    double a, b;
+    plod_planet_height_range(&self->planet, &a, &b);
+    return Py_BuildValue("(dd)", a, b);
+}
+
+static PyObject *plod__planet_mesh(plod_py_planet *self, PyObject *args, PyObject *kwds)
+{
+    static char *kwlist[] = {"template_level", "morph", "threads", "visible_only", NULL};
+    PyObject *level_obj = Py_None;
+    int morph = 0, threads = 2, visible_only = 1;
+    if (!plod__planet_ready(self))
+        return NULL;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "|Opip", kwlist, &level_obj, &morph,
+                                     &threads, &visible_only))
+        return NULL;
+    int level = self->params.template_level;
+    if (level_obj != Py_None) {
+        level = (int)PyLong_AsLong(level_obj);
+        if (level == -1 && PyErr_Occurred())
+            return NULL;
+    }
+    if (!plod_py_mesh_emit) {
+        PyErr_SetString(PyExc_NotImplementedError, "mesh emission is not built in");
+        return NULL;
+    }
+    size_t count;
+    const plod_sector *sec = plod_refiner_sectors(self->refiner, &count);
+    return plod_py_mesh_emit(&self->planet, self->has_camera ? &self->camera : NULL,
+                             &self->params, sec, count, level, morph, threads, visible_only);
+}
+
+static PyObject *plod__planet_instances(plod_py_planet *self, PyObject *args, PyObject *kwds)
+{
+    static char *kwlist[] = {"template_level", NULL};
+    PyObject *level_obj = Py_None;
+    if (!plod__planet_ready(self))
+        return NULL;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "|O", kwlist, &level_obj))
+        return NULL;
+    int level = self->params.template_level;
+    if (level_obj != Py_None) {
+        level = (int)PyLong_AsLong(level_obj);
+        if (level == -1 && PyErr_Occurred())
+            return NULL;
+    }
+    if (!plod_py_instances) {
+        PyErr_SetString(PyExc_NotImplementedError, "instancing is not built in");
+        return NULL;
+    }
+    size_t count;
+    const plod_sector *sec = plod_refiner_sectors(self->refiner, &count);
+    return plod_py_instances(&self->planet, self->has_camera ? &self->camera : NULL,
+                             &self->params, sec, count, level);
+}
+
+static PyObject *plod__planet_get(plod_py_planet *self, void *closure)
+{
+    if (!plod__planet_ready(self))
+        return NULL;
+    size_t count;
+    const plod_sector *sec = plod_refiner_sectors(self->refiner, &count);
+    switch ((int)(intptr_t)closure) {
+    case 0: return PyLong_FromSize_t(count);
+    case 1: {
+        size_t n = 0;
+        for (size_t i = 0; i < count; i++)
+            n += (sec[i].flags & PLOD_SECTOR_VISIBLE) != 0;
+        return PyLong_FromSize_t(n);
+    }
+    case 2: return PyFloat_FromDouble(self->planet.radius);
+    case 3: return PyUnicode_FromString(plod_projection_name(self->planet.projection));
+    case 4: return PyFloat_FromDouble(self->planet.height_scale);
+    case 5:
+        if (!self->planet.has_sea_level)
+            Py_RETURN_NONE;
+        return PyFloat_FromDouble(self->planet.sea_level);
+    default:
+        if (!self->heightmap)
+            Py_RETURN_NONE;
+        Py_INCREF(self->heightmap);
+        return self->heightmap;
+    }
+}
+
+static PyGetSetDef plod__planet_getset[] = {
+    {"sector_count", (getter)plod__planet_get, NULL, "leaf sectors", (void *)0},
+    {"visible_count", (getter)plod__planet_get, NULL, "visible leaf sectors", (void *)1},
+    {"radius", (getter)plod__planet_get, NULL, "metres", (void *)2},
+    {"projection", (getter)plod__planet_get, NULL, "projection name", (void *)3},
+    {"height_scale", (getter)plod__planet_get, NULL, "metres per height unit", (void *)4},
+    {"sea_level", (getter)plod__planet_get, NULL, "metres or None", (void *)5},
+    {"heightmap", (getter)plod__planet_get, NULL, "CubeMap or None", (void *)6},
+    {NULL},
+};
+
+static PyMethodDef plod__planet_methods[] = {
+    {"refine", (PyCFunction)(void (*)(void))plod__planet_refine, METH_VARARGS | METH_KEYWORDS,
+     "refine(camera, criterion='pixel', max_pixel_error=1.0, split_border=0.5, "
+     "merge_border=0.25, hysteresis=False, template_level=4, max_level=48, budget=0, "
+     "backface=True, frustum=True, skip_sea=False, max_sectors=1<<20) -> dict"},
+    {"reset", (PyCFunction)plod__planet_reset, METH_NOARGS, "back to the base sectors"},
+    {"sectors", (PyCFunction)plod__planet_sectors, METH_NOARGS,
+     "raw plod_sector records (SECTOR_SIZE bytes each), all leaves"},
+    {"sector_ids", (PyCFunction)(void (*)(void))plod__planet_sector_ids,
+     METH_VARARGS | METH_KEYWORDS, "sector_ids(visible_only=True) -> Buffer('Q')"},
+    {"sector_levels", (PyCFunction)(void (*)(void))plod__planet_sector_levels,
+     METH_VARARGS | METH_KEYWORDS, "sector_levels(visible_only=True) -> Buffer('i')"},
+    {"sector_corners", (PyCFunction)(void (*)(void))plod__planet_sector_corners,
+     METH_VARARGS | METH_KEYWORDS,
+     "sector_corners(visible_only=True) -> Buffer('d'), 9 per sector: unit corner "
+     "directions, counter-clockwise from outside, corner 1 the right-angle apex"},
+    {"sector_flags", (PyCFunction)(void (*)(void))plod__planet_sector_flags,
+     METH_VARARGS | METH_KEYWORDS,
+     "sector_flags(visible_only=False) -> Buffer('i'): 1 visible, 2 beyond horizon, "
+     "4 outside frustum, 8 over budget, 16 sea"},
+    {"sector_heights", (PyCFunction)(void (*)(void))plod__planet_sector_heights,
+     METH_VARARGS | METH_KEYWORDS,
+     "sector_heights(visible_only=True) -> Buffer('f'), (min, max) metres per sector"},
+    {"recommended_clip", (PyCFunction)plod__planet_recommended_clip, METH_VARARGS,
+     "recommended_clip(camera) -> (clip_start, clip_end)"},
+    {"height", (PyCFunction)plod__planet_height, METH_VARARGS, "height(x, y, z) -> metres"},
+    {"height_range", (PyCFunction)plod__planet_height_range, METH_NOARGS,
+     "height_range() -> (min, max) metres"},
+    {"mesh", (PyCFunction)(void (*)(void))plod__planet_mesh, METH_VARARGS | METH_KEYWORDS,
+     "mesh(template_level=None, morph=False, threads=2, visible_only=True) -> Mesh"},
+    {"instances", (PyCFunction)(void (*)(void))plod__planet_instances,
+     METH_VARARGS | METH_KEYWORDS, "instances(template_level=None) -> dict"},
+    {NULL},
+};
+
+static PyType_Slot plod__planet_slots[] = {
+    {Py_tp_doc, "Planet(radius, projection='qsc', heightmap=None, height_scale=1.0, "
+                "sea_level=None, heightmap_size=0): a planet refined with HRTMR."},
+    {Py_tp_init, plod__planet_init},
+    {Py_tp_new, PyType_GenericNew},
+    {Py_tp_dealloc, plod__planet_dealloc},
+    {Py_tp_getset, plod__planet_getset},
+    {Py_tp_methods, plod__planet_methods},
+    {0, NULL},
+};
+
+static PyType_Spec plod__planet_spec = {
+    .name = "planetlod.Planet",
+    .basicsize = sizeof(plod_py_planet),
+    .flags = Py_TPFLAGS_DEFAULT,
+    .slots = plod__planet_slots,
+};
 
 int plod_py_init_planet(PyObject *module)
 {
-    (void)module;
+    PyObject *cam = PyType_FromSpec(&plod__camera_spec);
+    if (!cam)
+        return -1;
+    plod__camera_type = (PyTypeObject *)cam;
+    if (PyModule_AddObject(module, "Camera", cam) < 0) {
+        Py_DECREF(cam);
+        return -1;
+    }
+    Py_INCREF(cam); /* the module's reference plus ours */
+    PyObject *planet = PyType_FromSpec(&plod__planet_spec);
+    if (!planet)
+        return -1;
+    PyObject *size = PyLong_FromSize_t(sizeof(plod_sector));
+    if (!size || PyObject_SetAttrString(planet, "SECTOR_SIZE", size) < 0) {
+        Py_XDECREF(size);
+        Py_DECREF(planet);
+        return -1;
+    }
+    Py_DECREF(size);
+    if (PyModule_AddObject(module, "Planet", planet) < 0) {
+        Py_DECREF(planet);
+        return -1;
+    }
     return 0;
 }

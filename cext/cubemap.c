@@ -1,0 +1,626 @@
+/* cubemap.c -- cube maps: storage, seamless bilinear sampling, min/max
+ * pyramid.
+ *
+ * Seams.  Each face has a frame (centre axis c, axis a_u along +u, axis a_v
+ * along +v), read from the projection at creation: c = face_to_dir(f, 0, 0),
+ * and the edge midpoint face_to_dir(f, 1, 0) = (c + a_u) / sqrt 2 in every
+ * cube projection, likewise for a_v.  From the frames follows the exact edge
+ * adjacency table: edge e of face f (0: u = -1, 1: u = +1, 2: v = -1,
+ * 3: v = +1) touches face g whose centre is the edge's outward axis, at g's
+ * edge whose outward axis is c_f; the along-edge coordinates agree or are
+ * mirrored (`flip`).
+ *
+ * A bilinear tap one texel beyond a face edge ("ghost" texel) is the
+ * neighbour's texel adjacent to the shared edge at the same along-edge
+ * index.  The ghost diagonal to a face corner, where three faces meet, is
+ * the average of the three corner texels A, B, C that meet there; the
+ * exact corner then samples (A + B + C) / 3 from each of the three faces,
+ * and along both edges near the corner the two faces use the same four
+ * values with the same weights, so sampling is continuous everywhere.
+ *
+ * Pyramid.  Per face, level 0 holds channel 0 of each texel (raw value as
+ * float: u8/u16 exact), level k the min and max of 2x2 cells of level k-1
+ * (ceil sizes).  Range queries over-cover with the cells of a level chosen
+ * so that at most 4x4 cells are read: conservative, O(1).
+ */
+#include "plod_cubemap.h"
+
+#include <assert.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define PLOD__MAX_LEVELS 20
+
+typedef struct plod__edge_link {
+    int face;  /* neighbour face */
+    int edge;  /* neighbour's edge (0 u-, 1 u+, 2 v-, 3 v+) */
+    int flip;  /* 1: along-edge index k maps to size-1-k */
+} plod__edge_link;
+
+struct plod_cubemap {
+    plod_projection projection;
+    int size;
+    int width;   /* texels per face row: size, or 2*size for CAR */
+    int height;  /* rows per face: size */
+    int channels;
+    int face_count;
+    plod_texel_type type;
+    size_t texel_bytes;
+    size_t face_bytes;
+    unsigned char *texels;
+    int axes[PLOD_FACE_COUNT][3][3]; /* [face][c, a_u, a_v][xyz] in {-1,0,1} */
+    plod__edge_link links[PLOD_FACE_COUNT][4];
+    /* pyramid */
+    int pyramid_valid;
+    int levels;
+    int level_width[PLOD__MAX_LEVELS];
+    int level_height[PLOD__MAX_LEVELS];
+    size_t level_offset[PLOD__MAX_LEVELS]; /* cells before the level, per face */
+    size_t face_cells;                     /* cells of all levels, per face */
+    float *pyramid_min;                    /* face_count * face_cells */
+    float *pyramid_max;
+};
+
+/* ======================================================================== */
+/* frames and adjacency                                                     */
+/* ======================================================================== */
+
+/* Signed unit axis nearest to v (largest |component|). */
+static void plod__nearest_axis(const double v[3], int axis[3])
+{
+    int best = 0;
+    for (int k = 1; k < 3; k++)
+        if (fabs(v[k]) > fabs(v[best]))
+            best = k;
+    for (int k = 0; k < 3; k++)
+        axis[k] = 0;
+    axis[best] = v[best] < 0.0 ? -1 : 1;
+}
+
+static int plod__axis_equal(const int a[3], const int b[3], int sign)
+{
+    return a[0] == sign * b[0] && a[1] == sign * b[1] && a[2] == sign * b[2];
+}
+
+static plod_status plod__derive_frames(plod_cubemap *m)
+{
+    for (int f = 0; f < PLOD_FACE_COUNT; f++) {
+        double centre[3], edge_u[3], edge_v[3];
+        plod_status s = plod_face_to_dir(m->projection, f, 0.0, 0.0, centre);
+        if (s == PLOD_OK)
+            s = plod_face_to_dir(m->projection, f, 1.0, 0.0, edge_u);
+        if (s == PLOD_OK)
+            s = plod_face_to_dir(m->projection, f, 0.0, 1.0, edge_v);
+        if (s != PLOD_OK)
+            return s;
+        double du[3], dv[3];
+        for (int k = 0; k < 3; k++) {
+            du[k] = edge_u[k] - centre[k];
+            dv[k] = edge_v[k] - centre[k];
+        }
+        plod__nearest_axis(centre, m->axes[f][0]);
+        plod__nearest_axis(du, m->axes[f][1]);
+        plod__nearest_axis(dv, m->axes[f][2]);
+    }
+    for (int f = 0; f < PLOD_FACE_COUNT; f++) {
+        for (int e = 0; e < 4; e++) {
+            int sign = (e & 1) ? 1 : -1;
+            const int *outward = m->axes[f][e < 2 ? 1 : 2];
+            const int *along = m->axes[f][e < 2 ? 2 : 1];
+            plod__edge_link link = {-1, -1, 0};
+            for (int g = 0; g < PLOD_FACE_COUNT; g++)
+                if (plod__axis_equal(m->axes[g][0], outward, sign))
+                    link.face = g;
+            if (link.face < 0)
+                return PLOD_ERR_BAD_PROJECTION;
+            int g = link.face;
+            for (int e2 = 0; e2 < 4; e2++) {
+                int sign2 = (e2 & 1) ? 1 : -1;
+                if (plod__axis_equal(m->axes[g][e2 < 2 ? 1 : 2], m->axes[f][0], sign2))
+                    link.edge = e2;
+            }
+            if (link.edge < 0)
+                return PLOD_ERR_BAD_PROJECTION;
+            const int *along2 = m->axes[g][link.edge < 2 ? 2 : 1];
+            if (plod__axis_equal(along2, along, 1))
+                link.flip = 0;
+            else if (plod__axis_equal(along2, along, -1))
+                link.flip = 1;
+            else
+                return PLOD_ERR_BAD_PROJECTION;
+            m->links[f][e] = link;
+        }
+    }
+    return PLOD_OK;
+}
+
+/* ======================================================================== */
+/* create / destroy / queries                                               */
+/* ======================================================================== */
+
+plod_status plod_cubemap_create(plod_cubemap **out, plod_projection projection, int size,
+                                int channels, plod_texel_type type)
+{
+    if (!out)
+        return PLOD_ERR_NULL;
+    *out = NULL;
+    if ((unsigned)projection >= PLOD_PROJ_COUNT)
+        return PLOD_ERR_BAD_PROJECTION;
+    if (size < 1 || size > 32768 || channels < 1 || channels > 4 ||
+        (unsigned)type >= PLOD_TEXEL_TYPE_COUNT)
+        return PLOD_ERR_BAD_PARAM;
+    plod_cubemap *m = calloc(1, sizeof *m);
+    if (!m)
+        return PLOD_ERR_NO_MEMORY;
+    m->projection = projection;
+    m->size = size;
+    m->channels = channels;
+    m->type = type;
+    m->face_count = plod_projection_is_cube(projection) ? PLOD_FACE_COUNT : 1;
+    m->width = m->face_count == 1 ? 2 * size : size;
+    m->height = size;
+    m->texel_bytes = (type == PLOD_TEXEL_U8 ? 1 : type == PLOD_TEXEL_U16 ? 2 : 4) * (size_t)channels;
+    m->face_bytes = (size_t)m->width * (size_t)m->height * m->texel_bytes;
+    if (m->face_bytes / m->texel_bytes / (size_t)m->width != (size_t)m->height ||
+        m->face_bytes > SIZE_MAX / (size_t)m->face_count) {
+        free(m);
+        return PLOD_ERR_NO_MEMORY;
+    }
+    if (m->face_count == PLOD_FACE_COUNT) {
+        plod_status s = plod__derive_frames(m);
+        if (s != PLOD_OK) {
+            free(m);
+            return s;
+        }
+    }
+    m->texels = calloc((size_t)m->face_count, m->face_bytes);
+    if (!m->texels) {
+        free(m);
+        return PLOD_ERR_NO_MEMORY;
+    }
+    *out = m;
+    return PLOD_OK;
+}
+
+void plod_cubemap_destroy(plod_cubemap *m)
+{
+    if (!m)
+        return;
+    free(m->texels);
+    free(m->pyramid_min);
+    free(m->pyramid_max);
+    free(m);
+}
+
+plod_projection plod_cubemap_projection(const plod_cubemap *m) { return m->projection; }
+int plod_cubemap_size(const plod_cubemap *m) { return m->size; }
+int plod_cubemap_channels(const plod_cubemap *m) { return m->channels; }
+int plod_cubemap_face_count(const plod_cubemap *m) { return m->face_count; }
+int plod_cubemap_face_width(const plod_cubemap *m) { return m->width; }
+int plod_cubemap_face_height(const plod_cubemap *m) { return m->height; }
+plod_texel_type plod_cubemap_texel_type(const plod_cubemap *m) { return m->type; }
+size_t plod_cubemap_face_bytes(const plod_cubemap *m) { return m->face_bytes; }
+int plod_cubemap_has_pyramid(const plod_cubemap *m) { return m->pyramid_valid; }
+
+void *plod_cubemap_face_data(plod_cubemap *m, int face)
+{
+    assert(face >= 0 && face < m->face_count);
+    m->pyramid_valid = 0; /* the caller may write texels */
+    return m->texels + (size_t)face * m->face_bytes;
+}
+
+const void *plod_cubemap_face_data_const(const plod_cubemap *m, int face)
+{
+    assert(face >= 0 && face < m->face_count);
+    return m->texels + (size_t)face * m->face_bytes;
+}
+
+plod_status plod_cubemap_neighbour(const plod_cubemap *m, int face, int edge, int *neighbour_face,
+                                   int *neighbour_edge, int *flip)
+{
+    if (!m || !neighbour_face || !neighbour_edge || !flip)
+        return PLOD_ERR_NULL;
+    if (m->face_count != PLOD_FACE_COUNT || face < 0 || face >= PLOD_FACE_COUNT || edge < 0 ||
+        edge > 3)
+        return PLOD_ERR_BAD_PARAM;
+    *neighbour_face = m->links[face][edge].face;
+    *neighbour_edge = m->links[face][edge].edge;
+    *flip = m->links[face][edge].flip;
+    return PLOD_OK;
+}
+
+/* ======================================================================== */
+/* texel fetch                                                              */
+/* ======================================================================== */
+
+static double plod__scale(plod_texel_type type)
+{
+    return type == PLOD_TEXEL_U8 ? 1.0 / 255.0 : type == PLOD_TEXEL_U16 ? 1.0 / 65535.0 : 1.0;
+}
+
+/* Raw channel values of an in-face texel, normalised, into out[channels]. */
+static void plod__texel(const plod_cubemap *m, int face, int i, int j, double *out)
+{
+    assert(i >= 0 && i < m->width && j >= 0 && j < m->height);
+    size_t index = ((size_t)j * (size_t)m->width + (size_t)i) * (size_t)m->channels;
+    const unsigned char *base = m->texels + (size_t)face * m->face_bytes;
+    switch (m->type) {
+    case PLOD_TEXEL_U8:
+        for (int c = 0; c < m->channels; c++)
+            out[c] = base[index + (size_t)c] * (1.0 / 255.0);
+        break;
+    case PLOD_TEXEL_U16:
+        for (int c = 0; c < m->channels; c++)
+            out[c] = ((const uint16_t *)base)[index + (size_t)c] * (1.0 / 65535.0);
+        break;
+    default:
+        for (int c = 0; c < m->channels; c++)
+            out[c] = ((const float *)base)[index + (size_t)c];
+        break;
+    }
+}
+
+/* Texel adjacent to edge `edge` of face f at along-edge index k, seen from
+ * the neighbour: writes the neighbour's face and in-face indices. */
+static void plod__across(const plod_cubemap *m, int f, int edge, int k, int *g, int *gi, int *gj)
+{
+    const plod__edge_link *link = &m->links[f][edge];
+    int n = m->size;
+    int along = link->flip ? n - 1 - k : k;
+    *g = link->face;
+    switch (link->edge) {
+    case 0: *gi = 0; *gj = along; break;
+    case 1: *gi = n - 1; *gj = along; break;
+    case 2: *gi = along; *gj = 0; break;
+    default: *gi = along; *gj = n - 1; break;
+    }
+}
+
+/* Texel (i, j) of a cube face with i, j in [-1, size]: ghosts from the
+ * neighbours, corner ghosts as the average of the three corner texels. */
+static void plod__fetch_cube(const plod_cubemap *m, int f, int i, int j, double *out)
+{
+    int n = m->size;
+    int out_i = i < 0 || i >= n;
+    int out_j = j < 0 || j >= n;
+    if (!out_i && !out_j) {
+        plod__texel(m, f, i, j, out);
+        return;
+    }
+    int g, gi, gj;
+    if (out_i && !out_j) {
+        plod__across(m, f, i < 0 ? 0 : 1, j, &g, &gi, &gj);
+        plod__texel(m, g, gi, gj, out);
+        return;
+    }
+    if (!out_i && out_j) {
+        plod__across(m, f, j < 0 ? 2 : 3, i, &g, &gi, &gj);
+        plod__texel(m, g, gi, gj, out);
+        return;
+    }
+    int ic = i < 0 ? 0 : n - 1;
+    int jc = j < 0 ? 0 : n - 1;
+    double a[4], b[4], c[4];
+    plod__texel(m, f, ic, jc, a);
+    plod__across(m, f, i < 0 ? 0 : 1, jc, &g, &gi, &gj);
+    plod__texel(m, g, gi, gj, b);
+    plod__across(m, f, j < 0 ? 2 : 3, ic, &g, &gi, &gj);
+    plod__texel(m, g, gi, gj, c);
+    for (int k = 0; k < m->channels; k++)
+        out[k] = (a[k] + b[k] + c[k]) / 3.0;
+}
+
+/* CAR texel with wrap in longitude and reflection across the poles. */
+static void plod__fetch_car(const plod_cubemap *m, int i, int j, double *out)
+{
+    int w = m->width, h = m->height;
+    if (j < 0 || j >= h) {
+        j = j < 0 ? -1 - j : 2 * h - 1 - j;
+        i += w / 2;
+    }
+    if (j < 0)
+        j = 0;
+    if (j >= h)
+        j = h - 1;
+    i %= w;
+    if (i < 0)
+        i += w;
+    plod__texel(m, 0, i, j, out);
+}
+
+/* ======================================================================== */
+/* sampling                                                                 */
+/* ======================================================================== */
+
+static void plod__nan(const plod_cubemap *m, float *out)
+{
+    for (int c = 0; c < m->channels; c++)
+        out[c] = NAN;
+}
+
+static void plod__bilinear(const plod_cubemap *m, int face, double s, double t, double *acc)
+{
+    double fi = floor(s), fj = floor(t);
+    double wu = s - fi, wv = t - fj;
+    int i0 = (int)fi, j0 = (int)fj;
+    double tap[4][4];
+    int cube = m->face_count == PLOD_FACE_COUNT;
+    if (cube && i0 >= 0 && j0 >= 0 && i0 + 1 < m->size && j0 + 1 < m->size) {
+        plod__texel(m, face, i0, j0, tap[0]);
+        plod__texel(m, face, i0 + 1, j0, tap[1]);
+        plod__texel(m, face, i0, j0 + 1, tap[2]);
+        plod__texel(m, face, i0 + 1, j0 + 1, tap[3]);
+    } else if (cube) {
+        plod__fetch_cube(m, face, i0, j0, tap[0]);
+        plod__fetch_cube(m, face, i0 + 1, j0, tap[1]);
+        plod__fetch_cube(m, face, i0, j0 + 1, tap[2]);
+        plod__fetch_cube(m, face, i0 + 1, j0 + 1, tap[3]);
+    } else {
+        plod__fetch_car(m, i0, j0, tap[0]);
+        plod__fetch_car(m, i0 + 1, j0, tap[1]);
+        plod__fetch_car(m, i0, j0 + 1, tap[2]);
+        plod__fetch_car(m, i0 + 1, j0 + 1, tap[3]);
+    }
+    for (int c = 0; c < m->channels; c++) {
+        double bottom = tap[0][c] + wu * (tap[1][c] - tap[0][c]);
+        double top = tap[2][c] + wu * (tap[3][c] - tap[2][c]);
+        acc[c] = bottom + wv * (top - bottom);
+    }
+}
+
+static double plod__clamp_unit(double x)
+{
+    return x < -1.0 ? -1.0 : x > 1.0 ? 1.0 : x;
+}
+
+static int plod__sample_face_d(const plod_cubemap *m, int face, double u, double v, double *acc)
+{
+    if (!(isfinite(u) && isfinite(v)) || face < 0 || face >= m->face_count)
+        return 0;
+    u = plod__clamp_unit(u);
+    v = plod__clamp_unit(v);
+    double s = (u + 1.0) * 0.5 * m->width - 0.5;
+    double t = (v + 1.0) * 0.5 * m->height - 0.5;
+    plod__bilinear(m, face, s, t, acc);
+    return 1;
+}
+
+void plod_cubemap_sample_face(const plod_cubemap *m, int face, double u, double v, float *out)
+{
+    double acc[4];
+    if (!plod__sample_face_d(m, face, u, v, acc)) {
+        plod__nan(m, out);
+        return;
+    }
+    for (int c = 0; c < m->channels; c++)
+        out[c] = (float)acc[c];
+}
+
+static int plod__sample_dir_d(const plod_cubemap *m, const double dir[3], double *acc)
+{
+    if (!(isfinite(dir[0]) && isfinite(dir[1]) && isfinite(dir[2])) ||
+        (dir[0] == 0.0 && dir[1] == 0.0 && dir[2] == 0.0))
+        return 0;
+    if (m->face_count == 1) {
+        const double pi = 3.14159265358979323846;
+        double lon = atan2(dir[1], dir[0]);
+        double lat = atan2(dir[2], hypot(dir[0], dir[1]));
+        return plod__sample_face_d(m, 0, lon / pi, lat / (0.5 * pi), acc);
+    }
+    int face;
+    double u, v;
+    if (plod_dir_to_face(m->projection, dir, &face, &u, &v) != PLOD_OK)
+        return 0;
+    return plod__sample_face_d(m, face, u, v, acc);
+}
+
+void plod_cubemap_sample(const plod_cubemap *m, const double dir[3], float *out)
+{
+    double acc[4];
+    if (!plod__sample_dir_d(m, dir, acc)) {
+        plod__nan(m, out);
+        return;
+    }
+    for (int c = 0; c < m->channels; c++)
+        out[c] = (float)acc[c];
+}
+
+double plod_cubemap_sample_height(const plod_cubemap *m, const double dir[3])
+{
+    double acc[4];
+    if (!plod__sample_dir_d(m, dir, acc))
+        return NAN;
+    return acc[0];
+}
+
+/* ======================================================================== */
+/* min/max pyramid                                                          */
+/* ======================================================================== */
+
+static float plod__raw0(const plod_cubemap *m, const unsigned char *base, size_t texel)
+{
+    size_t index = texel * (size_t)m->channels;
+    switch (m->type) {
+    case PLOD_TEXEL_U8: return base[index];
+    case PLOD_TEXEL_U16: return ((const uint16_t *)base)[index];
+    default: return ((const float *)base)[index];
+    }
+}
+
+plod_status plod_cubemap_build_pyramid(plod_cubemap *m)
+{
+    if (!m)
+        return PLOD_ERR_NULL;
+    int w = m->width, h = m->height, levels = 0;
+    size_t cells = 0;
+    for (;;) {
+        assert(levels < PLOD__MAX_LEVELS);
+        m->level_width[levels] = w;
+        m->level_height[levels] = h;
+        m->level_offset[levels] = cells;
+        cells += (size_t)w * (size_t)h;
+        levels++;
+        if (w == 1 && h == 1)
+            break;
+        w = (w + 1) / 2;
+        h = (h + 1) / 2;
+    }
+    if (!m->pyramid_min) {
+        m->pyramid_min = malloc(cells * (size_t)m->face_count * sizeof(float));
+        m->pyramid_max = malloc(cells * (size_t)m->face_count * sizeof(float));
+        if (!m->pyramid_min || !m->pyramid_max) {
+            free(m->pyramid_min);
+            free(m->pyramid_max);
+            m->pyramid_min = m->pyramid_max = NULL;
+            return PLOD_ERR_NO_MEMORY;
+        }
+    }
+    m->levels = levels;
+    m->face_cells = cells;
+    for (int f = 0; f < m->face_count; f++) {
+        float *lo = m->pyramid_min + (size_t)f * cells;
+        float *hi = m->pyramid_max + (size_t)f * cells;
+        const unsigned char *base = m->texels + (size_t)f * m->face_bytes;
+        size_t count = (size_t)m->width * (size_t)m->height;
+        for (size_t t = 0; t < count; t++) {
+            float value = plod__raw0(m, base, t);
+            if (value != value) /* NaN texels do not bound anything */
+                value = 0.0f;
+            lo[t] = hi[t] = value;
+        }
+        for (int L = 1; L < levels; L++) {
+            int pw = m->level_width[L - 1], ph = m->level_height[L - 1];
+            const float *plo = lo + m->level_offset[L - 1], *phi = hi + m->level_offset[L - 1];
+            float *clo = lo + m->level_offset[L], *chi = hi + m->level_offset[L];
+            for (int y = 0; y < m->level_height[L]; y++) {
+                for (int x = 0; x < m->level_width[L]; x++) {
+                    float a = INFINITY, b = -INFINITY;
+                    for (int dy = 0; dy < 2; dy++) {
+                        int py = 2 * y + dy;
+                        if (py >= ph)
+                            continue;
+                        for (int dx = 0; dx < 2; dx++) {
+                            int px = 2 * x + dx;
+                            if (px >= pw)
+                                continue;
+                            size_t p = (size_t)py * (size_t)pw + (size_t)px;
+                            if (plo[p] < a)
+                                a = plo[p];
+                            if (phi[p] > b)
+                                b = phi[p];
+                        }
+                    }
+                    size_t c = (size_t)y * (size_t)m->level_width[L] + (size_t)x;
+                    clo[c] = a;
+                    chi[c] = b;
+                }
+            }
+        }
+    }
+    m->pyramid_valid = 1;
+    return PLOD_OK;
+}
+
+/* Raw min/max over in-face texels [i0,i1]x[j0,j1] (inclusive, clamped). */
+static void plod__rect_range(const plod_cubemap *m, int face, int i0, int j0, int i1, int j1,
+                             float *lo_out, float *hi_out)
+{
+    if (i0 < 0) i0 = 0;
+    if (j0 < 0) j0 = 0;
+    if (i1 > m->width - 1) i1 = m->width - 1;
+    if (j1 > m->height - 1) j1 = m->height - 1;
+    int L = 0;
+    while (L + 1 < m->levels && ((i1 >> L) - (i0 >> L) > 3 || (j1 >> L) - (j0 >> L) > 3))
+        L++;
+    const float *lo = m->pyramid_min + (size_t)face * m->face_cells + m->level_offset[L];
+    const float *hi = m->pyramid_max + (size_t)face * m->face_cells + m->level_offset[L];
+    int lw = m->level_width[L];
+    float a = *lo_out, b = *hi_out;
+    for (int y = j0 >> L; y <= (j1 >> L); y++) {
+        for (int x = i0 >> L; x <= (i1 >> L); x++) {
+            size_t c = (size_t)y * (size_t)lw + (size_t)x;
+            if (lo[c] < a)
+                a = lo[c];
+            if (hi[c] > b)
+                b = hi[c];
+        }
+    }
+    *lo_out = a;
+    *hi_out = b;
+}
+
+/* Ghost strip beyond edge `edge` of face f over along-edge indices [k0,k1]. */
+static void plod__strip_range(const plod_cubemap *m, int f, int edge, int k0, int k1, float *lo,
+                              float *hi)
+{
+    int g, gi0, gj0, gi1, gj1;
+    if (k0 < 0) k0 = 0;
+    if (k1 > m->size - 1) k1 = m->size - 1;
+    plod__across(m, f, edge, k0, &g, &gi0, &gj0);
+    plod__across(m, f, edge, k1, &g, &gi1, &gj1);
+    plod__rect_range(m, g, gi0 < gi1 ? gi0 : gi1, gj0 < gj1 ? gj0 : gj1, gi0 > gi1 ? gi0 : gi1,
+                     gj0 > gj1 ? gj0 : gj1, lo, hi);
+}
+
+void plod_cubemap_range(const plod_cubemap *m, int face, double u0, double v0, double u1,
+                        double v1, double *min_value, double *max_value)
+{
+    assert(m->pyramid_valid);
+    if (!m->pyramid_valid || face < 0 || face >= m->face_count || !(u0 == u0) || !(u1 == u1) ||
+        !(v0 == v0) || !(v1 == v1)) {
+        plod_cubemap_global_range(m, min_value, max_value);
+        return;
+    }
+    if (u0 > u1) { double t = u0; u0 = u1; u1 = t; }
+    if (v0 > v1) { double t = v0; v0 = v1; v1 = t; }
+    u0 = plod__clamp_unit(u0);
+    u1 = plod__clamp_unit(u1);
+    v0 = plod__clamp_unit(v0);
+    v1 = plod__clamp_unit(v1);
+    /* Every texel a bilinear tap at a point of the rectangle can read. */
+    int i0 = (int)floor((u0 + 1.0) * 0.5 * m->width - 0.5);
+    int i1 = (int)floor((u1 + 1.0) * 0.5 * m->width - 0.5) + 1;
+    int j0 = (int)floor((v0 + 1.0) * 0.5 * m->height - 0.5);
+    int j1 = (int)floor((v1 + 1.0) * 0.5 * m->height - 0.5) + 1;
+    float lo = INFINITY, hi = -INFINITY;
+    plod__rect_range(m, face, i0, j0, i1, j1, &lo, &hi);
+    if (m->face_count == PLOD_FACE_COUNT) {
+        if (i0 < 0) plod__strip_range(m, face, 0, j0, j1, &lo, &hi);
+        if (i1 >= m->size) plod__strip_range(m, face, 1, j0, j1, &lo, &hi);
+        if (j0 < 0) plod__strip_range(m, face, 2, i0, i1, &lo, &hi);
+        if (j1 >= m->size) plod__strip_range(m, face, 3, i0, i1, &lo, &hi);
+    } else {
+        /* CAR: wrap in longitude; across a pole the taps are from the same
+         * edge row at other longitudes, so take the whole row. */
+        if (i0 < 0) plod__rect_range(m, 0, m->width - 1, j0, m->width - 1, j1, &lo, &hi);
+        if (i1 >= m->width) plod__rect_range(m, 0, 0, j0, 0, j1, &lo, &hi);
+        if (j0 < 0) plod__rect_range(m, 0, 0, 0, m->width - 1, 0, &lo, &hi);
+        if (j1 >= m->height)
+            plod__rect_range(m, 0, 0, m->height - 1, m->width - 1, m->height - 1, &lo, &hi);
+    }
+    double scale = plod__scale(m->type);
+    *min_value = lo * scale;
+    *max_value = hi * scale;
+}
+
+void plod_cubemap_global_range(const plod_cubemap *m, double *min_value, double *max_value)
+{
+    assert(m->pyramid_valid);
+    if (!m->pyramid_valid) {
+        *min_value = -INFINITY;
+        *max_value = INFINITY;
+        return;
+    }
+    float lo = INFINITY, hi = -INFINITY;
+    size_t top = m->level_offset[m->levels - 1];
+    for (int f = 0; f < m->face_count; f++) {
+        float a = m->pyramid_min[(size_t)f * m->face_cells + top];
+        float b = m->pyramid_max[(size_t)f * m->face_cells + top];
+        if (a < lo) lo = a;
+        if (b > hi) hi = b;
+    }
+    double scale = plod__scale(m->type);
+    *min_value = lo * scale;
+    *max_value = hi * scale;
+}

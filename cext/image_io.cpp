@@ -1,0 +1,306 @@
+/* image_io.cpp -- the only C++ in the core: an extern "C" bridge from
+ * plod_image.h to OpenImageIO 2.4.
+ *
+ * Rules of this file:
+ *   - no C++ exception ever crosses into C: every entry point catches
+ *     everything and returns a status with a message;
+ *   - sizes are checked before any allocation (max_pixels guard), so a
+ *     corrupt header that claims 10^6 x 10^6 pixels fails cleanly;
+ *   - pixel memory is malloc'ed (plod_image_free is plain free()).
+ */
+#include "plod_image.h"
+
+#include <OpenImageIO/imageio.h>
+
+#include <sys/stat.h>
+
+#include <cerrno>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+
+namespace {
+
+const size_t plod__default_max_pixels = PLOD_IMAGE_DEFAULT_MAX_PIXELS;
+
+void plod__set_message(char *message, size_t message_size, const std::string &text)
+{
+    if (!message || message_size == 0)
+        return;
+    size_t n = text.size() < message_size - 1 ? text.size() : message_size - 1;
+    std::memcpy(message, text.data(), n);
+    message[n] = '\0';
+}
+
+/* Lower-case extension without the dot ("" if none). */
+std::string plod__extension(const char *path)
+{
+    const char *slash = std::strrchr(path, '/');
+    const char *dot = std::strrchr(path, '.');
+    if (!dot || (slash && dot < slash))
+        return std::string();
+    std::string ext(dot + 1);
+    for (char &c : ext)
+        c = (char)std::tolower((unsigned char)c);
+    return ext;
+}
+
+const char *plod__type_name(plod_texel_type type)
+{
+    switch (type) {
+    case PLOD_TEXEL_U8: return "8-bit";
+    case PLOD_TEXEL_U16: return "16-bit";
+    case PLOD_TEXEL_F32: return "float32";
+    default: return "unknown";
+    }
+}
+
+OIIO::TypeDesc plod__oiio_type(plod_texel_type type)
+{
+    switch (type) {
+    case PLOD_TEXEL_U8: return OIIO::TypeDesc::UINT8;
+    case PLOD_TEXEL_U16: return OIIO::TypeDesc::UINT16;
+    default: return OIIO::TypeDesc::FLOAT;
+    }
+}
+
+/* Whether a file type we know stores `type` without loss.  Unknown
+ * extensions are left to OpenImageIO. */
+bool plod__writer_holds(const std::string &ext, plod_texel_type type)
+{
+    if (ext == "png" || ext == "ppm" || ext == "pgm" || ext == "pnm")
+        return type == PLOD_TEXEL_U8 || type == PLOD_TEXEL_U16;
+    if (ext == "jpg" || ext == "jpeg" || ext == "bmp" || ext == "tga" || ext == "gif")
+        return type == PLOD_TEXEL_U8;
+    if (ext == "exr" || ext == "hdr" || ext == "pfm")
+        return type == PLOD_TEXEL_F32;
+    return true;
+}
+
+plod_status plod__read(plod_image *image, const char *path, size_t max_pixels,
+                       char *message, size_t message_size)
+{
+    struct stat info;
+    if (stat(path, &info) != 0) {
+        plod__set_message(message, message_size,
+                          std::string("cannot open '") + path + "': " + std::strerror(errno));
+        return PLOD_ERR_IO;
+    }
+    if (!S_ISREG(info.st_mode)) {
+        plod__set_message(message, message_size,
+                          std::string("'") + path + "' is not a regular file");
+        return PLOD_ERR_IO;
+    }
+    FILE *probe = std::fopen(path, "rb");
+    if (!probe) {
+        plod__set_message(message, message_size,
+                          std::string("cannot read '") + path + "': " + std::strerror(errno));
+        return PLOD_ERR_IO;
+    }
+    std::fclose(probe);
+    if (info.st_size == 0) {
+        plod__set_message(message, message_size,
+                          std::string("'") + path + "' is empty (0 bytes)");
+        return PLOD_ERR_BAD_IMAGE;
+    }
+
+    auto input = OIIO::ImageInput::open(path);
+    if (!input) {
+        std::string why = OIIO::geterror();
+        plod__set_message(message, message_size,
+                          std::string("'") + path + "' is not a readable image" +
+                              (why.empty() ? "" : ": " + why));
+        return PLOD_ERR_BAD_IMAGE;
+    }
+    const OIIO::ImageSpec &spec = input->spec();
+    if (spec.width <= 0 || spec.height <= 0 || spec.depth != 1 || spec.deep) {
+        plod__set_message(message, message_size,
+                          std::string("'") + path + "' has an unsupported size or layout (" +
+                              std::to_string(spec.width) + "x" + std::to_string(spec.height) +
+                              "x" + std::to_string(spec.depth) + (spec.deep ? ", deep" : "") + ")");
+        return PLOD_ERR_BAD_IMAGE;
+    }
+    if (spec.nchannels < 1 || spec.nchannels > 4) {
+        plod__set_message(message, message_size,
+                          std::string("'") + path + "' has " + std::to_string(spec.nchannels) +
+                              " channels; 1 to 4 are supported");
+        return PLOD_ERR_BAD_IMAGE;
+    }
+    if (max_pixels == 0)
+        max_pixels = plod__default_max_pixels;
+    uint64_t pixels = (uint64_t)spec.width * (uint64_t)spec.height;
+    if (pixels > (uint64_t)max_pixels) {
+        plod__set_message(message, message_size,
+                          std::string("'") + path + "' is " + std::to_string(spec.width) + "x" +
+                              std::to_string(spec.height) + " pixels, more than the limit of " +
+                              std::to_string(max_pixels));
+        return PLOD_ERR_BAD_IMAGE;
+    }
+
+    plod_texel_type type = PLOD_TEXEL_F32;
+    if (spec.format == OIIO::TypeDesc::UINT8)
+        type = PLOD_TEXEL_U8;
+    else if (spec.format == OIIO::TypeDesc::UINT16)
+        type = PLOD_TEXEL_U16;
+
+    plod_image loaded = {};
+    plod_status status = plod_image_alloc(&loaded, spec.width, spec.height, spec.nchannels, type);
+    if (status != PLOD_OK) {
+        plod__set_message(message, message_size,
+                          std::string("cannot allocate ") + std::to_string(spec.width) + "x" +
+                              std::to_string(spec.height) + " pixels for '" + path + "'");
+        return status;
+    }
+    bool ok = input->read_image(0, 0, 0, spec.nchannels, plod__oiio_type(type), loaded.pixels);
+    if (!ok) {
+        std::string why = input->geterror();
+        plod_image_free(&loaded);
+        plod__set_message(message, message_size,
+                          std::string("'") + path + "' is corrupt or truncated" +
+                              (why.empty() ? "" : ": " + why));
+        return PLOD_ERR_BAD_IMAGE;
+    }
+    input->close();
+    *image = loaded;
+    return PLOD_OK;
+}
+
+plod_status plod__write(const plod_image *image, const char *path, char *message,
+                        size_t message_size)
+{
+    std::string ext = plod__extension(path);
+    if (!plod__writer_holds(ext, image->type)) {
+        plod__set_message(message, message_size,
+                          std::string("a .") + ext + " file cannot hold " +
+                              plod__type_name(image->type) + " pixels ('" + path + "')");
+        return PLOD_ERR_BAD_PARAM;
+    }
+    auto output = OIIO::ImageOutput::create(path);
+    if (!output) {
+        std::string why = OIIO::geterror();
+        plod__set_message(message, message_size,
+                          std::string("no image writer for '") + path + "'" +
+                              (why.empty() ? "" : ": " + why));
+        return PLOD_ERR_IO;
+    }
+    OIIO::ImageSpec spec(image->width, image->height, image->channels,
+                         plod__oiio_type(image->type));
+    if (!output->open(path, spec)) {
+        std::string why = output->geterror();
+        plod__set_message(message, message_size,
+                          std::string("cannot write '") + path + "'" +
+                              (why.empty() ? "" : ": " + why));
+        return PLOD_ERR_IO;
+    }
+    bool ok = output->write_image(plod__oiio_type(image->type), image->pixels);
+    std::string why = ok ? std::string() : output->geterror();
+    ok = output->close() && ok;
+    if (!ok) {
+        if (why.empty())
+            why = output->geterror();
+        std::remove(path);
+        plod__set_message(message, message_size,
+                          std::string("writing '") + path + "' failed" +
+                              (why.empty() ? "" : ": " + why));
+        return PLOD_ERR_IO;
+    }
+    return PLOD_OK;
+}
+
+} // namespace
+
+extern "C" {
+
+size_t plod_image_texel_bytes(plod_texel_type type)
+{
+    switch (type) {
+    case PLOD_TEXEL_U8: return 1;
+    case PLOD_TEXEL_U16: return 2;
+    case PLOD_TEXEL_F32: return 4;
+    default: return 0;
+    }
+}
+
+plod_status plod_image_alloc(plod_image *image, int width, int height, int channels,
+                             plod_texel_type type)
+{
+    if (!image)
+        return PLOD_ERR_NULL;
+    image->pixels = nullptr;
+    if (width <= 0 || height <= 0 || channels < 1 || channels > 4 ||
+        (unsigned)type >= PLOD_TEXEL_TYPE_COUNT)
+        return PLOD_ERR_BAD_PARAM;
+    uint64_t count = (uint64_t)width * (uint64_t)height;
+    if (count > ((uint64_t)1 << 31))
+        return PLOD_ERR_BAD_PARAM;
+    uint64_t bytes = count * (uint64_t)channels * plod_image_texel_bytes(type);
+    if (bytes > (uint64_t)SIZE_MAX)
+        return PLOD_ERR_NO_MEMORY;
+    void *pixels = std::calloc((size_t)bytes, 1);
+    if (!pixels)
+        return PLOD_ERR_NO_MEMORY;
+    image->width = width;
+    image->height = height;
+    image->channels = channels;
+    image->type = type;
+    image->pixels = pixels;
+    return PLOD_OK;
+}
+
+void plod_image_free(plod_image *image)
+{
+    if (!image)
+        return;
+    std::free(image->pixels);
+    image->pixels = nullptr;
+}
+
+plod_status plod_image_read(plod_image *image, const char *path, size_t max_pixels,
+                            char *message, size_t message_size)
+{
+    plod__set_message(message, message_size, "");
+    if (!image || !path)
+        return PLOD_ERR_NULL;
+    image->pixels = nullptr;
+    try {
+        return plod__read(image, path, max_pixels, message, message_size);
+    } catch (const std::bad_alloc &) {
+        plod__set_message(message, message_size, std::string("out of memory reading '") + path + "'");
+        return PLOD_ERR_NO_MEMORY;
+    } catch (const std::exception &e) {
+        plod__set_message(message, message_size,
+                          std::string("reading '") + path + "' failed: " + e.what());
+        return PLOD_ERR_BAD_IMAGE;
+    } catch (...) {
+        plod__set_message(message, message_size, std::string("reading '") + path + "' failed");
+        return PLOD_ERR_BAD_IMAGE;
+    }
+}
+
+plod_status plod_image_write(const plod_image *image, const char *path, char *message,
+                             size_t message_size)
+{
+    plod__set_message(message, message_size, "");
+    if (!image || !path || !image->pixels)
+        return PLOD_ERR_NULL;
+    if (image->width <= 0 || image->height <= 0 || image->channels < 1 || image->channels > 4 ||
+        (unsigned)image->type >= PLOD_TEXEL_TYPE_COUNT)
+        return PLOD_ERR_BAD_PARAM;
+    try {
+        return plod__write(image, path, message, message_size);
+    } catch (const std::bad_alloc &) {
+        plod__set_message(message, message_size, std::string("out of memory writing '") + path + "'");
+        return PLOD_ERR_NO_MEMORY;
+    } catch (const std::exception &e) {
+        plod__set_message(message, message_size,
+                          std::string("writing '") + path + "' failed: " + e.what());
+        return PLOD_ERR_IO;
+    } catch (...) {
+        plod__set_message(message, message_size, std::string("writing '") + path + "' failed");
+        return PLOD_ERR_IO;
+    }
+}
+
+} // extern "C"

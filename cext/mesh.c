@@ -1,0 +1,670 @@
+/* mesh.c -- sector templates and emission of sectors as flat buffers.
+ *
+ * Bit rules (see plod_mesh.h):
+ *   n = 2^template_level; vertex (i, j) has integer weights
+ *   k = (n-i-j, j, i) on corners (0, 1, 2) and weights k/n, exact in double.
+ *   direction = normalise(sum over k_c != 0, in corner order, of (k_c/n)*C_c)
+ *   A vertex on a shared edge has two non-zero terms, the same two products
+ *   from either sector, and IEEE addition is commutative: identical sums.
+ *   Everything after (height, normal, uv latitude, position, morph) is a
+ *   function of that direction, the planet and the parameters only.
+ * Geomorph rule: n is even for level >= 1, so an odd vertex has exactly one
+ *   even weight; its morph neighbours keep that weight and move the two odd
+ *   ones by -+1 (both even vertices).  On a sector edge the even weight is
+ *   the zero one, so the neighbours are the same two edge vertices from
+ *   either side.  The morph pass reads only even vertices (never morphed), in
+ *   float32 relative to the origin, so shared vertices morph identically.
+ */
+#include <assert.h>
+#include <math.h>
+#include <pthread.h>
+#include <string.h>
+
+#include "plod.h"
+
+#define PLOD__PI 3.14159265358979323846
+
+/* ---- templates ----------------------------------------------------------- */
+
+static int plod__level_ok(int template_level)
+{
+    return template_level >= 0 && template_level <= PLOD_MAX_TEMPLATE_LEVEL;
+}
+
+size_t plod_template_vertex_count(int template_level)
+{
+    if (!plod__level_ok(template_level))
+        return 0;
+    size_t n = (size_t)1 << template_level;
+    return (n + 1) * (n + 2) / 2;
+}
+
+size_t plod_template_triangle_count(int template_level)
+{
+    if (!plod__level_ok(template_level))
+        return 0;
+    size_t n = (size_t)1 << template_level;
+    return n * n;
+}
+
+static size_t plod__vertex_index(int n, int i, int j)
+{
+    return (size_t)i * (size_t)(n + 1) - (size_t)i * (size_t)(i - 1) / 2 + (size_t)j;
+}
+
+plod_status plod_template_barycentrics(float *out, int template_level)
+{
+    if (!out)
+        return PLOD_ERR_NULL;
+    if (!plod__level_ok(template_level))
+        return PLOD_ERR_BAD_PARAM;
+    int n = 1 << template_level;
+    float inv_n = 1.0f / (float)n;
+    size_t v = 0;
+    for (int i = 0; i <= n; i++)
+        for (int j = 0; j <= n - i; j++, v++) {
+            out[3 * v + 0] = (float)(n - i - j) * inv_n;
+            out[3 * v + 1] = (float)j * inv_n;
+            out[3 * v + 2] = (float)i * inv_n;
+        }
+    return PLOD_OK;
+}
+
+/* Triangles of one template copy whose first vertex has index `base`. */
+static void plod__write_triangles(int32_t *out, int n, int32_t base)
+{
+    size_t t = 0;
+    for (int i = 0; i < n; i++) {
+        int32_t row = base + (int32_t)plod__vertex_index(n, i, 0);
+        int32_t next = base + (int32_t)plod__vertex_index(n, i + 1, 0);
+        for (int j = 0; j < n - i; j++, t++) {
+            out[3 * t + 0] = row + j;
+            out[3 * t + 1] = row + j + 1;
+            out[3 * t + 2] = next + j;
+        }
+        for (int j = 0; j < n - i - 1; j++, t++) {
+            out[3 * t + 0] = row + j + 1;
+            out[3 * t + 1] = next + j + 1;
+            out[3 * t + 2] = next + j;
+        }
+    }
+    assert(t == (size_t)n * (size_t)n);
+}
+
+plod_status plod_template_triangles(int32_t *out, int template_level)
+{
+    if (!out)
+        return PLOD_ERR_NULL;
+    if (!plod__level_ok(template_level))
+        return PLOD_ERR_BAD_PARAM;
+    plod__write_triangles(out, 1 << template_level, 0);
+    return PLOD_OK;
+}
+
+/* ---- parameters ------------------------------------------------------------ */
+
+void plod_mesh_params_init(plod_mesh_params *params, const plod_planet *planet,
+                           int template_level)
+{
+    memset(params, 0, sizeof *params);
+    params->planet = planet;
+    params->template_level = template_level;
+    params->threads = 1;
+    params->morph = 0;
+    params->morph_lod_scale = planet ? planet->radius : 1.0;
+    params->morph_ramp = 0.5;
+}
+
+static double plod__height(const plod_planet *planet, const double dir[3])
+{
+    /* Without a map the planet is a perfect sphere: skip the call. */
+    return planet->heightmap ? plod_planet_height(planet, dir) : 0.0;
+}
+
+void plod_mesh_origin(const plod_planet *planet, const double eye[3],
+                      double origin[3])
+{
+    origin[0] = origin[1] = origin[2] = 0.0;
+    if (!planet || !eye)
+        return;
+    double len = sqrt(eye[0] * eye[0] + eye[1] * eye[1] + eye[2] * eye[2]);
+    if (!(len > 0.0) || !isfinite(len))
+        return;
+    double dir[3] = {eye[0] / len, eye[1] / len, eye[2] / len};
+    double r = planet->radius + plod__height(planet, dir);
+    for (int c = 0; c < 3; c++)
+        origin[c] = dir[c] * r;
+}
+
+/* Side length of a base sector: cube corners are acos(1/3) apart, the
+ * octahedron's pi/2. */
+static double plod__base_side(const plod_planet *planet)
+{
+    double angle = planet->projection == PLOD_PROJ_CAR ? PLOD__PI / 2 : acos(1.0 / 3.0);
+    return planet->radius * angle;
+}
+
+double plod_mesh_morph_lod_scale(const plod_planet *planet,
+                                 const plod_camera *camera,
+                                 const plod_refine_params *refine_params,
+                                 int template_level)
+{
+    if (!planet || !camera || !refine_params || !plod__level_ok(template_level))
+        return 0.0;
+    if (camera->desc.orthographic)
+        return 0.0;
+    double side = plod__base_side(planet);
+    double scale;
+    if (refine_params->criterion == PLOD_CRITERION_SIDE_DISTANCE) {
+        if (!(refine_params->split_border > 0.0))
+            return 0.0;
+        scale = side / refine_params->split_border;
+    } else {
+        if (!(refine_params->max_pixel_error > 0.0))
+            return 0.0;
+        scale = side * camera->pixels_per_radian /
+                (refine_params->max_pixel_error * (double)(1 << template_level));
+    }
+    return isfinite(scale) && scale > 0.0 ? scale : 0.0;
+}
+
+double plod_mesh_morph_factor(const plod_mesh_params *params,
+                              const double position[3])
+{
+    if (!params->morph || !(params->morph_lod_scale > 0.0))
+        return 0.0;
+    double dx = position[0] - params->eye[0];
+    double dy = position[1] - params->eye[1];
+    double dz = position[2] - params->eye[2];
+    double distance = sqrt(dx * dx + dy * dy + dz * dz);
+    if (!(distance > 0.0))
+        return 0.0;
+    double level = 2.0 * log2(params->morph_lod_scale / distance);
+    if (!isfinite(level))
+        return 0.0;
+    double fraction = level - floor(level);
+    double m = (params->morph_ramp - fraction) / params->morph_ramp;
+    return m < 0.0 ? 0.0 : (m > 1.0 ? 1.0 : m);
+}
+
+static plod_status plod__check_params(const plod_mesh_params *params)
+{
+    if (!params || !params->planet)
+        return PLOD_ERR_NULL;
+    if (!plod__level_ok(params->template_level))
+        return PLOD_ERR_BAD_PARAM;
+    if (params->threads < 1 || params->threads > PLOD_MESH_MAX_THREADS)
+        return PLOD_ERR_BAD_PARAM;
+    if (!(params->planet->radius > 0.0) || !isfinite(params->planet->radius))
+        return PLOD_ERR_BAD_PARAM;
+    for (int c = 0; c < 3; c++)
+        if (!isfinite(params->origin[c]) || !isfinite(params->eye[c]))
+            return PLOD_ERR_BAD_COORD;
+    if (params->morph) {
+        if (!(params->morph_ramp > 0.0 && params->morph_ramp <= 1.0))
+            return PLOD_ERR_BAD_PARAM;
+        if (!(params->morph_lod_scale >= 0.0) || !isfinite(params->morph_lod_scale))
+            return PLOD_ERR_BAD_PARAM;
+    }
+    return PLOD_OK;
+}
+
+size_t plod_mesh_vertex_bound(size_t sector_count, int template_level)
+{
+    size_t per = plod_template_vertex_count(template_level);
+    if (per == 0 || sector_count > (size_t)INT32_MAX / per)
+        return 0;
+    return sector_count * per;
+}
+
+size_t plod_mesh_triangle_bound(size_t sector_count, int template_level)
+{
+    size_t per = plod_template_triangle_count(template_level);
+    if (per == 0 || plod_mesh_vertex_bound(sector_count, template_level) == 0)
+        return 0;
+    return sector_count * per;
+}
+
+size_t plod_mesh_count_sectors(plod_mesh_sector_fn source, const void *context,
+                               size_t count)
+{
+    size_t emitted = 0;
+    if (!source)
+        return 0;
+    for (size_t s = 0; s < count; s++)
+        emitted += source(context, s, NULL) ? 1 : 0;
+    return emitted;
+}
+
+/* ---- per-vertex geometry ---------------------------------------------------- */
+
+/* atan2 to ~3e-9 rad, 2-3x faster than libm's: the uv outputs are float32
+ * (resolution 6e-8 of a turn), so libm's last bits are wasted there.
+ * Reduction to [0, 1] by octant, then by pi/6 to |t| <= tan(pi/12), then the
+ * odd series up to t^11 (remainder below t^13/13 = 3e-9). */
+static double plod__atan2(double y, double x)
+{
+    double ax = fabs(x), ay = fabs(y);
+    double hi = ax > ay ? ax : ay, lo = ax > ay ? ay : ax;
+    if (hi == 0.0)
+        return 0.0;
+    double a = lo / hi, base = 0.0;
+    const double tan_pi_12 = 0.26794919243112270, inv_sqrt3 = 0.57735026918962576;
+    if (a > tan_pi_12) {
+        a = (a - inv_sqrt3) / (1.0 + a * inv_sqrt3);
+        base = PLOD__PI / 6;
+    }
+    double a2 = a * a;
+    double r = a * (1.0 + a2 * (-1.0 / 3 + a2 * (1.0 / 5 + a2 * (-1.0 / 7 + a2 * (1.0 / 9 +
+                    a2 * (-1.0 / 11 + a2 * (1.0 / 13)))))));
+    r += base;
+    if (ay > ax)
+        r = PLOD__PI / 2 - r;
+    if (x < 0.0)
+        r = PLOD__PI - r;
+    return y < 0.0 ? -r : r;
+}
+
+/* Corners finite, roughly unit, no two (nearly) antipodal: every weighted
+ * sum is then safely away from zero. */
+static int plod__sector_ok(const plod_mesh_sector *sector)
+{
+    for (int c = 0; c < 3; c++) {
+        const double *p = sector->corners[c];
+        if (!isfinite(p[0]) || !isfinite(p[1]) || !isfinite(p[2]))
+            return 0;
+        double len2 = p[0] * p[0] + p[1] * p[1] + p[2] * p[2];
+        if (!(len2 > 0.25 && len2 < 4.0))
+            return 0;
+    }
+    for (int a = 0; a < 3; a++) {
+        const double *p = sector->corners[a], *q = sector->corners[(a + 1) % 3];
+        double dot = p[0] * q[0] + p[1] * q[1] + p[2] * q[2];
+        if (!(dot > -0.5 * sqrt((p[0] * p[0] + p[1] * p[1] + p[2] * p[2]) *
+                                (q[0] * q[0] + q[1] * q[1] + q[2] * q[2]))))
+            return 0;
+    }
+    return 1;
+}
+
+/* The bit rule: non-zero terms only, in corner order. */
+static void plod__vertex_direction(const double corners[3][3], const int k[3],
+                                   double inv_n, double dir[3])
+{
+    double v[3] = {0.0, 0.0, 0.0};
+    int first = 1;
+    for (int c = 0; c < 3; c++) {
+        if (k[c] == 0)
+            continue;
+        double w = (double)k[c] * inv_n;
+        if (first) {
+            v[0] = w * corners[c][0];
+            v[1] = w * corners[c][1];
+            v[2] = w * corners[c][2];
+            first = 0;
+        } else {
+            v[0] = v[0] + w * corners[c][0];
+            v[1] = v[1] + w * corners[c][1];
+            v[2] = v[2] + w * corners[c][2];
+        }
+    }
+    double inv_len = 1.0 / sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    dir[0] = v[0] * inv_len;
+    dir[1] = v[1] * inv_len;
+    dir[2] = v[2] * inv_len;
+}
+
+/* Unit normal of the displaced surface d*(R+h(d)) from central differences
+ * of h along a tangent frame chosen from d alone: n ~ r d - h1 t1 - h2 t2
+ * with h1, h2 in metres per radian. */
+static void plod__surface_normal(const plod_planet *planet, const double dir[3],
+                                 double r, double step, double inv_2angle,
+                                 double normal[3])
+{
+    double ax = fabs(dir[0]), ay = fabs(dir[1]), az = fabs(dir[2]);
+    double axis[3] = {0.0, 0.0, 0.0};
+    if (ax <= ay && ax <= az)
+        axis[0] = 1.0;
+    else if (ay <= az)
+        axis[1] = 1.0;
+    else
+        axis[2] = 1.0;
+    double t1[3] = {axis[1] * dir[2] - axis[2] * dir[1],
+                    axis[2] * dir[0] - axis[0] * dir[2],
+                    axis[0] * dir[1] - axis[1] * dir[0]};
+    double inv_l1 = 1.0 / sqrt(t1[0] * t1[0] + t1[1] * t1[1] + t1[2] * t1[2]);
+    t1[0] *= inv_l1; t1[1] *= inv_l1; t1[2] *= inv_l1;
+    double t2[3] = {dir[1] * t1[2] - dir[2] * t1[1],
+                    dir[2] * t1[0] - dir[0] * t1[2],
+                    dir[0] * t1[1] - dir[1] * t1[0]};
+    const double *frame[2] = {t1, t2};
+    double slope[2];
+    for (int f = 0; f < 2; f++) {
+        double h[2];
+        for (int s = 0; s < 2; s++) {
+            double sign = s ? -step : step;
+            double p[3] = {dir[0] + sign * frame[f][0], dir[1] + sign * frame[f][1],
+                           dir[2] + sign * frame[f][2]};
+            double inv_lp = 1.0 / sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+            p[0] *= inv_lp; p[1] *= inv_lp; p[2] *= inv_lp;
+            h[s] = plod_planet_height(planet, p);
+        }
+        slope[f] = (h[0] - h[1]) * inv_2angle;
+    }
+    double v[3];
+    for (int c = 0; c < 3; c++)
+        v[c] = r * dir[c] - slope[0] * t1[c] - slope[1] * t2[c];
+    double inv_len = 1.0 / sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    normal[0] = v[0] * inv_len;
+    normal[1] = v[1] * inv_len;
+    normal[2] = v[2] * inv_len;
+}
+
+/* Angular finite-difference step: one texel of a cube face (pi/2 / size);
+ * 0 without a map (normal = direction). */
+static double plod__normal_step(const plod_planet *planet)
+{
+    if (!planet->heightmap)
+        return 0.0;
+    int size = plod_cubemap_size(planet->heightmap);
+    if (size < 1)
+        size = 1;
+    return tan(PLOD__PI / 2 / (double)size);
+}
+
+/* ---- one sector ---------------------------------------------------------------- */
+
+typedef struct plod__emitter {
+    const plod_mesh_params *params;
+    const plod_mesh_buffers *out;
+    int n;
+    size_t vertices_per_sector, triangles_per_sector;
+    double normal_step, inv_2angle;
+} plod__emitter;
+
+static void plod__emitter_init(plod__emitter *e, const plod_mesh_params *params,
+                               const plod_mesh_buffers *out)
+{
+    e->params = params;
+    e->out = out;
+    e->n = 1 << params->template_level;
+    e->vertices_per_sector = plod_template_vertex_count(params->template_level);
+    e->triangles_per_sector = plod_template_triangle_count(params->template_level);
+    e->normal_step = plod__normal_step(params->planet);
+    e->inv_2angle = e->normal_step > 0.0 ? 0.5 / atan(e->normal_step) : 0.0;
+}
+
+static void plod__morph_sector(const plod__emitter *e, size_t vbase)
+{
+    const plod_mesh_params *params = e->params;
+    float *pos = e->out->positions + 3 * vbase;
+    float *morph_out = e->out->morph ? e->out->morph + vbase : NULL;
+    int n = e->n;
+    size_t v = 0;
+    for (int i = 0; i <= n; i++)
+        for (int j = 0; j <= n - i; j++, v++) {
+            int k0 = n - i - j;
+            if (!(i & 1) && !(j & 1) && !(k0 & 1))
+                continue; /* even vertex: on the coarser grid */
+            size_t a, b;
+            if (!(i & 1)) {        /* k2 even: move along the row */
+                a = plod__vertex_index(n, i, j - 1);
+                b = plod__vertex_index(n, i, j + 1);
+            } else if (!(j & 1)) { /* k1 even */
+                a = plod__vertex_index(n, i - 1, j);
+                b = plod__vertex_index(n, i + 1, j);
+            } else {               /* k0 even */
+                a = plod__vertex_index(n, i - 1, j + 1);
+                b = plod__vertex_index(n, i + 1, j - 1);
+            }
+            double p[3], world[3];
+            for (int c = 0; c < 3; c++) {
+                p[c] = (double)pos[3 * v + c];
+                world[c] = p[c] + params->origin[c];
+            }
+            double m = plod_mesh_morph_factor(params, world);
+            if (morph_out)
+                morph_out[v] = (float)m;
+            if (m == 0.0)
+                continue;
+            for (int c = 0; c < 3; c++) {
+                double target = 0.5 * ((double)pos[3 * a + c] + (double)pos[3 * b + c]);
+                pos[3 * v + c] = (float)(p[c] + m * (target - p[c]));
+            }
+        }
+}
+
+static plod_status plod__emit_sector(const plod__emitter *e,
+                                     const plod_mesh_sector *sector, size_t slot)
+{
+    if (!plod__sector_ok(sector))
+        return PLOD_ERR_BAD_COORD;
+    const plod_mesh_params *params = e->params;
+    const plod_planet *planet = params->planet;
+    const plod_mesh_buffers *out = e->out;
+    const double (*corners)[3] = (const double (*)[3])sector->corners;
+    int n = e->n;
+    double inv_n = 1.0 / (double)n;
+    size_t vbase = slot * e->vertices_per_sector;
+    size_t tbase = slot * e->triangles_per_sector;
+
+    double lon_ref = 0.0;
+    if (out->uv) {
+        double cx = corners[0][0] + corners[1][0] + corners[2][0];
+        double cy = corners[0][1] + corners[1][1] + corners[2][1];
+        if (cx != 0.0 || cy != 0.0)
+            lon_ref = plod__atan2(cy, cx);
+    }
+
+    size_t v = vbase;
+    for (int i = 0; i <= n; i++)
+        for (int j = 0; j <= n - i; j++, v++) {
+            int k[3] = {n - i - j, j, i};
+            double dir[3];
+            plod__vertex_direction(corners, k, inv_n, dir);
+            double r = planet->radius + plod__height(planet, dir);
+            if (out->positions)
+                for (int c = 0; c < 3; c++)
+                    out->positions[3 * v + c] = (float)(dir[c] * r - params->origin[c]);
+            if (out->normals) {
+                if (e->normal_step > 0.0) {
+                    double normal[3];
+                    plod__surface_normal(planet, dir, r, e->normal_step,
+                                         e->inv_2angle, normal);
+                    for (int c = 0; c < 3; c++)
+                        out->normals[3 * v + c] = (float)normal[c];
+                } else {
+                    for (int c = 0; c < 3; c++)
+                        out->normals[3 * v + c] = (float)dir[c];
+                }
+            }
+            if (out->uv) {
+                double horizontal = sqrt(dir[0] * dir[0] + dir[1] * dir[1]);
+                double lon = lon_ref;
+                if (horizontal > 1e-12) {
+                    lon = plod__atan2(dir[1], dir[0]);
+                    if (lon - lon_ref > PLOD__PI)
+                        lon -= 2 * PLOD__PI;
+                    else if (lon - lon_ref < -PLOD__PI)
+                        lon += 2 * PLOD__PI;
+                }
+                double lat = plod__atan2(dir[2], horizontal);
+                out->uv[2 * v + 0] = (float)(lon / (2 * PLOD__PI) + 0.5);
+                out->uv[2 * v + 1] = (float)(lat / PLOD__PI + 0.5);
+            }
+            if (out->morph)
+                out->morph[v] = 0.0f;
+        }
+
+    if (out->triangles)
+        plod__write_triangles(out->triangles + 3 * tbase, n, (int32_t)vbase);
+    for (size_t t = 0; t < e->triangles_per_sector; t++) {
+        if (out->sector_level)
+            out->sector_level[tbase + t] = sector->level;
+        if (out->face)
+            out->face[tbase + t] = sector->face;
+    }
+    if (params->morph && n > 1 && out->positions)
+        plod__morph_sector(e, vbase);
+    return PLOD_OK;
+}
+
+/* ---- threads ----------------------------------------------------------------- */
+
+typedef struct plod__chunk {
+    const plod__emitter *emitter;
+    plod_mesh_sector_fn source;
+    const void *context;
+    size_t begin, end;   /* sector index range */
+    size_t first_slot;   /* output slot of its first emitted sector */
+    size_t emitted;      /* sectors it emits (counting pass) */
+    plod_status status;
+} plod__chunk;
+
+static void *plod__run_chunk(void *arg)
+{
+    plod__chunk *chunk = arg;
+    size_t slot = chunk->first_slot;
+    plod_mesh_sector sector;
+    chunk->status = PLOD_OK;
+    for (size_t s = chunk->begin; s < chunk->end; s++) {
+        if (!chunk->source(chunk->context, s, &sector))
+            continue;
+        plod_status st = plod__emit_sector(chunk->emitter, &sector, slot++);
+        if (st != PLOD_OK) {
+            chunk->status = st;
+            break;
+        }
+    }
+    return NULL;
+}
+
+/* Below this many sectors a second thread costs more than it saves. */
+#define PLOD__MIN_SECTORS_PER_THREAD 4
+
+plod_status plod_mesh_emit(const plod_mesh_params *params,
+                           plod_mesh_sector_fn source, const void *context,
+                           size_t count, const plod_mesh_buffers *out,
+                           size_t *vertex_count, size_t *triangle_count)
+{
+    if (vertex_count)
+        *vertex_count = 0;
+    if (triangle_count)
+        *triangle_count = 0;
+    if (!source || !out)
+        return PLOD_ERR_NULL;
+    plod_status st = plod__check_params(params);
+    if (st != PLOD_OK)
+        return st;
+
+    plod__emitter emitter;
+    plod__emitter_init(&emitter, params, out);
+
+    int threads = params->threads;
+    if ((size_t)threads * PLOD__MIN_SECTORS_PER_THREAD > count)
+        threads = (int)(count / PLOD__MIN_SECTORS_PER_THREAD);
+    if (threads < 1)
+        threads = 1;
+
+    plod__chunk chunks[PLOD_MESH_MAX_THREADS];
+    size_t total = 0;
+    /* Contiguous, balanced split of [0, count). */
+    for (int t = 0; t < threads; t++) {
+        chunks[t].emitter = &emitter;
+        chunks[t].source = source;
+        chunks[t].context = context;
+        chunks[t].begin = count * (size_t)t / (size_t)threads;
+        chunks[t].end = count * (size_t)(t + 1) / (size_t)threads;
+        chunks[t].emitted = 0;
+        for (size_t s = chunks[t].begin; s < chunks[t].end; s++)
+            chunks[t].emitted += source(context, s, NULL) ? 1 : 0;
+        chunks[t].first_slot = total;
+        total += chunks[t].emitted;
+        chunks[t].status = PLOD_OK;
+    }
+    if (total > 0 && plod_mesh_vertex_bound(total, params->template_level) == 0)
+        return PLOD_ERR_BAD_PARAM; /* indices would overflow int32 */
+
+    pthread_t ids[PLOD_MESH_MAX_THREADS];
+    int started[PLOD_MESH_MAX_THREADS];
+    for (int t = 1; t < threads; t++)
+        started[t] = pthread_create(&ids[t], NULL, plod__run_chunk, &chunks[t]) == 0;
+    plod__run_chunk(&chunks[0]);
+    for (int t = 1; t < threads; t++) {
+        if (started[t])
+            pthread_join(ids[t], NULL);
+        else
+            plod__run_chunk(&chunks[t]); /* no thread: do it here */
+    }
+    for (int t = 0; t < threads; t++)
+        if (chunks[t].status != PLOD_OK)
+            return chunks[t].status;
+
+    if (vertex_count)
+        *vertex_count = total * emitter.vertices_per_sector;
+    if (triangle_count)
+        *triangle_count = total * emitter.triangles_per_sector;
+    return PLOD_OK;
+}
+
+static int plod__array_source(const void *context, size_t index,
+                              plod_mesh_sector *sector)
+{
+    if (sector)
+        *sector = ((const plod_mesh_sector *)context)[index];
+    return 1;
+}
+
+plod_status plod_mesh_emit_array(const plod_mesh_params *params,
+                                 const plod_mesh_sector *sectors, size_t count,
+                                 const plod_mesh_buffers *out,
+                                 size_t *vertex_count, size_t *triangle_count)
+{
+    if (!sectors && count > 0)
+        return PLOD_ERR_NULL;
+    return plod_mesh_emit(params, plod__array_source, sectors, count, out,
+                          vertex_count, triangle_count);
+}
+
+/* ---- instanced form ---------------------------------------------------------- */
+
+plod_status plod_mesh_instances(const plod_mesh_params *params,
+                                plod_mesh_sector_fn source, const void *context,
+                                size_t count, float *corners, float *levels,
+                                float *morph, size_t *instance_count)
+{
+    if (instance_count)
+        *instance_count = 0;
+    if (!source)
+        return PLOD_ERR_NULL;
+    plod_status st = plod__check_params(params);
+    if (st != PLOD_OK)
+        return st;
+    size_t slot = 0;
+    plod_mesh_sector sector;
+    for (size_t s = 0; s < count; s++) {
+        if (!source(context, s, &sector))
+            continue;
+        if (!plod__sector_ok(&sector))
+            return PLOD_ERR_BAD_COORD;
+        if (corners)
+            for (int c = 0; c < 3; c++)
+                for (int x = 0; x < 3; x++)
+                    corners[9 * slot + 3 * c + x] = (float)sector.corners[c][x];
+        if (levels)
+            levels[slot] = (float)sector.level;
+        if (morph) {
+            double centroid[3];
+            int k[3] = {1, 1, 1};
+            plod__vertex_direction((const double (*)[3])sector.corners, k, 1.0, centroid);
+            double r = params->planet->radius + plod__height(params->planet, centroid);
+            for (int c = 0; c < 3; c++)
+                centroid[c] *= r;
+            morph[slot] = (float)plod_mesh_morph_factor(params, centroid);
+        }
+        slot++;
+    }
+    if (instance_count)
+        *instance_count = slot;
+    return PLOD_OK;
+}

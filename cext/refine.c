@@ -1,0 +1,1049 @@
+/* refine.c -- HRTMR split/merge refinement (thesis 000, 5.2-5.3), leaves
+ * only, with implicit longest-edge-bisection ids.
+ *
+ * Bit rules (libleb-style heap ids):
+ *   id        = base << 56 | heap,  heap = 1 << level | path bits
+ *   child(b)  = heap * 2 + b        parent = heap >> 1
+ *   parent (c0, c1, c2), apex c1, hypotenuse c0-c2, m = (c0 + c2) / 2:
+ *     child 0 = (c1, m, c0)         child 1 = (c2, m, c1)
+ *   so every child keeps the counter-clockwise order and has its apex at m.
+ * Base mesh: cube, per face the diagonal (-1,-1)-(1,1) splits the square
+ * into two sectors that form the level-0 diamond; CAR, the octahedral
+ * square's 8 octant triangles, each inner (northern) one paired with the
+ * outer (southern) one across the equator line |u|+|v| = 1.
+ *
+ * Adjacency: every sector edge is keyed by the sum of its two endpoints'
+ * canonical integer points on the cube (or octahedron) surface, which is
+ * unique for the edges of a conforming mesh and equal from both faces of a
+ * cube edge.  A hash table maps each key to the two leaves sharing it, so
+ * forced splits and diamond lookups are O(1) and exact across faces.
+ *
+ * Determinism: the split predicate of a node is a pure function of the node
+ * and the camera (its own bounding cap prism; heights from fresh range
+ * queries), built to be monotone (caps inflated by PLOD__CAP_INFLATE so a
+ * child's cap lies in its parent's).  Each frame merges every diamond whose
+ * two parents fail the predicate, then splits every leaf that passes it
+ * (with forced splits), until stable: the minimal conforming refinement,
+ * whatever the previous frame was.  With `hysteresis` the merge test uses
+ * the merge border instead and the result depends on history.
+ */
+#include "plod_refine.h"
+
+#include <assert.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#define PLOD__ONE ((int32_t)1 << PLOD_COORD_BITS)
+#define PLOD__BASE_SHIFT 56
+#define PLOD__HEAP_MASK (((uint64_t)1 << PLOD__BASE_SHIFT) - 1)
+/* Cap angle inflation; flat geometry needs >= 1.08 for nesting. */
+#define PLOD__CAP_INFLATE 1.25
+/* Height-range query box grows by this fraction of the sector's (u, v)
+ * extent: mapped great-circle edges bulge out of the straight (u, v) ones
+ * in the non-gnomonic projections. */
+#define PLOD__RANGE_MARGIN 0.25
+
+/* ---- per-leaf bounds ------------------------------------------------------ */
+
+typedef struct plod__bound {
+    double axis[3];
+    double angle, cos_angle, sin_angle;
+    double size;        /* longest corner chord, metres at the radius */
+    double extent;      /* largest (u, v) extent of the corners */
+    float hmin, hmax;   /* metres, outward-rounded */
+} plod__bound;
+
+typedef struct plod__geom {
+    plod__bound self;
+    plod__bound parent; /* the parent node's (itself for base sectors) */
+    uint32_t eval_frame;   /* frame of the cached evaluation below */
+    uint8_t eval_split;    /* predicate result */
+    uint8_t eval_flags;    /* PLOD_SECTOR_BACKFACING | OUTSIDE_FRUSTUM */
+    double eval_distance;
+} plod__geom;
+
+typedef struct plod__edge {
+    int32_t key[3];
+    int32_t leaf[2]; /* -1 = none; both -1 = empty slot */
+} plod__edge;
+
+struct plod_refiner {
+    const plod_planet *planet;
+    plod_sector *leaves;
+    plod__geom *geom;
+    size_t count, capacity;
+    plod__edge *edges;
+    size_t edge_mask, edge_used; /* capacity - 1, live entries */
+    uint32_t frame;
+    double global_hmin, global_hmax;
+    /* per-update evaluation context */
+    const plod_camera *camera;
+    const plod_refine_params *params;
+    double eye[3], eye_dist, occluder, eye_horizon_angle;
+    double merge_ratio, error_scale;
+    double texels_per_unit; /* height map texels per unit of u or v */
+    size_t max_sectors;
+    int truncated;
+    size_t splits, merges;
+};
+
+/* ---- canonical points and edge keys -------------------------------------- */
+
+static const int plod__face_axes[6][3][3] = {
+    /* centre, u axis, v axis (FITS/WCSLIB face orientation) */
+    {{0, 0, 1}, {0, 1, 0}, {-1, 0, 0}},
+    {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}},
+    {{0, 1, 0}, {-1, 0, 0}, {0, 0, 1}},
+    {{-1, 0, 0}, {0, -1, 0}, {0, 0, 1}},
+    {{0, -1, 0}, {1, 0, 0}, {0, 0, 1}},
+    {{0, 0, -1}, {0, 1, 0}, {1, 0, 0}},
+};
+
+static void plod__canon(const plod_refiner *r, int face, int32_t u, int32_t v,
+                        int32_t out[3])
+{
+    if (plod_projection_is_cube(r->planet->projection)) {
+        const int(*ax)[3] = plod__face_axes[face];
+        for (int i = 0; i < 3; i++)
+            out[i] = ax[0][i] * PLOD__ONE + ax[1][i] * u + ax[2][i] * v;
+        return;
+    }
+    /* octahedral square folded onto the octahedron |x|+|y|+|z| = ONE */
+    int32_t au = u < 0 ? -u : u, av = v < 0 ? -v : v;
+    int32_t z = PLOD__ONE - au - av;
+    if (z >= 0) {
+        out[0] = u;
+        out[1] = v;
+    } else {
+        out[0] = (u < 0 ? -1 : 1) * (PLOD__ONE - av);
+        out[1] = (v < 0 ? -1 : 1) * (PLOD__ONE - au);
+    }
+    out[2] = z;
+}
+
+/* Edge e joins corners e and (e + 1) % 3; edge 2 is the hypotenuse. */
+static void plod__edge_key(const plod_refiner *r, const plod_sector *s, int e,
+                           int32_t key[3])
+{
+    int a = e, b = (e + 1) % 3;
+    int32_t pa[3], pb[3];
+    plod__canon(r, s->face, s->cu[a], s->cv[a], pa);
+    plod__canon(r, s->face, s->cu[b], s->cv[b], pb);
+    for (int i = 0; i < 3; i++)
+        key[i] = pa[i] + pb[i];
+}
+
+static size_t plod__hash(const int32_t key[3])
+{
+    uint64_t h = (uint32_t)key[0];
+    h = h * 0x9E3779B97F4A7C15ull ^ (uint32_t)key[1];
+    h = h * 0xC2B2AE3D27D4EB4Full ^ (uint32_t)key[2];
+    h ^= h >> 31;
+    h *= 0x94D049BB133111EBull;
+    h ^= h >> 29;
+    return (size_t)h;
+}
+
+static int plod__key_eq(const int32_t a[3], const int32_t b[3])
+{
+    return a[0] == b[0] && a[1] == b[1] && a[2] == b[2];
+}
+
+static int plod__slot_empty(const plod__edge *e)
+{
+    return e->leaf[0] < 0 && e->leaf[1] < 0;
+}
+
+static size_t plod__edge_find(const plod_refiner *r, const int32_t key[3])
+{
+    size_t i = plod__hash(key) & r->edge_mask;
+    for (;;) {
+        const plod__edge *e = &r->edges[i];
+        if (plod__slot_empty(e))
+            return (size_t)-1;
+        if (plod__key_eq(e->key, key))
+            return i;
+        i = (i + 1) & r->edge_mask;
+    }
+}
+
+static plod_status plod__edge_grow(plod_refiner *r, size_t capacity)
+{
+    plod__edge *fresh = malloc(capacity * sizeof *fresh);
+    if (!fresh)
+        return PLOD_ERR_NO_MEMORY;
+    for (size_t i = 0; i < capacity; i++)
+        fresh[i].leaf[0] = fresh[i].leaf[1] = -1;
+    plod__edge *old = r->edges;
+    size_t old_capacity = old ? r->edge_mask + 1 : 0;
+    r->edges = fresh;
+    r->edge_mask = capacity - 1;
+    for (size_t i = 0; i < old_capacity; i++) {
+        if (plod__slot_empty(&old[i]))
+            continue;
+        size_t j = plod__hash(old[i].key) & r->edge_mask;
+        while (!plod__slot_empty(&fresh[j]))
+            j = (j + 1) & r->edge_mask;
+        fresh[j] = old[i];
+    }
+    free(old);
+    return PLOD_OK;
+}
+
+/* Capacity is ensured by the caller (plod__reserve). */
+static void plod__edge_add(plod_refiner *r, const int32_t key[3], int32_t leaf)
+{
+    size_t i = plod__hash(key) & r->edge_mask;
+    for (;;) {
+        plod__edge *e = &r->edges[i];
+        if (plod__slot_empty(e)) {
+            memcpy(e->key, key, sizeof e->key);
+            e->leaf[0] = leaf;
+            e->leaf[1] = -1;
+            r->edge_used++;
+            return;
+        }
+        if (plod__key_eq(e->key, key)) {
+            assert(e->leaf[0] < 0 || e->leaf[1] < 0);
+            e->leaf[e->leaf[0] < 0 ? 0 : 1] = leaf;
+            return;
+        }
+        i = (i + 1) & r->edge_mask;
+    }
+}
+
+static void plod__edge_remove(plod_refiner *r, const int32_t key[3], int32_t leaf)
+{
+    size_t i = plod__edge_find(r, key);
+    assert(i != (size_t)-1);
+    plod__edge *e = &r->edges[i];
+    if (e->leaf[0] == leaf)
+        e->leaf[0] = -1;
+    else if (e->leaf[1] == leaf)
+        e->leaf[1] = -1;
+    else
+        assert(!"leaf not on its edge");
+    if (!plod__slot_empty(e))
+        return;
+    /* backward-shift deletion keeps linear probing chains intact */
+    r->edge_used--;
+    size_t hole = i, j = i;
+    for (;;) {
+        j = (j + 1) & r->edge_mask;
+        plod__edge *n = &r->edges[j];
+        if (plod__slot_empty(n))
+            break;
+        size_t home = plod__hash(n->key) & r->edge_mask;
+        /* move n into the hole unless its home lies cyclically in (hole, j] */
+        int stays = hole <= j ? (home > hole && home <= j) : (home > hole || home <= j);
+        if (stays)
+            continue;
+        r->edges[hole] = *n;
+        n->leaf[0] = n->leaf[1] = -1;
+        hole = j;
+    }
+}
+
+static void plod__edge_replace(plod_refiner *r, const int32_t key[3], int32_t from,
+                               int32_t to)
+{
+    size_t i = plod__edge_find(r, key);
+    assert(i != (size_t)-1);
+    plod__edge *e = &r->edges[i];
+    if (e->leaf[0] == from)
+        e->leaf[0] = to;
+    else {
+        assert(e->leaf[1] == from);
+        e->leaf[1] = to;
+    }
+}
+
+/* The other leaf on edge `e` of leaf `index`, or -1. */
+static int32_t plod__across(const plod_refiner *r, size_t index, int e)
+{
+    int32_t key[3];
+    plod__edge_key(r, &r->leaves[index], e, key);
+    size_t i = plod__edge_find(r, key);
+    if (i == (size_t)-1)
+        return -1;
+    const plod__edge *edge = &r->edges[i];
+    return edge->leaf[0] == (int32_t)index ? edge->leaf[1] : edge->leaf[0];
+}
+
+static void plod__leaf_link(plod_refiner *r, size_t index)
+{
+    for (int e = 0; e < 3; e++) {
+        int32_t key[3];
+        plod__edge_key(r, &r->leaves[index], e, key);
+        plod__edge_add(r, key, (int32_t)index);
+    }
+}
+
+static void plod__leaf_unlink(plod_refiner *r, size_t index)
+{
+    for (int e = 0; e < 3; e++) {
+        int32_t key[3];
+        plod__edge_key(r, &r->leaves[index], e, key);
+        plod__edge_remove(r, key, (int32_t)index);
+    }
+}
+
+/* Room for `extra` more leaves (and their edges). */
+static plod_status plod__reserve(plod_refiner *r, size_t extra)
+{
+    size_t need = r->count + extra;
+    if (need > r->capacity) {
+        size_t capacity = r->capacity ? r->capacity : 64;
+        while (capacity < need)
+            capacity *= 2;
+        plod_sector *leaves = realloc(r->leaves, capacity * sizeof *leaves);
+        if (!leaves)
+            return PLOD_ERR_NO_MEMORY;
+        r->leaves = leaves;
+        plod__geom *geom = realloc(r->geom, capacity * sizeof *geom);
+        if (!geom)
+            return PLOD_ERR_NO_MEMORY;
+        r->geom = geom;
+        r->capacity = capacity;
+    }
+    /* every leaf has 3 edges, each shared by 2 leaves: 1.5 keys per leaf */
+    size_t keys = r->edge_used + 3 * extra + 8;
+    size_t edge_capacity = r->edges ? r->edge_mask + 1 : 0;
+    if (keys * 2 > edge_capacity) {
+        size_t capacity = edge_capacity ? edge_capacity : 256;
+        while (keys * 2 > capacity)
+            capacity *= 2;
+        return plod__edge_grow(r, capacity);
+    }
+    return PLOD_OK;
+}
+
+/* ---- geometry of a node ---------------------------------------------------- */
+
+void plod_sector_corners(const plod_planet *planet, const plod_sector *sector,
+                         double corners[3][3])
+{
+    const double scale = 1.0 / (double)PLOD__ONE;
+    for (int k = 0; k < 3; k++) {
+        plod_status st = plod_face_to_dir(planet->projection, sector->face,
+                                          sector->cu[k] * scale,
+                                          sector->cv[k] * scale, corners[k]);
+        (void)st;
+        assert(st == PLOD_OK);
+    }
+}
+
+static double plod__angle(const double a[3], const double b[3])
+{
+    double c[3] = {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                   a[0] * b[1] - a[1] * b[0]};
+    return atan2(sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]),
+                 a[0] * b[0] + a[1] * b[1] + a[2] * b[2]);
+}
+
+static void plod__compute_bound(const plod_refiner *r, const plod_sector *s,
+                                plod__bound *b)
+{
+    const plod_planet *planet = r->planet;
+    double c[3][3];
+    plod_sector_corners(planet, s, c);
+    double axis[3] = {c[0][0] + c[1][0] + c[2][0], c[0][1] + c[1][1] + c[2][1],
+                      c[0][2] + c[1][2] + c[2][2]};
+    double len = sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
+    double angle = 0.0, chord = 0.0;
+    for (int k = 0; k < 3; k++) {
+        b->axis[k] = axis[k] / len;
+    }
+    for (int k = 0; k < 3; k++) {
+        double a = plod__angle(b->axis, c[k]);
+        angle = a > angle ? a : angle;
+        const double *p = c[k], *q = c[(k + 1) % 3];
+        double d[3] = {p[0] - q[0], p[1] - q[1], p[2] - q[2]};
+        double ch = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        chord = ch > chord ? ch : chord;
+    }
+    b->angle = angle * PLOD__CAP_INFLATE + 1e-15;
+    b->cos_angle = cos(b->angle);
+    b->sin_angle = sin(b->angle);
+    b->size = chord * planet->radius;
+
+    const double scale = 1.0 / (double)PLOD__ONE;
+    double u0 = 2, u1 = -2, v0 = 2, v1 = -2;
+    for (int k = 0; k < 3; k++) {
+        double u = s->cu[k] * scale, v = s->cv[k] * scale;
+        u0 = u < u0 ? u : u0;
+        u1 = u > u1 ? u : u1;
+        v0 = v < v0 ? v : v0;
+        v1 = v > v1 ? v : v1;
+    }
+    b->extent = fmax(u1 - u0, v1 - v0);
+    double mu = (u1 - u0) * PLOD__RANGE_MARGIN, mv = (v1 - v0) * PLOD__RANGE_MARGIN;
+    u0 = fmax(-1.0, u0 - mu);
+    u1 = fmin(1.0, u1 + mu);
+    v0 = fmax(-1.0, v0 - mv);
+    v1 = fmin(1.0, v1 + mv);
+    double hmin, hmax;
+    plod_planet_height_range_uv(planet, s->face, u0, v0, u1, v1, &hmin, &hmax);
+    float fmin_ = (float)hmin, fmax_ = (float)hmax;
+    if ((double)fmin_ > hmin)
+        fmin_ = nextafterf(fmin_, -INFINITY);
+    if ((double)fmax_ < hmax)
+        fmax_ = nextafterf(fmax_, INFINITY);
+    b->hmin = fmin_;
+    b->hmax = fmax_;
+}
+
+/* Culling flags of a bound (PLOD_SECTOR_BACKFACING / OUTSIDE_FRUSTUM, the
+ * first failing test only) and the eye distance. */
+static unsigned plod__cull(const plod_refiner *r, const plod__bound *b,
+                           double *distance)
+{
+    const plod_refine_params *pr = r->params;
+    const plod_camera *cam = r->camera;
+    double dot = b->axis[0] * r->eye[0] + b->axis[1] * r->eye[1] +
+                 b->axis[2] * r->eye[2];
+    double cr[3] = {b->axis[1] * r->eye[2] - b->axis[2] * r->eye[1],
+                    b->axis[2] * r->eye[0] - b->axis[0] * r->eye[2],
+                    b->axis[0] * r->eye[1] - b->axis[1] * r->eye[0]};
+    double phi = atan2(sqrt(cr[0] * cr[0] + cr[1] * cr[1] + cr[2] * cr[2]), dot);
+    double delta = phi - b->angle;
+    double r_min = r->planet->radius + b->hmin, r_max = r->planet->radius + b->hmax;
+    double dist = r->eye_dist;
+    if (delta <= 0.0) {
+        *distance = dist > r_max ? dist - r_max : (dist < r_min ? r_min - dist : 0.0);
+    } else {
+        double t = dist * cos(delta);
+        t = t < r_min ? r_min : (t > r_max ? r_max : t);
+        double s = sin(0.5 * delta), radial = dist - t;
+        *distance = sqrt(radial * radial + 4.0 * dist * t * s * s);
+    }
+    if (pr->backface_culling && !cam->desc.orthographic &&
+        r->eye_horizon_angle >= 0.0 && r_max >= r->occluder) {
+        double rho = r->occluder;
+        double over = atan2(sqrt((r_max - rho) * (r_max + rho)), rho);
+        double limit = r->eye_horizon_angle + over;
+        if (delta > limit * (1.0 + 1e-9) + 1e-9)
+            return PLOD_SECTOR_BACKFACING;
+    }
+    if (pr->frustum_culling) {
+        for (int i = 0; i < 6; i++) {
+            const double *pl = cam->planes[i];
+            double c = pl[0] * b->axis[0] + pl[1] * b->axis[1] + pl[2] * b->axis[2];
+            double best;
+            if (c >= b->cos_angle) {
+                best = 1.0;
+            } else {
+                double s = sqrt(fmax(0.0, 1.0 - c * c));
+                best = c * b->cos_angle + s * b->sin_angle;
+            }
+            double reach = best * (best >= 0.0 ? r_max : r_min);
+            if (reach + pl[3] < -1e-9 * (r_max + fabs(pl[3])))
+                return PLOD_SECTOR_OUTSIDE_FRUSTUM;
+        }
+    }
+    return 0;
+}
+
+/* Refinement score of a bound: > 1 wants a split (ignoring culling).
+ * Pixel criterion: the geometric error of the sector drawn with a template
+ * of 2^t cells per edge, projected at the bound's distance:
+ *   curvature sag of a cell   (size / 2^t)^2 / (8 r_min)
+ * + relief left between cells (hmax - hmin) * min(1, extent / texel) / 2^t
+ * (below one texel the bilinear surface varies ~linearly, so the relief of
+ * the texel footprint shrinks with the sector).  Both only decrease from a
+ * parent to its children. */
+static double plod__score(const plod_refiner *r, const plod__bound *b, double distance)
+{
+    const plod_refine_params *pr = r->params;
+    double floor_ = 1e-9 * r->planet->radius;
+    double d = distance > floor_ ? distance : floor_;
+    if (pr->criterion == PLOD_CRITERION_SIDE_DISTANCE)
+        return b->size / d / pr->split_border;
+    double cell = b->size * r->error_scale;
+    double r_min = r->planet->radius + b->hmin;
+    double sag = cell * cell / (8.0 * r_min);
+    double relief = ((double)b->hmax - (double)b->hmin) * r->error_scale;
+    double texels = b->extent * r->texels_per_unit;
+    if (texels < 1.0)
+        relief *= texels;
+    double error_m = sag + relief;
+    double px = r->camera->desc.orthographic
+                    ? error_m * r->camera->pixels_per_metre
+                    : error_m * r->camera->pixels_per_radian / d;
+    return px / pr->max_pixel_error;
+}
+
+/* Split predicate of a node (level = its level). */
+static int plod__wants_split(const plod_refiner *r, const plod__bound *b, int level,
+                             unsigned *flags, double *distance)
+{
+    *flags = plod__cull(r, b, distance);
+    if (level >= r->params->max_level || *flags)
+        return 0;
+    return plod__score(r, b, *distance) > 1.0;
+}
+
+/* Merge test for a parent node when hysteresis is on. */
+static int plod__allows_merge(const plod_refiner *r, const plod__bound *b, int level)
+{
+    double distance;
+    unsigned flags = plod__cull(r, b, &distance);
+    if (!r->params->hysteresis) {
+        if (level >= r->params->max_level || flags)
+            return 1;
+        return !(plod__score(r, b, distance) > 1.0);
+    }
+    if (flags)
+        return 1;
+    return plod__score(r, b, distance) < r->merge_ratio;
+}
+
+static int plod__leaf_wants_split(plod_refiner *r, size_t i)
+{
+    plod__geom *g = &r->geom[i];
+    if (g->eval_frame != r->frame) {
+        unsigned flags;
+        g->eval_split = (uint8_t)plod__wants_split(r, &g->self, r->leaves[i].level,
+                                                   &flags, &g->eval_distance);
+        g->eval_flags = (uint8_t)flags;
+        g->eval_frame = r->frame;
+    }
+    return g->eval_split;
+}
+
+/* ---- node algebra ---------------------------------------------------------- */
+
+static void plod__child(const plod_sector *p, int bit, uint32_t frame,
+                        plod_sector *c)
+{
+    int32_t mu = (int32_t)(((int64_t)p->cu[0] + p->cu[2]) / 2);
+    int32_t mv = (int32_t)(((int64_t)p->cv[0] + p->cv[2]) / 2);
+    memset(c, 0, sizeof *c);
+    int a = bit ? 2 : 1, b = bit ? 1 : 0; /* corners 0 and 2 of the child */
+    c->cu[0] = p->cu[a];
+    c->cv[0] = p->cv[a];
+    c->cu[1] = mu;
+    c->cv[1] = mv;
+    c->cu[2] = p->cu[b];
+    c->cv[2] = p->cv[b];
+    uint64_t base = p->id >> PLOD__BASE_SHIFT, heap = p->id & PLOD__HEAP_MASK;
+    c->id = base << PLOD__BASE_SHIFT | (heap * 2 + (uint64_t)bit);
+    c->face = p->face;
+    c->level = (uint8_t)(p->level + 1);
+    c->birth = frame;
+}
+
+static void plod__parent(const plod_sector *c, plod_sector *p)
+{
+    uint64_t base = c->id >> PLOD__BASE_SHIFT, heap = c->id & PLOD__HEAP_MASK;
+    int bit = (int)(heap & 1);
+    memset(p, 0, sizeof *p);
+    if (!bit) { /* c = (c1, m, c0) */
+        p->cu[0] = c->cu[2];
+        p->cv[0] = c->cv[2];
+        p->cu[1] = c->cu[0];
+        p->cv[1] = c->cv[0];
+        p->cu[2] = 2 * c->cu[1] - c->cu[2];
+        p->cv[2] = 2 * c->cv[1] - c->cv[2];
+    } else { /* c = (c2, m, c1) */
+        p->cu[0] = 2 * c->cu[1] - c->cu[0];
+        p->cv[0] = 2 * c->cv[1] - c->cv[0];
+        p->cu[1] = c->cu[2];
+        p->cv[1] = c->cv[2];
+        p->cu[2] = c->cu[0];
+        p->cv[2] = c->cv[0];
+    }
+    p->id = base << PLOD__BASE_SHIFT | (heap >> 1);
+    p->face = c->face;
+    p->level = (uint8_t)(c->level - 1);
+}
+
+static void plod__apply_bound(plod_sector *s, const plod__bound *b)
+{
+    s->height_min = b->hmin;
+    s->height_max = b->hmax;
+}
+
+/* ---- split ----------------------------------------------------------------- */
+
+/* Both leaves share their hypotenuse and have the same level. */
+static void plod__split_diamond(plod_refiner *r, size_t i, size_t n)
+{
+    size_t pair[2] = {i, n};
+    plod_sector parents[2] = {r->leaves[i], r->leaves[n]};
+    plod__bound parent_bounds[2] = {r->geom[i].self, r->geom[n].self};
+    plod__leaf_unlink(r, i);
+    plod__leaf_unlink(r, n);
+    for (int k = 0; k < 2; k++) {
+        for (int bit = 0; bit < 2; bit++) {
+            size_t at = bit ? r->count++ : pair[k];
+            plod_sector *c = &r->leaves[at];
+            plod__child(&parents[k], bit, r->frame, c);
+            plod__geom *g = &r->geom[at];
+            plod__compute_bound(r, c, &g->self);
+            g->parent = parent_bounds[k];
+            g->eval_frame = r->frame - 1;
+            plod__apply_bound(c, &g->self);
+            plod__leaf_link(r, at);
+        }
+    }
+    r->splits += 2;
+}
+
+/* Splits leaf i, first splitting the coarser neighbour across its
+ * hypotenuse when needed.  Returns 0 when the sector cap stopped it. */
+static int plod__split(plod_refiner *r, size_t i)
+{
+    if (r->leaves[i].level >= PLOD_MAX_LEVEL)
+        return 1; /* edge of domain: a no-op */
+    for (int attempt = 0; attempt < 2; attempt++) {
+        int32_t n = plod__across(r, i, 2);
+        assert(n >= 0);
+        if (n < 0)
+            return 1;
+        if (r->leaves[n].level == r->leaves[i].level) {
+            if (r->count + 2 > r->max_sectors || plod__reserve(r, 2) != PLOD_OK) {
+                r->truncated = 1;
+                return 0;
+            }
+            plod__split_diamond(r, i, (size_t)n);
+            return 1;
+        }
+        assert(r->leaves[n].level + 1 == r->leaves[i].level);
+        if (!plod__split(r, (size_t)n))
+            return 0;
+    }
+    assert(!"forced split did not produce a diamond");
+    return 1;
+}
+
+/* ---- merge ----------------------------------------------------------------- */
+
+static void plod__remove_leaf(plod_refiner *r, size_t x)
+{
+    plod__leaf_unlink(r, x);
+    size_t last = r->count - 1;
+    if (x != last) {
+        for (int e = 0; e < 3; e++) {
+            int32_t key[3];
+            plod__edge_key(r, &r->leaves[last], e, key);
+            plod__edge_replace(r, key, (int32_t)last, (int32_t)x);
+        }
+        r->leaves[x] = r->leaves[last];
+        r->geom[x] = r->geom[last];
+    }
+    r->count--;
+}
+
+static int plod__same_point(const plod_refiner *r, const plod_sector *a, int ka,
+                            const plod_sector *b, int kb)
+{
+    int32_t pa[3], pb[3];
+    plod__canon(r, a->face, a->cu[ka], a->cv[ka], pa);
+    plod__canon(r, b->face, b->cu[kb], b->cv[kb], pb);
+    return plod__key_eq(pa, pb);
+}
+
+/* Tries to merge the diamond whose child-0 leaf is at index ia.  Returns 1
+ * if merged (leaves[ia] then holds the restored parent). */
+static int plod__try_merge(plod_refiner *r, size_t ia)
+{
+    const plod_sector *a = &r->leaves[ia];
+    if (a->level == 0 || (a->id & 1))
+        return 0;
+    int level = a->level;
+    if (!plod__allows_merge(r, &r->geom[ia].parent, level - 1))
+        return 0;
+    int32_t ib = plod__across(r, ia, 0), ic = plod__across(r, ia, 1);
+    if (ib < 0 || ic < 0)
+        return 0;
+    const plod_sector *b = &r->leaves[ib], *c = &r->leaves[ic];
+    if (b->level != level || c->level != level || (a->id ^ b->id) != 1)
+        return 0;
+    if (!plod__same_point(r, a, 1, c, 1))
+        return 0; /* c is not the partner parent's child (it is split) */
+    int32_t id_ = plod__across(r, (size_t)ib, 0);
+    if (id_ < 0)
+        return 0;
+    const plod_sector *d = &r->leaves[id_];
+    if (d->level != level || (c->id ^ d->id) != 1 || !plod__same_point(r, a, 1, d, 1))
+        return 0;
+    if (!plod__allows_merge(r, &r->geom[ic].parent, level - 1))
+        return 0;
+
+    plod_sector p, q;
+    plod__parent(a, &p);
+    plod__parent(c, &q);
+    plod__bound pb = r->geom[ia].parent, qb = r->geom[ic].parent;
+    uint32_t birth = r->frame;
+    p.birth = q.birth = birth;
+    plod__apply_bound(&p, &pb);
+    plod__apply_bound(&q, &qb);
+    plod__geom gp = {.self = pb, .parent = pb, .eval_frame = r->frame - 1};
+    plod__geom gq = {.self = qb, .parent = qb, .eval_frame = r->frame - 1};
+    if (p.level > 0) {
+        plod_sector gpp;
+        plod__parent(&p, &gpp);
+        plod__compute_bound(r, &gpp, &gp.parent);
+        plod__parent(&q, &gpp);
+        plod__compute_bound(r, &gpp, &gq.parent);
+    }
+    size_t ia_ = ia, ib_ = (size_t)ib, ic_ = (size_t)ic, id2 = (size_t)id_;
+    plod__leaf_unlink(r, ia_);
+    plod__leaf_unlink(r, ic_);
+    r->leaves[ia_] = p;
+    r->geom[ia_] = gp;
+    r->leaves[ic_] = q;
+    r->geom[ic_] = gq;
+    plod__leaf_link(r, ia_);
+    plod__leaf_link(r, ic_);
+    size_t hi = ib_ > id2 ? ib_ : id2, lo = ib_ > id2 ? id2 : ib_;
+    plod__remove_leaf(r, hi);
+    plod__remove_leaf(r, lo);
+    r->merges += 2;
+    return 1;
+}
+
+/* ---- create / reset ---------------------------------------------------------- */
+
+static void plod__add_base(plod_refiner *r, unsigned base, int face,
+                           const int32_t cu[3], const int32_t cv[3])
+{
+    size_t at = r->count++;
+    plod_sector *s = &r->leaves[at];
+    memset(s, 0, sizeof *s);
+    s->id = (uint64_t)base << PLOD__BASE_SHIFT | 1u;
+    s->face = (uint8_t)face;
+    s->level = 0;
+    s->birth = r->frame;
+    for (int k = 0; k < 3; k++) {
+        s->cu[k] = cu[k];
+        s->cv[k] = cv[k];
+    }
+    plod__geom *g = &r->geom[at];
+    memset(g, 0, sizeof *g);
+    plod__compute_bound(r, s, &g->self);
+    g->parent = g->self;
+    g->eval_frame = r->frame - 1;
+    plod__apply_bound(s, &g->self);
+    plod__leaf_link(r, at);
+}
+
+static plod_status plod__build_base(plod_refiner *r)
+{
+    r->count = 0;
+    r->edge_used = 0;
+    if (r->edges)
+        for (size_t i = 0; i <= r->edge_mask; i++)
+            r->edges[i].leaf[0] = r->edges[i].leaf[1] = -1;
+    plod_status st = plod__reserve(r, 12);
+    if (st != PLOD_OK)
+        return st;
+    const int32_t O = PLOD__ONE;
+    if (plod_projection_is_cube(r->planet->projection)) {
+        for (int f = 0; f < 6; f++) {
+            const int32_t au[3] = {-O, O, O}, av[3] = {-O, -O, O};
+            const int32_t bu[3] = {O, -O, -O}, bv[3] = {O, O, -O};
+            plod__add_base(r, (unsigned)(2 * f), f, au, av);
+            plod__add_base(r, (unsigned)(2 * f + 1), f, bu, bv);
+        }
+    } else {
+        unsigned base = 0;
+        for (int q = 0; q < 4; q++) {
+            int32_t su = (q & 1) ? -O : O, sv = (q & 2) ? -O : O;
+            /* counter-clockwise when su * sv > 0; else swap the ends */
+            int flip = (su > 0) != (sv > 0);
+            int32_t iu[3] = {0, 0, su}, iv[3] = {sv, 0, 0};
+            int32_t ou[3] = {su, su, 0}, ov[3] = {0, sv, sv};
+            if (flip) {
+                int32_t t;
+                t = iu[0]; iu[0] = iu[2]; iu[2] = t;
+                t = iv[0]; iv[0] = iv[2]; iv[2] = t;
+                t = ou[0]; ou[0] = ou[2]; ou[2] = t;
+                t = ov[0]; ov[0] = ov[2]; ov[2] = t;
+            }
+            plod__add_base(r, base++, 0, iu, iv);
+            plod__add_base(r, base++, 0, ou, ov);
+        }
+    }
+    return PLOD_OK;
+}
+
+plod_status plod_refiner_create(plod_refiner **out, const plod_planet *planet)
+{
+    if (!out)
+        return PLOD_ERR_NULL;
+    *out = NULL;
+    plod_status st = plod_planet_check(planet);
+    if (st != PLOD_OK)
+        return st;
+    plod_refiner *r = calloc(1, sizeof *r);
+    if (!r)
+        return PLOD_ERR_NO_MEMORY;
+    r->planet = planet;
+    r->frame = 1;
+    r->texels_per_unit =
+        planet->heightmap ? 0.5 * plod_cubemap_size(planet->heightmap) : 0.0;
+    plod_planet_height_range(planet, &r->global_hmin, &r->global_hmax);
+    st = plod__build_base(r);
+    if (st != PLOD_OK) {
+        plod_refiner_destroy(r);
+        return st;
+    }
+    *out = r;
+    return PLOD_OK;
+}
+
+void plod_refiner_destroy(plod_refiner *refiner)
+{
+    if (!refiner)
+        return;
+    free(refiner->leaves);
+    free(refiner->geom);
+    free(refiner->edges);
+    free(refiner);
+}
+
+void plod_refiner_reset(plod_refiner *refiner)
+{
+    if (!refiner)
+        return;
+    refiner->frame++;
+    plod_status st = plod__build_base(refiner);
+    (void)st; /* capacity for 12 leaves exists since create */
+}
+
+const plod_sector *plod_refiner_sectors(const plod_refiner *refiner, size_t *count)
+{
+    if (count)
+        *count = refiner ? refiner->count : 0;
+    return refiner ? refiner->leaves : NULL;
+}
+
+void plod_refine_params_default(plod_refine_params *params)
+{
+    memset(params, 0, sizeof *params);
+    params->criterion = PLOD_CRITERION_PIXEL_ERROR;
+    params->max_pixel_error = 1.0;
+    params->split_border = 0.5;
+    params->merge_border = 0.25;
+    params->hysteresis = 0;
+    params->template_level = 4;
+    params->max_level = 48;
+    params->budget = 0;
+    params->backface_culling = 1;
+    params->frustum_culling = 1;
+    params->skip_sea = 0;
+    params->max_sectors = PLOD_DEFAULT_MAX_SECTORS;
+}
+
+/* ---- update ------------------------------------------------------------------ */
+
+static double plod__now_us(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec * 1e6 + ts.tv_nsec * 1e-3;
+}
+
+typedef struct plod__rank {
+    double distance;
+    uint64_t id;
+    size_t index;
+} plod__rank;
+
+static int plod__rank_cmp(const void *pa, const void *pb)
+{
+    const plod__rank *a = pa, *b = pb;
+    if (a->distance != b->distance)
+        return a->distance < b->distance ? -1 : 1;
+    return a->id < b->id ? -1 : (a->id > b->id);
+}
+
+static plod_status plod__check_params(const plod_refine_params *p)
+{
+    if ((unsigned)p->criterion > PLOD_CRITERION_SIDE_DISTANCE)
+        return PLOD_ERR_BAD_PARAM;
+    if (!(isfinite(p->max_pixel_error) && p->max_pixel_error > 0))
+        return PLOD_ERR_BAD_PARAM;
+    if (!(isfinite(p->split_border) && p->split_border > 0 &&
+          isfinite(p->merge_border) && p->merge_border > 0 &&
+          p->merge_border <= p->split_border))
+        return PLOD_ERR_BAD_PARAM;
+    if (p->template_level < 0 || p->template_level > 7)
+        return PLOD_ERR_BAD_PARAM;
+    if (p->max_level < 0 || p->max_level > PLOD_MAX_LEVEL)
+        return PLOD_ERR_BAD_PARAM;
+    if (p->max_sectors < 12)
+        return PLOD_ERR_BAD_PARAM;
+    return PLOD_OK;
+}
+
+plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
+                                const plod_refine_params *params,
+                                plod_refine_stats *stats)
+{
+    if (!r || !camera || !params)
+        return PLOD_ERR_NULL;
+    plod_status st = plod__check_params(params);
+    if (st != PLOD_OK)
+        return st;
+    double eye_dist = sqrt(camera->position[0] * camera->position[0] +
+                           camera->position[1] * camera->position[1] +
+                           camera->position[2] * camera->position[2]);
+    if (!isfinite(eye_dist) || !(eye_dist > 1e-6 * r->planet->radius))
+        return PLOD_ERR_BAD_CAMERA; /* at (or numerically at) the centre */
+
+    double t0 = plod__now_us();
+    r->frame++;
+    r->camera = camera;
+    r->params = params;
+    memcpy(r->eye, camera->position, sizeof r->eye);
+    r->eye_dist = eye_dist;
+    r->occluder = r->planet->radius + r->global_hmin;
+    r->eye_horizon_angle =
+        eye_dist > r->occluder
+            ? atan2(sqrt((eye_dist - r->occluder) * (eye_dist + r->occluder)),
+                    r->occluder)
+            : -1.0;
+    r->merge_ratio = params->merge_border / params->split_border;
+    r->error_scale = ldexp(1.0, -params->template_level);
+    r->max_sectors = params->max_sectors;
+    r->truncated = 0;
+    r->splits = r->merges = 0;
+
+    /* merge pass: every diamond whose parents fail the split predicate */
+    for (int changed = 1; changed;) {
+        changed = 0;
+        for (size_t i = 0; i < r->count;) {
+            if (plod__try_merge(r, i))
+                changed = 1; /* retry the restored parent at i */
+            else
+                i++;
+        }
+    }
+    /* split pass: until every leaf is stable */
+    for (int changed = 1; changed && !r->truncated;) {
+        changed = 0;
+        for (size_t i = 0; i < r->count && !r->truncated;) {
+            if (plod__leaf_wants_split(r, i)) {
+                size_t before = r->splits;
+                plod__split(r, i);
+                if (r->splits == before)
+                    i++; /* at PLOD_MAX_LEVEL or truncated */
+                else
+                    changed = 1;
+            } else {
+                i++;
+            }
+        }
+    }
+    double t1 = plod__now_us();
+
+    /* culling and statistics */
+    plod_refine_stats s;
+    memset(&s, 0, sizeof s);
+    size_t visible = 0;
+    int deepest = 0;
+    for (size_t i = 0; i < r->count; i++) {
+        plod_sector *sec = &r->leaves[i];
+        plod__leaf_wants_split(r, i); /* fills the cached cull flags */
+        unsigned flags = r->geom[i].eval_flags;
+        deepest = sec->level > deepest ? sec->level : deepest;
+        if (flags & PLOD_SECTOR_BACKFACING) {
+            sec->flags = (uint16_t)flags;
+            continue;
+        }
+        s.sectors_after_backface++;
+        if (flags & PLOD_SECTOR_OUTSIDE_FRUSTUM) {
+            sec->flags = (uint16_t)flags;
+            continue;
+        }
+        s.sectors_after_frustum++;
+        if (r->planet->has_sea_level && sec->height_max <= r->planet->sea_level) {
+            flags |= PLOD_SECTOR_SEA;
+            if (params->skip_sea) {
+                s.sectors_sea_skipped++;
+                sec->flags = (uint16_t)flags;
+                continue;
+            }
+        }
+        sec->flags = (uint16_t)(flags | PLOD_SECTOR_VISIBLE);
+        visible++;
+    }
+    if (params->budget > 0 && visible > params->budget) {
+        plod__rank *ranks = malloc(visible * sizeof *ranks);
+        if (!ranks)
+            return PLOD_ERR_NO_MEMORY;
+        size_t k = 0;
+        for (size_t i = 0; i < r->count; i++)
+            if (r->leaves[i].flags & PLOD_SECTOR_VISIBLE)
+                ranks[k++] = (plod__rank){r->geom[i].eval_distance, r->leaves[i].id, i};
+        qsort(ranks, visible, sizeof *ranks, plod__rank_cmp);
+        for (size_t j = params->budget; j < visible; j++) {
+            plod_sector *sec = &r->leaves[ranks[j].index];
+            sec->flags = (uint16_t)((sec->flags & ~PLOD_SECTOR_VISIBLE) |
+                                    PLOD_SECTOR_OVER_BUDGET);
+        }
+        free(ranks);
+        visible = params->budget;
+    }
+    double t2 = plod__now_us();
+    s.sectors_total = r->count;
+    s.sectors_after_budget = visible;
+    s.splits = r->splits;
+    s.merges = r->merges;
+    s.refine_us = t1 - t0;
+    s.cull_us = t2 - t1;
+    s.max_level_reached = deepest;
+    s.truncated = r->truncated;
+    s.frame = r->frame;
+    r->camera = NULL;
+    r->params = NULL;
+    if (stats)
+        *stats = s;
+    return PLOD_OK;
+}
+
+/* ---- horizon-distance correction ---------------------------------------------- */
+
+void plod_recommended_clip(const plod_planet *planet, const plod_camera *camera,
+                           double *clip_start, double *clip_end)
+{
+    double hmin, hmax;
+    plod_planet_height_range(planet, &hmin, &hmax);
+    const double *p = camera->position;
+    double dist = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+    double top = planet->radius + hmax, rho = planet->radius + hmin;
+    double corner = 1.0;
+    if (!camera->desc.orthographic) {
+        double tx = fmax(fabs(camera->tan_left), fabs(camera->tan_right));
+        double ty = fmax(fabs(camera->tan_bottom), fabs(camera->tan_top));
+        corner = 1.0 / sqrt(1.0 + tx * tx + ty * ty);
+    }
+    /* nearest terrain is at least (dist - top) away; depth >= distance *
+     * cos(corner angle) inside the frustum */
+    double clearance = dist - top;
+    double near_ = clearance > 0 ? 0.9 * clearance * corner : 0.0;
+    double floor_ = fmax(1e-3, 1e-7 * planet->radius);
+    if (clearance <= 0)
+        floor_ = 1e-3;
+    if (near_ < floor_)
+        near_ = floor_;
+    /* farthest visible terrain: the horizon of the occluder ball plus the
+     * distance at which the highest peak still rises above it */
+    double far_;
+    if (dist > rho) {
+        double horizon = sqrt((dist - rho) * (dist + rho));
+        double beyond = sqrt((top - rho) * (top + rho));
+        far_ = (horizon + beyond) * 1.01;
+    } else {
+        far_ = (dist + top) * 1.01;
+    }
+    if (far_ <= near_)
+        far_ = near_ * 2.0;
+    *clip_start = near_;
+    *clip_end = far_;
+}

@@ -1,0 +1,601 @@
+/* resample.c -- the CubeResampler (equirectangular image -> cube map), the
+ * cross layout, and pixel/channel conversions between images and cube maps.
+ *
+ * Source convention (CAR image, W x H, rows top to bottom): pixel (c, r) is
+ * centred at lon = -180 + (c + 0.5) * 360 / W, lat = 90 - (r + 0.5) * 180 / H.
+ * Taps wrap in longitude; a row beyond a pole reflects across it: row -1 is
+ * row 0 at lon + 180 (column + W/2), row H is row H-1 at lon + 180.
+ *
+ * Filters: nearest; bilinear (default); bicubic = Catmull-Rom 4x4, its
+ * result clamped per channel to the min/max of the central 2x2 taps so it
+ * never overshoots (heights: no ringing below sea level or above peaks; a
+ * texel whose 2x2 source taps are all 0 stays exactly 0).
+ *
+ * Speed: every cube projection maps faces 1..4 onto each other by a 90 deg
+ * turn about +Z (checked from the face frames); for those only face 1's
+ * texel -> source position is computed (one face_to_dir + atan2 + asin per
+ * texel) and reused with a longitude shift of W/4.  Work is split into
+ * chunks of rows taken by up to `threads` threads from one atomic counter;
+ * each texel is written by exactly one thread from the same inputs, so the
+ * output does not depend on the thread count.  Only the calling thread
+ * invokes the progress callback.
+ *
+ * Cross layout (FITS, x = phi_c + 45 chi, y = theta_c + 45 psi): an image of
+ * 4N x 3N; faces 1, 2, 3, 4 left to right in the middle band, face 0 above
+ * face 1, face 5 below it; in each cell u runs right and v up.
+ */
+#include "plod_resample.h"
+
+#include <assert.h>
+#include <math.h>
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define PLOD__PI 3.14159265358979323846
+#define PLOD__CHUNK_ROWS 8
+
+/* ======================================================================== */
+/* names                                                                    */
+/* ======================================================================== */
+
+plod_status plod_filter_from_name(const char *name, plod_filter *out)
+{
+    static const char *const names[PLOD_FILTER_COUNT] = {"nearest", "bilinear", "bicubic"};
+    if (!name || !out)
+        return PLOD_ERR_NULL;
+    for (int f = 0; f < PLOD_FILTER_COUNT; f++) {
+        if (strcmp(name, names[f]) == 0) {
+            *out = (plod_filter)f;
+            return PLOD_OK;
+        }
+    }
+    return PLOD_ERR_BAD_PARAM;
+}
+
+/* ======================================================================== */
+/* pixel access                                                             */
+/* ======================================================================== */
+
+static double plod__read_norm(plod_texel_type type, const void *pixels, size_t index)
+{
+    switch (type) {
+    case PLOD_TEXEL_U8: return ((const uint8_t *)pixels)[index] * (1.0 / 255.0);
+    case PLOD_TEXEL_U16: return ((const uint16_t *)pixels)[index] * (1.0 / 65535.0);
+    default: return ((const float *)pixels)[index];
+    }
+}
+
+static void plod__write_norm(plod_texel_type type, void *pixels, size_t index, double value)
+{
+    switch (type) {
+    case PLOD_TEXEL_U8: {
+        double q = value * 255.0 + 0.5;
+        ((uint8_t *)pixels)[index] = (uint8_t)(q <= 0.0 ? 0.0 : q >= 255.0 ? 255.0 : q);
+        break;
+    }
+    case PLOD_TEXEL_U16: {
+        double q = value * 65535.0 + 0.5;
+        ((uint16_t *)pixels)[index] = (uint16_t)(q <= 0.0 ? 0.0 : q >= 65535.0 ? 65535.0 : q);
+        break;
+    }
+    default:
+        ((float *)pixels)[index] = (float)value;
+        break;
+    }
+}
+
+/* Channel map from `from` source channels to `to` destination channels:
+ * map[c] is the source channel, or -1 for an opaque alpha (1.0).  Grey is
+ * replicated into RGB, missing alpha is opaque, extra channels dropped. */
+static void plod__channel_map(int from, int to, int map[4])
+{
+    for (int c = 0; c < 4; c++)
+        map[c] = c < from ? c : -1;
+    if (to == from)
+        return;
+    int has_alpha_to = to == 2 || to == 4;
+    int colour_from = (from == 1 || from == 2) ? 1 : 3;
+    int colour_to = to - has_alpha_to;
+    for (int c = 0; c < colour_to; c++)
+        map[c] = colour_from == 1 ? 0 : (c < colour_from ? c : 0);
+    if (has_alpha_to)
+        map[to - 1] = (from == 2 || from == 4) ? from - 1 : -1;
+}
+
+/* ======================================================================== */
+/* resampler                                                                */
+/* ======================================================================== */
+
+typedef struct plod__resample_job {
+    plod_cubemap *cubemap;
+    const plod_image *source;
+    plod_filter filter;
+    int channel_map[4];
+    int rotated_equator; /* faces 1..4 are face 1 turned by 90 deg steps */
+    int n;               /* face size */
+    int rows_total;      /* rows in the job list */
+    int chunks_total;
+    double weight_total;
+    atomic_int next_chunk;
+    atomic_int cancel;
+    atomic_int failed;
+    atomic_long done_weight; /* in face rows */
+    void *faces[PLOD_FACE_COUNT];
+} plod__resample_job;
+
+/* Source tap rows/columns for one coordinate, wrapping/reflecting. */
+static void plod__source_tap(const plod_image *src, long col, long row, long *out_col,
+                             long *out_row)
+{
+    long w = src->width, h = src->height;
+    if (row < 0 || row >= h) {
+        row = row < 0 ? -1 - row : 2 * h - 1 - row;
+        col += w / 2;
+        if (row < 0)
+            row = 0;
+        if (row >= h)
+            row = h - 1;
+    }
+    col %= w;
+    if (col < 0)
+        col += w;
+    *out_col = col;
+    *out_row = row;
+}
+
+static void plod__tap(const plod_image *src, long col, long row, const int *map, int channels,
+                      double *out)
+{
+    long c, r;
+    plod__source_tap(src, col, row, &c, &r);
+    size_t base = ((size_t)r * (size_t)src->width + (size_t)c) * (size_t)src->channels;
+    for (int k = 0; k < channels; k++)
+        out[k] = map[k] < 0 ? 1.0 : plod__read_norm(src->type, src->pixels, base + (size_t)map[k]);
+}
+
+static void plod__catmull_rom(double t, double w[4])
+{
+    double t2 = t * t, t3 = t2 * t;
+    w[0] = 0.5 * (-t3 + 2.0 * t2 - t);
+    w[1] = 0.5 * (3.0 * t3 - 5.0 * t2 + 2.0);
+    w[2] = 0.5 * (-3.0 * t3 + 4.0 * t2 + t);
+    w[3] = 0.5 * (t3 - t2);
+}
+
+/* Filtered source value at continuous pixel coordinates (x, y) (pixel
+ * centres at integers), into out[channels]. */
+static void plod__filter_source(const plod__resample_job *job, double x, double y, double *out)
+{
+    const plod_image *src = job->source;
+    int channels = plod_cubemap_channels(job->cubemap);
+    const int *map = job->channel_map;
+    if (job->filter == PLOD_FILTER_NEAREST) {
+        plod__tap(src, (long)floor(x + 0.5), (long)floor(y + 0.5), map, channels, out);
+        return;
+    }
+    double fx = floor(x), fy = floor(y);
+    long x0 = (long)fx, y0 = (long)fy;
+    double tx = x - fx, ty = y - fy;
+    double t00[4], t10[4], t01[4], t11[4];
+    plod__tap(src, x0, y0, map, channels, t00);
+    plod__tap(src, x0 + 1, y0, map, channels, t10);
+    plod__tap(src, x0, y0 + 1, map, channels, t01);
+    plod__tap(src, x0 + 1, y0 + 1, map, channels, t11);
+    if (job->filter == PLOD_FILTER_BILINEAR) {
+        for (int k = 0; k < channels; k++) {
+            double top = t00[k] + tx * (t10[k] - t00[k]);
+            double bottom = t01[k] + tx * (t11[k] - t01[k]);
+            out[k] = top + ty * (bottom - top);
+        }
+        return;
+    }
+    double wx[4], wy[4], acc[4] = {0.0, 0.0, 0.0, 0.0};
+    plod__catmull_rom(tx, wx);
+    plod__catmull_rom(ty, wy);
+    for (int dy = 0; dy < 4; dy++) {
+        double row[4] = {0.0, 0.0, 0.0, 0.0};
+        for (int dx = 0; dx < 4; dx++) {
+            double tap[4];
+            plod__tap(src, x0 - 1 + dx, y0 - 1 + dy, map, channels, tap);
+            for (int k = 0; k < channels; k++)
+                row[k] += wx[dx] * tap[k];
+        }
+        for (int k = 0; k < channels; k++)
+            acc[k] += wy[dy] * row[k];
+    }
+    for (int k = 0; k < channels; k++) {
+        double lo = fmin(fmin(t00[k], t10[k]), fmin(t01[k], t11[k]));
+        double hi = fmax(fmax(t00[k], t10[k]), fmax(t01[k], t11[k]));
+        out[k] = acc[k] < lo ? lo : acc[k] > hi ? hi : acc[k];
+    }
+}
+
+/* Source pixel coordinates of a direction. */
+static void plod__dir_to_source(const plod_image *src, const double d[3], double *x, double *y)
+{
+    double lon = atan2(d[1], d[0]);
+    double lat = atan2(d[2], hypot(d[0], d[1]));
+    *x = (lon + PLOD__PI) * (src->width / (2.0 * PLOD__PI)) - 0.5;
+    *y = (0.5 * PLOD__PI - lat) * (src->height / PLOD__PI) - 0.5;
+}
+
+static void plod__store(const plod__resample_job *job, int face, int i, int j,
+                        const double *value)
+{
+    const plod_cubemap *m = job->cubemap;
+    int channels = plod_cubemap_channels(m);
+    size_t index = ((size_t)j * (size_t)plod_cubemap_face_width(m) + (size_t)i) * (size_t)channels;
+    for (int k = 0; k < channels; k++)
+        plod__write_norm(plod_cubemap_texel_type(m), job->faces[face], index + (size_t)k, value[k]);
+}
+
+/* Job row r: for a cube map with rotated_equator, rows [0, n) are the
+ * equator band (faces 1..4, row r), [n, 2n) face 0, [2n, 3n) face 5;
+ * otherwise rows [f*n, (f+1)*n) are face f.  CAR: rows of face 0. */
+static int plod__row_weight(const plod__resample_job *job, int r)
+{
+    return job->rotated_equator && r < job->n ? 4 : 1;
+}
+
+static plod_status plod__resample_row(plod__resample_job *job, int r, double *sx, double *sy)
+{
+    plod_cubemap *m = job->cubemap;
+    const plod_image *src = job->source;
+    int n = job->n;
+    double value[4];
+    if (plod_cubemap_face_count(m) == 1) {
+        /* CAR target: separable lon per column, lat per row. */
+        int w = plod_cubemap_face_width(m);
+        double lat = -0.5 * PLOD__PI + (r + 0.5) * PLOD__PI / n;
+        double y = (0.5 * PLOD__PI - lat) * (src->height / PLOD__PI) - 0.5;
+        for (int i = 0; i < w; i++) {
+            double lon = -PLOD__PI + (i + 0.5) * 2.0 * PLOD__PI / w;
+            double x = (lon + PLOD__PI) * (src->width / (2.0 * PLOD__PI)) - 0.5;
+            plod__filter_source(job, x, y, value);
+            plod__store(job, 0, i, r, value);
+        }
+        return PLOD_OK;
+    }
+    int face, j;
+    if (job->rotated_equator) {
+        face = r < n ? 1 : r < 2 * n ? 0 : 5;
+        j = r % n;
+    } else {
+        face = r / n;
+        j = r % n;
+    }
+    plod_projection projection = plod_cubemap_projection(m);
+    double v = -1.0 + (j + 0.5) * 2.0 / n;
+    for (int i = 0; i < n; i++) {
+        double u = -1.0 + (i + 0.5) * 2.0 / n;
+        double d[3];
+        plod_status s = plod_face_to_dir(projection, face, u, v, d);
+        if (s != PLOD_OK)
+            return s;
+        plod__dir_to_source(src, d, &sx[i], &sy[i]);
+    }
+    int copies = (job->rotated_equator && face == 1) ? 4 : 1;
+    for (int k = 0; k < copies; k++) {
+        double shift = k * (src->width / 4.0);
+        for (int i = 0; i < n; i++) {
+            plod__filter_source(job, sx[i] + shift, sy[i], value);
+            plod__store(job, face + k, i, j, value);
+        }
+    }
+    return PLOD_OK;
+}
+
+/* Takes chunks until none is left; the caller thread (report != 0) calls
+ * the progress callback. */
+static void plod__resample_work(plod__resample_job *job, int report, plod_progress_fn progress,
+                                void *user)
+{
+    size_t width = (size_t)plod_cubemap_face_width(job->cubemap);
+    double *sx = malloc(width * sizeof *sx);
+    double *sy = malloc(width * sizeof *sy);
+    if (!sx || !sy) {
+        free(sx);
+        free(sy);
+        atomic_store(&job->failed, PLOD_ERR_NO_MEMORY);
+        atomic_store(&job->cancel, 1);
+        return;
+    }
+    double last_reported = 0.0;
+    for (;;) {
+        if (atomic_load(&job->cancel))
+            break;
+        int chunk = atomic_fetch_add(&job->next_chunk, 1);
+        if (chunk >= job->chunks_total)
+            break;
+        int r0 = chunk * PLOD__CHUNK_ROWS;
+        int r1 = r0 + PLOD__CHUNK_ROWS < job->rows_total ? r0 + PLOD__CHUNK_ROWS : job->rows_total;
+        long weight = 0;
+        for (int r = r0; r < r1; r++) {
+            plod_status s = plod__resample_row(job, r, sx, sy);
+            if (s != PLOD_OK) {
+                atomic_store(&job->failed, s);
+                atomic_store(&job->cancel, 1);
+                break;
+            }
+            weight += plod__row_weight(job, r);
+        }
+        long done = atomic_fetch_add(&job->done_weight, weight) + weight;
+        if (report && progress) {
+            double fraction = done / job->weight_total;
+            if (fraction - last_reported >= 0.02 && fraction < 1.0) {
+                last_reported = fraction;
+                if (progress(user, fraction))
+                    atomic_store(&job->cancel, 1);
+            }
+        }
+    }
+    free(sx);
+    free(sy);
+}
+
+static void *plod__resample_thread(void *arg)
+{
+    plod__resample_work((plod__resample_job *)arg, 0, NULL, NULL);
+    return NULL;
+}
+
+/* Faces 1..4 = face 1 turned by (f - 1) * 90 deg about +Z? */
+static int plod__equator_rotates(const plod_cubemap *m)
+{
+    plod_projection p = plod_cubemap_projection(m);
+    const double probes[3][2] = {{0.3, -0.7}, {-0.9, 0.2}, {1.0, 1.0}};
+    for (int q = 0; q < 3; q++) {
+        double d1[3];
+        if (plod_face_to_dir(p, 1, probes[q][0], probes[q][1], d1) != PLOD_OK)
+            return 0;
+        double x = d1[0], y = d1[1];
+        for (int k = 1; k < 4; k++) {
+            double d[3];
+            if (plod_face_to_dir(p, 1 + k, probes[q][0], probes[q][1], d) != PLOD_OK)
+                return 0;
+            double rx = x, ry = y; /* rotate (x, y) by k * 90 deg */
+            for (int t = 0; t < k; t++) {
+                double nx = -ry;
+                ry = rx;
+                rx = nx;
+            }
+            if (fabs(d[0] - rx) > 1e-12 || fabs(d[1] - ry) > 1e-12 || fabs(d[2] - d1[2]) > 1e-12)
+                return 0;
+        }
+    }
+    return 1;
+}
+
+plod_status plod_resample_car_to_cube_threads(plod_cubemap *cubemap, const plod_image *source,
+                                              plod_filter filter, int threads,
+                                              plod_progress_fn progress, void *user)
+{
+    if (!cubemap || !source || !source->pixels)
+        return PLOD_ERR_NULL;
+    if ((unsigned)filter >= PLOD_FILTER_COUNT || source->width < 1 || source->height < 1 ||
+        source->channels < 1 || source->channels > 4 ||
+        (unsigned)source->type >= PLOD_TEXEL_TYPE_COUNT)
+        return PLOD_ERR_BAD_PARAM;
+    if (threads < 1)
+        threads = 1;
+    if (threads > 16)
+        threads = 16;
+    plod__resample_job *job = calloc(1, sizeof *job);
+    if (!job)
+        return PLOD_ERR_NO_MEMORY;
+    job->cubemap = cubemap;
+    job->source = source;
+    job->filter = filter;
+    job->n = plod_cubemap_size(cubemap);
+    for (int f = 0; f < plod_cubemap_face_count(cubemap); f++)
+        job->faces[f] = plod_cubemap_face_data(cubemap, f);
+    plod__channel_map(source->channels, plod_cubemap_channels(cubemap), job->channel_map);
+    if (plod_cubemap_face_count(cubemap) == 1) {
+        job->rows_total = job->n;
+        job->weight_total = job->n;
+    } else {
+        job->rotated_equator = plod__equator_rotates(cubemap);
+        job->rows_total = job->rotated_equator ? 3 * job->n : 6 * job->n;
+        job->weight_total = 6.0 * job->n;
+    }
+    job->chunks_total = (job->rows_total + PLOD__CHUNK_ROWS - 1) / PLOD__CHUNK_ROWS;
+    atomic_init(&job->next_chunk, 0);
+    atomic_init(&job->cancel, 0);
+    atomic_init(&job->failed, PLOD_OK);
+    atomic_init(&job->done_weight, 0);
+
+    pthread_t workers[15];
+    int started = 0;
+    for (int t = 1; t < threads && t < job->chunks_total; t++) {
+        if (pthread_create(&workers[started], NULL, plod__resample_thread, job) != 0)
+            break; /* fewer threads: same output */
+        started++;
+    }
+    plod__resample_work(job, 1, progress, user);
+    for (int t = 0; t < started; t++)
+        pthread_join(workers[t], NULL);
+
+    plod_status status = (plod_status)atomic_load(&job->failed);
+    if (status == PLOD_OK && atomic_load(&job->cancel))
+        status = PLOD_ERR_CANCELLED;
+    if (status == PLOD_OK && progress && progress(user, 1.0))
+        status = PLOD_ERR_CANCELLED;
+    free(job);
+    if (status == PLOD_OK)
+        status = plod_cubemap_build_pyramid(cubemap);
+    return status;
+}
+
+plod_status plod_resample_car_to_cube(plod_cubemap *cubemap, const plod_image *source,
+                                      plod_filter filter, plod_progress_fn progress, void *user)
+{
+    return plod_resample_car_to_cube_threads(cubemap, source, filter, 2, progress, user);
+}
+
+/* ======================================================================== */
+/* conversions and the cross layout                                         */
+/* ======================================================================== */
+
+/* Copies a w x h block of texels, converting type and channels; rows of the
+ * destination are taken bottom-up from the source when `flip`. */
+static void plod__copy_block(plod_texel_type src_type, const void *src, int src_channels,
+                             size_t src_stride, plod_texel_type dst_type, void *dst,
+                             int dst_channels, size_t dst_stride, int w, int h, int flip)
+{
+    int map[4];
+    plod__channel_map(src_channels, dst_channels, map);
+    for (int y = 0; y < h; y++) {
+        size_t src_row = (size_t)(flip ? h - 1 - y : y) * src_stride;
+        size_t dst_row = (size_t)y * dst_stride;
+        if (src_type == dst_type && src_channels == dst_channels) {
+            size_t bytes = (size_t)w * (size_t)src_channels * plod_image_texel_bytes(src_type);
+            memcpy((char *)dst + dst_row * plod_image_texel_bytes(dst_type),
+                   (const char *)src + src_row * plod_image_texel_bytes(src_type), bytes);
+            continue;
+        }
+        for (int x = 0; x < w; x++) {
+            for (int k = 0; k < dst_channels; k++) {
+                double value = map[k] < 0 ? 1.0
+                                          : plod__read_norm(src_type, src,
+                                                            src_row + (size_t)x * src_channels +
+                                                                (size_t)map[k]);
+                plod__write_norm(dst_type, dst, dst_row + (size_t)x * dst_channels + (size_t)k,
+                                 value);
+            }
+        }
+    }
+}
+
+plod_status plod_image_convert(plod_image *out, const plod_image *image, int channels,
+                               plod_texel_type type)
+{
+    if (!out || !image || !image->pixels)
+        return PLOD_ERR_NULL;
+    plod_status s = plod_image_alloc(out, image->width, image->height, channels, type);
+    if (s != PLOD_OK)
+        return s;
+    plod__copy_block(image->type, image->pixels, image->channels,
+                     (size_t)image->width * (size_t)image->channels, type, out->pixels, channels,
+                     (size_t)image->width * (size_t)channels, image->width, image->height, 0);
+    return PLOD_OK;
+}
+
+/* Cross cell (column, row from the top) of each face. */
+static const int plod__cross_cell[PLOD_FACE_COUNT][2] = {
+    {0, 0}, {0, 1}, {1, 1}, {2, 1}, {3, 1}, {0, 2},
+};
+
+plod_status plod_cubemap_to_image(plod_image *image, const plod_cubemap *cubemap, int layout_cross,
+                                  int face, int channels, plod_texel_type type)
+{
+    if (!image || !cubemap)
+        return PLOD_ERR_NULL;
+    image->pixels = NULL;
+    int n = plod_cubemap_size(cubemap);
+    int fw = plod_cubemap_face_width(cubemap);
+    int cube = plod_cubemap_face_count(cubemap) == PLOD_FACE_COUNT;
+    if (channels < 1 || channels > 4 || (unsigned)type >= PLOD_TEXEL_TYPE_COUNT)
+        return PLOD_ERR_BAD_PARAM;
+    if (layout_cross && !cube)
+        layout_cross = 0, face = 0; /* a CAR map is its own layout */
+    if (!layout_cross && (face < 0 || face >= plod_cubemap_face_count(cubemap)))
+        return PLOD_ERR_BAD_PARAM;
+    if ((size_t)n > (size_t)INT32_MAX / 4)
+        return PLOD_ERR_BAD_PARAM;
+    plod_status s = layout_cross ? plod_image_alloc(image, 4 * n, 3 * n, channels, type)
+                                 : plod_image_alloc(image, fw, n, channels, type);
+    if (s != PLOD_OK)
+        return s;
+    int src_channels = plod_cubemap_channels(cubemap);
+    size_t dst_stride = (size_t)image->width * (size_t)channels;
+    int first = layout_cross ? 0 : face;
+    int last = layout_cross ? PLOD_FACE_COUNT - 1 : face;
+    for (int f = first; f <= last; f++) {
+        size_t offset = 0;
+        if (layout_cross)
+            offset = (size_t)plod__cross_cell[f][1] * (size_t)n * dst_stride +
+                     (size_t)plod__cross_cell[f][0] * (size_t)n * (size_t)channels;
+        /* face rows run along +v, image rows top-down: flip */
+        plod__copy_block(plod_cubemap_texel_type(cubemap), plod_cubemap_face_data_const(cubemap, f),
+                         src_channels, (size_t)fw * (size_t)src_channels, type,
+                         (char *)image->pixels + offset * plod_image_texel_bytes(type), channels,
+                         dst_stride, fw, n, 1);
+    }
+    return PLOD_OK;
+}
+
+plod_status plod_cubemap_to_cross(plod_image *image, const plod_cubemap *cubemap)
+{
+    if (!cubemap)
+        return PLOD_ERR_NULL;
+    return plod_cubemap_to_image(image, cubemap, 1, 0, plod_cubemap_channels(cubemap),
+                                 plod_cubemap_texel_type(cubemap));
+}
+
+plod_status plod_cubemap_face_to_image(plod_image *image, const plod_cubemap *cubemap, int face)
+{
+    if (!cubemap)
+        return PLOD_ERR_NULL;
+    return plod_cubemap_to_image(image, cubemap, 0, face, plod_cubemap_channels(cubemap),
+                                 plod_cubemap_texel_type(cubemap));
+}
+
+plod_status plod_cubemap_from_cross(plod_cubemap **out, const plod_image *cross,
+                                    plod_projection projection)
+{
+    if (!out || !cross || !cross->pixels)
+        return PLOD_ERR_NULL;
+    *out = NULL;
+    if (!plod_projection_is_cube(projection))
+        return PLOD_ERR_BAD_PROJECTION;
+    if (cross->width < 4 || cross->width % 4 != 0 || cross->width / 4 * 3 != cross->height)
+        return PLOD_ERR_BAD_IMAGE;
+    int n = cross->width / 4;
+    plod_cubemap *m;
+    plod_status s = plod_cubemap_create(&m, projection, n, cross->channels, cross->type);
+    if (s != PLOD_OK)
+        return s;
+    size_t stride = (size_t)cross->width * (size_t)cross->channels;
+    for (int f = 0; f < PLOD_FACE_COUNT; f++) {
+        size_t offset = (size_t)plod__cross_cell[f][1] * (size_t)n * stride +
+                        (size_t)plod__cross_cell[f][0] * (size_t)n * (size_t)cross->channels;
+        plod__copy_block(cross->type, (const char *)cross->pixels + offset * plod_image_texel_bytes(cross->type),
+                         cross->channels, stride, cross->type, plod_cubemap_face_data(m, f),
+                         cross->channels, (size_t)n * (size_t)cross->channels, n, n, 1);
+    }
+    s = plod_cubemap_build_pyramid(m);
+    if (s != PLOD_OK) {
+        plod_cubemap_destroy(m);
+        return s;
+    }
+    *out = m;
+    return PLOD_OK;
+}
+
+plod_status plod_cubemap_from_car_image(plod_cubemap **out, const plod_image *image)
+{
+    if (!out || !image || !image->pixels)
+        return PLOD_ERR_NULL;
+    *out = NULL;
+    if (image->width != 2 * image->height)
+        return PLOD_ERR_BAD_IMAGE;
+    plod_cubemap *m;
+    plod_status s = plod_cubemap_create(&m, PLOD_PROJ_CAR, image->height, image->channels,
+                                        image->type);
+    if (s != PLOD_OK)
+        return s;
+    size_t stride = (size_t)image->width * (size_t)image->channels;
+    plod__copy_block(image->type, image->pixels, image->channels, stride, image->type,
+                     plod_cubemap_face_data(m, 0), image->channels, stride, image->width,
+                     image->height, 1);
+    s = plod_cubemap_build_pyramid(m);
+    if (s != PLOD_OK) {
+        plod_cubemap_destroy(m);
+        return s;
+    }
+    *out = m;
+    return PLOD_OK;
+}

@@ -1,0 +1,311 @@
+"""Mesh stage through Python: planetlod.Mesh buffers, watertightness after
+welding, threads, origin, uv seams, geomorphing, the instanced form, and the
+full path Planet.refine() -> Planet.mesh() once the refiner is present.
+
+numpy is used only here, to weld and count edges.
+"""
+import math
+
+import numpy as np
+import pytest
+
+from conftest import data_path
+
+
+# ---- hand-made conforming sectors -----------------------------------------
+
+def normalise(v):
+    v = np.asarray(v, dtype=np.float64)
+    return v / np.sqrt(v[..., 0] * v[..., 0] + v[..., 1] * v[..., 1] + v[..., 2] * v[..., 2])[..., None]
+
+
+def cube_sectors():
+    """12 base sectors (two per face on the diagonal p0-p2), CCW from outside."""
+    sectors, faces = [], []
+    for face in range(6):
+        axis, sign = face % 3, (1.0 if face < 3 else -1.0)
+        n = np.zeros(3); n[axis] = sign
+        u = np.zeros(3); u[(axis + 1) % 3] = 1.0
+        v = np.cross(n, u)
+        p = [normalise(n + su * u + sv * v) for su, sv in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+        sectors += [[p[0], p[1], p[2]], [p[2], p[3], p[0]]]
+        faces += [face, face]
+    return np.array(sectors), np.array(faces), np.zeros(len(faces))
+
+
+def bisect_all(sectors, faces, levels):
+    """Uniform longest-edge bisection (edge 0-2), children CCW, apex at 1."""
+    c0, c1, c2 = sectors[:, 0], sectors[:, 1], sectors[:, 2]
+    m = normalise(c0 + c2)
+    left = np.stack([c1, m, c0], axis=1)
+    right = np.stack([c2, m, c1], axis=1)
+    return (np.concatenate([left, right]), np.concatenate([faces, faces]),
+            np.concatenate([levels + 1, levels + 1]))
+
+
+def uniform_sectors(bisections):
+    s, f, l = cube_sectors()
+    for _ in range(bisections):
+        s, f, l = bisect_all(s, f, l)
+    return s, f, l
+
+
+def emit(planetlod, sectors, faces=None, levels=None, **kw):
+    return planetlod._mesh_from_corners(
+        sectors.reshape(-1).tolist(), kw.pop("radius", 1000.0),
+        levels=None if levels is None else levels.tolist(),
+        faces=None if faces is None else faces.tolist(), **kw)
+
+
+def arrays(mesh):
+    return (np.frombuffer(mesh.positions, dtype=np.float32).reshape(-1, 3),
+            np.frombuffer(mesh.triangles, dtype=np.int32).reshape(-1, 3))
+
+
+def edge_report(positions, triangles):
+    """(boundary edges, non-manifold edges, flipped edges, euler) after welding
+    equal float32 positions."""
+    _, remap = np.unique(positions, axis=0, return_inverse=True)
+    remap = remap.reshape(-1)
+    tri = remap[triangles]
+    assert np.all(tri[:, 0] != tri[:, 1]) and np.all(tri[:, 1] != tri[:, 2]) \
+        and np.all(tri[:, 2] != tri[:, 0]), "degenerate triangle after welding"
+    directed = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+    undirected = np.sort(directed, axis=1)
+    _, counts = np.unique(undirected, axis=0, return_counts=True)
+    _, dcounts = np.unique(directed, axis=0, return_counts=True)
+    boundary = int(np.sum(counts == 1))
+    nonmanifold = int(np.sum(counts > 2))
+    flipped = int(np.sum(dcounts > 1))
+    euler = remap.max() + 1 - len(counts) + len(tri)
+    return boundary, nonmanifold, flipped, int(euler)
+
+
+@pytest.fixture(scope="module")
+def moon(planetlod):
+    return planetlod.CubeMap.from_image(data_path("lunar_bumpmap.jpg"), projection="qsc",
+                                        size=64)
+
+
+# ---- Mesh object ------------------------------------------------------------
+
+def test_mesh_buffers_and_counts(planetlod):
+    s, f, l = uniform_sectors(1)
+    mesh = emit(planetlod, s, f, l, template_level=3, radius=500.0)
+    assert isinstance(mesh, planetlod.Mesh)
+    S, V, T = 24, 45, 64
+    assert (mesh.vertex_count, mesh.triangle_count, mesh.sector_count) == (S * V, S * T, S)
+    for name, fmt, per in (("positions", "f", 3 * V), ("normals", "f", 3 * V),
+                           ("uv", "f", 2 * V), ("morph", "f", V), ("triangles", "i", 3 * T),
+                           ("sector_level", "i", T), ("face", "i", T)):
+        buf = getattr(mesh, name)
+        assert isinstance(buf, planetlod.Buffer)
+        assert buf.format == fmt and len(buf) == S * per, name
+    assert mesh.origin == (0.0, 0.0, 0.0)
+    p, t = arrays(mesh)
+    assert np.allclose(np.linalg.norm(p, axis=1), 500.0, rtol=1e-6)
+    assert t.min() == 0 and t.max() == mesh.vertex_count - 1
+    assert np.array_equal(np.frombuffer(mesh.face, np.int32), np.repeat(f, T))
+    assert np.array_equal(np.frombuffer(mesh.sector_level, np.int32), np.repeat(l, T))
+    # CCW seen from outside: the triangle normal points away from the centre
+    a, b, c = p[t[:, 0]], p[t[:, 1]], p[t[:, 2]]
+    assert np.all(np.einsum("ij,ij->i", np.cross(b - a, c - a), a + b + c) > 0)
+    assert not np.any(np.frombuffer(mesh.morph, np.float32))
+
+
+def test_template_counts(planetlod):
+    s, _, _ = cube_sectors()
+    for level in range(planetlod.MAX_TEMPLATE_LEVEL + 1):
+        n = 2 ** level
+        mesh = emit(planetlod, s[:1], template_level=level)
+        assert mesh.triangle_count == 4 ** level
+        assert mesh.vertex_count == (n + 1) * (n + 2) // 2
+
+
+@pytest.mark.parametrize("bisections", [0, 1, 3])
+@pytest.mark.parametrize("template_level", [0, 1, 2, 3, 4])
+def test_watertight_uniform_with_heights(planetlod, moon, bisections, template_level):
+    s, f, l = uniform_sectors(bisections)
+    mesh = emit(planetlod, s, f, l, template_level=template_level, radius=1737.4e3,
+                heightmap=moon, height_scale=20e3, threads=2,
+                origin=[0.0, 0.0, 1737.4e3])
+    assert edge_report(*arrays(mesh)) == (0, 0, 0, 2)
+
+
+def test_shared_vertices_share_normals(planetlod, moon):
+    s, f, l = uniform_sectors(2)
+    mesh = emit(planetlod, s, f, l, template_level=3, radius=1737.4e3, heightmap=moon,
+                height_scale=20e3)
+    p, _ = arrays(mesh)
+    n = np.frombuffer(mesh.normals, np.float32).reshape(-1, 3)
+    _, first, remap = np.unique(p, axis=0, return_index=True, return_inverse=True)
+    assert np.array_equal(n, n[first[remap.reshape(-1)]])
+    assert np.allclose(np.linalg.norm(n, axis=1), 1.0, atol=1e-6)
+    # relief tilts normals away from the radial direction, but not past 90 degrees
+    radial = p / np.linalg.norm(p, axis=1)[:, None]
+    cos = np.einsum("ij,ij->i", n, radial)
+    assert cos.min() > 0.5 and cos.min() < 0.99999
+
+
+def test_threads_bit_identical(planetlod, moon):
+    s, f, l = uniform_sectors(4)
+    kw = dict(template_level=3, radius=1737.4e3, heightmap=moon, height_scale=20e3,
+              eye=[0.0, 1737.4e3 + 3000.0, 0.0], morph_lod_scale=3e5,
+              origin=[0.0, 1737.4e3, 0.0])
+    one = emit(planetlod, s, f, l, threads=1, **kw)
+    assert np.any(np.frombuffer(one.morph, np.float32) > 0)
+    for threads in (2, 3, 8):
+        other = emit(planetlod, s, f, l, threads=threads, **kw)
+        for name in ("positions", "normals", "uv", "morph", "triangles", "sector_level", "face"):
+            assert bytes(getattr(one, name)) == bytes(getattr(other, name)), (threads, name)
+
+
+def test_origin_precision(planetlod):
+    """Near the origin the float32 positions keep millimetres on an Earth."""
+    radius = 6371e3
+    s, f, l = uniform_sectors(0)
+    eye_dir = normalise(s[0].mean(axis=0))
+    origin = (eye_dir * radius).tolist()
+    base = emit(planetlod, s[:1], template_level=7, radius=radius, threads=1)
+    rel = emit(planetlod, s[:1], template_level=7, radius=radius, threads=1, origin=origin)
+    p_abs = np.frombuffer(base.positions, np.float32).reshape(-1, 3).astype(np.float64)
+    p_rel = np.frombuffer(rel.positions, np.float32).reshape(-1, 3).astype(np.float64)
+    assert rel.origin == tuple(origin)
+    assert np.allclose(p_rel + origin, p_abs, rtol=0, atol=1.0)
+    near = np.linalg.norm(p_rel, axis=1) < 2e5
+    assert near.sum() > 10
+    # exact double positions of the near vertices are on the sphere
+    assert np.allclose(np.linalg.norm(p_rel[near] + origin, axis=1), radius, rtol=0, atol=0.05)
+    # without the origin the same vertices are off by float32 steps of 0.5 m
+    assert np.abs(np.linalg.norm(p_abs[near], axis=1) - radius).max() > 0.05
+
+
+def test_uv_unwrapped_per_sector(planetlod):
+    s, f, l = uniform_sectors(3)
+    mesh = emit(planetlod, s, f, l, template_level=3)
+    uv = np.frombuffer(mesh.uv, np.float32).reshape(-1, 2)
+    p, t = arrays(mesh)
+    u = uv[:, 0][t]
+    assert (u.max(axis=1) - u.min(axis=1)).max() < 0.25
+    assert uv[:, 1].min() >= 0.0 and uv[:, 1].max() <= 1.0
+    d = p / np.linalg.norm(p, axis=1)[:, None]
+    lat = np.arcsin(np.clip(d[:, 2], -1, 1))
+    assert np.allclose(uv[:, 1], lat / math.pi + 0.5, atol=1e-6)
+    lon = (uv[:, 0] - 0.5) * 2 * math.pi
+    off_pole = np.hypot(d[:, 0], d[:, 1]) > 1e-6
+    # same direction as the vertex, modulo the unwrapping by whole turns
+    assert np.allclose(np.cos(lon[off_pole]), d[off_pole, 0] / np.cos(lat[off_pole]), atol=1e-5)
+    assert np.allclose(np.sin(lon[off_pole]), d[off_pole, 1] / np.cos(lat[off_pole]), atol=1e-5)
+
+
+def test_morph_watertight_and_bounded(planetlod, moon):
+    s, f, l = uniform_sectors(3)
+    radius = 1737.4e3
+    eye = normalise(s[5].mean(axis=0)) * (radius + 50e3)
+    for tl in (1, 2, 4):
+        mesh = emit(planetlod, s, f, l, template_level=tl, radius=radius, heightmap=moon,
+                    height_scale=20e3, eye=eye.tolist(), morph_lod_scale=2e6, threads=2,
+                    origin=(eye * radius / (radius + 50e3)).tolist())
+        m = np.frombuffer(mesh.morph, np.float32)
+        assert m.min() >= 0.0 and m.max() <= 1.0 and (m > 0).sum() > 0
+        assert edge_report(*arrays(mesh)) == (0, 0, 0, 2)
+
+
+def test_instanced_form_matches_mesh(planetlod):
+    s, f, l = uniform_sectors(2)
+    radius = 1000.0
+    inst = emit(planetlod, s, f, l, template_level=3, radius=radius, instances=True)
+    mesh = emit(planetlod, s, f, l, template_level=3, radius=radius)
+    bary = np.frombuffer(inst["template_barycentrics"], np.float32).reshape(-1, 3)
+    tris = np.frombuffer(inst["template_triangles"], np.int32).reshape(-1, 3)
+    corners = np.frombuffer(inst["corners"], np.float32).reshape(-1, 3, 3).astype(np.float64)
+    assert np.array_equal(np.frombuffer(inst["levels"], np.float32), l.astype(np.float32))
+    assert inst["origin"] == (0.0, 0.0, 0.0) and inst["template_level"] == 3
+    assert np.allclose(bary.sum(axis=1), 1.0)
+    # the GPU path: normalise(w . corners) * radius reproduces the CPU mesh
+    dirs = np.einsum("vk,skx->svx", bary, corners)
+    gpu = normalise(dirs) * radius
+    cpu, ctri = arrays(mesh)
+    assert np.allclose(gpu.reshape(-1, 3), cpu, atol=1e-3)
+    V = len(bary)
+    assert np.array_equal(ctri[:len(tris)], tris)
+    assert np.array_equal(ctri[len(tris):2 * len(tris)], tris + V)
+
+
+def test_bad_input(planetlod):
+    s, _, _ = cube_sectors()
+    flat = s.reshape(-1).tolist()
+    with pytest.raises(planetlod.InvalidArgument):
+        planetlod._mesh_from_corners(flat, 1000.0, template_level=8)
+    with pytest.raises(planetlod.InvalidArgument):
+        planetlod._mesh_from_corners(flat, 1000.0, threads=0)
+    with pytest.raises(planetlod.InvalidArgument):
+        planetlod._mesh_from_corners(flat[:-1], 1000.0)
+    with pytest.raises(planetlod.InvalidArgument):
+        planetlod._mesh_from_corners(flat, -1.0)
+    bad = list(flat)
+    bad[4] = float("nan")
+    with pytest.raises(planetlod.InvalidArgument):
+        planetlod._mesh_from_corners(bad, 1000.0)
+    with pytest.raises(planetlod.InvalidArgument):
+        planetlod._mesh_from_corners(flat, 1000.0, eye=[0.0, 0.0])
+    empty = planetlod._mesh_from_corners([], 1000.0)
+    assert empty.vertex_count == 0 and len(empty.positions) == 0
+
+
+# ---- the real refiner --------------------------------------------------------
+
+def look_at(eye, target, up=(0.0, 0.0, 1.0)):
+    """Blender camera matrix_world (row-major 4x4) at eye looking at target."""
+    eye, target, up = (np.asarray(x, dtype=np.float64) for x in (eye, target, up))
+    back = eye - target
+    back /= np.linalg.norm(back)
+    right = np.cross(up, back)
+    if np.linalg.norm(right) < 1e-9:
+        right = np.cross((0.0, 1.0, 0.0), back)
+    right /= np.linalg.norm(right)
+    upv = np.cross(back, right)
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = right, upv, back, eye
+    return m.reshape(-1).tolist()
+
+
+def refiner_available(planetlod):
+    if not hasattr(planetlod, "Planet") or not hasattr(planetlod, "Camera"):
+        pytest.skip("refine stage not merged")
+    if not hasattr(planetlod.Planet, "mesh"):
+        pytest.skip("Planet.mesh not wired")
+
+
+@pytest.mark.parametrize("projection", ["qsc", "car"])
+def test_refined_planet_watertight(planetlod, projection):
+    refiner_available(planetlod)
+    radius = 1000.0
+    planet = planetlod.Planet(radius, projection=projection)
+    cam = planetlod.Camera(look_at((radius * 1.02, radius * 0.3, radius * 0.2), (0, 0, 0)))
+    planet.refine(cam, backface=False, frustum=False, max_level=14)
+    levels = np.frombuffer(planet.sector_levels(visible_only=True), np.int32)
+    assert levels.max() - levels.min() >= 3, "expected an adaptive LOD"
+    for tl in range(5):
+        mesh = planet.mesh(template_level=tl)
+        assert mesh.sector_count == planet.visible_count
+        assert edge_report(*arrays(mesh)) == (0, 0, 0, 2), (projection, tl)
+
+
+def test_refined_planet_with_heights_and_morph(planetlod, moon):
+    refiner_available(planetlod)
+    radius = 1737.4e3
+    planet = planetlod.Planet(radius, heightmap=moon, height_scale=10e3)
+    eye = (radius + 30e3, 0.0, 0.0)
+    cam = planetlod.Camera(look_at(eye, (0, 0, 0)))
+    planet.refine(cam, backface=False, frustum=False, max_level=20)
+    plain = planet.mesh(template_level=3, threads=1)
+    morphed = planet.mesh(template_level=3, morph=True, threads=2)
+    assert edge_report(*arrays(plain)) == (0, 0, 0, 2)
+    assert edge_report(*arrays(morphed)) == (0, 0, 0, 2)
+    assert np.frombuffer(morphed.morph, np.float32).max() > 0
+    origin = np.array(plain.origin)
+    assert abs(np.linalg.norm(origin) - (radius + planet.height(1.0, 0.0, 0.0))) < 1e-6
+    assert origin[1] == 0.0 and origin[2] == 0.0
+    inst = planet.instances(template_level=3)
+    assert len(inst["corners"]) == 9 * planet.visible_count
