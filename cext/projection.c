@@ -28,6 +28,14 @@
 #define PLOD__R2D (180.0 / PLOD__PI)
 #define PLOD__SQRT1_2 0.70710678118654752440
 
+/* The per-point kernels are forced inline so that the vectorised loops,
+ * instantiated once per projection below, fold the projection dispatch. */
+#if defined(__GNUC__) || defined(__clang__)
+#define PLOD__HOT static inline __attribute__((always_inline))
+#else
+#define PLOD__HOT static inline
+#endif
+
 static const char *const plod__projection_names[PLOD_PROJ_COUNT] = {
     "tsc", "csc", "qsc", "spherified", "car",
 };
@@ -66,44 +74,44 @@ int plod_projection_is_cube(plod_projection projection)
 /* Face frames                                                               */
 /* ======================================================================== */
 
+/* Frame tables: component index and sign of c, e_u, e_v per face, so the
+ * frame changes are table lookups (branch-free for random faces). */
+static const int plod__ic[PLOD_FACE_COUNT] = {2, 0, 1, 0, 1, 2};
+static const int plod__iu[PLOD_FACE_COUNT] = {1, 1, 0, 1, 0, 1};
+static const int plod__iv[PLOD_FACE_COUNT] = {0, 2, 2, 2, 2, 0};
+static const double plod__sc[PLOD_FACE_COUNT] = {1.0, 1.0, 1.0, -1.0, -1.0, -1.0};
+static const double plod__su[PLOD_FACE_COUNT] = {1.0, 1.0, -1.0, -1.0, 1.0, 1.0};
+static const double plod__sv[PLOD_FACE_COUNT] = {-1.0, 1.0, 1.0, 1.0, 1.0, 1.0};
+
+PLOD__HOT double plod__maxd(double a, double b) { return a > b ? a : b; }
+
 /* Lowest face whose centre axis is the largest component of d (ties -> the
- * lower face, as WCSLIB's strict '>' chain). */
-static inline int plod__select_face(double x, double y, double z)
+ * lower face, as WCSLIB's strict '>' chain), without branches. */
+PLOD__HOT int plod__select_face(double x, double y, double z)
 {
-    int face = 0;
-    double zeta = z;
-    if (x > zeta) { face = 1; zeta = x; }
-    if (y > zeta) { face = 2; zeta = y; }
-    if (-x > zeta) { face = 3; zeta = -x; }
-    if (-y > zeta) { face = 4; zeta = -y; }
-    if (-z > zeta) { face = 5; }
-    return face;
+    double m = plod__maxd(plod__maxd(plod__maxd(z, x), plod__maxd(y, -x)),
+                          plod__maxd(-y, -z));
+    unsigned mask = (unsigned)(z == m) | (unsigned)(x == m) << 1 |
+                    (unsigned)(y == m) << 2 | (unsigned)(-x == m) << 3 |
+                    (unsigned)(-y == m) << 4 | (unsigned)(-z == m) << 5;
+    return mask ? __builtin_ctz(mask) : 0; /* mask == 0 only for NaN */
 }
 
-static inline void plod__to_local(int face, double x, double y, double z,
+PLOD__HOT void plod__to_local(int face, double x, double y, double z,
                                   double *xi, double *eta, double *zeta)
 {
-    switch (face) {
-    case 0: *xi = y;  *eta = -x; *zeta = z;  break;
-    case 1: *xi = y;  *eta = z;  *zeta = x;  break;
-    case 2: *xi = -x; *eta = z;  *zeta = y;  break;
-    case 3: *xi = -y; *eta = z;  *zeta = -x; break;
-    case 4: *xi = x;  *eta = z;  *zeta = -y; break;
-    default: *xi = y; *eta = x;  *zeta = -z; break;
-    }
+    const double d[3] = {x, y, z};
+    *xi = plod__su[face] * d[plod__iu[face]];
+    *eta = plod__sv[face] * d[plod__iv[face]];
+    *zeta = plod__sc[face] * d[plod__ic[face]];
 }
 
-static inline void plod__from_local(int face, double xi, double eta, double zeta,
+PLOD__HOT void plod__from_local(int face, double xi, double eta, double zeta,
                                     double d[3])
 {
-    switch (face) {
-    case 0: d[0] = -eta;  d[1] = xi;    d[2] = zeta;  break;
-    case 1: d[0] = zeta;  d[1] = xi;    d[2] = eta;   break;
-    case 2: d[0] = -xi;   d[1] = zeta;  d[2] = eta;   break;
-    case 3: d[0] = -zeta; d[1] = -xi;   d[2] = eta;   break;
-    case 4: d[0] = xi;    d[1] = -zeta; d[2] = eta;   break;
-    default: d[0] = eta;  d[1] = xi;    d[2] = -zeta; break;
-    }
+    d[plod__iu[face]] = plod__su[face] * xi;
+    d[plod__iv[face]] = plod__sv[face] * eta;
+    d[plod__ic[face]] = plod__sc[face] * zeta;
 }
 
 /* ======================================================================== */
@@ -112,7 +120,7 @@ static inline void plod__from_local(int face, double xi, double eta, double zeta
 /*   inverse  (xi, eta, zeta) = (u, v, 1) / sqrt(1 + u^2 + v^2)              */
 /* ======================================================================== */
 
-static inline void plod__tsc_fwd(double xi, double eta, double zeta,
+PLOD__HOT void plod__tsc_fwd(double xi, double eta, double zeta,
                                  double *u, double *v)
 {
     double inv = 1.0 / zeta;
@@ -120,7 +128,7 @@ static inline void plod__tsc_fwd(double xi, double eta, double zeta,
     *v = eta * inv;
 }
 
-static inline void plod__tsc_inv(double u, double v, double *xi, double *eta,
+PLOD__HOT void plod__tsc_inv(double u, double v, double *xi, double *eta,
                                  double *zeta)
 {
     double r = 1.0 / sqrt(1.0 + u * u + v * v);
@@ -143,7 +151,7 @@ static inline void plod__tsc_inv(double u, double v, double *xi, double *eta,
 /*   the tests and the bench).  Evaluated in double precision.               */
 /* ======================================================================== */
 
-static inline double plod__csc_F(double a, double b)
+PLOD__HOT double plod__csc_F(double a, double b)
 {
     const double gstar = 1.37484847732, mm = 0.004869491981;
     const double gamma = -0.13161671474, omega1 = -0.159596235474;
@@ -158,7 +166,7 @@ static inline double plod__csc_F(double a, double b)
                             a2 * (omega1 - ca2 * (d0 + d1 * a2))));
 }
 
-static inline double plod__csc_f(double xf, double yf)
+PLOD__HOT double plod__csc_f(double xf, double yf)
 {
     const double p00 = -0.27292696, p10 = -0.07629969, p20 = -0.22797056;
     const double p30 = 0.54852384, p40 = -0.62930065, p50 = 0.25795794;
@@ -181,7 +189,7 @@ static inline double plod__csc_f(double xf, double yf)
     return xf + xf * (1.0 - xx) * sum;
 }
 
-static inline void plod__csc_fwd(double xi, double eta, double zeta,
+PLOD__HOT void plod__csc_fwd(double xi, double eta, double zeta,
                                  double *u, double *v)
 {
     double a = xi / zeta, b = eta / zeta;
@@ -189,7 +197,7 @@ static inline void plod__csc_fwd(double xi, double eta, double zeta,
     *v = plod__csc_F(b, a);
 }
 
-static inline void plod__csc_inv(double u, double v, double *xi, double *eta,
+PLOD__HOT void plod__csc_inv(double u, double v, double *xi, double *eta,
                                  double *zeta)
 {
     plod__tsc_inv(plod__csc_f(u, v), plod__csc_f(v, u), xi, eta, zeta);
@@ -210,11 +218,46 @@ static inline void plod__csc_inv(double u, double v, double *xi, double *eta,
 /* xi = u sqrt(k (2 - zeco)/(1 + omega^2)) with k = (q-1)/q, eta = xi omega. */
 /* ======================================================================== */
 
-static inline void plod__qsc_fwd(double xi, double eta, double zeta,
+/* atan on |z| <= tan(15 deg) and tan on |t| <= pi/24, the only ranges QSC
+ * needs: inline odd polynomials (Chebyshev fit for atan, 4.3e-16 relative;
+ * Taylor to t^15 for tan, < 1e-17 truncation) instead of libm calls, so the
+ * per-point kernels pipeline.  Accuracy is checked against WCSLIB in tests. */
+PLOD__HOT double plod__qsc_atan(double z)
+{
+    double s = z * z;
+    double p = -0.04312702159641274;
+    p = p * s + 0.05663496622387825;
+    p = p * s - 0.06623679080877609;
+    p = p * s + 0.07687627787632645;
+    p = p * s - 0.09090627784508971;
+    p = p * s + 0.11111101552317065;
+    p = p * s - 0.14285714105900996;
+    p = p * s + 0.1999999999827801;
+    p = p * s - 0.33333333333326276;
+    p = p * s + 0.9999999999999998;
+    return z * p;
+}
+
+PLOD__HOT double plod__qsc_tan(double t)
+{
+    double s = t * t;
+    double p = 929569.0 / 638512875.0;
+    p = p * s + 21844.0 / 6081075.0;
+    p = p * s + 1382.0 / 155925.0;
+    p = p * s + 62.0 / 2835.0;
+    p = p * s + 17.0 / 315.0;
+    p = p * s + 2.0 / 15.0;
+    p = p * s + 1.0 / 3.0;
+    p = p * s + 1.0;
+    return t * p;
+}
+
+PLOD__HOT void plod__qsc_fwd(double xi, double eta, double zeta,
                                  double *u, double *v)
 {
-    int swap = fabs(eta) > fabs(xi);
-    double major = swap ? eta : xi, minor = swap ? xi : eta;
+    const double in[2] = {xi, eta};
+    int swap = fabs(eta) > fabs(xi); /* indexes instead of branches */
+    double major = in[swap], minor = in[1 - swap];
     if (major == 0.0) {
         *u = 0.0;
         *v = 0.0;
@@ -223,44 +266,37 @@ static inline void plod__qsc_fwd(double xi, double eta, double zeta,
     double omega = minor / major;
     double w2 = omega * omega;
     double q = sqrt(2.0 + w2);
-    double a = major * sqrt((1.0 + w2) * q / ((1.0 + zeta) * (q - 1.0)));
-    double b = a * (12.0 / PLOD__PI) * atan(omega * (q - 1.0) / (q + w2));
-    if (swap) {
-        *u = b;
-        *v = a;
-    } else {
-        *u = a;
-        *v = b;
-    }
+    double out[2];
+    out[swap] = major * sqrt((1.0 + w2) * q / ((1.0 + zeta) * (q - 1.0)));
+    out[1 - swap] = out[swap] * (12.0 / PLOD__PI) * plod__qsc_atan(omega * (q - 1.0) / (q + w2));
+    *u = out[0];
+    *v = out[1];
 }
 
-static inline void plod__qsc_inv(double u, double v, double *xi, double *eta,
+PLOD__HOT void plod__qsc_inv(double u, double v, double *xi, double *eta,
                                  double *zeta)
 {
+    const double in[2] = {u, v};
     int swap = fabs(v) > fabs(u);
-    double major = swap ? v : u, minor = swap ? u : v;
+    double major = in[swap], minor = in[1 - swap];
     if (major == 0.0) {
         *xi = 0.0;
         *eta = 0.0;
         *zeta = 1.0;
         return;
     }
-    double tt = tan((PLOD__PI / 24.0) * (minor / major));
+    double tt = plod__qsc_tan((PLOD__PI / 24.0) * (minor / major));
     double omega = 2.0 * tt / ((1.0 - PLOD__SQRT1_2) - (1.0 + PLOD__SQRT1_2) * tt * tt);
     double w2 = omega * omega;
     double q = sqrt(2.0 + w2);
     double k = (q - 1.0) / q;
     double zeco = major * major * k;
-    double a = major * sqrt(k * (2.0 - zeco) / (1.0 + w2));
-    double b = a * omega;
+    double out[2];
+    out[swap] = major * sqrt(k * (2.0 - zeco) / (1.0 + w2));
+    out[1 - swap] = out[swap] * omega;
     *zeta = 1.0 - zeco;
-    if (swap) {
-        *xi = b;
-        *eta = a;
-    } else {
-        *xi = a;
-        *eta = b;
-    }
+    *xi = out[0];
+    *eta = out[1];
 }
 
 /* ======================================================================== */
@@ -273,7 +309,7 @@ static inline void plod__qsc_inv(double u, double v, double *xi, double *eta,
 /*   -d and eta; then one Newton step on the 2x2 system polishes to ~1 ulp.  */
 /* ======================================================================== */
 
-static inline void plod__sph_inv(double u, double v, double *xi, double *eta,
+PLOD__HOT void plod__sph_inv(double u, double v, double *xi, double *eta,
                                  double *zeta)
 {
     double u2 = u * u, v2 = v * v;
@@ -282,7 +318,7 @@ static inline void plod__sph_inv(double u, double v, double *xi, double *eta,
     *zeta = sqrt((1.0 - 0.5 * u2) * (1.0 - 0.5 * v2) + u2 * v2 * (1.0 / 12.0));
 }
 
-static inline double plod__sph_root(double s2, double d)
+PLOD__HOT double plod__sph_root(double s2, double d)
 {
     double p = 3.0 + 2.0 * d;
     double disc = p * p - 24.0 * s2;
@@ -291,7 +327,7 @@ static inline double plod__sph_root(double s2, double d)
     return 12.0 * s2 / (p + sqrt(disc));
 }
 
-static inline void plod__sph_fwd(double xi, double eta, double zeta,
+PLOD__HOT void plod__sph_fwd(double xi, double eta, double zeta,
                                  double *u, double *v)
 {
     (void)zeta;
@@ -318,7 +354,7 @@ static inline void plod__sph_fwd(double xi, double eta, double zeta,
 
 /* (xi, eta, zeta) unit, on the face (zeta >= |xi|, |eta|) -> (u, v) in
  * [-1, 1]; exactly +-1 when the direction is exactly on an edge. */
-static inline void plod__local_fwd(plod_projection projection, double xi,
+PLOD__HOT void plod__local_fwd(plod_projection projection, double xi,
                                    double eta, double zeta, double *u, double *v)
 {
     double a, b;
@@ -338,7 +374,7 @@ static inline void plod__local_fwd(plod_projection projection, double xi,
 
 /* (u, v) in [-1, 1] -> unit (xi, eta, zeta); on an edge (|u| == 1) the
  * result has |xi| == zeta exactly, so the direction is exactly on the edge. */
-static inline void plod__local_inv(plod_projection projection, double u,
+PLOD__HOT void plod__local_inv(plod_projection projection, double u,
                                    double v, double *xi, double *eta, double *zeta)
 {
     double a, b, c;
@@ -358,7 +394,7 @@ static inline void plod__local_inv(plod_projection projection, double u,
 }
 
 /* Unit vector, -0 turned into +0 so equal points have equal bits. */
-static inline void plod__normalise(double d[3])
+PLOD__HOT void plod__normalise(double d[3])
 {
     double r = 1.0 / sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
     d[0] = d[0] * r + 0.0;
@@ -368,7 +404,7 @@ static inline void plod__normalise(double d[3])
 
 /* Cube projections: (face, u, v) valid -> unit direction, evaluated on the
  * lowest face containing the cube point c_f + u e_u + v e_v. */
-static inline void plod__cube_face_to_dir(plod_projection projection, int face,
+PLOD__HOT void plod__cube_face_to_dir(plod_projection projection, int face,
                                           double u, double v, double d[3])
 {
     u += 0.0;
@@ -406,7 +442,7 @@ static inline void plod__cube_face_to_dir(plod_projection projection, int face,
 /* the thesis's CAR quad-sphere.                                            */
 /* ======================================================================== */
 
-static inline void plod__car_face_to_dir(double u, double v, double d[3])
+PLOD__HOT void plod__car_face_to_dir(double u, double v, double d[3])
 {
     const double h = 0.5 * PLOD__PI;
     double a = fabs(u), b = fabs(v);
@@ -435,7 +471,7 @@ static inline void plod__car_face_to_dir(double u, double v, double d[3])
     plod__normalise(d);
 }
 
-static inline void plod__car_dir_to_face(const double d[3], double *u, double *v)
+PLOD__HOT void plod__car_dir_to_face(const double d[3], double *u, double *v)
 {
     const double h = 0.5 * PLOD__PI;
     double ax = fabs(d[0]), ay = fabs(d[1]);
@@ -458,22 +494,39 @@ static inline void plod__car_dir_to_face(const double d[3], double *u, double *v
     *v = (d[1] < 0.0 ? -b : b) + 0.0;
 }
 
+/* Instantiates PLOD__LOOP(PROJ) once per projection, so each vectorised
+ * loop runs with a compile-time projection (no per-point dispatch). */
+#define PLOD__PER_PROJECTION(projection)                                          \
+    switch (projection) {                                                         \
+    case PLOD_PROJ_TSC: PLOD__LOOP(PLOD_PROJ_TSC) break;                          \
+    case PLOD_PROJ_CSC: PLOD__LOOP(PLOD_PROJ_CSC) break;                          \
+    case PLOD_PROJ_QSC: PLOD__LOOP(PLOD_PROJ_QSC) break;                          \
+    case PLOD_PROJ_SPHERIFIED: PLOD__LOOP(PLOD_PROJ_SPHERIFIED) break;            \
+    default: PLOD__LOOP(PLOD_PROJ_CAR) break;                                     \
+    }
+
 /* ======================================================================== */
 /* Direction <-> face                                                        */
 /* ======================================================================== */
 
-static inline int plod__finite3(const double d[3])
+PLOD__HOT int plod__finite3(const double d[3])
 {
     return isfinite(d[0]) && isfinite(d[1]) && isfinite(d[2]);
 }
 
 /* Unchecked core: d finite and non-zero. */
-static inline void plod__dir_to_face(plod_projection projection, const double dir[3],
+PLOD__HOT void plod__dir_to_face(plod_projection projection, const double dir[3],
                                      int *face, double *u, double *v)
 {
-    /* Scale by the largest component first so huge/tiny inputs normalise. */
-    double m = fmax(fabs(dir[0]), fmax(fabs(dir[1]), fabs(dir[2])));
-    double d[3] = {dir[0] / m, dir[1] / m, dir[2] / m};
+    double d[3] = {dir[0], dir[1], dir[2]};
+    double r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+    if (!(r2 > 1e-290 && r2 < 1e290)) {
+        /* Scale by the largest component first so huge/tiny inputs normalise. */
+        double m = plod__maxd(fabs(d[0]), plod__maxd(fabs(d[1]), fabs(d[2])));
+        d[0] /= m;
+        d[1] /= m;
+        d[2] /= m;
+    }
     plod__normalise(d);
     if (projection == PLOD_PROJ_CAR) {
         *face = 0;
@@ -502,13 +555,9 @@ plod_status plod_dir_to_face(plod_projection projection, const double dir[3],
     return PLOD_OK;
 }
 
-plod_status plod_face_to_dir(plod_projection projection, int face, double u,
-                             double v, double dir[3])
+PLOD__HOT plod_status plod__face_to_dir(plod_projection projection, int face,
+                                        double u, double v, double dir[3])
 {
-    if (!dir)
-        return PLOD_ERR_NULL;
-    if ((unsigned)projection >= PLOD_PROJ_COUNT)
-        return PLOD_ERR_BAD_PROJECTION;
     int max_face = projection == PLOD_PROJ_CAR ? 0 : PLOD_FACE_COUNT - 1;
     if (face < 0 || face > max_face)
         return PLOD_ERR_BAD_PARAM;
@@ -521,6 +570,16 @@ plod_status plod_face_to_dir(plod_projection projection, int face, double u,
     return PLOD_OK;
 }
 
+plod_status plod_face_to_dir(plod_projection projection, int face, double u,
+                             double v, double dir[3])
+{
+    if (!dir)
+        return PLOD_ERR_NULL;
+    if ((unsigned)projection >= PLOD_PROJ_COUNT)
+        return PLOD_ERR_BAD_PROJECTION;
+    return plod__face_to_dir(projection, face, u, v, dir);
+}
+
 plod_status plod_dir_to_face_n(plod_projection projection, size_t n,
                                const double *dirs, int *faces, double *u,
                                double *v, int *stat)
@@ -530,21 +589,24 @@ plod_status plod_dir_to_face_n(plod_projection projection, size_t n,
     if ((unsigned)projection >= PLOD_PROJ_COUNT)
         return PLOD_ERR_BAD_PROJECTION;
     plod_status first = PLOD_OK;
-    for (size_t i = 0; i < n; i++) {
-        const double *d = dirs + 3 * i;
-        plod_status st = PLOD_OK;
-        if (!plod__finite3(d) || (d[0] == 0.0 && d[1] == 0.0 && d[2] == 0.0)) {
-            st = PLOD_ERR_BAD_COORD;
-            faces[i] = -1;
-            u[i] = v[i] = NAN;
-        } else {
-            plod__dir_to_face(projection, d, faces + i, u + i, v + i);
-        }
-        if (stat)
-            stat[i] = (int)st;
-        if (st != PLOD_OK && first == PLOD_OK)
-            first = st;
+#define PLOD__LOOP(PROJ)                                                          \
+    for (size_t i = 0; i < n; i++) {                                              \
+        const double *d = dirs + 3 * i;                                           \
+        plod_status st = PLOD_OK;                                                 \
+        if (!plod__finite3(d) || (d[0] == 0.0 && d[1] == 0.0 && d[2] == 0.0)) {   \
+            st = PLOD_ERR_BAD_COORD;                                              \
+            faces[i] = -1;                                                        \
+            u[i] = v[i] = NAN;                                                    \
+        } else {                                                                  \
+            plod__dir_to_face(PROJ, d, faces + i, u + i, v + i);                  \
+        }                                                                         \
+        if (stat)                                                                 \
+            stat[i] = (int)st;                                                    \
+        if (st != PLOD_OK && first == PLOD_OK)                                    \
+            first = st;                                                           \
     }
+    PLOD__PER_PROJECTION(projection)
+#undef PLOD__LOOP
     return first;
 }
 
@@ -557,16 +619,19 @@ plod_status plod_face_to_dir_n(plod_projection projection, size_t n,
     if ((unsigned)projection >= PLOD_PROJ_COUNT)
         return PLOD_ERR_BAD_PROJECTION;
     plod_status first = PLOD_OK;
-    for (size_t i = 0; i < n; i++) {
-        plod_status st = plod_face_to_dir(projection, faces[i], u[i], v[i], dirs + 3 * i);
-        if (st != PLOD_OK) {
-            dirs[3 * i] = dirs[3 * i + 1] = dirs[3 * i + 2] = NAN;
-            if (first == PLOD_OK)
-                first = st;
-        }
-        if (stat)
-            stat[i] = (int)st;
+#define PLOD__LOOP(PROJ)                                                          \
+    for (size_t i = 0; i < n; i++) {                                              \
+        plod_status st = plod__face_to_dir(PROJ, faces[i], u[i], v[i], dirs + 3 * i); \
+        if (st != PLOD_OK) {                                                      \
+            dirs[3 * i] = dirs[3 * i + 1] = dirs[3 * i + 2] = NAN;                \
+            if (first == PLOD_OK)                                                 \
+                first = st;                                                       \
+        }                                                                         \
+        if (stat)                                                                 \
+            stat[i] = (int)st;                                                    \
     }
+    PLOD__PER_PROJECTION(projection)
+#undef PLOD__LOOP
     return first;
 }
 
@@ -578,7 +643,7 @@ static const double plod__face_x0[PLOD_FACE_COUNT] = {0.0, 0.0, 2.0, 4.0, 6.0, 0
 static const double plod__face_y0[PLOD_FACE_COUNT] = {2.0, 0.0, 0.0, 0.0, 0.0, -2.0};
 
 /* Wraps a finite longitude into [-180, 180] exactly. */
-static inline double plod__wrap_lon(double lon)
+PLOD__HOT double plod__wrap_lon(double lon)
 {
     lon = fmod(lon, 360.0);
     if (lon > 180.0)
@@ -590,20 +655,19 @@ static inline double plod__wrap_lon(double lon)
 
 /* sin and cos of an angle in [-180, 180] degrees, reduced exactly to
  * [-45, 45] first: multiples of 90 give exact 0/+-1. */
-static inline void plod__sincosd(double deg, double *s, double *c)
+PLOD__HOT void plod__sincosd(double deg, double *s, double *c)
 {
-    int q = (int)floor(deg / 90.0 + 0.5);
+    static const double sign_s[4] = {1.0, 1.0, -1.0, -1.0};
+    static const double sign_c[4] = {1.0, -1.0, -1.0, 1.0};
+    int q = (int)(deg / 90.0 + 2.5) - 2; /* floor(deg/90 + 1/2), deg >= -180 */
     double r = (deg - 90.0 * q) * PLOD__D2R;
-    double sr = sin(r), cr = cos(r);
-    switch (q & 3) {
-    case 0: *s = sr; *c = cr; break;
-    case 1: *s = cr; *c = -sr; break;
-    case 2: *s = -sr; *c = -cr; break;
-    default: *s = -cr; *c = sr; break;
-    }
+    const double sc[2] = {sin(r), cos(r)};
+    int odd = q & 1;
+    *s = sign_s[q & 3] * sc[odd];
+    *c = sign_c[q & 3] * sc[1 - odd];
 }
 
-static inline plod_status plod__sphere_to_cube(plod_projection projection,
+PLOD__HOT plod_status plod__sphere_to_cube(plod_projection projection,
                                                double lon, double lat,
                                                double *x, double *y)
 {
@@ -628,7 +692,7 @@ static inline plod_status plod__sphere_to_cube(plod_projection projection,
     return PLOD_OK;
 }
 
-static inline plod_status plod__cube_to_sphere(plod_projection projection,
+PLOD__HOT plod_status plod__cube_to_sphere(plod_projection projection,
                                                double x, double y,
                                                double *lon, double *lat)
 {
@@ -662,9 +726,9 @@ static inline plod_status plod__cube_to_sphere(plod_projection projection,
     yf = yf < -1.0 ? -1.0 : (yf > 1.0 ? 1.0 : yf);
     double d[3];
     plod__cube_face_to_dir(projection, f, xf, yf, d);
-    double rho = hypot(d[0], d[1]);
+    double rho = sqrt(d[0] * d[0] + d[1] * d[1]);
     *lon = rho == 0.0 ? 0.0 : atan2(d[1], d[0]) * PLOD__R2D;
-    *lat = atan2(d[2], rho) * PLOD__R2D;
+    *lat = atan(d[2] / rho) * PLOD__R2D; /* rho == 0: z/0 = +-inf, lat +-90 */
     return PLOD_OK;
 }
 
@@ -697,17 +761,20 @@ plod_status plod_sphere_to_cube_n(plod_projection projection, size_t n,
     if ((unsigned)projection >= PLOD_PROJ_COUNT)
         return PLOD_ERR_BAD_PROJECTION;
     plod_status first = PLOD_OK;
-    for (size_t i = 0; i < n; i++) {
-        plod_status st = plod__sphere_to_cube(projection, lon_deg[i], lat_deg[i],
-                                              x_deg + i, y_deg + i);
-        if (st != PLOD_OK) {
-            x_deg[i] = y_deg[i] = NAN;
-            if (first == PLOD_OK)
-                first = st;
-        }
-        if (stat)
-            stat[i] = (int)st;
+#define PLOD__LOOP(PROJ)                                                          \
+    for (size_t i = 0; i < n; i++) {                                              \
+        plod_status st = plod__sphere_to_cube(PROJ, lon_deg[i], lat_deg[i],       \
+                                              x_deg + i, y_deg + i);              \
+        if (st != PLOD_OK) {                                                      \
+            x_deg[i] = y_deg[i] = NAN;                                            \
+            if (first == PLOD_OK)                                                 \
+                first = st;                                                       \
+        }                                                                         \
+        if (stat)                                                                 \
+            stat[i] = (int)st;                                                    \
     }
+    PLOD__PER_PROJECTION(projection)
+#undef PLOD__LOOP
     return first;
 }
 
@@ -720,16 +787,19 @@ plod_status plod_cube_to_sphere_n(plod_projection projection, size_t n,
     if ((unsigned)projection >= PLOD_PROJ_COUNT)
         return PLOD_ERR_BAD_PROJECTION;
     plod_status first = PLOD_OK;
-    for (size_t i = 0; i < n; i++) {
-        plod_status st = plod__cube_to_sphere(projection, x_deg[i], y_deg[i],
-                                              lon_deg + i, lat_deg + i);
-        if (st != PLOD_OK) {
-            lon_deg[i] = lat_deg[i] = NAN;
-            if (first == PLOD_OK)
-                first = st;
-        }
-        if (stat)
-            stat[i] = (int)st;
+#define PLOD__LOOP(PROJ)                                                          \
+    for (size_t i = 0; i < n; i++) {                                              \
+        plod_status st = plod__cube_to_sphere(PROJ, x_deg[i], y_deg[i],           \
+                                              lon_deg + i, lat_deg + i);          \
+        if (st != PLOD_OK) {                                                      \
+            lon_deg[i] = lat_deg[i] = NAN;                                        \
+            if (first == PLOD_OK)                                                 \
+                first = st;                                                       \
+        }                                                                         \
+        if (stat)                                                                 \
+            stat[i] = (int)st;                                                    \
     }
+    PLOD__PER_PROJECTION(projection)
+#undef PLOD__LOOP
     return first;
 }
