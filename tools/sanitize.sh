@@ -37,6 +37,10 @@ PLANETLOD_SANITIZE=1 "$PYTHON" setup.py -q build_ext --force \
 
 LIBASAN=$(gcc -print-file-name=libasan.so)
 [ -e "$LIBASAN" ] || { echo "sanitize: libasan not found (gcc $(gcc -dumpversion))" >&2; exit 2; }
+# libstdc++ must be loaded when ASan initialises: its __cxa_throw
+# interceptor resolves the real one then, and python3 itself does not link
+# libstdc++ (OpenImageIO throws internally; without this ASan CHECK-fails).
+LIBSTDCXX=$(g++ -print-file-name=libstdc++.so)
 
 mkdir -p "$BUILD"
 # allocator_may_return_null: absurd sizes must reach our NULL checks (the
@@ -49,7 +53,7 @@ export LSAN_OPTIONS="suppressions=$ROOT/tools/lsan.supp:print_suppressions=0"
 export PYTHONFAULTHANDLER=1
 
 set +e -o pipefail
-(LD_PRELOAD="$LIBASAN" "$PYTHON" - "$BUILD/lib" "$@" <<'PY'
+(LD_PRELOAD="$LIBASAN $LIBSTDCXX" "$PYTHON" - "$BUILD/lib" "$@" <<'PY'
 import os
 import sys
 
@@ -70,7 +74,7 @@ PY
 status=${PIPESTATUS[0]}
 set -e
 
-reports=$(grep -cE "ERROR: (AddressSanitizer|LeakSanitizer)|runtime error:|SUMMARY: (Address|UndefinedBehavior|Leak)Sanitizer" "$LOG" || true)
+reports=$(grep -cE "ERROR: (AddressSanitizer|LeakSanitizer)|Sanitizer: CHECK failed|runtime error:|SUMMARY: (Address|UndefinedBehavior|Leak)Sanitizer" "$LOG" || true)
 if [ "$reports" -ne 0 ]; then
     echo "sanitize: FAILED: $reports sanitizer report line(s), see $LOG (pytest exit $status)" >&2
     exit 1
