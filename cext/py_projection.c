@@ -79,6 +79,48 @@ static int *plod__faces_arg(PyObject *obj, size_t *count)
     return faces;
 }
 
+/* float64 input: a C-contiguous 'd' buffer is used in place (no copy);
+ * anything else is converted by plod_py_doubles into owned storage. */
+typedef struct {
+    const double *data;
+    size_t count;
+    double *owned;
+    Py_buffer view;
+    int has_view;
+} plod__doubles_in;
+
+static int plod__doubles_get(PyObject *obj, plod__doubles_in *in, const char *what)
+{
+    in->owned = NULL;
+    in->has_view = 0;
+    if (PyObject_CheckBuffer(obj) &&
+        PyObject_GetBuffer(obj, &in->view, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) == 0) {
+        const char *fmt = in->view.format ? in->view.format : "B";
+        if ((fmt[0] == '<' || fmt[0] == '=' || fmt[0] == '@') && fmt[1] == 'd')
+            fmt++;
+        if (fmt[0] == 'd' && fmt[1] == 0 && in->view.itemsize == 8) {
+            in->data = in->view.buf;
+            in->count = (size_t)(in->view.len / 8);
+            in->has_view = 1;
+            return 0;
+        }
+        PyBuffer_Release(&in->view);
+    }
+    PyErr_Clear(); /* plod_py_doubles reports its own, clearer errors */
+    in->owned = plod_py_doubles(obj, &in->count, what);
+    in->data = in->owned;
+    return in->owned ? 0 : -1;
+}
+
+static void plod__doubles_release(plod__doubles_in *in)
+{
+    if (in->has_view)
+        PyBuffer_Release(&in->view);
+    in->has_view = 0;
+    free(in->owned);
+    in->owned = NULL;
+}
+
 typedef plod_status (*plod__pair_fn)(plod_projection, double, double, double *, double *);
 typedef plod_status (*plod__pair_n_fn)(plod_projection, size_t, const double *,
                                        const double *, double *, double *, int *);
@@ -113,15 +155,15 @@ static PyObject *plod__pair_call(PyObject *args, const char *name, plod__pair_fn
         }
         return Py_BuildValue("(dd)", out_a, out_b);
     }
-    size_t na = 0, nb = 0;
-    double *a = plod_py_doubles(a_obj, &na, name);
-    if (!a)
+    plod__doubles_in in_a, in_b;
+    if (plod__doubles_get(a_obj, &in_a, name) < 0)
         return NULL;
-    double *b = plod_py_doubles(b_obj, &nb, name);
-    if (!b) {
-        free(a);
+    if (plod__doubles_get(b_obj, &in_b, name) < 0) {
+        plod__doubles_release(&in_a);
         return NULL;
     }
+    size_t na = in_a.count, nb = in_b.count;
+    const double *a = in_a.data, *b = in_b.data;
     PyObject *result = NULL, *out_a = NULL, *out_b = NULL;
     Py_buffer view_a, view_b;
     if (na != nb) {
@@ -148,8 +190,8 @@ static PyObject *plod__pair_call(PyObject *args, const char *name, plod__pair_fn
 done:
     Py_XDECREF(out_a);
     Py_XDECREF(out_b);
-    free(a);
-    free(b);
+    plod__doubles_release(&in_a);
+    plod__doubles_release(&in_b);
     return result;
 }
 
@@ -216,12 +258,13 @@ static PyObject *plod__py_dirs_to_faces(PyObject *self, PyObject *args)
     plod_projection projection;
     if (plod_py_projection_arg(proj_obj, &projection) < 0)
         return NULL;
-    size_t n3 = 0;
-    double *dirs = plod_py_doubles(dirs_obj, &n3, "dirs_to_faces");
-    if (!dirs)
+    plod__doubles_in in;
+    if (plod__doubles_get(dirs_obj, &in, "dirs_to_faces") < 0)
         return NULL;
+    size_t n3 = in.count;
+    const double *dirs = in.data;
     if (n3 % 3 != 0) {
-        free(dirs);
+        plod__doubles_release(&in);
         return plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "dirs_to_faces",
                                     "dirs must hold 3 floats per direction");
     }
@@ -253,7 +296,7 @@ done:
     Py_XDECREF(faces);
     Py_XDECREF(u);
     Py_XDECREF(v);
-    free(dirs);
+    plod__doubles_release(&in);
     return result;
 }
 
@@ -267,18 +310,19 @@ static PyObject *plod__py_faces_to_dirs(PyObject *self, PyObject *args)
     if (plod_py_projection_arg(proj_obj, &projection) < 0)
         return NULL;
     size_t nf = 0, nu = 0, nv = 0;
-    double *u = NULL, *v = NULL;
+    plod__doubles_in in_u = {0}, in_v = {0};
     int *faces = NULL;
     PyObject *out = NULL, *result = NULL;
     faces = plod__faces_arg(faces_obj, &nf);
     if (!faces)
         goto done;
-    u = plod_py_doubles(u_obj, &nu, "faces_to_dirs");
-    if (!u)
+    if (plod__doubles_get(u_obj, &in_u, "faces_to_dirs") < 0)
         goto done;
-    v = plod_py_doubles(v_obj, &nv, "faces_to_dirs");
-    if (!v)
+    nu = in_u.count;
+    if (plod__doubles_get(v_obj, &in_v, "faces_to_dirs") < 0)
         goto done;
+    nv = in_v.count;
+    const double *u = in_u.data, *v = in_v.data;
     if (nf != nu || nu != nv) {
         plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "faces_to_dirs",
                              "faces, u and v must have equal lengths");
@@ -296,8 +340,8 @@ static PyObject *plod__py_faces_to_dirs(PyObject *self, PyObject *args)
     out = NULL;
 done:
     Py_XDECREF(out);
-    free(u);
-    free(v);
+    plod__doubles_release(&in_u);
+    plod__doubles_release(&in_v);
     free(faces);
     return result;
 }
