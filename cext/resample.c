@@ -12,9 +12,10 @@
  * texel whose 2x2 source taps are all 0 stays exactly 0).
  *
  * Speed: every cube projection maps faces 1..4 onto each other by a 90 deg
- * turn about +Z (checked from the face frames); for those only face 1's
- * texel -> source position is computed (one face_to_dir + atan2 + asin per
- * texel) and reused with a longitude shift of W/4.  Work is split into
+ * turn about +Z, and face 5 is face 0 mirrored in z (both checked on the
+ * projection at run time); so only faces 1 and 0 get a face_to_dir and two
+ * atan2 per texel, reused with a longitude shift of W/4 (faces 2..4) or a
+ * latitude mirror (face 5).  Work is split into
  * chunks of rows taken by up to `threads` threads from one atomic counter;
  * each texel is written by exactly one thread from the same inputs, so the
  * output does not depend on the thread count.  Only the calling thread
@@ -109,12 +110,18 @@ static void plod__channel_map(int from, int to, int map[4])
 /* resampler                                                                */
 /* ======================================================================== */
 
-typedef struct plod__resample_job {
+typedef struct plod__resample_job plod__resample_job;
+typedef void (*plod__filter_fn)(const plod__resample_job *job, double x, double y, double *out);
+
+struct plod__resample_job {
     plod_cubemap *cubemap;
+    plod__filter_fn filter_fn;
+    int channels; /* of the cube map */
     const plod_image *source;
     plod_filter filter;
     int channel_map[4];
     int rotated_equator; /* faces 1..4 are face 1 turned by 90 deg steps */
+    int polar_mirror;    /* face 5 (u, v) is face 0 (u, -v) mirrored in z */
     int n;               /* face size */
     int rows_total;      /* rows in the job list */
     int chunks_total;
@@ -124,7 +131,7 @@ typedef struct plod__resample_job {
     atomic_int failed;
     atomic_long done_weight; /* in face rows */
     void *faces[PLOD_FACE_COUNT];
-} plod__resample_job;
+};
 
 /* Source tap rows/columns for one coordinate, wrapping/reflecting. */
 static void plod__source_tap(const plod_image *src, long col, long row, long *out_col,
@@ -146,14 +153,12 @@ static void plod__source_tap(const plod_image *src, long col, long row, long *ou
     *out_row = row;
 }
 
-static void plod__tap(const plod_image *src, long col, long row, const int *map, int channels,
-                      double *out)
+/* Element offset (pixel index * channels) of the tap at (col, row). */
+static size_t plod__tap_offset(const plod_image *src, long col, long row)
 {
     long c, r;
     plod__source_tap(src, col, row, &c, &r);
-    size_t base = ((size_t)r * (size_t)src->width + (size_t)c) * (size_t)src->channels;
-    for (int k = 0; k < channels; k++)
-        out[k] = map[k] < 0 ? 1.0 : plod__read_norm(src->type, src->pixels, base + (size_t)map[k]);
+    return ((size_t)r * (size_t)src->width + (size_t)c) * (size_t)src->channels;
 }
 
 static void plod__catmull_rom(double t, double w[4])
@@ -166,51 +171,94 @@ static void plod__catmull_rom(double t, double w[4])
 }
 
 /* Filtered source value at continuous pixel coordinates (x, y) (pixel
- * centres at integers), into out[channels]. */
+ * centres at integers), normalised, into out[channels].  One copy per
+ * source pixel type; interpolation runs on raw values, scaled last, so an
+ * all-zero footprint gives exactly 0. */
+#define PLOD__DEFINE_FILTER(NAME, T, SCALE)                                                     \
+    static void NAME(const plod__resample_job *job, double x, double y, double *out)            \
+    {                                                                                           \
+        const plod_image *src = job->source;                                                    \
+        const T *px = (const T *)src->pixels;                                                   \
+        const int *map = job->channel_map;                                                      \
+        int channels = job->channels;                                                           \
+        long w = src->width, h = src->height;                                                   \
+        size_t sc = (size_t)src->channels;                                                      \
+        if (job->filter == PLOD_FILTER_NEAREST) {                                               \
+            size_t o = plod__tap_offset(src, (long)floor(x + 0.5), (long)floor(y + 0.5));       \
+            for (int k = 0; k < channels; k++)                                                  \
+                out[k] = map[k] < 0 ? 1.0 : px[o + (size_t)map[k]] * (SCALE);                   \
+            return;                                                                             \
+        }                                                                                       \
+        double fx = floor(x), fy = floor(y);                                                    \
+        long x0 = (long)fx, y0 = (long)fy;                                                      \
+        double tx = x - fx, ty = y - fy;                                                        \
+        if (job->filter == PLOD_FILTER_BILINEAR) {                                              \
+            size_t o00, o10, o01, o11;                                                          \
+            if (x0 >= 0 && y0 >= 0 && x0 + 1 < w && y0 + 1 < h) {                              \
+                o00 = ((size_t)y0 * (size_t)w + (size_t)x0) * sc;                               \
+                o10 = o00 + sc;                                                                 \
+                o01 = o00 + (size_t)w * sc;                                                     \
+                o11 = o01 + sc;                                                                 \
+            } else {                                                                            \
+                o00 = plod__tap_offset(src, x0, y0);                                            \
+                o10 = plod__tap_offset(src, x0 + 1, y0);                                        \
+                o01 = plod__tap_offset(src, x0, y0 + 1);                                        \
+                o11 = plod__tap_offset(src, x0 + 1, y0 + 1);                                    \
+            }                                                                                   \
+            for (int k = 0; k < channels; k++) {                                                \
+                int m = map[k];                                                                 \
+                if (m < 0) {                                                                    \
+                    out[k] = 1.0;                                                               \
+                    continue;                                                                   \
+                }                                                                               \
+                double a = px[o00 + (size_t)m], b = px[o10 + (size_t)m];                        \
+                double c = px[o01 + (size_t)m], d = px[o11 + (size_t)m];                        \
+                double top = a + tx * (b - a), bottom = c + tx * (d - c);                       \
+                out[k] = (top + ty * (bottom - top)) * (SCALE);                                 \
+            }                                                                                   \
+            return;                                                                             \
+        }                                                                                       \
+        size_t o[4][4];                                                                         \
+        if (x0 >= 1 && y0 >= 1 && x0 + 2 < w && y0 + 2 < h) {                                  \
+            size_t base = ((size_t)(y0 - 1) * (size_t)w + (size_t)(x0 - 1)) * sc;              \
+            for (int dy = 0; dy < 4; dy++)                                                      \
+                for (int dx = 0; dx < 4; dx++)                                                  \
+                    o[dy][dx] = base + ((size_t)dy * (size_t)w + (size_t)dx) * sc;              \
+        } else {                                                                                \
+            for (int dy = 0; dy < 4; dy++)                                                      \
+                for (int dx = 0; dx < 4; dx++)                                                  \
+                    o[dy][dx] = plod__tap_offset(src, x0 - 1 + dx, y0 - 1 + dy);                \
+        }                                                                                       \
+        double wx[4], wy[4];                                                                    \
+        plod__catmull_rom(tx, wx);                                                              \
+        plod__catmull_rom(ty, wy);                                                              \
+        for (int k = 0; k < channels; k++) {                                                    \
+            int m = map[k];                                                                     \
+            if (m < 0) {                                                                        \
+                out[k] = 1.0;                                                                   \
+                continue;                                                                       \
+            }                                                                                   \
+            double acc = 0.0;                                                                   \
+            for (int dy = 0; dy < 4; dy++) {                                                    \
+                double row = 0.0;                                                               \
+                for (int dx = 0; dx < 4; dx++)                                                  \
+                    row += wx[dx] * px[o[dy][dx] + (size_t)m];                                  \
+                acc += wy[dy] * row;                                                            \
+            }                                                                                   \
+            double a = px[o[1][1] + (size_t)m], b = px[o[1][2] + (size_t)m];                    \
+            double c = px[o[2][1] + (size_t)m], d = px[o[2][2] + (size_t)m];                    \
+            double lo = fmin(fmin(a, b), fmin(c, d)), hi = fmax(fmax(a, b), fmax(c, d));        \
+            out[k] = (acc < lo ? lo : acc > hi ? hi : acc) * (SCALE);                           \
+        }                                                                                       \
+    }
+
+PLOD__DEFINE_FILTER(plod__filter_u8, uint8_t, 1.0 / 255.0)
+PLOD__DEFINE_FILTER(plod__filter_u16, uint16_t, 1.0 / 65535.0)
+PLOD__DEFINE_FILTER(plod__filter_f32, float, 1.0)
+
 static void plod__filter_source(const plod__resample_job *job, double x, double y, double *out)
 {
-    const plod_image *src = job->source;
-    int channels = plod_cubemap_channels(job->cubemap);
-    const int *map = job->channel_map;
-    if (job->filter == PLOD_FILTER_NEAREST) {
-        plod__tap(src, (long)floor(x + 0.5), (long)floor(y + 0.5), map, channels, out);
-        return;
-    }
-    double fx = floor(x), fy = floor(y);
-    long x0 = (long)fx, y0 = (long)fy;
-    double tx = x - fx, ty = y - fy;
-    double t00[4], t10[4], t01[4], t11[4];
-    plod__tap(src, x0, y0, map, channels, t00);
-    plod__tap(src, x0 + 1, y0, map, channels, t10);
-    plod__tap(src, x0, y0 + 1, map, channels, t01);
-    plod__tap(src, x0 + 1, y0 + 1, map, channels, t11);
-    if (job->filter == PLOD_FILTER_BILINEAR) {
-        for (int k = 0; k < channels; k++) {
-            double top = t00[k] + tx * (t10[k] - t00[k]);
-            double bottom = t01[k] + tx * (t11[k] - t01[k]);
-            out[k] = top + ty * (bottom - top);
-        }
-        return;
-    }
-    double wx[4], wy[4], acc[4] = {0.0, 0.0, 0.0, 0.0};
-    plod__catmull_rom(tx, wx);
-    plod__catmull_rom(ty, wy);
-    for (int dy = 0; dy < 4; dy++) {
-        double row[4] = {0.0, 0.0, 0.0, 0.0};
-        for (int dx = 0; dx < 4; dx++) {
-            double tap[4];
-            plod__tap(src, x0 - 1 + dx, y0 - 1 + dy, map, channels, tap);
-            for (int k = 0; k < channels; k++)
-                row[k] += wx[dx] * tap[k];
-        }
-        for (int k = 0; k < channels; k++)
-            acc[k] += wy[dy] * row[k];
-    }
-    for (int k = 0; k < channels; k++) {
-        double lo = fmin(fmin(t00[k], t10[k]), fmin(t01[k], t11[k]));
-        double hi = fmax(fmax(t00[k], t10[k]), fmax(t01[k], t11[k]));
-        out[k] = acc[k] < lo ? lo : acc[k] > hi ? hi : acc[k];
-    }
+    job->filter_fn(job, x, y, out);
 }
 
 /* Source pixel coordinates of a direction. */
@@ -233,11 +281,15 @@ static void plod__store(const plod__resample_job *job, int face, int i, int j,
 }
 
 /* Job row r: for a cube map with rotated_equator, rows [0, n) are the
- * equator band (faces 1..4, row r), [n, 2n) face 0, [2n, 3n) face 5;
- * otherwise rows [f*n, (f+1)*n) are face f.  CAR: rows of face 0. */
+ * equator band (faces 1..4, row r), then with polar_mirror [n, 2n) face 0
+ * row j together with face 5 row n-1-j, else [n, 2n) face 0, [2n, 3n)
+ * face 5; without rotated_equator rows [f*n, (f+1)*n) are face f.  CAR:
+ * rows of face 0. */
 static int plod__row_weight(const plod__resample_job *job, int r)
 {
-    return job->rotated_equator && r < job->n ? 4 : 1;
+    if (!job->rotated_equator)
+        return 1;
+    return r < job->n ? 4 : job->polar_mirror ? 2 : 1;
 }
 
 static plod_status plod__resample_row(plod__resample_job *job, int r, double *sx, double *sy)
@@ -283,6 +335,13 @@ static plod_status plod__resample_row(plod__resample_job *job, int r, double *sx
         for (int i = 0; i < n; i++) {
             plod__filter_source(job, sx[i] + shift, sy[i], value);
             plod__store(job, face + k, i, j, value);
+        }
+    }
+    if (face == 0 && job->polar_mirror) {
+        /* lat -> -lat: source row y -> H - 1 - y */
+        for (int i = 0; i < n; i++) {
+            plod__filter_source(job, sx[i], src->height - 1.0 - sy[i], value);
+            plod__store(job, 5, i, n - 1 - j, value);
         }
     }
     return PLOD_OK;
@@ -369,6 +428,23 @@ static int plod__equator_rotates(const plod_cubemap *m)
     return 1;
 }
 
+/* Face 5 at (u, v) = face 0 at (u, -v) with z negated? */
+static int plod__poles_mirror(const plod_cubemap *m)
+{
+    plod_projection p = plod_cubemap_projection(m);
+    const double probes[3][2] = {{0.3, -0.7}, {-0.9, 0.2}, {1.0, 1.0}};
+    for (int q = 0; q < 3; q++) {
+        double d0[3], d5[3];
+        if (plod_face_to_dir(p, 0, probes[q][0], -probes[q][1], d0) != PLOD_OK ||
+            plod_face_to_dir(p, 5, probes[q][0], probes[q][1], d5) != PLOD_OK)
+            return 0;
+        if (fabs(d0[0] - d5[0]) > 1e-12 || fabs(d0[1] - d5[1]) > 1e-12 ||
+            fabs(d0[2] + d5[2]) > 1e-12)
+            return 0;
+    }
+    return 1;
+}
+
 plod_status plod_resample_car_to_cube_threads(plod_cubemap *cubemap, const plod_image *source,
                                               plod_filter filter, int threads,
                                               plod_progress_fn progress, void *user)
@@ -390,6 +466,10 @@ plod_status plod_resample_car_to_cube_threads(plod_cubemap *cubemap, const plod_
     job->source = source;
     job->filter = filter;
     job->n = plod_cubemap_size(cubemap);
+    job->channels = plod_cubemap_channels(cubemap);
+    job->filter_fn = source->type == PLOD_TEXEL_U8    ? plod__filter_u8
+                     : source->type == PLOD_TEXEL_U16 ? plod__filter_u16
+                                                      : plod__filter_f32;
     for (int f = 0; f < plod_cubemap_face_count(cubemap); f++)
         job->faces[f] = plod_cubemap_face_data(cubemap, f);
     plod__channel_map(source->channels, plod_cubemap_channels(cubemap), job->channel_map);
@@ -398,7 +478,9 @@ plod_status plod_resample_car_to_cube_threads(plod_cubemap *cubemap, const plod_
         job->weight_total = job->n;
     } else {
         job->rotated_equator = plod__equator_rotates(cubemap);
-        job->rows_total = job->rotated_equator ? 3 * job->n : 6 * job->n;
+        job->polar_mirror = job->rotated_equator && plod__poles_mirror(cubemap);
+        job->rows_total = !job->rotated_equator ? 6 * job->n : job->polar_mirror ? 2 * job->n
+                                                                                : 3 * job->n;
         job->weight_total = 6.0 * job->n;
     }
     job->chunks_total = (job->rows_total + PLOD__CHUNK_ROWS - 1) / PLOD__CHUNK_ROWS;
