@@ -101,6 +101,11 @@ const plod_sector *plod_refiner_sectors(const plod_refiner *refiner,
 void plod_sector_corners(const plod_planet *planet, const plod_sector *sector,
                          double corners[3][3]);
 
+/* Verifies the internal invariants (edge table matches the leaves, every
+ * edge shared by two leaves within one level, internal nodes = leaves -
+ * base sectors).  PLOD_OK or PLOD_ERR_BAD_PARAM; O(count). For tests. */
+plod_status plod_refiner_check(const plod_refiner *refiner);
+
 /* Horizon-distance correction: recommended clip range for a camera. */
 void plod_recommended_clip(const plod_planet *planet, const plod_camera *camera,
                            double *clip_start, double *clip_end);

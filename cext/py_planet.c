@@ -489,6 +489,14 @@ static PyObject *plod__planet_sector_heights(plod_py_planet *self, PyObject *a, 
     return plod__planet_export(self, a, k, 4);
 }
 
+static PyObject *plod__planet_check(plod_py_planet *self, PyObject *unused)
+{
+    (void)unused;
+    if (!plod__planet_ready(self))
+        return NULL;
+    return PyBool_FromLong(plod_refiner_check(self->refiner) == PLOD_OK);
+}
+
 static PyObject *plod__planet_sectors(plod_py_planet *self, PyObject *unused)
 {
     (void)unused;
@@ -634,6 +642,8 @@ static PyMethodDef plod__planet_methods[] = {
      "merge_border=0.25, hysteresis=False, template_level=4, max_level=48, budget=0, "
      "backface=True, frustum=True, skip_sea=False, max_sectors=1<<20) -> dict"},
     {"reset", (PyCFunction)plod__planet_reset, METH_NOARGS, "back to the base sectors"},
+    {"check_invariants", (PyCFunction)plod__planet_check, METH_NOARGS,
+     "check_invariants() -> bool: internal adjacency/tree invariants hold (tests)"},
     {"sectors", (PyCFunction)plod__planet_sectors, METH_NOARGS,
      "raw plod_sector records (SECTOR_SIZE bytes each), all leaves"},
     {"sector_ids", (PyCFunction)(void (*)(void))plod__planet_sector_ids,

@@ -18,14 +18,17 @@
  * cube edge.  A hash table maps each key to the two leaves sharing it, so
  * forced splits and diamond lookups are O(1) and exact across faces.
  *
- * Determinism: the split predicate of a node is a pure function of the node
- * and the camera (its own bounding cap prism; heights from fresh range
- * queries), built to be monotone (caps inflated by PLOD__CAP_INFLATE so a
- * child's cap lies in its parent's).  Each frame merges every diamond whose
- * two parents fail the predicate, then splits every leaf that passes it
- * (with forced splits), until stable: the minimal conforming refinement,
- * whatever the previous frame was.  With `hysteresis` the merge test uses
- * the merge border instead and the result depends on history.
+ * Determinism: the raw split predicate P of a node is a pure function of the
+ * node and the camera (its own bounding cap prism; heights from range
+ * queries).  Caps of children do not nest in their parents' (projection
+ * distortion), so P alone is not monotone; the refinement uses
+ * P*(node) = P(node) and P*(parent), which is.  The bounds of the internal
+ * (split) nodes are kept in a hash table by id, so P* costs one memoised
+ * evaluation per node per frame.  Each frame merges every diamond whose two
+ * parents fail P*, then splits every leaf that passes it (with forced
+ * splits), until stable: the unique minimal conforming refinement of
+ * {P* true}, whatever the previous frame was.  With `hysteresis` the merge
+ * test uses the merge border instead and the result depends on history.
  */
 #include "plod_refine.h"
 
@@ -38,8 +41,8 @@
 #define PLOD__ONE ((int32_t)1 << PLOD_COORD_BITS)
 #define PLOD__BASE_SHIFT 56
 #define PLOD__HEAP_MASK (((uint64_t)1 << PLOD__BASE_SHIFT) - 1)
-/* Cap angle inflation; flat geometry needs >= 1.08 for nesting. */
-#define PLOD__CAP_INFLATE 1.25
+/* Cap angle inflation: slack against rounding in the corner angles. */
+#define PLOD__CAP_INFLATE 1.0001
 /* Height-range query box grows by this fraction of the sector's (u, v)
  * extent: mapped great-circle edges bulge out of the straight (u, v) ones
  * in the non-gnomonic projections. */
@@ -57,7 +60,6 @@ typedef struct plod__bound {
 
 typedef struct plod__geom {
     plod__bound self;
-    plod__bound parent; /* the parent node's (itself for base sectors) */
     uint32_t eval_frame;   /* frame of the cached evaluation below */
     uint8_t eval_split;    /* predicate result */
     uint8_t eval_flags;    /* PLOD_SECTOR_BACKFACING | OUTSIDE_FRUSTUM */
@@ -69,6 +71,15 @@ typedef struct plod__edge {
     int32_t leaf[2]; /* -1 = none; both -1 = empty slot */
 } plod__edge;
 
+/* An internal (split) node: its bound and this frame's effective predicate
+ * P*(node) = P(node) and P*(parent), memoised per frame. */
+typedef struct plod__node {
+    uint64_t id;        /* 0 = empty slot */
+    plod__bound bound;
+    uint32_t eval_frame;
+    uint8_t wants;      /* P*(node) */
+} plod__node;
+
 struct plod_refiner {
     const plod_planet *planet;
     plod_sector *leaves;
@@ -76,6 +87,8 @@ struct plod_refiner {
     size_t count, capacity;
     plod__edge *edges;
     size_t edge_mask, edge_used; /* capacity - 1, live entries */
+    plod__node *nodes;           /* internal nodes, open addressing by id */
+    size_t node_mask, node_used;
     uint32_t frame;
     double global_hmin, global_hmax;
     /* per-update evaluation context */
@@ -320,6 +333,92 @@ static plod_status plod__reserve(plod_refiner *r, size_t extra)
     return PLOD_OK;
 }
 
+/* ---- internal nodes ----------------------------------------------------------- */
+
+static size_t plod__id_hash(uint64_t id)
+{
+    uint64_t h = id * 0x9E3779B97F4A7C15ull;
+    h ^= h >> 32;
+    return (size_t)h;
+}
+
+static plod__node *plod__node_find(const plod_refiner *r, uint64_t id)
+{
+    size_t i = plod__id_hash(id) & r->node_mask;
+    for (;;) {
+        plod__node *n = &r->nodes[i];
+        if (n->id == id)
+            return n;
+        if (n->id == 0)
+            return NULL;
+        i = (i + 1) & r->node_mask;
+    }
+}
+
+static plod_status plod__node_reserve(plod_refiner *r, size_t extra)
+{
+    size_t capacity = r->nodes ? r->node_mask + 1 : 0;
+    size_t need = (r->node_used + extra) * 2;
+    if (need <= capacity)
+        return PLOD_OK;
+    size_t fresh_capacity = capacity ? capacity : 64;
+    while (fresh_capacity < need)
+        fresh_capacity *= 2;
+    plod__node *fresh = calloc(fresh_capacity, sizeof *fresh);
+    if (!fresh)
+        return PLOD_ERR_NO_MEMORY;
+    size_t mask = fresh_capacity - 1;
+    for (size_t i = 0; i < capacity; i++) {
+        if (!r->nodes[i].id)
+            continue;
+        size_t j = plod__id_hash(r->nodes[i].id) & mask;
+        while (fresh[j].id)
+            j = (j + 1) & mask;
+        fresh[j] = r->nodes[i];
+    }
+    free(r->nodes);
+    r->nodes = fresh;
+    r->node_mask = mask;
+    return PLOD_OK;
+}
+
+/* Capacity ensured by plod__node_reserve. */
+static void plod__node_add(plod_refiner *r, uint64_t id, const plod__bound *bound)
+{
+    size_t i = plod__id_hash(id) & r->node_mask;
+    while (r->nodes[i].id) {
+        assert(r->nodes[i].id != id);
+        i = (i + 1) & r->node_mask;
+    }
+    plod__node *n = &r->nodes[i];
+    n->id = id;
+    n->bound = *bound;
+    n->eval_frame = 0;
+    r->node_used++;
+}
+
+static void plod__node_remove(plod_refiner *r, uint64_t id)
+{
+    plod__node *n = plod__node_find(r, id);
+    assert(n);
+    size_t hole = (size_t)(n - r->nodes), j = hole;
+    n->id = 0;
+    r->node_used--;
+    for (;;) {
+        j = (j + 1) & r->node_mask;
+        plod__node *m = &r->nodes[j];
+        if (!m->id)
+            break;
+        size_t home = plod__id_hash(m->id) & r->node_mask;
+        int stays = hole <= j ? (home > hole && home <= j) : (home > hole || home <= j);
+        if (stays)
+            continue;
+        r->nodes[hole] = *m;
+        m->id = 0;
+        hole = j;
+    }
+}
+
 /* ---- geometry of a node ---------------------------------------------------- */
 
 void plod_sector_corners(const plod_planet *planet, const plod_sector *sector,
@@ -475,7 +574,7 @@ static double plod__score(const plod_refiner *r, const plod__bound *b, double di
     return px / pr->max_pixel_error;
 }
 
-/* Split predicate of a node (level = its level). */
+/* Split predicate P of a node (level = its level), from its own bound. */
 static int plod__wants_split(const plod_refiner *r, const plod__bound *b, int level,
                              unsigned *flags, double *distance)
 {
@@ -485,21 +584,61 @@ static int plod__wants_split(const plod_refiner *r, const plod__bound *b, int le
     return plod__score(r, b, *distance) > 1.0;
 }
 
-/* Merge test for a parent node when hysteresis is on. */
-static int plod__allows_merge(const plod_refiner *r, const plod__bound *b, int level)
+static int plod__id_level(uint64_t id)
 {
-    double distance;
-    unsigned flags = plod__cull(r, b, &distance);
-    if (!r->params->hysteresis) {
-        if (level >= r->params->max_level || flags)
-            return 1;
-        return !(plod__score(r, b, distance) > 1.0);
+    uint64_t heap = id & PLOD__HEAP_MASK;
+    int level = -1;
+    while (heap) {
+        heap >>= 1;
+        level++;
     }
-    if (flags)
-        return 1;
-    return plod__score(r, b, distance) < r->merge_ratio;
+    return level;
 }
 
+static uint64_t plod__parent_id(uint64_t id)
+{
+    return (id & ~PLOD__HEAP_MASK) | ((id & PLOD__HEAP_MASK) >> 1);
+}
+
+/* P*(node) = P(node) and P*(parent): monotone by construction, so the
+ * refinement it defines has a unique minimal conforming closure.  For an
+ * internal node, memoised per frame. */
+static int plod__node_wants(plod_refiner *r, plod__node *n)
+{
+    if (n->eval_frame == r->frame)
+        return n->wants;
+    int level = plod__id_level(n->id);
+    unsigned flags;
+    double distance;
+    int wants = plod__wants_split(r, &n->bound, level, &flags, &distance);
+    if (wants && level > 0) {
+        plod__node *parent = plod__node_find(r, plod__parent_id(n->id));
+        assert(parent);
+        wants = parent ? plod__node_wants(r, parent) : 1;
+    }
+    n->wants = (uint8_t)wants;
+    n->eval_frame = r->frame;
+    return wants;
+}
+
+/* Whether an internal node may be merged back (its children removed). */
+static int plod__allows_merge(plod_refiner *r, plod__node *n)
+{
+    if (!r->params->hysteresis)
+        return !plod__node_wants(r, n);
+    int level = plod__id_level(n->id);
+    if (level > 0) {
+        plod__node *parent = plod__node_find(r, plod__parent_id(n->id));
+        if (parent && !plod__node_wants(r, parent))
+            return 1;
+    }
+    double distance;
+    unsigned flags = plod__cull(r, &n->bound, &distance);
+    return flags || level >= r->params->max_level ||
+           plod__score(r, &n->bound, distance) < r->merge_ratio;
+}
+
+/* P*(leaf), caching P(leaf) and its cull flags for this frame. */
 static int plod__leaf_wants_split(plod_refiner *r, size_t i)
 {
     plod__geom *g = &r->geom[i];
@@ -510,7 +649,11 @@ static int plod__leaf_wants_split(plod_refiner *r, size_t i)
         g->eval_flags = (uint8_t)flags;
         g->eval_frame = r->frame;
     }
-    return g->eval_split;
+    if (!g->eval_split || r->leaves[i].level == 0)
+        return g->eval_split;
+    plod__node *parent = plod__node_find(r, plod__parent_id(r->leaves[i].id));
+    assert(parent);
+    return parent ? plod__node_wants(r, parent) : 1;
 }
 
 /* ---- node algebra ---------------------------------------------------------- */
@@ -573,9 +716,10 @@ static void plod__split_diamond(plod_refiner *r, size_t i, size_t n)
 {
     size_t pair[2] = {i, n};
     plod_sector parents[2] = {r->leaves[i], r->leaves[n]};
-    plod__bound parent_bounds[2] = {r->geom[i].self, r->geom[n].self};
     plod__leaf_unlink(r, i);
     plod__leaf_unlink(r, n);
+    plod__node_add(r, parents[0].id, &r->geom[i].self);
+    plod__node_add(r, parents[1].id, &r->geom[n].self);
     for (int k = 0; k < 2; k++) {
         for (int bit = 0; bit < 2; bit++) {
             size_t at = bit ? r->count++ : pair[k];
@@ -583,7 +727,6 @@ static void plod__split_diamond(plod_refiner *r, size_t i, size_t n)
             plod__child(&parents[k], bit, r->frame, c);
             plod__geom *g = &r->geom[at];
             plod__compute_bound(r, c, &g->self);
-            g->parent = parent_bounds[k];
             g->eval_frame = r->frame - 1;
             plod__apply_bound(c, &g->self);
             plod__leaf_link(r, at);
@@ -604,7 +747,8 @@ static int plod__split(plod_refiner *r, size_t i)
         if (n < 0)
             return 1;
         if (r->leaves[n].level == r->leaves[i].level) {
-            if (r->count + 2 > r->max_sectors || plod__reserve(r, 2) != PLOD_OK) {
+            if (r->count + 2 > r->max_sectors || plod__reserve(r, 2) != PLOD_OK ||
+                plod__node_reserve(r, 2) != PLOD_OK) {
                 r->truncated = 1;
                 return 0;
             }
@@ -621,9 +765,9 @@ static int plod__split(plod_refiner *r, size_t i)
 
 /* ---- merge ----------------------------------------------------------------- */
 
-static void plod__remove_leaf(plod_refiner *r, size_t x)
+/* Drops leaf x, already unlinked, moving the last leaf into its slot. */
+static void plod__drop_unlinked(plod_refiner *r, size_t x)
 {
-    plod__leaf_unlink(r, x);
     size_t last = r->count - 1;
     if (x != last) {
         for (int e = 0; e < 3; e++) {
@@ -654,7 +798,9 @@ static int plod__try_merge(plod_refiner *r, size_t ia)
     if (a->level == 0 || (a->id & 1))
         return 0;
     int level = a->level;
-    if (!plod__allows_merge(r, &r->geom[ia].parent, level - 1))
+    plod__node *pn = plod__node_find(r, plod__parent_id(a->id));
+    assert(pn);
+    if (!pn || !plod__allows_merge(r, pn))
         return 0;
     int32_t ib = plod__across(r, ia, 0), ic = plod__across(r, ia, 1);
     if (ib < 0 || ic < 0)
@@ -670,38 +816,36 @@ static int plod__try_merge(plod_refiner *r, size_t ia)
     const plod_sector *d = &r->leaves[id_];
     if (d->level != level || (c->id ^ d->id) != 1 || !plod__same_point(r, a, 1, d, 1))
         return 0;
-    if (!plod__allows_merge(r, &r->geom[ic].parent, level - 1))
+    plod__node *qn = plod__node_find(r, plod__parent_id(c->id));
+    assert(qn);
+    if (!qn || !plod__allows_merge(r, qn))
         return 0;
 
     plod_sector p, q;
     plod__parent(a, &p);
     plod__parent(c, &q);
-    plod__bound pb = r->geom[ia].parent, qb = r->geom[ic].parent;
-    uint32_t birth = r->frame;
-    p.birth = q.birth = birth;
-    plod__apply_bound(&p, &pb);
-    plod__apply_bound(&q, &qb);
-    plod__geom gp = {.self = pb, .parent = pb, .eval_frame = r->frame - 1};
-    plod__geom gq = {.self = qb, .parent = qb, .eval_frame = r->frame - 1};
-    if (p.level > 0) {
-        plod_sector gpp;
-        plod__parent(&p, &gpp);
-        plod__compute_bound(r, &gpp, &gp.parent);
-        plod__parent(&q, &gpp);
-        plod__compute_bound(r, &gpp, &gq.parent);
-    }
-    size_t ia_ = ia, ib_ = (size_t)ib, ic_ = (size_t)ic, id2 = (size_t)id_;
-    plod__leaf_unlink(r, ia_);
+    plod__geom gp = {.self = pn->bound, .eval_frame = r->frame - 1};
+    plod__geom gq = {.self = qn->bound, .eval_frame = r->frame - 1};
+    p.birth = q.birth = r->frame;
+    plod__apply_bound(&p, &gp.self);
+    plod__apply_bound(&q, &gq.self);
+    plod__node_remove(r, p.id);
+    plod__node_remove(r, q.id);
+    size_t ib_ = (size_t)ib, ic_ = (size_t)ic, id2 = (size_t)id_;
+    /* all four out before the parents go in: their outer edges are shared */
+    plod__leaf_unlink(r, ia);
+    plod__leaf_unlink(r, ib_);
     plod__leaf_unlink(r, ic_);
-    r->leaves[ia_] = p;
-    r->geom[ia_] = gp;
+    plod__leaf_unlink(r, id2);
+    r->leaves[ia] = p;
+    r->geom[ia] = gp;
     r->leaves[ic_] = q;
     r->geom[ic_] = gq;
-    plod__leaf_link(r, ia_);
+    plod__leaf_link(r, ia);
     plod__leaf_link(r, ic_);
     size_t hi = ib_ > id2 ? ib_ : id2, lo = ib_ > id2 ? id2 : ib_;
-    plod__remove_leaf(r, hi);
-    plod__remove_leaf(r, lo);
+    plod__drop_unlinked(r, hi);
+    plod__drop_unlinked(r, lo);
     r->merges += 2;
     return 1;
 }
@@ -725,16 +869,19 @@ static void plod__add_base(plod_refiner *r, unsigned base, int face,
     plod__geom *g = &r->geom[at];
     memset(g, 0, sizeof *g);
     plod__compute_bound(r, s, &g->self);
-    g->parent = g->self;
     g->eval_frame = r->frame - 1;
     plod__apply_bound(s, &g->self);
     plod__leaf_link(r, at);
 }
 
+
 static plod_status plod__build_base(plod_refiner *r)
 {
     r->count = 0;
     r->edge_used = 0;
+    r->node_used = 0;
+    if (r->nodes)
+        memset(r->nodes, 0, (r->node_mask + 1) * sizeof *r->nodes);
     if (r->edges)
         for (size_t i = 0; i <= r->edge_mask; i++)
             r->edges[i].leaf[0] = r->edges[i].leaf[1] = -1;
@@ -803,6 +950,7 @@ void plod_refiner_destroy(plod_refiner *refiner)
     free(refiner->leaves);
     free(refiner->geom);
     free(refiner->edges);
+    free(refiner->nodes);
     free(refiner);
 }
 
@@ -951,6 +1099,9 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
         plod_sector *sec = &r->leaves[i];
         plod__leaf_wants_split(r, i); /* fills the cached cull flags */
         unsigned flags = r->geom[i].eval_flags;
+        int sea = r->planet->has_sea_level && sec->height_max <= r->planet->sea_level;
+        if (sea)
+            flags |= PLOD_SECTOR_SEA;
         deepest = sec->level > deepest ? sec->level : deepest;
         if (flags & PLOD_SECTOR_BACKFACING) {
             sec->flags = (uint16_t)flags;
@@ -962,8 +1113,7 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
             continue;
         }
         s.sectors_after_frustum++;
-        if (r->planet->has_sea_level && sec->height_max <= r->planet->sea_level) {
-            flags |= PLOD_SECTOR_SEA;
+        if (sea) {
             if (params->skip_sea) {
                 s.sectors_sea_skipped++;
                 sec->flags = (uint16_t)flags;
@@ -1004,6 +1154,48 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
     r->params = NULL;
     if (stats)
         *stats = s;
+    return PLOD_OK;
+}
+
+/* ---- invariants ---------------------------------------------------------------- */
+
+plod_status plod_refiner_check(const plod_refiner *r)
+{
+    if (!r)
+        return PLOD_ERR_NULL;
+    size_t links = 0;
+    for (size_t i = 0; i < r->count; i++) {
+        const plod_sector *s = &r->leaves[i];
+        for (int e = 0; e < 3; e++) {
+            int32_t key[3];
+            plod__edge_key(r, s, e, key);
+            size_t slot = plod__edge_find(r, key);
+            if (slot == (size_t)-1)
+                return PLOD_ERR_BAD_PARAM;
+            const plod__edge *edge = &r->edges[slot];
+            if (edge->leaf[0] != (int32_t)i && edge->leaf[1] != (int32_t)i)
+                return PLOD_ERR_BAD_PARAM;
+            int32_t other = edge->leaf[0] == (int32_t)i ? edge->leaf[1] : edge->leaf[0];
+            if (other < 0 || (size_t)other >= r->count)
+                return PLOD_ERR_BAD_PARAM; /* closed sphere: always two */
+            int dl = (int)r->leaves[other].level - (int)s->level;
+            if (dl < -1 || dl > 1)
+                return PLOD_ERR_BAD_PARAM;
+        }
+        if (s->level > 0 && !plod__node_find(r, plod__parent_id(s->id)))
+            return PLOD_ERR_BAD_PARAM;
+        links += 3;
+    }
+    size_t used = 0;
+    for (size_t i = 0; i <= r->edge_mask; i++)
+        if (!plod__slot_empty(&r->edges[i]))
+            used++;
+    if (used != r->edge_used || 2 * used != links)
+        return PLOD_ERR_BAD_PARAM;
+    /* a binary forest with count leaves over the base sectors */
+    size_t bases = plod_projection_is_cube(r->planet->projection) ? 12 : 8;
+    if (r->node_used + bases != r->count)
+        return PLOD_ERR_BAD_PARAM;
     return PLOD_OK;
 }
 

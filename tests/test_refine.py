@@ -1,0 +1,331 @@
+"""HRTMR refinement: base mesh, conformity, determinism, depth, stats, budget,
+clip correction and bad input (planetlod.Planet / planetlod.Camera)."""
+import math
+from collections import defaultdict
+
+import numpy as np
+import pytest
+
+from conftest import data_path
+
+EARTH_R = 6371000.0
+
+
+def look_at(eye, target, up=(0.0, 0.0, 1.0)):
+    """Blender-style matrix_world (4x4 nested list): camera at eye looking at target."""
+    e = np.asarray(eye, float)
+    f = np.asarray(target, float) - e
+    f /= np.linalg.norm(f)
+    u = np.asarray(up, float)
+    if abs(np.dot(f, u)) > 0.99:
+        u = np.array([1.0, 0.0, 0.0]) if abs(f[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    r = np.cross(f, u)
+    r /= np.linalg.norm(r)
+    up2 = np.cross(r, f)
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = r, up2, -f, e
+    return m.tolist()
+
+
+def surface_camera(planetlod, radius, altitude, lat=0.3, lon=0.2, pitch=-0.2, **kw):
+    """Camera at `altitude` above the sphere looking roughly along the surface."""
+    d = np.array([math.cos(lat) * math.cos(lon), math.cos(lat) * math.sin(lon), math.sin(lat)])
+    east = np.array([-math.sin(lon), math.cos(lon), 0.0])
+    eye = d * (radius + altitude)
+    view = east * math.cos(pitch) + d * math.sin(pitch)
+    kw.setdefault("clip_start", 0.01)
+    kw.setdefault("clip_end", 1e9)
+    return planetlod.Camera(look_at(eye, eye + view, up=d), **kw)
+
+
+def space_camera(planetlod, distance, direction=(1.0, 0.3, 0.2), **kw):
+    d = np.asarray(direction, float)
+    d /= np.linalg.norm(d)
+    kw.setdefault("clip_start", 1.0)
+    kw.setdefault("clip_end", 1e10)
+    return planetlod.Camera(look_at(d * distance, (0, 0, 0)), **kw)
+
+
+def corners(planet, visible_only=False):
+    return np.array(planet.sector_corners(visible_only=visible_only).tolist()).reshape(-1, 3, 3)
+
+
+def check_conforming(planet):
+    """Every edge is shared by exactly two leaves with identical endpoints and
+    the two leaves' levels differ by at most one."""
+    c = corners(planet)
+    levels = planet.sector_levels(visible_only=False).tolist()
+    edges = defaultdict(list)
+    for s, tri in enumerate(c):
+        pts = [tuple(p) for p in tri]
+        for e in range(3):
+            key = tuple(sorted((pts[e], pts[(e + 1) % 3])))
+            edges[key].append(s)
+    bad = [k for k, v in edges.items() if len(v) != 2]
+    assert not bad, f"{len(bad)} edges not shared by exactly two sectors"
+    for a, b in edges.values():
+        assert abs(levels[a] - levels[b]) <= 1
+    # Euler characteristic of a closed sphere: V - E + F = 2
+    verts = {tuple(p) for tri in c for p in tri}
+    assert len(verts) - len(edges) + len(c) == 2
+    assert planet.check_invariants()
+
+
+@pytest.mark.parametrize("projection,count", [("qsc", 12), ("tsc", 12), ("csc", 12), ("car", 8)])
+def test_base_mesh(planetlod, projection, count):
+    p = planetlod.Planet(1000.0, projection=projection)
+    assert p.sector_count == count
+    assert set(p.sector_levels(visible_only=False).tolist()) == {0}
+    c = corners(p)
+    for tri in c:
+        # counter-clockwise seen from outside
+        assert np.dot(np.cross(tri[1] - tri[0], tri[2] - tri[0]), tri.sum(0)) > 0
+    check_conforming(p)
+    # base sectors tile the sphere: spherical excesses sum to 4 pi
+    area = 0.0
+    for a, b, cc in c:
+        num = abs(np.dot(a, np.cross(b, cc)))
+        den = 1 + np.dot(a, b) + np.dot(b, cc) + np.dot(cc, a)
+        area += 2 * math.atan2(num, den)
+    assert area == pytest.approx(4 * math.pi, rel=1e-12)
+
+
+@pytest.mark.parametrize("projection", ["qsc", "tsc", "car"])
+def test_conforming_after_refine(planetlod, projection):
+    p = planetlod.Planet(EARTH_R, projection=projection)
+    for cam in (space_camera(planetlod, 2e7), surface_camera(planetlod, EARTH_R, 3e5),
+                surface_camera(planetlod, EARTH_R, 2e3)):
+        s = p.refine(cam, criterion="side_distance", max_level=22)
+        assert s["sectors_total"] == p.sector_count > 12
+        check_conforming(p)
+    # and after coming back out (merges)
+    s = p.refine(space_camera(planetlod, 4e7), criterion="side_distance", max_level=22)
+    assert s["merges"] > 0
+    check_conforming(p)
+
+
+def test_conforming_with_heightmap(planetlod, earth):
+    for alt in (2e6, 5e3, 20.0):
+        earth.refine(surface_camera(planetlod, EARTH_R, alt, lat=0.5, lon=1.4))
+        check_conforming(earth)
+
+
+@pytest.fixture(scope="module")
+def earth(planetlod):
+    return planetlod.Planet(EARTH_R, projection="qsc",
+                            heightmap=data_path("earth-topology.png"),
+                            height_scale=8848.0, sea_level=0.0, heightmap_size=256)
+
+
+def sorted_ids(planet):
+    return sorted(planet.sector_ids(visible_only=False).tolist())
+
+
+@pytest.mark.parametrize("criterion", ["pixel", "side_distance"])
+def test_deterministic_history(planetlod, criterion):
+    a = surface_camera(planetlod, EARTH_R, 500.0, lat=0.1, lon=-0.4)
+    b = surface_camera(planetlod, EARTH_R, 8e5, lat=0.9, lon=2.0, pitch=-0.6)
+    c = space_camera(planetlod, 3e7)
+    kw = dict(criterion=criterion, max_level=40)
+    fresh = planetlod.Planet(EARTH_R)
+    fresh.refine(a, **kw)
+    want = sorted_ids(fresh)
+    p = planetlod.Planet(EARTH_R)
+    for cam in (b, a, c, b, a):
+        p.refine(cam, **kw)
+    assert sorted_ids(p) == want
+    # refining again at the same camera changes nothing
+    s = p.refine(a, **kw)
+    assert s["splits"] == 0 and s["merges"] == 0
+
+
+def test_deterministic_with_heightmap(planetlod, earth):
+    a = surface_camera(planetlod, EARTH_R, 3000.0, lat=0.5, lon=1.4)
+    b = surface_camera(planetlod, EARTH_R, 3e5, lat=0.2, lon=1.0)
+    earth.reset()
+    earth.refine(a)
+    want = sorted_ids(earth)
+    earth.refine(b)
+    earth.refine(a)
+    assert sorted_ids(earth) == want
+
+
+def test_hysteresis_keeps_history(planetlod):
+    near = surface_camera(planetlod, EARTH_R, 100.0)
+    far = surface_camera(planetlod, EARTH_R, 400.0)
+    p = planetlod.Planet(EARTH_R)
+    p.refine(near, criterion="side_distance", hysteresis=True)
+    p.refine(far, criterion="side_distance", hysteresis=True)
+    q = planetlod.Planet(EARTH_R)
+    q.refine(far, criterion="side_distance", hysteresis=True)
+    assert p.sector_count > q.sector_count  # kept splits above the merge border
+    p.refine(far, criterion="side_distance")  # the deterministic mode forgets
+    assert sorted_ids(p) == sorted_ids(q)
+
+
+def test_depth_48_near_the_surface(planetlod):
+    p = planetlod.Planet(EARTH_R)
+    cam = surface_camera(planetlod, EARTH_R, 0.5, pitch=-0.5)
+    s = p.refine(cam, criterion="side_distance", max_level=48)
+    assert s["max_level"] == 48
+    levels = np.array(p.sector_levels(visible_only=False).tolist())
+    c = corners(p)[levels == 48]
+    chords = np.linalg.norm(c[:, 0] - c[:, 2], axis=1) * EARTH_R
+    assert chords.max() < 1.0  # sub-metre sectors on an Earth-radius planet
+    check_conforming(p)
+    # deeper than the cap is refused, up to PLOD_MAX_LEVEL = 52 accepted
+    s = p.refine(cam, criterion="side_distance", max_level=52)
+    assert s["max_level"] > 48
+    with pytest.raises(planetlod.InvalidArgument):
+        p.refine(cam, max_level=53)
+
+
+def test_pixel_criterion_scales_with_error_and_resolution(planetlod, earth):
+    cam = surface_camera(planetlod, EARTH_R, 2000.0, lat=0.5, lon=1.4)
+    counts = []
+    for err in (4.0, 1.0, 0.25):
+        earth.refine(cam, max_pixel_error=err)
+        counts.append(earth.sector_count)
+    assert counts[0] < counts[1] < counts[2]
+    small = surface_camera(planetlod, EARTH_R, 2000.0, lat=0.5, lon=1.4,
+                           resolution_x=480, resolution_y=270)
+    earth.refine(small)
+    assert earth.sector_count < counts[1]
+    # a finer template needs fewer sectors for the same error
+    earth.refine(cam, template_level=6)
+    assert earth.sector_count < counts[1]
+
+
+def test_stats_consistent(planetlod, earth):
+    cam = surface_camera(planetlod, EARTH_R, 5e4, lat=0.5, lon=1.4)
+    s = earth.refine(cam, skip_sea=True)
+    flags = np.array(earth.sector_flags(visible_only=False).tolist())
+    assert s["sectors_total"] == len(flags) == earth.sector_count
+    assert s["sectors_after_backface"] == np.sum((flags & 2) == 0)
+    assert s["sectors_after_frustum"] == np.sum((flags & 6) == 0)
+    assert s["sectors_after_budget"] == np.sum((flags & 1) != 0) == earth.visible_count
+    assert s["sectors_after_frustum"] - s["sectors_sea_skipped"] == s["sectors_after_budget"]
+    assert (s["sectors_total"] >= s["sectors_after_backface"] >= s["sectors_after_frustum"]
+            >= s["sectors_after_budget"])
+    assert s["refine_us"] > 0 and s["cull_us"] >= 0
+    assert s["max_level"] == max(earth.sector_levels(visible_only=False).tolist())
+    raw = earth.sectors()
+    assert len(raw) == earth.SECTOR_SIZE * earth.sector_count and earth.SECTOR_SIZE <= 64
+    assert len(earth.sector_ids()) == earth.visible_count
+
+
+def test_sea_skipping(planetlod, earth):
+    cam = space_camera(planetlod, EARTH_R + 3e5, direction=(-0.72, -0.604, -0.342))  # S Pacific
+    s0 = earth.refine(cam, skip_sea=False)
+    s1 = earth.refine(cam, skip_sea=True)
+    assert s1["sectors_sea_skipped"] > 0
+    assert s1["sectors_after_budget"] == s0["sectors_after_budget"] - s1["sectors_sea_skipped"]
+    flags = np.array(earth.sector_flags(visible_only=False).tolist())
+    h = np.array(earth.sector_heights(visible_only=False).tolist()).reshape(-1, 2)
+    sea = (flags & 16) != 0
+    assert np.all(h[sea, 1] <= 0.0) and np.all(h[~sea, 1] > 0.0)
+    assert not np.any(sea & ((flags & 1) != 0))
+
+
+def test_budget_keeps_nearest(planetlod):
+    p = planetlod.Planet(EARTH_R)
+    cam = surface_camera(planetlod, EARTH_R, 50.0)
+    full = p.refine(cam, criterion="side_distance")
+    assert full["sectors_after_budget"] > 20
+    s = p.refine(cam, criterion="side_distance", budget=20)
+    assert s["sectors_after_budget"] == p.visible_count == 20
+    flags = np.array(p.sector_flags(visible_only=False).tolist())
+    assert np.sum((flags & 8) != 0) == full["sectors_after_budget"] - 20
+    # the kept sectors are the nearest ones
+    eye = np.array(cam.position)
+    c = corners(p)
+    dist = np.linalg.norm(c.mean(1) * EARTH_R - eye, axis=1)
+    kept, dropped = dist[(flags & 1) != 0], dist[(flags & 8) != 0]
+    assert np.median(kept) < np.median(dropped)
+    s = p.refine(cam, criterion="side_distance", budget=0)  # 0 = unlimited
+    assert s["sectors_after_budget"] == full["sectors_after_budget"]
+
+
+def test_max_sectors_caps_memory(planetlod):
+    p = planetlod.Planet(EARTH_R)
+    s = p.refine(surface_camera(planetlod, EARTH_R, 1.0), criterion="side_distance",
+                 split_border=0.01, merge_border=0.005, max_sectors=5000)
+    assert s["truncated"] and p.sector_count <= 5000
+    check_conforming(p)
+
+
+def test_recommended_clip(planetlod, earth):
+    for alt in (2.0, 1e3, 1e6):
+        cam = surface_camera(planetlod, EARTH_R, alt)
+        near, far = planetlod.Planet(EARTH_R).recommended_clip(cam)
+        assert 0 < near <= alt
+        assert far >= math.sqrt(2 * EARTH_R * alt + alt * alt)
+        assert far < 1.1 * math.sqrt(2 * EARTH_R * alt + alt * alt) + 10
+        # terrain: mountains beyond the horizon extend the far clip
+        near2, far2 = earth.recommended_clip(cam)
+        assert far2 > far and near2 <= near
+
+
+def test_camera_below_surface_and_orthographic(planetlod):
+    p = planetlod.Planet(EARTH_R)
+    cam = surface_camera(planetlod, EARTH_R, -100.0)
+    s = p.refine(cam, criterion="side_distance")
+    assert s["sectors_total"] > 12
+    check_conforming(p)
+    ortho = surface_camera(planetlod, EARTH_R, 1000.0, type="ORTHO", ortho_scale=5000.0)
+    s = p.refine(ortho)
+    assert s["sectors_after_budget"] > 0
+    check_conforming(p)
+
+
+def test_bad_planets(planetlod):
+    for radius in (0.0, -1.0, 0.5, 1e9, float("nan"), float("inf")):
+        with pytest.raises(planetlod.InvalidArgument):
+            planetlod.Planet(radius)
+    with pytest.raises(planetlod.InvalidArgument):
+        planetlod.Planet(1000.0, projection="mercator")
+    with pytest.raises(planetlod.InvalidArgument):
+        planetlod.Planet(1000.0, sea_level=float("nan"))
+    with pytest.raises(planetlod.InvalidArgument):
+        planetlod.Planet(1000.0, height_scale=float("inf"))
+    with pytest.raises(TypeError):
+        planetlod.Planet(1000.0, heightmap=42)
+
+
+def test_bad_refine_arguments(planetlod):
+    p = planetlod.Planet(1000.0)
+    cam = space_camera(planetlod, 5000.0)
+    for kw in (dict(criterion="nope"), dict(max_pixel_error=0.0), dict(template_level=8),
+               dict(max_level=-1), dict(budget=-1), dict(split_border=0.2, merge_border=0.3),
+               dict(max_sectors=3), dict(max_pixel_error=float("nan"))):
+        with pytest.raises(planetlod.InvalidArgument):
+            p.refine(cam, **kw)
+    with pytest.raises(TypeError):
+        p.refine("camera")
+    centre = planetlod.Camera(look_at((0, 0, 0), (1, 0, 0)))
+    with pytest.raises(planetlod.InvalidArgument):
+        p.refine(centre)
+    assert p.sector_count >= 12  # still usable
+    p.refine(cam)
+
+
+def test_bad_cameras(planetlod):
+    good = look_at((10, 0, 0), (0, 0, 0))
+    planetlod.Camera(good)
+    flat = [x for row in good for x in row]
+    planetlod.Camera(flat)  # 16 floats
+    nan = [row[:] for row in good]
+    nan[0][3] = float("nan")
+    singular = [row[:] for row in good]
+    singular[0][0] = singular[1][0] = singular[2][0] = 0.0
+    cases = [dict(matrix_world=nan), dict(matrix_world=singular),
+             dict(matrix_world=[[1, 2, 3]]), dict(matrix_world=[1.0] * 15),
+             dict(matrix_world=good, lens=0.0), dict(matrix_world=good, resolution_x=0),
+             dict(matrix_world=good, resolution_y=-5), dict(matrix_world=good, clip_start=10.0, clip_end=1.0),
+             dict(matrix_world=good, type="ORTHO", ortho_scale=0.0),
+             dict(matrix_world=good, shift_x=float("inf")), dict(matrix_world=good, type="FISHEYE"),
+             dict(matrix_world=good, sensor_fit="DIAGONAL"), dict(matrix_world=good, sensor_width=-1.0),
+             dict(matrix_world=[["a"] * 4] * 4)]
+    for kw in cases:
+        with pytest.raises(planetlod.InvalidArgument):
+            planetlod.Camera(**kw)
