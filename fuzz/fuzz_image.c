@@ -1,0 +1,192 @@
+/* fuzz_image.c -- libFuzzer harness for image decoding (cext/image_io.cpp,
+ * the OpenImageIO bridge) and the CubeResampler (cext/resample.c).
+ *
+ * Input layout: [format][projection/filter][cube size][flags] file-bytes...
+ * The file bytes are written to a private file in /dev/shm whose extension
+ * the first byte picks (OIIO chooses its decoder by extension, falling back
+ * to probing every format for an unknown one), then read with
+ * plod_image_read.  A decoded image is resampled into a tiny cube map,
+ * optionally cancelled half-way through the progress callback, turned into
+ * a cross image and back, and sampled.
+ *
+ * Only our code is instrumented: OpenImageIO and its codec libraries are
+ * Debian's uninstrumented builds, so memory errors inside them are found
+ * only if they crash or corrupt what our code later touches.
+ */
+#include <errno.h>
+#include <stdint.h>
+#include <unistd.h>
+
+#include "fuzz_input.h"
+#include "plod_image.h"
+#include "plod_resample.h"
+
+static const char *const fuzz_extensions[] = {
+    "png", "jpg", "tif", "exr", "hdr", "bmp", "tga", "pnm", "pfm", "gif",
+    "psd", "sgi", "ico", "rla", "dds", "webp", "fits", "dat", /* unknown ext: OIIO probes */
+};
+#define FUZZ_EXTENSIONS (sizeof fuzz_extensions / sizeof fuzz_extensions[0])
+
+static char fuzz_dir[64];
+
+static void fuzz__cleanup(void)
+{
+    for (size_t i = 0; i < FUZZ_EXTENSIONS; i++) {
+        char path[128];
+        snprintf(path, sizeof path, "%s/in.%s", fuzz_dir, fuzz_extensions[i]);
+        unlink(path);
+    }
+    rmdir(fuzz_dir);
+}
+
+int LLVMFuzzerInitialize(int *argc, char ***argv)
+{
+    (void)argc;
+    (void)argv;
+    const char *base = access("/dev/shm", W_OK) == 0 ? "/dev/shm" : "/tmp";
+    snprintf(fuzz_dir, sizeof fuzz_dir, "%s/plod-fuzz-XXXXXX", base);
+    if (!mkdtemp(fuzz_dir)) {
+        perror("mkdtemp");
+        abort();
+    }
+    atexit(fuzz__cleanup);
+    return 0;
+}
+
+typedef struct fuzz_progress {
+    int calls;
+    int cancel_at; /* 0: never */
+    double last;
+} fuzz_progress;
+
+static int fuzz__progress(void *user, double fraction)
+{
+    fuzz_progress *p = user;
+    FUZZ_CHECK(fraction >= 0.0 && fraction <= 1.0 && fraction >= p->last,
+               "progress %g after %g", fraction, p->last);
+    p->last = fraction;
+    p->calls++;
+    return p->cancel_at && p->calls >= p->cancel_at;
+}
+
+static void fuzz__check_image(const plod_image *image)
+{
+    FUZZ_CHECK(image->width > 0 && image->height > 0 && image->channels >= 1 &&
+                   image->channels <= 4 && (unsigned)image->type < PLOD_TEXEL_TYPE_COUNT &&
+                   image->pixels != NULL,
+               "decoded image %dx%dx%d type %d", image->width, image->height,
+               image->channels, image->type);
+}
+
+static void fuzz__use_cubemap(plod_cubemap *cubemap, fuzz_input *in)
+{
+    int channels = plod_cubemap_channels(cubemap);
+    if (plod_cubemap_build_pyramid(cubemap) != PLOD_OK)
+        return;
+    double lo, hi;
+    plod_cubemap_global_range(cubemap, &lo, &hi);
+    for (int i = 0; i < 3; i++) {
+        double dir[3] = {fuzz_double_in(in, -1, 1), fuzz_double_in(in, -1, 1),
+                         fuzz_double_in(in, -1, 1)};
+        if (dir[0] == 0 && dir[1] == 0 && dir[2] == 0)
+            dir[2] = 1;
+        float out[4] = {0, 0, 0, 0};
+        plod_cubemap_sample(cubemap, dir, out);
+        (void)plod_cubemap_sample_height(cubemap, dir);
+        (void)channels;
+        if (plod_cubemap_face_count(cubemap) == 6) {
+            int face = fuzz_range(in, 0, 5);
+            plod_cubemap_range(cubemap, face, fuzz_double(in), fuzz_double(in),
+                               fuzz_double(in), fuzz_double(in), &lo, &hi);
+        }
+    }
+    plod_image cross = {0};
+    if (plod_cubemap_to_cross(&cross, cubemap) == PLOD_OK) {
+        fuzz__check_image(&cross);
+        plod_cubemap *back = NULL;
+        if (plod_cubemap_from_cross(&back, &cross, plod_cubemap_projection(cubemap)) == PLOD_OK) {
+            FUZZ_CHECK(plod_cubemap_size(back) == plod_cubemap_size(cubemap),
+                       "cross round trip size %d vs %d", plod_cubemap_size(back),
+                       plod_cubemap_size(cubemap));
+            FUZZ_CHECK(memcmp(plod_cubemap_face_data_const(back, 3),
+                              plod_cubemap_face_data_const(cubemap, 3),
+                              plod_cubemap_face_bytes(cubemap)) == 0,
+                       "cross round trip changed texels");
+            plod_cubemap_destroy(back);
+        }
+        plod_image_free(&cross);
+    }
+    plod_image face = {0};
+    if (plod_cubemap_face_to_image(&face, cubemap, fuzz_range(in, -1, 6)) == PLOD_OK) {
+        fuzz__check_image(&face);
+        plod_image_free(&face);
+    }
+}
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    fuzz_input in = {data, size};
+    const char *ext = fuzz_extensions[fuzz_u8(&in) % FUZZ_EXTENSIONS];
+    uint8_t mode = fuzz_u8(&in);
+    int size_code = fuzz_u8(&in);
+    uint8_t flags = fuzz_u8(&in);
+    /* The rest is the file; parameters for later steps come from a copy of
+     * the file's tail so the decoder sees the whole input. */
+    fuzz_input tail = {in.data + in.size / 2, in.size - in.size / 2};
+
+    char path[128];
+    snprintf(path, sizeof path, "%s/in.%s", fuzz_dir, ext);
+    FILE *f = fopen(path, "wb");
+    FUZZ_CHECK(f != NULL, "cannot create %s: %s", path, strerror(errno));
+    if (in.size)
+        FUZZ_CHECK(fwrite(in.data, 1, in.size, f) == in.size, "short write");
+    fclose(f);
+
+    plod_image image = {0};
+    char message[256];
+    /* A small pixel cap keeps each execution cheap; absurd headers must be
+     * refused by the cap before any allocation. */
+    size_t max_pixels = (flags & 1) ? 4096 : 1u << 18;
+    plod_status s = plod_image_read(&image, path, max_pixels, message, sizeof message);
+    FUZZ_CHECK(memchr(message, '\0', sizeof message) != NULL, "message not terminated");
+    if (s != PLOD_OK) {
+        FUZZ_CHECK(s == PLOD_ERR_IO || s == PLOD_ERR_BAD_IMAGE || s == PLOD_ERR_NO_MEMORY,
+                   "read status %d (%s)", s, message);
+        FUZZ_CHECK(image.pixels == NULL, "failed read left pixels");
+        return 0;
+    }
+    fuzz__check_image(&image);
+    FUZZ_CHECK((size_t)image.width * (size_t)image.height <= max_pixels,
+               "%dx%d over the cap %zu", image.width, image.height, max_pixels);
+
+    static const plod_projection cube[] = {PLOD_PROJ_TSC, PLOD_PROJ_CSC, PLOD_PROJ_QSC,
+                                           PLOD_PROJ_SPHERIFIED};
+    plod_projection projection = cube[mode & 3];
+    plod_filter filter = (plod_filter)((mode >> 2) % PLOD_FILTER_COUNT);
+    int cube_size = 1 + size_code % 8;
+    plod_texel_type type = (flags & 2) ? image.type
+                                       : (plod_texel_type)((flags >> 2) % PLOD_TEXEL_TYPE_COUNT);
+    plod_cubemap *cubemap = NULL;
+    if (plod_cubemap_create(&cubemap, projection, cube_size, image.channels, type) == PLOD_OK) {
+        fuzz_progress progress = {0, (flags >> 4) & 3, 0.0};
+        s = plod_resample_car_to_cube(cubemap, &image, filter,
+                                      (flags & 0x40) ? fuzz__progress : NULL, &progress);
+        FUZZ_CHECK(s == PLOD_OK || s == PLOD_ERR_CANCELLED || s == PLOD_ERR_BAD_PARAM ||
+                       s == PLOD_ERR_BAD_IMAGE,
+                   "resample status %d", s);
+        if (s == PLOD_OK)
+            fuzz__use_cubemap(cubemap, &tail);
+        plod_cubemap_destroy(cubemap);
+    }
+    /* A 4:3 image may be a cross-layout cube map. */
+    if (image.width * 3 == image.height * 4) {
+        plod_cubemap *cross_map = NULL;
+        if (plod_cubemap_from_cross(&cross_map, &image, projection) == PLOD_OK) {
+            fuzz__use_cubemap(cross_map, &tail);
+            plod_cubemap_destroy(cross_map);
+        }
+    }
+    plod_image_free(&image);
+    FUZZ_CHECK(image.pixels == NULL, "plod_image_free left pixels");
+    return 0;
+}

@@ -1,0 +1,432 @@
+/* fuzz_refine.c -- libFuzzer harness for camera construction, HRTMR
+ * refinement + culling and mesh emission (cext/cull.c, planet.c, refine.c,
+ * mesh.c, with cubemap.c/projection.c underneath).
+ *
+ * Each input builds a planet (any projection; radius, height scale and sea
+ * level from a table of edge cases or raw doubles; no height map or a tiny
+ * 1..4 texel-per-side cube map whose texels come from the input, float maps
+ * included NaN/inf), one to three cameras (structured: anywhere from the
+ * centre to far away, looking anywhere, or 16 raw matrix doubles; any
+ * intrinsics), refines incrementally with random parameters, then emits the
+ * mesh and the instanced form.  Work per input is bounded by max_sectors
+ * (16..512), template levels 0..2 and a small budget, so that an execution
+ * costs tens of microseconds.  Checks besides ASan/UBSan: bad planets and
+ * cameras are refused with a status; statistics are monotone (total >=
+ * backface >= frustum >= budget), the budget and max_level hold, the sector
+ * list matches the statistics, corners are finite unit vectors, emitted
+ * counts equal the bounds, triangle indices are in range, and with finite
+ * heights every emitted float is finite.
+ */
+#include <math.h>
+#include <stdint.h>
+
+#include "fuzz_input.h"
+#include "plod_mesh.h"
+#include "plod_refine.h"
+
+#define MAX_CAMERAS 3
+
+/* FUZZ_DUMP=1 prints each input's planet, parameters and cameras as C
+ * initialisers (for writing reproducers). */
+static int fuzz__dump(void)
+{
+    static int dump = -1;
+    if (dump < 0)
+        dump = getenv("FUZZ_DUMP") != NULL;
+    return dump;
+}
+
+static double fuzz__pick(fuzz_input *in, const double *table, size_t n)
+{
+    uint8_t b = fuzz_u8(in);
+    if (b >= 240)
+        return fuzz_double(in);
+    return table[b % n];
+}
+
+static void fuzz__normalise(double v[3])
+{
+    double n = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    if (!(n > 0) || !isfinite(n)) {
+        v[0] = 0, v[1] = 0, v[2] = 1;
+        return;
+    }
+    v[0] /= n, v[1] /= n, v[2] /= n;
+}
+
+static void fuzz__cross(const double a[3], const double b[3], double out[3])
+{
+    out[0] = a[1] * b[2] - a[2] * b[1];
+    out[1] = a[2] * b[0] - a[0] * b[2];
+    out[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+/* Camera matrix: structured (position at a distance from the centre, looking
+ * roughly at it or anywhere, rolled), or raw doubles. */
+static void fuzz__camera_matrix(fuzz_input *in, double radius, double m[16])
+{
+    uint8_t mode = fuzz_u8(in);
+    if ((mode & 7) == 7) {
+        for (int i = 0; i < 16; i++)
+            m[i] = (mode & 8) && (i >= 12) ? (i == 15 ? 1.0 : 0.0) : fuzz_double(in);
+        return;
+    }
+    static const double altitude[] = {0.0, 0.5, 0.999, 1.0, 1.0 + 1e-12, 1.000001, 1.0001,
+                                      1.001, 1.01, 1.1, 1.5, 2.0, 4.0, 30.0, 1e4, 1e12};
+    double dist = radius * fuzz__pick(in, altitude, sizeof altitude / sizeof altitude[0]);
+    double pos[3] = {fuzz_double_in(in, -1, 1), fuzz_double_in(in, -1, 1),
+                     fuzz_double_in(in, -1, 1)};
+    fuzz__normalise(pos);
+    for (int i = 0; i < 3; i++)
+        pos[i] *= dist;
+    double forward[3];
+    if (mode & 8) { /* anywhere */
+        forward[0] = fuzz_double_in(in, -1, 1);
+        forward[1] = fuzz_double_in(in, -1, 1);
+        forward[2] = fuzz_double_in(in, -1, 1);
+    } else { /* towards the centre, perturbed */
+        double jitter = (mode & 16) ? 0.5 : 0.01;
+        for (int i = 0; i < 3; i++)
+            forward[i] = -pos[i] / (dist != 0 && isfinite(dist) ? dist : 1.0) +
+                         jitter * fuzz_double_in(in, -1, 1);
+    }
+    fuzz__normalise(forward);
+    double up_hint[3] = {fuzz_double_in(in, -1, 1), fuzz_double_in(in, -1, 1),
+                         fuzz_double_in(in, -1, 1)};
+    double right[3], up[3];
+    fuzz__cross(forward, up_hint, right);
+    fuzz__normalise(right);
+    fuzz__cross(right, forward, up);
+    fuzz__normalise(up);
+    double scale = (mode & 32) ? fuzz_double(in) : 1.0; /* scaled/singular matrices */
+    for (int r = 0; r < 3; r++) {
+        m[r * 4 + 0] = right[r] * scale;
+        m[r * 4 + 1] = up[r] * scale;
+        m[r * 4 + 2] = -forward[r] * scale; /* camera looks down -Z */
+        m[r * 4 + 3] = pos[r];
+    }
+    m[12] = m[13] = m[14] = 0.0;
+    m[15] = 1.0;
+}
+
+static void fuzz__camera_desc(fuzz_input *in, double radius, plod_camera_desc *d)
+{
+    memset(d, 0, sizeof *d);
+    fuzz__camera_matrix(in, radius, d->matrix_world);
+    uint8_t flags = fuzz_u8(in);
+    static const double lens[] = {50.0, 18.0, 200.0, 1.0, 1e-6, 0.0, -50.0, 1e6};
+    static const double sensor[] = {36.0, 24.0, 1.0, 0.0, -1.0, 1e-9};
+    static const double ortho[] = {7.0, 1e-3, 0.0, -1.0, 1e7, 1.0};
+    static const double shift[] = {0.0, 0.1, -0.5, 2.0};
+    static const double clip_start[] = {0.1, 1.0, 1e-6, 0.0, -1.0, 1e5};
+    static const double clip_end[] = {1000.0, 1e8, 1e12, 0.05, 0.1};
+    static const double aspect[] = {1.0, 2.0, 0.5, 0.0, -1.0};
+    d->orthographic = flags & 1;
+    d->lens = fuzz__pick(in, lens, 8);
+    d->sensor_width = fuzz__pick(in, sensor, 6);
+    d->sensor_height = fuzz__pick(in, sensor, 6);
+    d->sensor_fit = (plod_sensor_fit)((flags >> 1) % 4); /* 3 is invalid */
+    d->ortho_scale = fuzz__pick(in, ortho, 6) * ((flags & 8) ? radius : 1.0);
+    d->shift_x = fuzz__pick(in, shift, 4);
+    d->shift_y = fuzz__pick(in, shift, 4);
+    d->clip_start = fuzz__pick(in, clip_start, 6);
+    d->clip_end = fuzz__pick(in, clip_end, 5) * ((flags & 16) ? radius : 1.0);
+    d->resolution_x = (flags & 32) ? (int)fuzz_u32(in) : fuzz_range(in, 1, 96);
+    d->resolution_y = (flags & 64) ? (int)fuzz_u32(in) : fuzz_range(in, 1, 64);
+    d->pixel_aspect_x = fuzz__pick(in, aspect, 5);
+    d->pixel_aspect_y = fuzz__pick(in, aspect, 5);
+}
+
+static int fuzz__finite3(const double v[3])
+{
+    return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]);
+}
+
+typedef struct fuzz_source {
+    const plod_planet *planet;
+    const plod_sector *sectors;
+    int visible_only;
+} fuzz_source;
+
+static int fuzz__sector(const void *context, size_t index, plod_mesh_sector *out)
+{
+    const fuzz_source *src = context;
+    const plod_sector *s = &src->sectors[index];
+    if (src->visible_only && !(s->flags & PLOD_SECTOR_VISIBLE))
+        return 0;
+    if (out) {
+        plod_sector_corners(src->planet, s, out->corners);
+        out->level = s->level;
+        out->face = s->face;
+    }
+    return 1;
+}
+
+static void fuzz__emit(fuzz_input *in, const plod_planet *planet, const plod_camera *camera,
+                       const plod_refine_params *rp, const plod_sector *sectors,
+                       size_t count, int finite_heights)
+{
+    uint8_t flags = fuzz_u8(in);
+    int level = (flags & 0x80) ? fuzz_range(in, -2, 9) : fuzz_range(in, 0, 2);
+    fuzz_source src = {planet, sectors, !(flags & 1)};
+    size_t emitted = plod_mesh_count_sectors(fuzz__sector, &src, count);
+    FUZZ_CHECK(emitted <= count, "counted %zu of %zu", emitted, count);
+    if (emitted > 256)
+        return; /* keep an execution cheap */
+    plod_mesh_params mp;
+    plod_mesh_params_init(&mp, planet, level);
+    plod_mesh_origin(planet, camera->position, mp.origin);
+    if (finite_heights) /* NaN texels pass plod_planet_check (reported) */
+        FUZZ_CHECK(fuzz__finite3(mp.origin), "origin not finite");
+    mp.threads = (flags & 2) ? 2 : 1;
+    if (flags & 4) {
+        mp.morph = 1;
+        memcpy(mp.eye, camera->position, sizeof mp.eye);
+        mp.morph_lod_scale = (flags & 8) ? fuzz_double(in)
+                                         : plod_mesh_morph_lod_scale(planet, camera, rp,
+                                                                     level < 0 ? 0 : level);
+        mp.morph_ramp = (flags & 16) ? fuzz_double(in) : 0.5;
+    }
+    size_t vbound = plod_mesh_vertex_bound(emitted, level);
+    size_t tbound = plod_mesh_triangle_bound(emitted, level);
+    int level_ok = level >= 0 && level <= PLOD_MAX_TEMPLATE_LEVEL;
+    if (!level_ok)
+        FUZZ_CHECK(vbound == 0 && tbound == 0, "bounds for level %d", level);
+    size_t vcap = vbound ? vbound : 1, tcap = tbound ? tbound : 1;
+    plod_mesh_buffers b = {
+        malloc(3 * vcap * sizeof(float)), malloc(3 * vcap * sizeof(float)),
+        malloc(2 * vcap * sizeof(float)), malloc(vcap * sizeof(float)),
+        malloc(3 * tcap * sizeof(int32_t)), malloc(tcap * sizeof(int32_t)),
+        malloc(tcap * sizeof(int32_t)),
+    };
+    FUZZ_CHECK(b.positions && b.normals && b.uv && b.morph && b.triangles &&
+                   b.sector_level && b.face, "out of memory");
+    size_t nv = 0, nt = 0;
+    plod_status s = plod_mesh_emit(&mp, fuzz__sector, &src, count, &b, &nv, &nt);
+    if (!level_ok)
+        FUZZ_CHECK(s != PLOD_OK, "template level %d accepted", level);
+    if (s == PLOD_OK) {
+        FUZZ_CHECK(nv == vbound && nt == tbound, "emitted %zu/%zu, bounds %zu/%zu", nv, nt,
+                   vbound, tbound);
+        for (size_t i = 0; i < 3 * nt; i++)
+            FUZZ_CHECK(b.triangles[i] >= 0 && (size_t)b.triangles[i] < nv,
+                       "triangle index %d of %zu", b.triangles[i], nv);
+        if (finite_heights) {
+            for (size_t i = 0; i < 3 * nv; i++)
+                FUZZ_CHECK(isfinite(b.positions[i]) && isfinite(b.normals[i]),
+                           "vertex value %zu not finite (%g, %g)", i, b.positions[i],
+                           b.normals[i]);
+            for (size_t i = 0; i < nv; i++)
+                FUZZ_CHECK(isfinite(b.uv[2 * i]) && isfinite(b.uv[2 * i + 1]) &&
+                               b.morph[i] >= 0 && b.morph[i] <= 1,
+                           "uv/morph %zu: %g %g %g", i, b.uv[2 * i], b.uv[2 * i + 1],
+                           b.morph[i]);
+        }
+        for (size_t i = 0; i < nt; i++)
+            FUZZ_CHECK(b.face[i] >= 0 && b.face[i] < 6 && b.sector_level[i] >= 0 &&
+                           b.sector_level[i] <= PLOD_MAX_LEVEL,
+                       "face %d level %d", b.face[i], b.sector_level[i]);
+    }
+    free(b.positions), free(b.normals), free(b.uv), free(b.morph);
+    free(b.triangles), free(b.sector_level), free(b.face);
+
+    /* Instanced form over the same sectors. */
+    float *corners = malloc(9 * (emitted ? emitted : 1) * sizeof(float));
+    float *levels = malloc((emitted ? emitted : 1) * sizeof(float));
+    float *morph = malloc((emitted ? emitted : 1) * sizeof(float));
+    FUZZ_CHECK(corners && levels && morph, "out of memory");
+    size_t instances = 0;
+    s = plod_mesh_instances(&mp, fuzz__sector, &src, count, corners, levels, morph, &instances);
+    if (s == PLOD_OK) {
+        FUZZ_CHECK(instances == emitted, "%zu instances, %zu sectors", instances, emitted);
+        for (size_t i = 0; i < 9 * instances; i++)
+            FUZZ_CHECK(isfinite(corners[i]) && fabsf(corners[i]) <= 1.0f, "corner %g", corners[i]);
+    }
+    free(corners), free(levels), free(morph);
+}
+
+static void fuzz__check_frame(const plod_refiner *refiner, const plod_planet *planet,
+                              const plod_refine_params *rp, const plod_refine_stats *st)
+{
+    FUZZ_CHECK(st->sectors_after_backface <= st->sectors_total &&
+                   st->sectors_after_frustum <= st->sectors_after_backface &&
+                   st->sectors_after_budget <= st->sectors_after_frustum,
+               "stats %zu %zu %zu %zu", st->sectors_total, st->sectors_after_backface,
+               st->sectors_after_frustum, st->sectors_after_budget);
+    if (rp->budget)
+        FUZZ_CHECK(st->sectors_after_budget <= rp->budget, "%zu visible, budget %zu",
+                   st->sectors_after_budget, rp->budget);
+    size_t count = 0;
+    const plod_sector *sectors = plod_refiner_sectors(refiner, &count);
+    FUZZ_CHECK(count == st->sectors_total, "%zu sectors, stats %zu", count, st->sectors_total);
+    FUZZ_CHECK(count <= rp->max_sectors + 2, "%zu sectors over max_sectors %zu", count,
+               rp->max_sectors);
+    FUZZ_CHECK(st->max_level_reached <= rp->max_level, "level %d over max %d",
+               st->max_level_reached, rp->max_level);
+    size_t visible = 0;
+    for (size_t i = 0; i < count; i++) {
+        const plod_sector *s = &sectors[i];
+        visible += (s->flags & PLOD_SECTOR_VISIBLE) != 0;
+        FUZZ_CHECK(s->level <= rp->max_level && s->face < 6, "sector level %d face %d",
+                   s->level, s->face);
+        double c[3][3];
+        plod_sector_corners(planet, s, c);
+        for (int k = 0; k < 3; k++) {
+            double len = sqrt(c[k][0] * c[k][0] + c[k][1] * c[k][1] + c[k][2] * c[k][2]);
+            FUZZ_CHECK(fuzz__finite3(c[k]) && fabs(len - 1.0) < 1e-9,
+                       "sector %zu corner %d length %g", i, k, len);
+        }
+    }
+    FUZZ_CHECK(visible == st->sectors_after_budget, "%zu flagged visible, stats %zu", visible,
+               st->sectors_after_budget);
+}
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    fuzz_input in = {data, size};
+    uint8_t head = fuzz_u8(&in);
+
+    /* ---- planet ---- */
+    static const double radii[] = {6371000.0, 1737400.0, 1.0, 1e8, 100.0, 0.0, -1.0,
+                                   0.999, 1e12, 1e8 + 1};
+    static const double scales[] = {1.0, 8848.0, 0.0, 1e5, -1.0, 1e-3, 1e9};
+    plod_planet planet;
+    memset(&planet, 0, sizeof planet);
+    planet.projection = (plod_projection)((head & 7) % (PLOD_PROJ_COUNT + 1)); /* 5 invalid */
+    planet.radius = fuzz__pick(&in, radii, sizeof radii / sizeof radii[0]);
+    planet.height_scale = fuzz__pick(&in, scales, sizeof scales / sizeof scales[0]);
+    planet.has_sea_level = (head >> 3) & 1;
+    planet.sea_level = fuzz_double(&in);
+    int finite_heights = 1;
+    plod_cubemap *map = NULL;
+    if (head & 0x10) {
+        uint8_t m = fuzz_u8(&in);
+        int map_size = 1 + (m & 3);
+        plod_texel_type type = (plod_texel_type)((m >> 2) % 3);
+        plod_projection mp = (m & 0x20) ? (plod_projection)((m >> 6) % PLOD_PROJ_COUNT)
+                                        : planet.projection;
+        if (plod_cubemap_create(&map, mp, map_size, 1, type) == PLOD_OK) {
+            for (int f = 0; f < plod_cubemap_face_count(map); f++) {
+                uint8_t *texels = plod_cubemap_face_data(map, f);
+                size_t bytes = plod_cubemap_face_bytes(map);
+                for (size_t i = 0; i < bytes; i++)
+                    texels[i] = fuzz_u8(&in);
+                if (type == PLOD_TEXEL_F32)
+                    for (size_t i = 0; i < bytes / 4; i++)
+                        if (!isfinite(((float *)texels)[i]))
+                            finite_heights = 0;
+            }
+            /* plod_planet requires the pyramid (plod_planet.h contract) */
+            if (plod_cubemap_build_pyramid(map) == PLOD_OK)
+                planet.heightmap = map;
+        }
+    }
+    if (!isfinite(planet.height_scale))
+        finite_heights = 0;
+    plod_status s = plod_planet_check(&planet);
+    if (!(planet.radius >= 1.0 && planet.radius <= 1e8) ||
+        (unsigned)planet.projection >= PLOD_PROJ_COUNT)
+        FUZZ_CHECK(s != PLOD_OK, "planet radius %g projection %d accepted", planet.radius,
+                   planet.projection);
+    plod_refiner *refiner = NULL;
+    plod_status cs = plod_refiner_create(&refiner, &planet);
+    if (s != PLOD_OK) {
+        FUZZ_CHECK(cs != PLOD_OK, "refiner accepted a planet plod_planet_check refused (%d)", s);
+        plod_cubemap_destroy(map);
+        return 0;
+    }
+    if (cs != PLOD_OK) {
+        plod_cubemap_destroy(map);
+        return 0;
+    }
+    if (fuzz__dump())
+        fprintf(stderr, "planet: radius %.17g projection %d height_scale %.17g sea %d %.17g map %s\n",
+                planet.radius, planet.projection, planet.height_scale, planet.has_sea_level,
+                planet.sea_level, planet.heightmap ? "yes" : "no");
+    double hmin = 0, hmax = 0;
+    plod_planet_height_range(&planet, &hmin, &hmax);
+    (void)plod_planet_height(&planet, (const double[3]){0, 0, 1});
+
+    /* ---- refinement parameters ---- */
+    plod_refine_params rp;
+    plod_refine_params_default(&rp);
+    uint8_t pf = fuzz_u8(&in);
+    static const double pixel_error[] = {1.0, 0.5, 4.0, 64.0, 0.0, -1.0, 1e-9};
+    static const double borders[] = {0.5, 0.25, 0.1, 1.0, 0.0, -0.5, 10.0};
+    rp.criterion = (pf & 1) ? PLOD_CRITERION_SIDE_DISTANCE : PLOD_CRITERION_PIXEL_ERROR;
+    rp.max_pixel_error = fuzz__pick(&in, pixel_error, 7);
+    rp.split_border = fuzz__pick(&in, borders, 7);
+    rp.merge_border = fuzz__pick(&in, borders, 7);
+    rp.hysteresis = (pf >> 1) & 1;
+    rp.backface_culling = (pf >> 2) & 1;
+    rp.frustum_culling = (pf >> 3) & 1;
+    rp.skip_sea = (pf >> 4) & 1;
+    rp.template_level = fuzz_range(&in, 0, 2);
+    rp.max_level = (pf & 0x20) ? fuzz_range(&in, -1, PLOD_MAX_LEVEL + 1) : fuzz_range(&in, 0, 10);
+    rp.budget = (size_t)fuzz_range(&in, 0, 64);
+    rp.max_sectors = (size_t)fuzz_range(&in, 8, 512);
+    int frames = 1 + (pf >> 6) % MAX_CAMERAS;
+    if (fuzz__dump())
+        fprintf(stderr, "params: criterion %d pixel_error %.17g split %.17g merge %.17g "
+                "hysteresis %d backface %d frustum %d skip_sea %d template %d max_level %d "
+                "budget %zu max_sectors %zu frames %d\n", rp.criterion, rp.max_pixel_error,
+                rp.split_border, rp.merge_border, rp.hysteresis, rp.backface_culling,
+                rp.frustum_culling, rp.skip_sea, rp.template_level, rp.max_level, rp.budget,
+                rp.max_sectors, frames);
+
+    for (int f = 0; f < frames; f++) {
+        plod_camera_desc desc;
+        fuzz__camera_desc(&in, planet.radius, &desc);
+        plod_camera camera;
+        s = plod_camera_init(&camera, &desc);
+        if (fuzz__dump()) {
+            fprintf(stderr, "camera %d (init %d): matrix {", f, s);
+            for (int i = 0; i < 16; i++)
+                fprintf(stderr, "%.17g%s", desc.matrix_world[i], i < 15 ? ", " : "}\n");
+            fprintf(stderr, "  ortho %d lens %.17g sensor %.17g x %.17g fit %d ortho_scale %.17g "
+                    "shift %.17g %.17g clip %.17g %.17g res %d x %d aspect %.17g %.17g\n",
+                    desc.orthographic, desc.lens, desc.sensor_width, desc.sensor_height,
+                    desc.sensor_fit, desc.ortho_scale, desc.shift_x, desc.shift_y,
+                    desc.clip_start, desc.clip_end, desc.resolution_x, desc.resolution_y,
+                    desc.pixel_aspect_x, desc.pixel_aspect_y);
+        }
+        int finite_desc = 1;
+        for (int i = 0; i < 16; i++)
+            finite_desc &= isfinite(desc.matrix_world[i]) != 0;
+        if (!finite_desc || desc.resolution_x <= 0 || desc.resolution_y <= 0 ||
+            !(desc.clip_start < desc.clip_end))
+            FUZZ_CHECK(s != PLOD_OK, "bad camera accepted");
+        if (s != PLOD_OK)
+            continue;
+        FUZZ_CHECK(fuzz__finite3(camera.position) && fuzz__finite3(camera.forward),
+                   "camera derived values not finite");
+        double clip0 = 0, clip1 = 0;
+        plod_recommended_clip(&planet, &camera, &clip0, &clip1);
+        /* Beyond ~1e150 m the horizon distance sqrt(2Rh + h^2) overflows to
+         * inf (reported; the camera is accepted there). */
+        double dist = sqrt(camera.position[0] * camera.position[0] +
+                           camera.position[1] * camera.position[1] +
+                           camera.position[2] * camera.position[2]);
+        if (finite_heights)
+            FUZZ_CHECK(!isnan(clip0) && !isnan(clip1) && clip0 > 0 && clip0 <= clip1 &&
+                           (dist > 1e150 || (isfinite(clip1) && clip0 < clip1)),
+                       "recommended clip %g %g at distance %g", clip0, clip1, dist);
+        plod_refine_stats st;
+        s = plod_refiner_update(refiner, &camera, &rp, &st);
+        int params_ok = rp.max_level >= 0 && rp.max_level <= PLOD_MAX_LEVEL;
+        if (!params_ok)
+            FUZZ_CHECK(s != PLOD_OK, "max_level %d accepted", rp.max_level);
+        if (s != PLOD_OK)
+            continue;
+        fuzz__check_frame(refiner, &planet, &rp, &st);
+        size_t count = 0;
+        const plod_sector *sectors = plod_refiner_sectors(refiner, &count);
+        if (f == frames - 1 || (fuzz_u8(&in) & 1))
+            fuzz__emit(&in, &planet, &camera, &rp, sectors, count, finite_heights);
+        if (fuzz_u8(&in) == 0xff)
+            plod_refiner_reset(refiner);
+    }
+    plod_refiner_destroy(refiner);
+    plod_cubemap_destroy(map);
+    return 0;
+}

@@ -1,0 +1,86 @@
+#!/usr/bin/env bash
+# Builds planetlod with ASan+UBSan (PLANETLOD_SANITIZE=1) into build/sanitize/
+# and runs the whole pytest suite against that build with zero tolerance:
+# any AddressSanitizer, UndefinedBehaviorSanitizer or LeakSanitizer report
+# fails the run.
+#
+#   bash tools/sanitize.sh                # whole suite
+#   bash tools/sanitize.sh tests/test_projection.py -x  # args replace "tests"
+#
+# How: Debian's python3 is not instrumented, so libasan (gcc's, the one the
+# extension is linked against) is LD_PRELOADed into the interpreter; libubsan
+# comes in as a dependency of the extension.  A small driver imports the
+# sanitized module first (so conftest's `import planetlod` gets it, not an
+# in-place build), then drops LD_PRELOAD from its environment so that child
+# processes (Blender in the add-on tests) run uninstrumented.
+# Leaks: LeakSanitizer stays on.  tools/lsan.supp suppresses only what
+# CPython and OpenImageIO keep for the process lifetime (matched on the
+# allocating frames of the interpreter / OIIO's static state), so a block
+# malloc'ed by our code and never freed is still reported.
+# Output is kept in build/sanitize/sanitize.log (pytest runs with
+# --capture=sys so reports written to fd 2 by a dying test are not lost);
+# any sanitizer report, or a pytest failure, fails the script.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+ROOT=$PWD
+PYTHON=${PYTHON:-/usr/bin/python3}
+BUILD=$ROOT/build/sanitize
+LOG=$BUILD/sanitize.log
+
+# The uninstrumented in-place build too: tests that spawn python/blender
+# subprocesses import that one.
+bash tools/build.sh
+
+echo "sanitize: building ASan+UBSan extension into $BUILD/lib"
+PLANETLOD_SANITIZE=1 "$PYTHON" setup.py -q build_ext --force \
+    --build-lib "$BUILD/lib" --build-temp "$BUILD/tmp"
+
+LIBASAN=$(gcc -print-file-name=libasan.so)
+[ -e "$LIBASAN" ] || { echo "sanitize: libasan not found (gcc $(gcc -dumpversion))" >&2; exit 2; }
+# libstdc++ must be loaded when ASan initialises: its __cxa_throw
+# interceptor resolves the real one then, and python3 itself does not link
+# libstdc++ (OpenImageIO throws internally; without this ASan CHECK-fails).
+LIBSTDCXX=$(g++ -print-file-name=libstdc++.so)
+
+mkdir -p "$BUILD"
+# allocator_may_return_null: absurd sizes must reach our NULL checks (the
+# product's contract) instead of aborting inside ASan.
+export ASAN_OPTIONS="detect_leaks=1:allocator_may_return_null=1:abort_on_error=0:\
+halt_on_error=1:strict_string_checks=1:detect_stack_use_after_return=1:\
+check_initialization_order=1:malloc_context_size=2"
+export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
+export LSAN_OPTIONS="suppressions=$ROOT/tools/lsan.supp:print_suppressions=0"
+export PYTHONFAULTHANDLER=1
+
+set +e -o pipefail
+(LD_PRELOAD="$LIBASAN $LIBSTDCXX" "$PYTHON" - "$BUILD/lib" "$@" <<'PY'
+import os
+import sys
+
+build_lib = sys.argv[1]
+sys.path.insert(0, build_lib)
+import planetlod  # noqa: E402  the sanitized build, cached for conftest
+
+if not os.path.realpath(planetlod.__file__).startswith(os.path.realpath(build_lib)):
+    sys.exit(f"sanitize: imported {planetlod.__file__}, not the sanitized build")
+print(f"sanitize: testing {planetlod.__file__}", flush=True)
+os.environ.pop("LD_PRELOAD", None)  # children run uninstrumented
+
+import pytest  # noqa: E402
+
+sys.exit(pytest.main(["-q", "-p", "no:cacheprovider", "--capture=sys"] + (sys.argv[2:] or ["tests"])))
+PY
+) 2>&1 | tee "$LOG"
+status=${PIPESTATUS[0]}
+set -e
+
+reports=$(grep -cE "ERROR: (AddressSanitizer|LeakSanitizer)|Sanitizer: CHECK failed|runtime error:|SUMMARY: (Address|UndefinedBehavior|Leak)Sanitizer" "$LOG" || true)
+if [ "$reports" -ne 0 ]; then
+    echo "sanitize: FAILED: $reports sanitizer report line(s), see $LOG (pytest exit $status)" >&2
+    exit 1
+fi
+if [ "$status" -ne 0 ]; then
+    echo "sanitize: FAILED: pytest exit $status, no sanitizer report" >&2
+    exit "$status"
+fi
+echo "sanitize: OK: pytest passed under ASan+UBSan+LSan, zero reports"
