@@ -23,3 +23,8 @@ def data_path(name):
 def planetlod():
     import planetlod as module
     return module
+
+
+# tests/blender/ holds scripts that run inside Blender (driven by
+# test_blender.py), not pytest modules.
+collect_ignore = ["blender"]
