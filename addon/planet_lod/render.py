@@ -48,11 +48,16 @@ def place_camera(cam, scene, frame):
     if planet_obj is None:
         return
     s = planet_obj.planet_lod
+    ground_height = _ground_height(planet_obj)
     pose = core.flyby_pose(frame, cam["planet_lod_path_frames"], s.radius,
                            skim_height=cam["planet_lod_skim_height"],
-                           ground_height=_ground_height(planet_obj))
+                           ground_height=ground_height)
     cam.matrix_world = planet_obj.matrix_world @ Matrix(pose)
-    altitude = (Matrix(pose).translation.length - s.radius)
+    position = Matrix(pose).translation
+    # near clip from the height above the terrain, not above the radius: a
+    # skim a few metres over a plateau must not clip the ground ahead
+    ground = ground_height(tuple(position.normalized())) if ground_height else 0.0
+    altitude = position.length - s.radius - max(ground, 0.0)
     cam.data.clip_start = max(0.05, min(altitude * 0.2, s.radius * 0.01))
     cam.data.clip_end = s.radius * 6.0
 
