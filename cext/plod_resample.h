@@ -32,7 +32,8 @@ plod_status plod_filter_from_name(const char *name, plod_filter *out);
  * (any size; lon wraps, rows beyond a pole reflect to lon + 180), then
  * rebuilds its pyramid.  Channels are converted as plod_image_convert does.
  * Values are normalised (u8 / 255, u16 / 65535, f32 as is) and quantised
- * with rounding and clamping to [0, 1] for integer cube maps.  Uses 2
+ * with rounding and clamping to [0, 1] for integer cube maps (NaN -> 0;
+ * NaN stays NaN in f32 maps).  Uses 2
  * threads; progress (may be NULL) is called from the calling thread only,
  * about every 2 %, and last with 1.0. */
 plod_status plod_resample_car_to_cube(plod_cubemap *cubemap,

@@ -73,13 +73,13 @@ static void plod__write_norm(plod_texel_type type, void *pixels, size_t index, d
 {
     switch (type) {
     case PLOD_TEXEL_U8: {
-        double q = value * 255.0 + 0.5;
-        ((uint8_t *)pixels)[index] = (uint8_t)(q <= 0.0 ? 0.0 : q >= 255.0 ? 255.0 : q);
+        double q = value * 255.0 + 0.5; /* NaN quantises to 0 (no UB cast) */
+        ((uint8_t *)pixels)[index] = (uint8_t)(!(q > 0.0) ? 0.0 : q >= 255.0 ? 255.0 : q);
         break;
     }
     case PLOD_TEXEL_U16: {
         double q = value * 65535.0 + 0.5;
-        ((uint16_t *)pixels)[index] = (uint16_t)(q <= 0.0 ? 0.0 : q >= 65535.0 ? 65535.0 : q);
+        ((uint16_t *)pixels)[index] = (uint16_t)(!(q > 0.0) ? 0.0 : q >= 65535.0 ? 65535.0 : q);
         break;
     }
     default:

@@ -160,6 +160,11 @@ def test_forward_matches_wcslib(planetlod, wcs, proj, tol):
         assert sep.max() <= tol, (lon[bad][sep.argmax()], lat[bad][sep.argmax()])
         assert bad.sum() < 0.01 * len(lon)
     assert np.median(diff) < tol
+    # Face 1 has no layout offset, so WCSLIB's float addition of x0 cannot
+    # round there: the tolerance holds with no slack at all.
+    face1 = (np.abs(wx) < 45.0) & (np.abs(wy) < 45.0) & ~bad
+    assert face1.sum() > 1000
+    assert np.maximum(np.abs(x - wx), np.abs(y - wy))[face1].max() <= tol
 
 
 @pytest.mark.parametrize("proj,tol", [("tsc", 1e-9), ("qsc", 1e-9), ("csc", 1e-5)])
@@ -478,3 +483,45 @@ def test_bad_input(planetlod):
     assert planetlod.dir_to_face("qsc", 1e300, 0.0, 0.0) == (1, 0.0, 0.0)
     assert planetlod.dir_to_face("qsc", 0.0, 0.0, -1e-310) == (5, 0.0, 0.0)
     assert planetlod.PROJECTIONS == ("tsc", "csc", "qsc", "spherified", "car")
+
+
+# ------------------------------------------- spherified formula, API forms --
+
+@pytest.mark.parametrize("face", range(6))
+def test_spherified_is_the_per_axis_formula(planetlod, face):
+    """The cube point p = c + u e_u + v e_v maps to the sphere per axis:
+    x' = x sqrt(1 - y^2/2 - z^2/2 + y^2 z^2 / 3) (and cyclically)."""
+    c, eu, ev = (np.array(a, float) for a in FRAMES[face])
+    u, v = face_grid(17)
+    p = c + u[:, None] * eu + v[:, None] * ev
+    x, y, z = p[:, 0], p[:, 1], p[:, 2]
+    expect = np.stack([x * np.sqrt(1 - y * y / 2 - z * z / 2 + y * y * z * z / 3),
+                       y * np.sqrt(1 - z * z / 2 - x * x / 2 + z * z * x * x / 3),
+                       z * np.sqrt(1 - x * x / 2 - y * y / 2 + x * x * y * y / 3)], -1)
+    got = np.asarray(planetlod.faces_to_dirs("spherified", [face] * len(u), u, v)).reshape(-1, 3)
+    assert np.abs(got - expect).max() < 1e-15
+    # and the inverse finds (u, v) back, away from the edges on this face
+    f2, u2, v2 = planetlod.dirs_to_faces("spherified", expect.ravel())
+    inner = (np.abs(u) < 1) & (np.abs(v) < 1)
+    assert (np.asarray(f2)[inner] == face).all()
+    assert np.abs(np.asarray(u2) - u)[inner].max() < 1e-14
+    assert np.abs(np.asarray(v2) - v)[inner].max() < 1e-14
+
+
+def test_sequence_and_buffer_forms(planetlod):
+    """Both functions accept lists, tuples, array('d'), memoryviews and numpy
+    float64 arrays and always return two array('d') with the scalar results."""
+    lon = [-180.0, -135.0, 0.0, 45.0, 179.5, 180.0]
+    lat = [-90.0, 35.264389682754654, 0.0, -12.5, 89.0, 90.0]
+    for proj in planetlod.PROJECTIONS:
+        scalar = [planetlod.sphere_to_cube(proj, a, b) for a, b in zip(lon, lat)]
+        forms = (lambda s: s, tuple, lambda s: array.array("d", s),
+                 lambda s: memoryview(array.array("d", s)), np.array)
+        for form in forms:
+            x, y = planetlod.sphere_to_cube(proj, form(lon), form(lat))
+            assert isinstance(x, array.array) and x.typecode == "d"
+            assert isinstance(y, array.array) and y.typecode == "d"
+            assert list(zip(x, y)) == scalar
+            back = planetlod.cube_to_sphere(proj, form(list(x)), form(list(y)))
+            assert all(isinstance(b, array.array) and b.typecode == "d" for b in back)
+            assert list(zip(*back)) == [planetlod.cube_to_sphere(proj, a, b) for a, b in zip(x, y)]

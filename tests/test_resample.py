@@ -296,3 +296,175 @@ def test_car_output(planetlod, tmp_path):
     assert img.shape == (512, 1024, 1)
     block = src.reshape(512, 2, 1024, 2).astype(np.float64).mean(axis=(1, 3))
     assert np.abs(img[:, :, 0] / 257.0 - block).max() <= 0.5 + 1e-6
+
+
+def write_image(path, pixels, type_name):
+    """pixels: (h, w, c) numpy array, written with OpenImageIO as type_name."""
+    h, w, c = pixels.shape
+    o = oiio.ImageOutput.create(str(path))
+    assert o is not None, oiio.geterror()
+    assert o.open(str(path), oiio.ImageSpec(w, h, c, type_name)), o.geterror()
+    assert o.write_image(pixels), o.geterror()
+    o.close()
+
+
+def test_every_input_format_gives_the_same_cube(planetlod, tmp_path, topology):
+    """The same heights as PNG 8-bit, PNG 16-bit, JPEG-free TIFF u8/u16/float
+    and EXR float resample to the same cube map (values normalised)."""
+    path, src = topology
+    small = src[::4, ::4].astype(np.float64)  # 512 x 256 keeps the test quick
+    h, w = small.shape
+    inputs = {
+        "a.png": (small.astype(np.uint8), "uint8"),
+        "b16.png": ((small * 257).astype(np.uint16), "uint16"),
+        "c.tif": (small.astype(np.uint8), "uint8"),
+        "d16.tif": ((small * 257).astype(np.uint16), "uint16"),
+        "e.tif": ((small / 255.0).astype(np.float32), "float"),
+        "f.exr": ((small / 255.0).astype(np.float32), "float"),
+    }
+    results = {}
+    for name, (pixels, type_name) in inputs.items():
+        src_path = tmp_path / name
+        write_image(src_path, pixels.reshape(h, w, 1), type_name)
+        out = str(tmp_path / f"out_{name}.tif")
+        planetlod.resample(str(src_path), out, projection="qsc", size=24, filter="bicubic", format="f32")
+        results[name] = read(out, "float")
+    ref = results.pop("a.png")
+    assert ref.shape == (72, 96, 1) and ref.max() > 0.1
+    for name, img in results.items():
+        # float inputs carry v / 255 rounded to float32
+        assert np.abs(img - ref).max() <= 1e-6, name
+    # a JPEG input (8-bit, lossy) lands close to the PNG
+    jpg = tmp_path / "g.jpg"
+    write_image(jpg, small.astype(np.uint8).reshape(h, w, 1), "uint8")
+    out = str(tmp_path / "out_jpg.tif")
+    planetlod.resample(str(jpg), out, projection="qsc", size=24, format="f32")
+    assert np.abs(read(out, "float") - ref).mean() < 0.01
+
+
+def test_channel_counts(planetlod, tmp_path):
+    h, w = 16, 32
+    rng = np.random.default_rng(4)
+    # five channels: refused with a clear message
+    five = tmp_path / "five.tif"
+    write_image(five, rng.integers(0, 255, (h, w, 5)).astype(np.uint8), "uint8")
+    out = str(tmp_path / "o.tif")
+    with pytest.raises(planetlod.ImageError, match="5 channels"):
+        planetlod.resample(str(five), out, size=4)
+    with pytest.raises(planetlod.ImageError, match="5 channels"):
+        planetlod.CubeMap.from_image(str(five), size=4)
+    assert not os.path.exists(out)
+    # grey + alpha: heights from the grey channel; rgb8 replicates grey
+    ga = np.stack([np.full((h, w), 40, np.uint8), np.full((h, w), 200, np.uint8)], -1)
+    ga_path = tmp_path / "ga.png"
+    write_image(ga_path, ga, "uint8")
+    planetlod.resample(str(ga_path), out, size=4, format="r16")
+    assert (cross_faces(read(out, "uint16")[:, :, 0], 4) == 40 * 257).all()
+    planetlod.resample(str(ga_path), out, size=4, format="rgba8")
+    faces = cross_faces(read(out, "uint8"), 4)
+    assert (faces[..., :3] == 40).all() and (faces[..., 3] == 200).all()
+    # colour into r16 is refused; into r8/f32 is kept or refused clearly
+    rgb = tmp_path / "rgb.png"
+    write_image(rgb, rng.integers(0, 255, (h, w, 3)).astype(np.uint8), "uint8")
+    with pytest.raises(planetlod.InvalidArgument, match="single-channel"):
+        planetlod.resample(str(rgb), out, size=4, format="r8")
+    planetlod.resample(str(rgb), out, size=4, format="f32")
+    assert read(out, "float").shape == (12, 16, 3)
+    with pytest.raises(planetlod.InvalidArgument):
+        planetlod.CubeMap.from_image(str(rgb), size=4, channels=5)
+
+
+def test_zero_size_and_nan_sources(planetlod, tmp_path):
+    import struct
+    import zlib
+
+    def chunk(kind, body):
+        return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body))
+
+    out = str(tmp_path / "o.png")
+    for w, h in ((0, 0), (0, 16), (16, 0)):
+        zero = tmp_path / f"zero{w}x{h}.png"
+        zero.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 0, 0, 0, 0))
+                         + chunk(b"IDAT", zlib.compress(b"")) + chunk(b"IEND", b""))
+        with pytest.raises(planetlod.ImageError):
+            planetlod.resample(str(zero), out, size=4)
+    assert not os.path.exists(out)
+    # NaN / inf heights in a float source (documented): NaN taps give NaN in
+    # float outputs and 0 in integer ones; infinities clamp in integer
+    # outputs (but inf - inf inside a filter is NaN); nothing crashes
+    h, w = 32, 64
+    img = np.full((h, w, 1), 0.5, np.float32)
+    img[:, :w // 2] = np.nan  # western hemisphere NaN
+    img[:2] = np.inf          # north polar cap +inf
+    img[-2:] = -np.inf        # south polar cap -inf
+    src = tmp_path / "nan.exr"
+    write_image(src, img, "float")
+    for filter_name in ("nearest", "bilinear", "bicubic"):
+        planetlod.resample(str(src), str(tmp_path / "n.exr"), size=8, filter=filter_name, format="f32")
+        f = cross_faces(read(str(tmp_path / "n.exr"), "float")[:, :, 0], 8)
+        assert np.isnan(f[4]).all()           # face 4 (lon -90) lies in the NaN half
+        assert (f[2][2:6, 2:6] == 0.5).all()  # face 2 (lon 90) does not
+        planetlod.resample(str(src), out, size=8, filter=filter_name, format="r16")
+        q = cross_faces(read(out, "uint16")[:, :, 0], 8)
+        assert (q[4] == 0).all() and (q[2][2:6, 2:6] == 32768).all()
+        assert (q[5][3:5, 3:5] == 0).all()
+        assert np.isin(q[0][3:5, 3:5], (0, 65535)).all()
+        if filter_name == "nearest":
+            assert (q[0][3:5, 3:5] == 65535).all()
+
+
+def test_command_line(tmp_path):
+    import subprocess
+    import sys
+    tool = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tools",
+                        "planetlod_resample.py")
+    topo = data_path("earth-topology.png")
+    out = tmp_path / "cli.png"
+
+    def run(*args):
+        r = subprocess.run([sys.executable, tool, *args], capture_output=True, timeout=120)
+        r.stderr = r.stderr.decode()  # not text=True: keep the '\r' of the bar
+        return r
+
+    r = run(topo, str(out), "--size", "64", "--projection", "tsc", "--filter", "bicubic")
+    assert r.returncode == 0, r.stderr
+    img = read(str(out), "uint16")
+    assert img.shape == (192, 256, 1)
+    # the progress display: a bar redrawn in place, ending at 100 %
+    assert "\r[" in r.stderr and "100.0%" in r.stderr and "#" * 40 in r.stderr
+    r = run(topo, str(tmp_path / "q.png"), "--size", "8", "--quiet")
+    assert r.returncode == 0 and r.stderr == ""
+    r = run(topo, str(tmp_path / "f{face}.tif"), "--size", "8", "--layout", "faces", "--format", "f32", "--quiet")
+    assert r.returncode == 0 and all((tmp_path / f"f{k}.tif").exists() for k in range(6))
+    r = run(str(tmp_path / "missing.png"), str(tmp_path / "m.png"), "--quiet")
+    assert r.returncode == 1 and "error" in r.stderr and "missing.png" in r.stderr
+    r = run(topo, str(tmp_path / "m.png"), "--projection", "mercator")
+    assert r.returncode == 2 and "invalid choice" in r.stderr
+    r = run(topo, str(tmp_path / "m.png"), "--size", "0")
+    assert r.returncode == 2 and "--size" in r.stderr
+    square = tmp_path / "square.png"
+    write_image(square, np.full((16, 16, 1), 3, np.uint8), "uint8")
+    r = run(str(square), str(tmp_path / "s.png"), "--size", "4", "--quiet")
+    assert r.returncode == 0 and "warning" in r.stderr and "not 2:1" in r.stderr
+
+
+def test_extension_needs_no_numpy(tmp_path):
+    """The C extension works with numpy made unimportable."""
+    import subprocess
+    import sys
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    code = f"""
+import sys
+sys.modules['numpy'] = None  # any 'import numpy' now fails
+sys.path.insert(0, {root!r})
+import planetlod
+x, y = planetlod.sphere_to_cube('qsc', [10.0, 20.0], [5.0, -5.0])
+lon, lat = planetlod.cube_to_sphere('qsc', x, y)
+assert abs(lon[1] - 20.0) < 1e-9
+planetlod.resample({data_path('earth-topology.png')!r}, {str(tmp_path / 'n.png')!r}, size=16)
+cube = planetlod.CubeMap.from_image({str(tmp_path / 'n.png')!r})
+print(cube.size, 'numpy' in sys.modules and sys.modules['numpy'] is not None)
+"""
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.split() == ["16", "False"]

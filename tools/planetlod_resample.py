@@ -7,8 +7,8 @@
 OUTPUT's extension picks the file type (.png, .tif, .exr, .jpg ...).  With
 --layout faces six images are written: '{face}' in OUTPUT is replaced by the
 face number, else '_face<N>' goes before the extension.  A progress bar goes
-to stderr; Ctrl-C cancels and writes nothing.  Exit status: 0 done, 1 error,
-130 cancelled.
+to stderr; Ctrl-C cancels and writes nothing.  OUTPUT's folder is created
+if needed.  Exit status: 0 done, 1 error, 2 bad option, 130 cancelled.
 """
 import argparse
 import os
@@ -27,7 +27,8 @@ except ImportError as exc:  # not built yet
 
 
 class ProgressBar:
-    """One line on stderr, redrawn at most every 0.1 s (and at 100 %)."""
+    """One line on stderr, redrawn at most every 0.1 s (and at 100 %): the
+    bar, the elapsed time and the phase (reading, resampling, writing)."""
 
     def __init__(self, stream, width=40):
         self.stream = stream
@@ -35,19 +36,29 @@ class ProgressBar:
         self.start = time.monotonic()
         self.last = -1.0
         self.interrupted = False
+        self.fraction = 0.0
+
+    def draw(self, note):
+        filled = int(round(self.fraction * self.width))
+        bar = "#" * filled + "-" * (self.width - filled)
+        elapsed = time.monotonic() - self.start
+        self.stream.write(f"\r[{bar}] {self.fraction * 100:5.1f}%  {elapsed:6.2f} s  {note:<10}")
+        self.stream.flush()
 
     def __call__(self, fraction):
         now = time.monotonic()
         if fraction < 1.0 and now - self.last < 0.1:
             return self.interrupted
         self.last = now
-        filled = int(round(fraction * self.width))
-        bar = "#" * filled + "-" * (self.width - filled)
-        self.stream.write(f"\r[{bar}] {fraction * 100:5.1f}%  {now - self.start:6.2f} s")
-        self.stream.flush()
+        self.fraction = fraction
+        # planetlod.resample reports 0 before reading, 0.05..0.90 while
+        # resampling and 1.0 once the file is written
+        self.draw("reading" if fraction <= 0.0 else "resampling" if fraction < 0.9
+                  else "writing" if fraction < 1.0 else "written")
         return self.interrupted
 
-    def finish(self):
+    def finish(self, note="done"):
+        self.draw(note)
         self.stream.write("\n")
         self.stream.flush()
 
@@ -75,6 +86,12 @@ def parse_args(argv):
 
 def main(argv=None):
     args = parse_args(argv)
+    out_dir = os.path.dirname(os.path.abspath(args.output))
+    try:
+        os.makedirs(out_dir, exist_ok=True)  # like the flyby: out/... just works
+    except OSError as exc:
+        print(f"planetlod_resample: error: cannot create {out_dir}: {exc}", file=sys.stderr)
+        return 1
     bar = None if args.quiet else ProgressBar(sys.stderr)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -87,12 +104,12 @@ def main(argv=None):
                 raise planetlod.Cancelled("interrupted")
         except planetlod.Cancelled:
             if bar:
-                bar.finish()
+                bar.finish("cancelled")
             print("planetlod_resample: cancelled, nothing written", file=sys.stderr)
             return 130
         except (planetlod.PlanetLODError, MemoryError) as exc:
             if bar:
-                bar.finish()
+                bar.finish("failed")
             print(f"planetlod_resample: error: {exc}", file=sys.stderr)
             return 1
         finally:
