@@ -48,12 +48,17 @@ def place_camera(cam, scene, frame):
     if planet_obj is None:
         return
     s = planet_obj.planet_lod
+    ground_height = _ground_height(planet_obj)
     pose = core.flyby_pose(frame, cam["planet_lod_path_frames"], s.radius,
                            skim_height=cam["planet_lod_skim_height"],
-                           ground_height=_ground_height(planet_obj))
+                           ground_height=ground_height)
     cam.matrix_world = planet_obj.matrix_world @ Matrix(pose)
-    altitude = (Matrix(pose).translation.length - s.radius)
-    cam.data.clip_start = max(0.05, min(altitude * 0.2, s.radius * 0.01))
+    location = Matrix(pose).translation
+    ground = ground_height(location.normalized()) if ground_height else 0.0
+    # clip start from the height above the *terrain* (not the radius): the lowest
+    # ray of the frame meets the ground about 1.5 heights away
+    above_ground = max(location.length - s.radius - ground, 0.0)
+    cam.data.clip_start = max(0.05, min(above_ground * 0.1, s.radius * 0.01))
     cam.data.clip_end = s.radius * 6.0
 
 
