@@ -56,6 +56,9 @@ def _flyby(frames, out, env):
          "--quality", "draft", "--frames", frames, "--path-frames", "12",
          "--resolution", "64x36", "--samples", "1", "--out", str(out)], env)
     assert proc.returncode == 0, output[-6000:]
+    first, last = (int(v) for v in frames.split("-"))
+    for index, frame in enumerate(range(first, last + 1)):  # one progress line per frame
+        assert f"planet_lod flyby: frame {frame} ({index + 1}/{last - first + 1})" in output
     with open(os.path.join(out, "stats.csv")) as f:
         return {int(row["frame"]): row for row in csv.DictReader(f)}
 

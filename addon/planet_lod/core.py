@@ -258,7 +258,7 @@ def flyby_pose(frame, path_frames, radius, skim_height=5.0, ground_height=None,
     else:
         altitude = skim_height
         tilt = 1.0
-    r = radius + max(ground, 0.0 if ground_height is None else ground) + altitude
+    r = radius + ground + altitude
     location = tuple(c * r for c in direction)
     # gaze: centre (tilt 0) -> a little below the horizon, heading east (tilt 1)
     down = tuple(-c for c in direction)

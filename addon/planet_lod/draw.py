@@ -15,7 +15,7 @@ import gpu
 from gpu_extras.batch import batch_for_shader
 from mathutils import Matrix, Vector
 
-from . import core, live
+from . import core, live, materials
 
 DATA_WIDTH = 768          # sector texture width (texels); 3 texels per sector
 HEIGHT_ATLAS_SIZE = 256   # face size of the preview's height cube map
@@ -173,14 +173,17 @@ def _ensure_height(res, settings):
 
 
 def _ensure_color(res, settings):
+    """The colour map as a texture: the equirectangular image materials.py made
+    (a cross-layout cube map is converted there, outside the draw callback)."""
     path = bpy.path.abspath(settings.color_map) if settings.color_map else ""
-    if res.color_key == path:
+    image = materials.color_image(settings, create=False) if path else None
+    key = (path, image.name if image is not None else None)
+    if res.color_key == key:
         return
-    res.color_key, res.color_tex = path, None
-    if not path or not os.path.isfile(path):
+    res.color_key, res.color_tex = key, None
+    if image is None:
         return
     try:
-        image = bpy.data.images.load(path, check_existing=True)
         res.color_tex = gpu.texture.from_image(image)
     except (RuntimeError, OSError) as exc:
         print("planet_lod: preview colour map:", exc)

@@ -5,6 +5,7 @@ attribute (written per vertex, unwrapped per sector so no seam), or, without a
 colour map, an elevation ramp on the distance from the planet centre.
 Debug material: hue from the per-face `sector_level` attribute.
 """
+import math
 import os
 
 import bpy
@@ -27,12 +28,94 @@ def _new_tree(material):
     return nodes, material.node_tree.links, bsdf
 
 
-def _load_image(path):
+def _find_image(path):
     path = bpy.path.abspath(path)
     for image in bpy.data.images:
         if image.filepath and bpy.path.abspath(image.filepath) == path:
             return image
-    return bpy.data.images.load(path, check_existing=True)
+    return None
+
+
+def _load_image(path):
+    return _find_image(path) or bpy.data.images.load(bpy.path.abspath(path), check_existing=True)
+
+
+def is_cross_layout(width, height):
+    """A 4:3 image is a cross-layout cube map (as planetlod.CubeMap.from_image reads it)."""
+    return width > 0 and height > 0 and width * 3 == height * 4
+
+
+def _file_stamp(path):
+    st = os.stat(path)
+    return f"{st.st_size}:{st.st_mtime_ns}"
+
+
+def cube_to_equirect(path, projection, max_width=2048, progress=None):
+    """(width, height, RGBA floats bottom row first) of the equirectangular image
+    of a cross-layout cube map in `projection`, sampled with planetlod.CubeMap
+    (the same lookup the heights use).  progress(fraction) is called per row."""
+    from . import core
+    module = core.native_or_raise()
+    cube = module.CubeMap.from_image(path, projection=core.PROJECTION_IDS[projection])
+    width = min(max_width, 4 * cube.size)
+    height = width // 2
+    sample = cube.sample
+    channels = cube.channels
+    pixels = []
+    lon_cos_sin = [(math.cos(lon), math.sin(lon)) for lon in
+                   (-math.pi + (i + 0.5) / width * 2.0 * math.pi for i in range(width))]
+    for j in range(height):  # Blender images: bottom row first
+        lat = -0.5 * math.pi + (j + 0.5) / height * math.pi
+        cl, sl = math.cos(lat), math.sin(lat)
+        for c, s in lon_cos_sin:
+            texel = sample(cl * c, cl * s, sl)
+            if channels >= 3:
+                pixels.extend((texel[0], texel[1], texel[2], texel[3] if channels == 4 else 1.0))
+            else:
+                pixels.extend((texel[0], texel[0], texel[0], 1.0))
+        if progress is not None and j % 64 == 0:
+            progress(j / float(height))
+    return width, height, pixels
+
+
+def color_image(settings, create=True):
+    """The equirectangular bpy image for the planet's colour map, or None.
+    A cross-layout cube map (4:3) is converted once to an equirectangular image
+    (packed into the .blend, so it survives save/reload without the cache).
+    create=False (draw callbacks, where ID data must not be added) only finds
+    images that already exist."""
+    path = bpy.path.abspath(settings.color_map) if settings.color_map else ""
+    if not path or not os.path.isfile(path):
+        return None
+    image = _load_image(path) if create else _find_image(path)
+    if image is None:
+        return None
+    width, height = image.size
+    if not is_cross_layout(width, height):
+        return image
+    key = f"{path}|{_file_stamp(path)}|{settings.projection}"
+    for candidate in bpy.data.images:
+        if candidate.get("planet_lod_source") == key:
+            return candidate
+    if not create:
+        return None
+    wm = bpy.context.window_manager
+    if wm:
+        wm.progress_begin(0, 100)
+    try:
+        w, h, pixels = cube_to_equirect(
+            path, settings.projection,
+            progress=(lambda f: wm.progress_update(int(100 * f))) if wm else None)
+    finally:
+        if wm:
+            wm.progress_end()
+    converted = bpy.data.images.new("PlanetLOD equirect " + os.path.basename(path), w, h)
+    converted.pixels.foreach_set(pixels)
+    converted.pack()
+    converted["planet_lod_source"] = key
+    if image.users == 0:
+        bpy.data.images.remove(image)
+    return converted
 
 
 def planet_material(obj):
@@ -40,18 +123,19 @@ def planet_material(obj):
     name = PLANET_PREFIX + obj.name
     material = bpy.data.materials.get(name) or bpy.data.materials.new(name)
     color_map = bpy.path.abspath(s.color_map) if s.color_map else ""
-    key = (color_map, round(s.radius, 3), round(s.height_scale, 3))
+    key = (color_map, s.projection, round(s.radius, 3), round(s.height_scale, 3))
     if material.get("planet_lod_key") == repr(key):
         return material
     nodes, links, bsdf = _new_tree(material)
-    if color_map and os.path.isfile(color_map):
+    image = color_image(s)
+    if image is not None:
         uv = nodes.new("ShaderNodeAttribute")
         uv.attribute_type = 'GEOMETRY'
         uv.attribute_name = "planet_uv"
         uv.location = (-400, 0)
         tex = nodes.new("ShaderNodeTexImage")
         tex.location = (-150, 0)
-        tex.image = _load_image(color_map)
+        tex.image = image
         tex.extension = 'REPEAT'
         links.new(uv.outputs["Vector"], tex.inputs["Vector"])
         links.new(tex.outputs["Color"], bsdf.inputs["Base Color"])

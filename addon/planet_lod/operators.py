@@ -264,13 +264,25 @@ class PLOD_OT_preset_add(AddPresetBase, bpy.types.Operator):
         "morph")]
 
 
+class PLOD_OT_quality_preset_add(AddPresetBase, bpy.types.Operator):
+    """Add or remove a Planet LOD quality preset"""
+    bl_idname = "object.planet_quality_preset_add"
+    bl_label = "Add Quality Preset"
+    preset_menu = "PLOD_MT_quality_presets"
+    preset_subdir = "planet_lod_quality"
+    preset_defines = ["settings = bpy.context.object.planet_lod"]
+    preset_values = ["settings." + name for name in (
+        "criterion", "max_pixel_error", "split_border", "merge_border", "template_density",
+        "budget", "max_level", "backface", "frustum", "morph")]
+
+
 def menu_func(self, context):
     self.layout.operator(PLOD_OT_planet_add.bl_idname, text="Planet", icon='WORLD')
 
 
 classes = (PLOD_OT_planet_add, PLOD_OT_planet_refresh, PLOD_OT_planet_apply_mesh,
            PLOD_OT_planet_apply_preset, PLOD_OT_set_heightmap, PLOD_MT_planet_presets, PLOD_MT_quality_presets,
-           PLOD_OT_preset_add)
+           PLOD_OT_preset_add, PLOD_OT_quality_preset_add)
 
 
 def register():

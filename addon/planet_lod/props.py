@@ -23,7 +23,8 @@ def _changed(self, context):
 
 def _geometry_changed(self, context):
     from . import live
-    live.mark_dirty(self.id_data, geometry=True)
+    # the material depends on radius/height scale (ramp) and projection (cube colour maps)
+    live.mark_dirty(self.id_data, geometry=True, material=True)
 
 
 def _material_changed(self, context):
@@ -64,7 +65,8 @@ class PLOD_PG_settings(bpy.types.PropertyGroup):
                                default=False, update=_material_changed)
     skip_sea: BoolProperty(name="Skip sea sectors", default=False, update=_changed)
     color_map: StringProperty(name="Colour map", subtype='FILE_PATH',
-                              description="Equirectangular colour map (empty: elevation ramp)",
+                              description="Equirectangular, or cross-layout (4:3) cube map "
+                                          "in the planet's projection (empty: elevation ramp)",
                               update=_material_changed)
     criterion: EnumProperty(name="Criterion", default="PIXEL", update=_changed, items=[
         ("PIXEL", "Pixel error", "Split sectors whose screen-space error exceeds a pixel bound"),

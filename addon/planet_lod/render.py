@@ -53,12 +53,13 @@ def place_camera(cam, scene, frame):
                            skim_height=cam["planet_lod_skim_height"],
                            ground_height=ground_height)
     cam.matrix_world = planet_obj.matrix_world @ Matrix(pose)
-    position = Matrix(pose).translation
-    # near clip from the height above the terrain, not above the radius: a
-    # skim a few metres over a plateau must not clip the ground ahead
-    ground = ground_height(tuple(position.normalized())) if ground_height else 0.0
-    altitude = position.length - s.radius - max(ground, 0.0)
-    cam.data.clip_start = max(0.05, min(altitude * 0.2, s.radius * 0.01))
+    location = Matrix(pose).translation
+    ground = ground_height(tuple(location.normalized())) if ground_height else 0.0
+    # clip start from the height above the *terrain* (not the radius; the
+    # ocean sphere covers ground below sea level): the lowest ray of the frame
+    # meets the ground about 1.5 heights away
+    above_ground = max(location.length - s.radius - max(ground, 0.0), 0.0)
+    cam.data.clip_start = max(0.05, min(above_ground * 0.1, s.radius * 0.01))
     cam.data.clip_end = s.radius * 6.0
 
 

@@ -35,11 +35,15 @@ class PLOD_PT_planet(PLOD_PT_base, bpy.types.Panel):
             return
         s = obj.planet_lod
         row = layout.row(align=True)
-        row.menu("PLOD_MT_planet_presets", text="Presets")
+        row.menu("PLOD_MT_planet_presets", text=bpy.types.PLOD_MT_planet_presets.bl_label)
         row.operator("object.planet_preset_add", text="", icon='ADD')
         row.operator("object.planet_preset_add", text="", icon='REMOVE').remove_active = True
         row = layout.row(align=True)
-        row.menu("PLOD_MT_quality_presets", text="Quality")
+        row.menu("PLOD_MT_quality_presets", text=bpy.types.PLOD_MT_quality_presets.bl_label)
+        row.operator("object.planet_quality_preset_add", text="", icon='ADD')
+        row.operator("object.planet_quality_preset_add", text="",
+                     icon='REMOVE').remove_active = True
+        row = layout.row(align=True)
         for key in ("DRAFT", "PREVIEW", "FINAL"):
             row.operator("object.planet_apply_preset", text=key.title()).quality = key
         col = layout.column()

@@ -59,5 +59,29 @@ def main():
     diff = max(abs(a - b) for a, b in zip(anim, still))
     assert diff < 0.02, f"-a frame 3 differs from the still of frame 3 by {diff}"
 
+    # "Camera clip from horizon": before a render the camera's clip range is set
+    # from the horizon -- it keeps the nearest terrain and everything up to the
+    # horizon of the highest peaks, and no more.
+    import math
+    from planet_lod import core
+    radius = planet.planet_lod.radius
+    top = radius + core.build_planet(planet.planet_lod.as_dict()).height_range()[1]
+    for frame in (1, 3):
+        scene.frame_set(frame)
+        cam.data.clip_start, cam.data.clip_end = 1.0, 1.0e9
+        planet.planet_lod.clip_from_horizon = False
+        live.refresh_for_render(scene)
+        assert (cam.data.clip_start, cam.data.clip_end) == (1.0, 1.0e9)  # off: untouched
+        planet.planet_lod.clip_from_horizon = True
+        live.refresh_for_render(scene)
+        d = cam.matrix_world.translation.length
+        near, far = cam.data.clip_start, cam.data.clip_end
+        horizon = math.sqrt(d * d - radius * radius) + math.sqrt(top * top - radius * radius)
+        print(f"frame {frame}: camera {d - radius:.0f} m up, clip {near:.3f} .. {far:.0f} "
+              f"(horizon {horizon:.0f})")
+        assert 0.0 < near <= max(d - top, 0.0) + 1e-3 or near <= 1.0, near
+        assert math.sqrt(d * d - radius * radius) <= far <= 1.02 * horizon, far
+    planet.planet_lod.clip_from_horizon = False
+
 
 lib.run(main)

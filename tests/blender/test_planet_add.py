@@ -63,6 +63,24 @@ def main():
     assert os.path.isfile(user_file), user_file
     bpy.ops.script.execute_preset(filepath=user_file, menu_idname="PLOD_MT_planet_presets")
     assert earth.planet_lod.budget == 777
+    # the menu lists bundled and user presets; "-" removes the active (user) preset
+    from planet_lod import operators
+    listed = [os.path.basename(p) for d in operators._preset_dirs("planet_lod")
+              for p in os.listdir(d)]
+    assert {"Earth.py", "Moon.py", "Mars-like.py", "Asteroid.py", "My_planet.py"} <= set(listed)
+    assert bpy.ops.object.planet_preset_add(remove_active=True) == {'FINISHED'}
+    assert not os.path.exists(user_file)
+    # quality presets: add / apply / remove as well
+    earth.planet_lod.max_pixel_error = 5.5
+    assert bpy.ops.object.planet_quality_preset_add(name="Mine") == {'FINISHED'}
+    quality_file = os.path.join(bpy.utils.user_resource(
+        'SCRIPTS', path="presets/planet_lod_quality"), "Mine.py")
+    assert os.path.isfile(quality_file)
+    earth.planet_lod.max_pixel_error = 1.0
+    bpy.ops.script.execute_preset(filepath=quality_file, menu_idname="PLOD_MT_quality_presets")
+    assert earth.planet_lod.max_pixel_error == 5.5 and earth.planet_lod.budget == 777
+    assert bpy.ops.object.planet_quality_preset_add(remove_active=True) == {'FINISHED'}
+    assert not os.path.exists(quality_file)
     assert bpy.ops.object.planet_apply_preset(planet='EARTH', quality='DRAFT') == {'FINISHED'}
     assert bpy.ops.object.planet_refresh() == {'FINISHED'}
     # Apply as mesh: a plain mesh object with the same geometry

@@ -20,7 +20,6 @@ def analytic_disk(scene, cam, radius):
 
 def main():
     lib.enable()
-    from planet_lod import render
     lib.clear_scene()
     scene = bpy.context.scene
     scene.render.resolution_x, scene.render.resolution_y = 160, 90
@@ -38,8 +37,8 @@ def main():
     assert bpy.ops.mesh.planet_add(preset='EARTH', quality='DRAFT') == {'FINISHED'}
     planet = bpy.context.object
     out = os.path.join(lib.out_dir(), "render")
-    rows = render.render_flyby(scene, planet, 1, 4, out, path_frames=120)
-    assert len(rows) == 4
+    assert bpy.ops.render.planet_flyby(frames="1-4", path_frames=120,
+                                       directory=out) == {'FINISHED'}
     assert os.path.isfile(os.path.join(out, "contact_sheet.png"))
     with open(os.path.join(out, "stats.csv")) as f:
         lines = f.read().splitlines()
