@@ -74,12 +74,13 @@ static void plod__write_norm(plod_texel_type type, void *pixels, size_t index, d
     switch (type) {
     case PLOD_TEXEL_U8: {
         double q = value * 255.0 + 0.5;
-        ((uint8_t *)pixels)[index] = (uint8_t)(q <= 0.0 ? 0.0 : q >= 255.0 ? 255.0 : q);
+        /* !(q > 0): NaN texels store 0 (converting NaN is undefined) */
+        ((uint8_t *)pixels)[index] = (uint8_t)(!(q > 0.0) ? 0.0 : q >= 255.0 ? 255.0 : q);
         break;
     }
     case PLOD_TEXEL_U16: {
         double q = value * 65535.0 + 0.5;
-        ((uint16_t *)pixels)[index] = (uint16_t)(q <= 0.0 ? 0.0 : q >= 65535.0 ? 65535.0 : q);
+        ((uint16_t *)pixels)[index] = (uint16_t)(!(q > 0.0) ? 0.0 : q >= 65535.0 ? 65535.0 : q);
         break;
     }
     default:
