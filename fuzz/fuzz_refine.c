@@ -182,9 +182,11 @@ static void fuzz__emit(fuzz_input *in, const plod_planet *planet, const plod_cam
     if (flags & 4) {
         mp.morph = 1;
         memcpy(mp.eye, camera->position, sizeof mp.eye);
-        mp.morph_lod_scale = (flags & 8) ? fuzz_double(in)
-                                         : plod_mesh_morph_lod_scale(planet, camera, rp,
-                                                                     level < 0 ? 0 : level);
+        plod_mesh_set_morph_scale(&mp, camera, rp);
+        if (flags & 8) {
+            mp.morph_lod_scale = fuzz_double(in);
+            mp.morph_level_rate = fuzz_double(in);
+        }
         mp.morph_ramp = (flags & 16) ? fuzz_double(in) : 0.5;
     }
     size_t vbound = plod_mesh_vertex_bound(emitted, level);
@@ -192,6 +194,8 @@ static void fuzz__emit(fuzz_input *in, const plod_planet *planet, const plod_cam
     int level_ok = level >= 0 && level <= PLOD_MAX_TEMPLATE_LEVEL;
     if (!level_ok)
         FUZZ_CHECK(vbound == 0 && tbound == 0, "bounds for level %d", level);
+    if (vbound > (1u << 17))
+        return; /* e.g. 256 level-9 sectors: 67 M vertices, seconds per input */
     size_t vcap = vbound ? vbound : 1, tcap = tbound ? tbound : 1;
     plod_mesh_buffers b = {
         malloc(3 * vcap * sizeof(float)), malloc(3 * vcap * sizeof(float)),
