@@ -53,10 +53,11 @@
 /* A node's cap prism and the per-node constants of its tests. */
 typedef struct plod__bound {
     double axis[3];
-    double angle, cos_angle, sin_angle;
+    double cos_angle, sin_angle; /* cap half-angle */
     double r_min, r_max;  /* metres from the centre */
     double size;          /* longest corner chord, metres at the radius */
-    double extent;        /* largest (u, v) extent of the corners */
+    double sag0;          /* size^2 / (8 r_min): curvature sag, template 0 */
+    double relief0;       /* (hmax - hmin) * min(1, extent / texel) */
     double horizon_angle; /* cap angle + angle at which r_max peeks over
                              the occluder ball (< 0: never hidden) */
     double horizon_cos, horizon_sin;
@@ -105,7 +106,10 @@ struct plod_refiner {
     double eye[3], eye_unit[3], eye_dist, occluder;
     double eye_horizon_angle, eye_horizon_cos, eye_horizon_sin;
     int horizon_on;
-    double merge_ratio, error_scale;
+    double merge_ratio, error_scale, error_scale2; /* 2^-t, 4^-t */
+    double distance_floor;  /* metres: distances below count as this */
+    int split_mode;         /* plod__exceeds: 0 side, 1 pixel, 2 ortho */
+    double split_scale;
     double texels_per_unit; /* height map texels per unit of u or v */
     size_t max_sectors;
     int truncated;
@@ -473,9 +477,9 @@ static void plod__compute_bound(const plod_refiner *r, const plod_sector *s,
         double ch = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
         chord = ch > chord ? ch : chord;
     }
-    b->angle = angle * PLOD__CAP_INFLATE + 1e-15;
-    b->cos_angle = cos(b->angle);
-    b->sin_angle = sin(b->angle);
+    angle = angle * PLOD__CAP_INFLATE + 1e-15;
+    b->cos_angle = cos(angle);
+    b->sin_angle = sin(angle);
     b->size = chord * planet->radius;
 
     const double scale = 1.0 / (double)PLOD__ONE;
@@ -487,7 +491,7 @@ static void plod__compute_bound(const plod_refiner *r, const plod_sector *s,
         v0 = v < v0 ? v : v0;
         v1 = v > v1 ? v : v1;
     }
-    b->extent = fmax(u1 - u0, v1 - v0);
+    double extent = fmax(u1 - u0, v1 - v0);
     double mu = (u1 - u0) * PLOD__RANGE_MARGIN, mv = (v1 - v0) * PLOD__RANGE_MARGIN;
     u0 = fmax(-1.0, u0 - mu);
     u1 = fmin(1.0, u1 + mu);
@@ -504,15 +508,18 @@ static void plod__compute_bound(const plod_refiner *r, const plod_sector *s,
     b->hmax = fmax_;
     b->r_min = planet->radius + fmin_;
     b->r_max = planet->radius + fmax_;
+    b->sag0 = b->size * b->size / (8.0 * b->r_min);
+    double texels = extent * r->texels_per_unit;
+    b->relief0 = ((double)fmax_ - (double)fmin_) * (texels < 1.0 ? texels : 1.0);
     double rho = r->occluder;
     if (b->r_max >= rho) {
-        b->horizon_angle = b->angle + atan2(sqrt((b->r_max - rho) * (b->r_max + rho)), rho);
+        b->horizon_angle = angle + atan2(sqrt((b->r_max - rho) * (b->r_max + rho)), rho);
         b->horizon_cos = cos(b->horizon_angle);
         b->horizon_sin = sin(b->horizon_angle);
     } else {
         b->horizon_angle = -1.0;
     }
-    if (b->angle < 0.5 * 3.141592653589793) {
+    if (angle < 0.5 * 3.141592653589793) {
         double z0 = b->r_min * b->cos_angle, lateral = b->r_max * b->sin_angle;
         b->sphere_z = 0.5 * (z0 + b->r_max);
         double half = 0.5 * (b->r_max - z0);
@@ -592,24 +599,39 @@ static unsigned plod__cull(const plod_refiner *r, const plod__bound *b,
  * (below one texel the bilinear surface varies ~linearly, so the relief of
  * the texel footprint shrinks with the sector).  Both only decrease from a
  * parent to its children. */
+static double plod__error_m(const plod_refiner *r, const plod__bound *b)
+{
+    return b->sag0 * r->error_scale2 + b->relief0 * r->error_scale;
+}
+
 static double plod__score(const plod_refiner *r, const plod__bound *b, double distance)
 {
     const plod_refine_params *pr = r->params;
-    double floor_ = 1e-9 * r->planet->radius;
-    double d = distance > floor_ ? distance : floor_;
+    double d = distance > r->distance_floor ? distance : r->distance_floor;
     if (pr->criterion == PLOD_CRITERION_SIDE_DISTANCE)
         return b->size / d / pr->split_border;
-    double cell = b->size * r->error_scale;
-    double sag = cell * cell / (8.0 * b->r_min);
-    double relief = ((double)b->hmax - (double)b->hmin) * r->error_scale;
-    double texels = b->extent * r->texels_per_unit;
-    if (texels < 1.0)
-        relief *= texels;
-    double error_m = sag + relief;
+    double error_m = plod__error_m(r, b);
     double px = r->camera->desc.orthographic
                     ? error_m * r->camera->pixels_per_metre
                     : error_m * r->camera->pixels_per_radian / d;
     return px / pr->max_pixel_error;
+}
+
+/* score > 1 without divisions (hot path: every node, every frame):
+ * side / distance: size > split_border * d; pixel, perspective:
+ * error * pixels_per_radian / max_pixel_error > d; orthographic:
+ * error * pixels_per_metre / max_pixel_error > 1. */
+static int plod__exceeds(const plod_refiner *r, const plod__bound *b, double distance)
+{
+    double d = distance > r->distance_floor ? distance : r->distance_floor;
+    switch (r->split_mode) {
+    case 0:
+        return b->size > r->split_scale * d;
+    case 1:
+        return plod__error_m(r, b) * r->split_scale > d;
+    default:
+        return plod__error_m(r, b) * r->split_scale > 1.0;
+    }
 }
 
 /* Split predicate P of a node (level = its level), from its own bound. */
@@ -619,18 +641,14 @@ static int plod__wants_split(const plod_refiner *r, const plod__bound *b, int le
     *flags = plod__cull(r, b, distance);
     if (level >= r->params->max_level || *flags)
         return 0;
-    return plod__score(r, b, *distance) > 1.0;
+    return plod__exceeds(r, b, *distance);
 }
 
 static int plod__id_level(uint64_t id)
 {
     uint64_t heap = id & PLOD__HEAP_MASK;
-    int level = -1;
-    while (heap) {
-        heap >>= 1;
-        level++;
-    }
-    return level;
+    assert(heap);
+    return 63 - __builtin_clzll(heap);
 }
 
 static uint64_t plod__parent_id(uint64_t id)
@@ -1148,6 +1166,18 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
     r->eye_horizon_sin = sin(r->eye_horizon_angle);
     r->merge_ratio = params->merge_border / params->split_border;
     r->error_scale = ldexp(1.0, -params->template_level);
+    r->error_scale2 = r->error_scale * r->error_scale;
+    r->distance_floor = 1e-9 * r->planet->radius;
+    if (params->criterion == PLOD_CRITERION_SIDE_DISTANCE) {
+        r->split_mode = 0;
+        r->split_scale = params->split_border;
+    } else if (!camera->desc.orthographic) {
+        r->split_mode = 1;
+        r->split_scale = camera->pixels_per_radian / params->max_pixel_error;
+    } else {
+        r->split_mode = 2;
+        r->split_scale = camera->pixels_per_metre / params->max_pixel_error;
+    }
     r->max_sectors = params->max_sectors;
     r->truncated = 0;
     r->splits = r->merges = 0;
