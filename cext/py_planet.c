@@ -13,6 +13,7 @@
 #include "pyplanetlod.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 /* Supplied by py_cubemap.c / py_mesh.c; weak so this stage builds and
@@ -311,6 +312,15 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
         if (plod_cubemap_build_pyramid(cm) != PLOD_OK) {
             Py_DECREF(map);
             PyErr_NoMemory();
+            return -1;
+        }
+        size_t nan_texels = plod_cubemap_nan_count(cm);
+        if (nan_texels != 0) {
+            Py_DECREF(map);
+            char detail[160];
+            snprintf(detail, sizeof detail, "height map has %zu NaN samples (no-data "
+                     "texels); fill them before using it as a height map", nan_texels);
+            plod_py_raise_detail(PLOD_ERR_BAD_IMAGE, "Planet", detail);
             return -1;
         }
         self->planet.heightmap = cm;

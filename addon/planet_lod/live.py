@@ -31,6 +31,7 @@ class PlanetState:
         self.changed_at = 0.0
         self.stats = {}
         self.error = ""
+        self.warning = ""          # last refresh worked but looks wrong (camera inside)
         self.instances = None      # dict from planet.instances() for the GPU preview
         self.gpu_version = 0       # bumped when instances change
         self.frozen_camera = None  # (matrix_world planet space, params) while frozen
@@ -148,6 +149,17 @@ def lod_camera_params(obj, scene, for_render=False, depsgraph=None):
 
 # ---- refresh ------------------------------------------------------------------
 
+NO_CAMERA = "no LOD camera: add a camera to the scene or use the viewport"
+
+
+def forget_removed():
+    """Drops the runtime state of planets deleted since (a scheduled refresh of a
+    deleted planet then finds nothing to do)."""
+    alive = {obj.name_full for obj in bpy.data.objects}
+    for name in [n for n in RUNTIME if n not in alive]:
+        del RUNTIME[name]
+
+
 def refresh(obj, scene, params=None, build_mesh=False, for_render=False):
     """Refines `obj` for its LOD camera; optionally rebuilds its mesh.  Raises
     core.native_errors() on bad input (callers report them)."""
@@ -158,7 +170,7 @@ def refresh(obj, scene, params=None, build_mesh=False, for_render=False):
     if params is None:
         params = lod_camera_params(obj, scene, for_render=for_render)
     if params is None:
-        raise RuntimeError("no LOD camera: add a camera to the scene or use the viewport")
+        raise RuntimeError(NO_CAMERA)
     _busy = True
     try:
         frozen = obj.planet_lod.freeze_lod and st.frozen_camera is not None and not for_render
@@ -168,8 +180,14 @@ def refresh(obj, scene, params=None, build_mesh=False, for_render=False):
                 # from the base sectors: the sector set *and order* (so the mesh
                 # bytes) depend on this camera only, not on earlier frames
                 planet.reset()
-            st.stats = core.refine(planet, camera, settings, hysteresis=not for_render)
+            stats = core.refine(planet, camera, settings, hysteresis=not for_render)
+            if build_mesh:  # refuse before the mesh (or anything in bpy) is touched
+                core.check_mesh_size(stats, settings["template_level"])
+            st.stats = stats
             st.frozen_camera = params
+            st.warning = ("the LOD camera is inside the planet (below the terrain): only "
+                          "the sectors around it are refined"
+                          if core.camera_inside(planet, params["matrix_world"]) else "")
             if obj.planet_lod.clip_from_horizon and for_render:
                 _apply_clip(obj, scene, planet, camera)
         if obj.planet_lod.gpu_preview and not bpy.app.background:
@@ -297,6 +315,7 @@ def tick():
     if scene is None:
         return TICK_S
     now = time.monotonic()
+    forget_removed()
     for obj in planets(scene):
         s = obj.planet_lod
         if not s.live_update:
@@ -306,7 +325,9 @@ def tick():
             sig, params = _signature(obj, scene)
         except (ReferenceError, AttributeError):
             continue
-        if sig is None:
+        if sig is None:  # the camera went away (deleted before the refresh ran)
+            if st.dirty:
+                st.error = NO_CAMERA
             continue
         if sig != st.signature:
             st.signature, st.changed_at, st.dirty = sig, now, True

@@ -110,6 +110,8 @@ class PLOD_OT_planet_refresh(bpy.types.Operator):
             live.state(obj).error = str(exc)
             self.report({'ERROR'}, f"{obj.name}: {exc}")
             return {'CANCELLED'}
+        if live.state(obj).warning:
+            self.report({'WARNING'}, f"{obj.name}: {live.state(obj).warning}")
         self.report({'INFO'}, f"{obj.name}: {stats.get('visible', 0)} sectors, "
                               f"{stats.get('triangles', 0)} triangles")
         return {'FINISHED'}
