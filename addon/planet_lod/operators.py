@@ -78,6 +78,9 @@ class PLOD_OT_planet_add(bpy.types.Operator):
                 bpy.data.meshes.remove(mesh)
             self.report({'ERROR'}, f"Planet not added: {exc}")
             return {'CANCELLED'}
+        # the frame-change handlers write the planet's mesh from the render thread
+        # in UI animation renders: Blender requires Lock Interface for that
+        context.scene.render.use_lock_interface = True
         for other in context.selected_objects:
             other.select_set(False)
         obj.select_set(True)
