@@ -763,6 +763,20 @@ plod_status plod_cube_to_sphere(plod_projection projection, double x_deg,
     return plod__cube_to_sphere(projection, x_deg, y_deg, lon_deg, lat_deg);
 }
 
+/* One specialised loop per projection (PLOD__PER_PROJECTION): a failed
+ * point gives NaN outputs and its status; the first failure is returned. */
+#define PLOD__POINT_LOOP(FN, PROJ, IN_A, IN_B, OUT_A, OUT_B)                      \
+    for (size_t i = 0; i < n; i++) {                                              \
+        plod_status st = FN(PROJ, IN_A[i], IN_B[i], OUT_A + i, OUT_B + i);        \
+        if (st != PLOD_OK) {                                                      \
+            OUT_A[i] = OUT_B[i] = NAN;                                            \
+            if (first == PLOD_OK)                                                 \
+                first = st;                                                       \
+        }                                                                         \
+        if (stat)                                                                 \
+            stat[i] = (int)st;                                                    \
+    }
+
 plod_status plod_sphere_to_cube_n(plod_projection projection, size_t n,
                                   const double *lon_deg, const double *lat_deg,
                                   double *x_deg, double *y_deg, int *stat)
@@ -772,18 +786,7 @@ plod_status plod_sphere_to_cube_n(plod_projection projection, size_t n,
     if ((unsigned)projection >= PLOD_PROJ_COUNT)
         return PLOD_ERR_BAD_PROJECTION;
     plod_status first = PLOD_OK;
-#define PLOD__LOOP(PROJ)                                                          \
-    for (size_t i = 0; i < n; i++) {                                              \
-        plod_status st = plod__sphere_to_cube(PROJ, lon_deg[i], lat_deg[i],       \
-                                              x_deg + i, y_deg + i);              \
-        if (st != PLOD_OK) {                                                      \
-            x_deg[i] = y_deg[i] = NAN;                                            \
-            if (first == PLOD_OK)                                                 \
-                first = st;                                                       \
-        }                                                                         \
-        if (stat)                                                                 \
-            stat[i] = (int)st;                                                    \
-    }
+#define PLOD__LOOP(PROJ) PLOD__POINT_LOOP(plod__sphere_to_cube, PROJ, lon_deg, lat_deg, x_deg, y_deg)
     PLOD__PER_PROJECTION(projection)
 #undef PLOD__LOOP
     return first;
@@ -798,18 +801,7 @@ plod_status plod_cube_to_sphere_n(plod_projection projection, size_t n,
     if ((unsigned)projection >= PLOD_PROJ_COUNT)
         return PLOD_ERR_BAD_PROJECTION;
     plod_status first = PLOD_OK;
-#define PLOD__LOOP(PROJ)                                                          \
-    for (size_t i = 0; i < n; i++) {                                              \
-        plod_status st = plod__cube_to_sphere(PROJ, x_deg[i], y_deg[i],           \
-                                              lon_deg + i, lat_deg + i);          \
-        if (st != PLOD_OK) {                                                      \
-            lon_deg[i] = lat_deg[i] = NAN;                                        \
-            if (first == PLOD_OK)                                                 \
-                first = st;                                                       \
-        }                                                                         \
-        if (stat)                                                                 \
-            stat[i] = (int)st;                                                    \
-    }
+#define PLOD__LOOP(PROJ) PLOD__POINT_LOOP(plod__cube_to_sphere, PROJ, x_deg, y_deg, lon_deg, lat_deg)
     PLOD__PER_PROJECTION(projection)
 #undef PLOD__LOOP
     return first;

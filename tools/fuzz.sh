@@ -111,7 +111,7 @@ smoke)
         if ! run_one "$h" -max_total_time="$secs" >"$log" 2>&1; then
             tail -60 "$log"; echo "fuzz: smoke $h FAILED (log $log)" >&2; exit 1
         fi
-        echo "fuzz: smoke $h OK: $(grep -o 'stat::number_of_executed_units: [0-9]*' "$log" | grep -o '[0-9]*$') runs in ${secs}s"
+        echo "fuzz: smoke $h OK: $(grep -oE 'stat::number_of_executed_units: +[0-9]+' "$log" | grep -o '[0-9]*$') runs in ${secs}s"
     done ;;
 full)
     runs=${FUZZ_RUNS:-10000000}
@@ -125,9 +125,9 @@ full)
         rc=$?
         set -e
         secs=$(( $(date +%s) - start ))
-        n=$(grep -o 'stat::number_of_executed_units: [0-9]*' "$log" | grep -o '[0-9]*$' || echo 0)
-        eps=$(grep -o 'stat::average_exec_per_sec: [0-9]*' "$log" | grep -o '[0-9]*$' || echo 0)
-        rss=$(grep -o 'stat::peak_rss_mb: [0-9]*' "$log" | grep -o '[0-9]*$' || echo 0)
+        n=$(grep -oE 'stat::number_of_executed_units: +[0-9]+' "$log" | grep -o '[0-9]*$' | tail -1 || echo 0)
+        eps=$(grep -oE 'stat::average_exec_per_sec: +[0-9]+' "$log" | grep -o '[0-9]*$' | tail -1 || echo 0)
+        rss=$(grep -oE 'stat::peak_rss_mb: +[0-9]+' "$log" | grep -o '[0-9]*$' | tail -1 || echo 0)
         cov=$(grep -o 'cov: [0-9]*' "$log" | tail -1 | grep -o '[0-9]*$' || echo 0)
         verdict="0 crashes, 0 leaks"
         [ "$rc" -ne 0 ] && verdict="FAILED (exit $rc, see fuzz/build/full-$h.log)"
