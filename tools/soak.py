@@ -50,6 +50,7 @@ def parse(argv):
     p.add_argument("--budget", type=int, default=8000)
     p.add_argument("--template-level", type=int, default=3, help="0..7 (3: 64 triangles)")
     p.add_argument("--max-pixel-error", type=float, default=2.0)
+    p.add_argument("--max-level", type=int, default=24, help="the add-on's default")
     p.add_argument("--resolution", default="1280x720")
     p.add_argument("--heightmap", default=os.path.join(ROOT, "data", "earth-topology.png"))
     p.add_argument("--radius", type=float, default=6371000.0)
@@ -87,7 +88,8 @@ def main(argv=None):
                                   resolution_x=width, resolution_y=height,
                                   clip_start=0.05, clip_end=args.radius * 6.0)
         stats = planet.refine(camera, max_pixel_error=args.max_pixel_error, hysteresis=True,
-                              template_level=args.template_level, budget=args.budget)
+                              template_level=args.template_level, budget=args.budget,
+                              max_level=args.max_level)
         visible = planet.visible_count
         mesh = planet.mesh(template_level=args.template_level, morph=True)
         instances = planet.instances(template_level=args.template_level)
