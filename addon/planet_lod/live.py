@@ -333,7 +333,7 @@ def _signature(obj, scene):
 
 def tick():
     """bpy.app.timers callback: debounced refresh of planets whose view changed."""
-    if _in_refresh() or _renders or core.native is None:
+    if _in_refresh() or _render_running() or core.native is None:
         return TICK_S
     if not _lock.acquire(blocking=False):  # a render thread is refreshing: retry
         return TICK_S
@@ -409,6 +409,21 @@ def on_render_pre(scene, depsgraph=None):
     if threading.current_thread() is not threading.main_thread():
         return
     refresh_for_render(scene)
+
+
+def _render_running():
+    """A render is in progress.  The counter is reset when no render job runs:
+    a render that failed between render_init and complete/cancel must not stop
+    the viewport refresh for good (the timer only runs in the UI, where renders
+    that can overlap it are jobs)."""
+    global _renders
+    if _renders and not render_job_running():
+        _renders = 0
+    return _renders > 0
+
+
+def render_job_running():
+    return bpy.app.is_job_running('RENDER')
 
 
 @persistent

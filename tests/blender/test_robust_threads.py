@@ -32,7 +32,10 @@ def main():
         live.tick()  # notices the change
         live.tick()  # runs the refresh (debounce 0) unless it must not
 
-    # 1. a render in progress: the viewport timer leaves the planet alone
+    # 1. a render in progress (a render job in the UI): the viewport timer
+    # leaves the planet alone
+    job_running = live.render_job_running
+    live.render_job_running = lambda: True
     live.on_render_started()
     before = rob.snapshot()
     move_and_tick()
@@ -42,6 +45,7 @@ def main():
     rob.assert_same(before, after, "tick during a render")
     assert live.state(earth).dirty
     live.on_render_finished()
+    live.render_job_running = job_running
     mesh_before = rob.snapshot()["mesh Earth"]
     live.tick()
     assert not live.state(earth).dirty and rob.snapshot()["mesh Earth"] != mesh_before
@@ -74,9 +78,24 @@ def main():
     assert order == ["released", "refreshed"], order
     assert not live.state(earth).dirty
 
+    # a render that never reported complete/cancel does not stop the timer for
+    # good: with no render job running the counter is reset
+    live.on_render_started()
+    move_and_tick()
+    assert live._renders == 0 and not live.state(earth).dirty
+
     # 3. a real render: the counter goes up and back to zero
     assert live._renders == 0
-    bpy.ops.render.render()
+    seen = []
+
+    def probe(*_args):
+        seen.append(live._renders)
+    bpy.app.handlers.render_pre.append(probe)
+    try:
+        bpy.ops.render.render()
+    finally:
+        bpy.app.handlers.render_pre.remove(probe)
+    assert seen == [1], seen  # counted while rendering
     assert live._renders == 0, live._renders
     move_and_tick()
     assert not live.state(earth).dirty
