@@ -23,8 +23,9 @@
  * queries).  Caps of children do not nest in their parents' (projection
  * distortion), so P alone is not monotone; the refinement uses
  * P*(node) = P(node) and P*(parent), which is.  The bounds of the internal
- * (split) nodes are kept in a hash table by id, so P* costs one memoised
- * evaluation per node per frame.  Each frame merges every diamond whose two
+ * (split) nodes are kept in a dense array with a free list; every leaf and
+ * node holds its parent's index there, so P* costs one memoised evaluation
+ * per node per frame and no lookups.  Each frame merges every diamond whose two
  * parents fail P*, then splits every leaf that passes it (with forced
  * splits), until stable: the unique minimal conforming refinement of
  * {P* true}, whatever the previous frame was.  With `hysteresis` the merge
@@ -71,6 +72,7 @@ typedef struct plod__geom {
     uint8_t eval_split;    /* predicate result */
     uint8_t eval_flags;    /* PLOD_SECTOR_BACKFACING | OUTSIDE_FRUSTUM */
     double eval_distance;
+    int32_t parent;        /* index in nodes[], -1 for a base sector */
 } plod__geom;
 
 typedef struct plod__edge {
@@ -81,10 +83,12 @@ typedef struct plod__edge {
 /* An internal (split) node: its bound and this frame's effective predicate
  * P*(node) = P(node) and P*(parent), memoised per frame. */
 typedef struct plod__node {
-    uint64_t id;        /* 0 = empty slot */
+    uint64_t id;        /* 0 = free slot */
     plod__bound bound;
     uint32_t eval_frame;
     uint8_t wants;      /* P*(node) */
+    int32_t parent;     /* its parent's index, -1 for a base sector; the
+                           next free slot while free */
 } plod__node;
 
 struct plod_refiner {
@@ -96,8 +100,9 @@ struct plod_refiner {
     size_t edge_mask, edge_used; /* capacity - 1, live entries */
     size_t *pending;             /* split pass: in-place children to revisit */
     size_t pending_count, pending_capacity;
-    plod__node *nodes;           /* internal nodes, open addressing by id */
-    size_t node_mask, node_used;
+    plod__node *nodes;           /* internal nodes, dense, stable indices */
+    size_t node_capacity, node_top, node_used; /* node_top: slots ever used */
+    int32_t node_free;           /* head of the free-slot list, -1 = none */
     uint32_t frame;
     double global_hmin, global_hmax;
     /* per-update evaluation context */
@@ -349,88 +354,53 @@ static plod_status plod__reserve(plod_refiner *r, size_t extra)
 
 /* ---- internal nodes ----------------------------------------------------------- */
 
-static size_t plod__id_hash(uint64_t id)
-{
-    uint64_t h = id * 0x9E3779B97F4A7C15ull;
-    h ^= h >> 32;
-    return (size_t)h;
-}
-
-static plod__node *plod__node_find(const plod_refiner *r, uint64_t id)
-{
-    size_t i = plod__id_hash(id) & r->node_mask;
-    for (;;) {
-        plod__node *n = &r->nodes[i];
-        if (n->id == id)
-            return n;
-        if (n->id == 0)
-            return NULL;
-        i = (i + 1) & r->node_mask;
-    }
-}
-
 static plod_status plod__node_reserve(plod_refiner *r, size_t extra)
 {
-    size_t capacity = r->nodes ? r->node_mask + 1 : 0;
-    size_t need = (r->node_used + extra) * 2;
-    if (need <= capacity)
+    size_t need = r->node_top + extra;
+    if (need <= r->node_capacity)
         return PLOD_OK;
-    size_t fresh_capacity = capacity ? capacity : 64;
-    while (fresh_capacity < need)
-        fresh_capacity *= 2;
-    plod__node *fresh = calloc(fresh_capacity, sizeof *fresh);
+    if (need > (size_t)INT32_MAX)
+        return PLOD_ERR_NO_MEMORY;
+    size_t capacity = r->node_capacity ? r->node_capacity : 64;
+    while (capacity < need)
+        capacity *= 2;
+    plod__node *fresh = realloc(r->nodes, capacity * sizeof *fresh);
     if (!fresh)
         return PLOD_ERR_NO_MEMORY;
-    size_t mask = fresh_capacity - 1;
-    for (size_t i = 0; i < capacity; i++) {
-        if (!r->nodes[i].id)
-            continue;
-        size_t j = plod__id_hash(r->nodes[i].id) & mask;
-        while (fresh[j].id)
-            j = (j + 1) & mask;
-        fresh[j] = r->nodes[i];
-    }
-    free(r->nodes);
     r->nodes = fresh;
-    r->node_mask = mask;
+    r->node_capacity = capacity;
     return PLOD_OK;
 }
 
-/* Capacity ensured by plod__node_reserve. */
-static void plod__node_add(plod_refiner *r, uint64_t id, const plod__bound *bound)
+/* Capacity ensured by plod__node_reserve; returns the node's index. */
+static int32_t plod__node_add(plod_refiner *r, uint64_t id, const plod__bound *bound,
+                              int32_t parent)
 {
-    size_t i = plod__id_hash(id) & r->node_mask;
-    while (r->nodes[i].id) {
-        assert(r->nodes[i].id != id);
-        i = (i + 1) & r->node_mask;
+    int32_t at;
+    if (r->node_free >= 0) {
+        at = r->node_free;
+        r->node_free = r->nodes[at].parent;
+    } else {
+        assert(r->node_top < r->node_capacity);
+        at = (int32_t)r->node_top++;
     }
-    plod__node *n = &r->nodes[i];
+    plod__node *n = &r->nodes[at];
     n->id = id;
     n->bound = *bound;
     n->eval_frame = 0;
+    n->wants = 0;
+    n->parent = parent;
     r->node_used++;
+    return at;
 }
 
-static void plod__node_remove(plod_refiner *r, uint64_t id)
+static void plod__node_remove(plod_refiner *r, int32_t at)
 {
-    plod__node *n = plod__node_find(r, id);
-    assert(n);
-    size_t hole = (size_t)(n - r->nodes), j = hole;
-    n->id = 0;
+    assert(at >= 0 && (size_t)at < r->node_top && r->nodes[at].id);
+    r->nodes[at].id = 0;
+    r->nodes[at].parent = r->node_free;
+    r->node_free = at;
     r->node_used--;
-    for (;;) {
-        j = (j + 1) & r->node_mask;
-        plod__node *m = &r->nodes[j];
-        if (!m->id)
-            break;
-        size_t home = plod__id_hash(m->id) & r->node_mask;
-        int stays = hole <= j ? (home > hole && home <= j) : (home > hole || home <= j);
-        if (stays)
-            continue;
-        r->nodes[hole] = *m;
-        m->id = 0;
-        hole = j;
-    }
 }
 
 /* ---- geometry of a node ---------------------------------------------------- */
@@ -667,10 +637,9 @@ static int plod__node_wants(plod_refiner *r, plod__node *n)
     unsigned flags;
     double distance;
     int wants = plod__wants_split(r, &n->bound, level, &flags, &distance);
-    if (wants && level > 0) {
-        plod__node *parent = plod__node_find(r, plod__parent_id(n->id));
-        assert(parent);
-        wants = parent ? plod__node_wants(r, parent) : 1;
+    if (wants && n->parent >= 0) {
+        assert(r->nodes[n->parent].id == plod__parent_id(n->id));
+        wants = plod__node_wants(r, &r->nodes[n->parent]);
     }
     n->wants = (uint8_t)wants;
     n->eval_frame = r->frame;
@@ -683,11 +652,8 @@ static int plod__allows_merge(plod_refiner *r, plod__node *n)
     if (!r->params->hysteresis)
         return !plod__node_wants(r, n);
     int level = plod__id_level(n->id);
-    if (level > 0) {
-        plod__node *parent = plod__node_find(r, plod__parent_id(n->id));
-        if (parent && !plod__node_wants(r, parent))
-            return 1;
-    }
+    if (n->parent >= 0 && !plod__node_wants(r, &r->nodes[n->parent]))
+        return 1;
     double distance;
     unsigned flags = plod__cull(r, &n->bound, &distance);
     return flags || level >= r->params->max_level ||
@@ -705,11 +671,10 @@ static int plod__leaf_wants_split(plod_refiner *r, size_t i)
         g->eval_flags = (uint8_t)flags;
         g->eval_frame = r->frame;
     }
-    if (!g->eval_split || r->leaves[i].level == 0)
+    if (!g->eval_split || g->parent < 0)
         return g->eval_split;
-    plod__node *parent = plod__node_find(r, plod__parent_id(r->leaves[i].id));
-    assert(parent);
-    return parent ? plod__node_wants(r, parent) : 1;
+    assert(r->nodes[g->parent].id == plod__parent_id(r->leaves[i].id));
+    return plod__node_wants(r, &r->nodes[g->parent]);
 }
 
 /* ---- node algebra ---------------------------------------------------------- */
@@ -774,8 +739,8 @@ static void plod__split_diamond(plod_refiner *r, size_t i, size_t n)
     plod_sector parents[2] = {r->leaves[i], r->leaves[n]};
     plod__leaf_unlink(r, i);
     plod__leaf_unlink(r, n);
-    plod__node_add(r, parents[0].id, &r->geom[i].self);
-    plod__node_add(r, parents[1].id, &r->geom[n].self);
+    int32_t node[2] = {plod__node_add(r, parents[0].id, &r->geom[i].self, r->geom[i].parent),
+                       plod__node_add(r, parents[1].id, &r->geom[n].self, r->geom[n].parent)};
     for (int k = 0; k < 2; k++) {
         for (int bit = 0; bit < 2; bit++) {
             size_t at = bit ? r->count++ : pair[k];
@@ -784,6 +749,7 @@ static void plod__split_diamond(plod_refiner *r, size_t i, size_t n)
             plod__geom *g = &r->geom[at];
             plod__compute_bound(r, c, &g->self);
             g->eval_frame = r->frame - 1;
+            g->parent = node[k];
             plod__apply_bound(c, &g->self);
             plod__leaf_link(r, at);
         }
@@ -889,9 +855,10 @@ static int plod__try_merge(plod_refiner *r, size_t ia)
     if (a->level == 0 || (a->id & 1))
         return 0;
     int level = a->level;
-    plod__node *pn = plod__node_find(r, plod__parent_id(a->id));
-    assert(pn);
-    if (!pn || !plod__allows_merge(r, pn))
+    int32_t pi = r->geom[ia].parent;
+    assert(pi >= 0 && r->nodes[pi].id == plod__parent_id(a->id));
+    plod__node *pn = &r->nodes[pi];
+    if (!plod__allows_merge(r, pn))
         return 0;
     int32_t ib = plod__across(r, ia, 0), ic = plod__across(r, ia, 1);
     if (ib < 0 || ic < 0)
@@ -907,21 +874,22 @@ static int plod__try_merge(plod_refiner *r, size_t ia)
     const plod_sector *d = &r->leaves[id_];
     if (d->level != level || (c->id ^ d->id) != 1 || !plod__same_point(r, a, 1, d, 1))
         return 0;
-    plod__node *qn = plod__node_find(r, plod__parent_id(c->id));
-    assert(qn);
-    if (!qn || !plod__allows_merge(r, qn))
+    int32_t qi = r->geom[ic].parent;
+    assert(qi >= 0 && r->nodes[qi].id == plod__parent_id(c->id));
+    plod__node *qn = &r->nodes[qi];
+    if (!plod__allows_merge(r, qn))
         return 0;
 
     plod_sector p, q;
     plod__parent(a, &p);
     plod__parent(c, &q);
-    plod__geom gp = {.self = pn->bound, .eval_frame = r->frame - 1};
-    plod__geom gq = {.self = qn->bound, .eval_frame = r->frame - 1};
+    plod__geom gp = {.self = pn->bound, .eval_frame = r->frame - 1, .parent = pn->parent};
+    plod__geom gq = {.self = qn->bound, .eval_frame = r->frame - 1, .parent = qn->parent};
     p.birth = q.birth = r->frame;
     plod__apply_bound(&p, &gp.self);
     plod__apply_bound(&q, &gq.self);
-    plod__node_remove(r, p.id);
-    plod__node_remove(r, q.id);
+    plod__node_remove(r, pi);
+    plod__node_remove(r, qi);
     size_t ib_ = (size_t)ib, ic_ = (size_t)ic, id2 = (size_t)id_;
     /* all four out before the parents go in: their outer edges are shared */
     plod__leaf_unlink(r, ia);
@@ -972,6 +940,7 @@ static void plod__add_base(plod_refiner *r, unsigned base, int face,
     memset(g, 0, sizeof *g);
     plod__compute_bound(r, s, &g->self);
     g->eval_frame = r->frame - 1;
+    g->parent = -1;
     plod__apply_bound(s, &g->self);
     plod__leaf_link(r, at);
 }
@@ -982,8 +951,8 @@ static plod_status plod__build_base(plod_refiner *r)
     r->count = 0;
     r->edge_used = 0;
     r->node_used = 0;
-    if (r->nodes)
-        memset(r->nodes, 0, (r->node_mask + 1) * sizeof *r->nodes);
+    r->node_top = 0;
+    r->node_free = -1;
     if (r->edges)
         for (size_t i = 0; i <= r->edge_mask; i++)
             r->edges[i].leaf[0] = r->edges[i].leaf[1] = -1;
@@ -1219,8 +1188,15 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
     int deepest = 0;
     for (size_t i = 0; i < r->count; i++) {
         plod_sector *sec = &r->leaves[i];
-        plod__leaf_wants_split(r, i); /* fills the cached cull flags */
-        unsigned flags = r->geom[i].eval_flags;
+        plod__geom *g = &r->geom[i];
+        if (g->eval_frame != r->frame) { /* not visited (truncated pass) */
+            unsigned cull_flags;
+            g->eval_split = (uint8_t)plod__wants_split(r, &g->self, sec->level,
+                                                       &cull_flags, &g->eval_distance);
+            g->eval_flags = (uint8_t)cull_flags;
+            g->eval_frame = r->frame;
+        }
+        unsigned flags = g->eval_flags;
         int sea = r->planet->has_sea_level && sec->height_max <= r->planet->sea_level;
         if (sea)
             flags |= PLOD_SECTOR_SEA;
@@ -1286,8 +1262,7 @@ size_t plod_refiner_memory_bytes(const plod_refiner *r)
     size_t bytes = sizeof *r + r->capacity * (sizeof(plod_sector) + sizeof(plod__geom));
     if (r->edges)
         bytes += (r->edge_mask + 1) * sizeof(plod__edge);
-    if (r->nodes)
-        bytes += (r->node_mask + 1) * sizeof(plod__node);
+    bytes += r->node_capacity * sizeof(plod__node);
     return bytes;
 }
 
@@ -1316,7 +1291,11 @@ plod_status plod_refiner_check(const plod_refiner *r)
             if (dl < -1 || dl > 1)
                 return PLOD_ERR_BAD_PARAM;
         }
-        if (s->level > 0 && !plod__node_find(r, plod__parent_id(s->id)))
+        int32_t parent = r->geom[i].parent;
+        if ((s->level > 0) != (parent >= 0))
+            return PLOD_ERR_BAD_PARAM;
+        if (parent >= 0 && ((size_t)parent >= r->node_top ||
+                            r->nodes[parent].id != plod__parent_id(s->id)))
             return PLOD_ERR_BAD_PARAM;
         links += 3;
     }
@@ -1329,6 +1308,21 @@ plod_status plod_refiner_check(const plod_refiner *r)
     /* a binary forest with count leaves over the base sectors */
     size_t bases = plod_projection_is_cube(r->planet->projection) ? 12 : 8;
     if (r->node_used + bases != r->count)
+        return PLOD_ERR_BAD_PARAM;
+    size_t live = 0;
+    for (size_t k = 0; k < r->node_top; k++) {
+        const plod__node *n = &r->nodes[k];
+        if (!n->id)
+            continue;
+        live++;
+        int top = plod__id_level(n->id) == 0;
+        if (top != (n->parent < 0))
+            return PLOD_ERR_BAD_PARAM;
+        if (!top && ((size_t)n->parent >= r->node_top ||
+                     r->nodes[n->parent].id != plod__parent_id(n->id)))
+            return PLOD_ERR_BAD_PARAM;
+    }
+    if (live != r->node_used)
         return PLOD_ERR_BAD_PARAM;
     return PLOD_OK;
 }
