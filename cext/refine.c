@@ -85,11 +85,13 @@ typedef struct plod__edge {
 typedef struct plod__node {
     uint64_t id;        /* 0 = free slot */
     plod__bound bound;
-    uint32_t eval_frame;
-    uint8_t wants;      /* P*(node) */
-    int32_t parent;     /* its parent's index, -1 for a base sector; the
-                           next free slot while free */
 } plod__node;
+
+/* node_state bits, valid for the current frame (cleared by its pre-pass) */
+enum {
+    PLOD__P_KNOWN = 1, PLOD__P_TRUE = 2,        /* P(node) */
+    PLOD__STAR_KNOWN = 4, PLOD__STAR_TRUE = 8   /* P*(node) */
+};
 
 struct plod_refiner {
     const plod_planet *planet;
@@ -101,6 +103,9 @@ struct plod_refiner {
     size_t *pending;             /* split pass: in-place children to revisit */
     size_t pending_count, pending_capacity;
     plod__node *nodes;           /* internal nodes, dense, stable indices */
+    int32_t *node_parent;        /* parent's index, -1 for a base sector;
+                                    the next free slot while free */
+    uint8_t *node_state;         /* PLOD__P_* | PLOD__STAR_* this frame */
     size_t node_capacity, node_top, node_used; /* node_top: slots ever used */
     int32_t node_free;           /* head of the free-slot list, -1 = none */
     uint32_t frame;
@@ -368,7 +373,15 @@ static plod_status plod__node_reserve(plod_refiner *r, size_t extra)
     if (!fresh)
         return PLOD_ERR_NO_MEMORY;
     r->nodes = fresh;
-    r->node_capacity = capacity;
+    int32_t *parent = realloc(r->node_parent, capacity * sizeof *parent);
+    if (!parent)
+        return PLOD_ERR_NO_MEMORY;
+    r->node_parent = parent;
+    uint8_t *state = realloc(r->node_state, capacity);
+    if (!state)
+        return PLOD_ERR_NO_MEMORY;
+    r->node_state = state;
+    r->node_capacity = capacity; /* only once all three have grown */
     return PLOD_OK;
 }
 
@@ -379,7 +392,7 @@ static int32_t plod__node_add(plod_refiner *r, uint64_t id, const plod__bound *b
     int32_t at;
     if (r->node_free >= 0) {
         at = r->node_free;
-        r->node_free = r->nodes[at].parent;
+        r->node_free = r->node_parent[at];
     } else {
         assert(r->node_top < r->node_capacity);
         at = (int32_t)r->node_top++;
@@ -387,9 +400,8 @@ static int32_t plod__node_add(plod_refiner *r, uint64_t id, const plod__bound *b
     plod__node *n = &r->nodes[at];
     n->id = id;
     n->bound = *bound;
-    n->eval_frame = 0;
-    n->wants = 0;
-    n->parent = parent;
+    r->node_parent[at] = parent;
+    r->node_state[at] = 0; /* evaluated on demand this frame */
     r->node_used++;
     return at;
 }
@@ -398,7 +410,7 @@ static void plod__node_remove(plod_refiner *r, int32_t at)
 {
     assert(at >= 0 && (size_t)at < r->node_top && r->nodes[at].id);
     r->nodes[at].id = 0;
-    r->nodes[at].parent = r->node_free;
+    r->node_parent[at] = r->node_free;
     r->node_free = at;
     r->node_used--;
 }
@@ -626,33 +638,43 @@ static uint64_t plod__parent_id(uint64_t id)
     return (id & ~PLOD__HEAP_MASK) | ((id & PLOD__HEAP_MASK) >> 1);
 }
 
+/* P(node) of an internal node. */
+static int plod__node_p(const plod_refiner *r, int32_t k)
+{
+    const plod__node *n = &r->nodes[k];
+    unsigned flags;
+    double distance;
+    return plod__wants_split(r, &n->bound, plod__id_level(n->id), &flags, &distance);
+}
+
 /* P*(node) = P(node) and P*(parent): monotone by construction, so the
  * refinement it defines has a unique minimal conforming closure.  For an
  * internal node, memoised per frame. */
-static int plod__node_wants(plod_refiner *r, plod__node *n)
+static int plod__node_wants(plod_refiner *r, int32_t k)
 {
-    if (n->eval_frame == r->frame)
-        return n->wants;
-    int level = plod__id_level(n->id);
-    unsigned flags;
-    double distance;
-    int wants = plod__wants_split(r, &n->bound, level, &flags, &distance);
-    if (wants && n->parent >= 0) {
-        assert(r->nodes[n->parent].id == plod__parent_id(n->id));
-        wants = plod__node_wants(r, &r->nodes[n->parent]);
+    unsigned st = r->node_state[k];
+    if (st & PLOD__STAR_KNOWN)
+        return (st & PLOD__STAR_TRUE) != 0;
+    if (!(st & PLOD__P_KNOWN))
+        st |= PLOD__P_KNOWN | (plod__node_p(r, k) ? PLOD__P_TRUE : 0u);
+    int wants = (st & PLOD__P_TRUE) != 0;
+    int32_t parent = r->node_parent[k];
+    if (wants && parent >= 0) {
+        assert(r->nodes[parent].id == plod__parent_id(r->nodes[k].id));
+        wants = plod__node_wants(r, parent);
     }
-    n->wants = (uint8_t)wants;
-    n->eval_frame = r->frame;
+    r->node_state[k] = (uint8_t)(st | PLOD__STAR_KNOWN | (wants ? PLOD__STAR_TRUE : 0u));
     return wants;
 }
 
 /* Whether an internal node may be merged back (its children removed). */
-static int plod__allows_merge(plod_refiner *r, plod__node *n)
+static int plod__allows_merge(plod_refiner *r, int32_t k)
 {
     if (!r->params->hysteresis)
-        return !plod__node_wants(r, n);
+        return !plod__node_wants(r, k);
+    const plod__node *n = &r->nodes[k];
     int level = plod__id_level(n->id);
-    if (n->parent >= 0 && !plod__node_wants(r, &r->nodes[n->parent]))
+    if (r->node_parent[k] >= 0 && !plod__node_wants(r, r->node_parent[k]))
         return 1;
     double distance;
     unsigned flags = plod__cull(r, &n->bound, &distance);
@@ -674,7 +696,7 @@ static int plod__leaf_wants_split(plod_refiner *r, size_t i)
     if (!g->eval_split || g->parent < 0)
         return g->eval_split;
     assert(r->nodes[g->parent].id == plod__parent_id(r->leaves[i].id));
-    return plod__node_wants(r, &r->nodes[g->parent]);
+    return plod__node_wants(r, g->parent);
 }
 
 /* ---- node algebra ---------------------------------------------------------- */
@@ -857,8 +879,7 @@ static int plod__try_merge(plod_refiner *r, size_t ia)
     int level = a->level;
     int32_t pi = r->geom[ia].parent;
     assert(pi >= 0 && r->nodes[pi].id == plod__parent_id(a->id));
-    plod__node *pn = &r->nodes[pi];
-    if (!plod__allows_merge(r, pn))
+    if (!plod__allows_merge(r, pi))
         return 0;
     int32_t ib = plod__across(r, ia, 0), ic = plod__across(r, ia, 1);
     if (ib < 0 || ic < 0)
@@ -876,15 +897,17 @@ static int plod__try_merge(plod_refiner *r, size_t ia)
         return 0;
     int32_t qi = r->geom[ic].parent;
     assert(qi >= 0 && r->nodes[qi].id == plod__parent_id(c->id));
-    plod__node *qn = &r->nodes[qi];
-    if (!plod__allows_merge(r, qn))
+    if (!plod__allows_merge(r, qi))
         return 0;
+    const plod__node *pn = &r->nodes[pi], *qn = &r->nodes[qi];
 
     plod_sector p, q;
     plod__parent(a, &p);
     plod__parent(c, &q);
-    plod__geom gp = {.self = pn->bound, .eval_frame = r->frame - 1, .parent = pn->parent};
-    plod__geom gq = {.self = qn->bound, .eval_frame = r->frame - 1, .parent = qn->parent};
+    plod__geom gp = {.self = pn->bound, .eval_frame = r->frame - 1,
+                     .parent = r->node_parent[pi]};
+    plod__geom gq = {.self = qn->bound, .eval_frame = r->frame - 1,
+                     .parent = r->node_parent[qi]};
     p.birth = q.birth = r->frame;
     plod__apply_bound(&p, &gp.self);
     plod__apply_bound(&q, &gq.self);
@@ -1023,6 +1046,8 @@ void plod_refiner_destroy(plod_refiner *refiner)
     free(refiner->geom);
     free(refiner->edges);
     free(refiner->nodes);
+    free(refiner->node_parent);
+    free(refiner->node_state);
     free(refiner->pending);
     free(refiner);
 }
@@ -1151,6 +1176,13 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
     r->truncated = 0;
     r->splits = r->merges = 0;
 
+    /* P of every internal node in one sequential sweep (cache-friendly);
+     * P* then follows parent indices through the byte states */
+    for (size_t k = 0; k < r->node_top; k++)
+        r->node_state[k] = r->nodes[k].id
+                               ? (uint8_t)(PLOD__P_KNOWN |
+                                           (plod__node_p(r, (int32_t)k) ? PLOD__P_TRUE : 0u))
+                               : 0;
     /* merge pass: every diamond whose parents fail the split predicate;
      * downwards, so the leaves moved into holes were already visited, and
      * merges cascade upwards as subtrees collapse */
@@ -1262,7 +1294,7 @@ size_t plod_refiner_memory_bytes(const plod_refiner *r)
     size_t bytes = sizeof *r + r->capacity * (sizeof(plod_sector) + sizeof(plod__geom));
     if (r->edges)
         bytes += (r->edge_mask + 1) * sizeof(plod__edge);
-    bytes += r->node_capacity * sizeof(plod__node);
+    bytes += r->node_capacity * (sizeof(plod__node) + sizeof(int32_t) + 1);
     return bytes;
 }
 
@@ -1316,10 +1348,11 @@ plod_status plod_refiner_check(const plod_refiner *r)
             continue;
         live++;
         int top = plod__id_level(n->id) == 0;
-        if (top != (n->parent < 0))
+        int32_t parent = r->node_parent[k];
+        if (top != (parent < 0))
             return PLOD_ERR_BAD_PARAM;
-        if (!top && ((size_t)n->parent >= r->node_top ||
-                     r->nodes[n->parent].id != plod__parent_id(n->id)))
+        if (!top && ((size_t)parent >= r->node_top ||
+                     r->nodes[parent].id != plod__parent_id(n->id)))
             return PLOD_ERR_BAD_PARAM;
     }
     if (live != r->node_used)
