@@ -106,6 +106,7 @@ struct plod_refiner {
     int32_t *node_parent;        /* parent's index, -1 for a base sector;
                                     the next free slot while free */
     uint8_t *node_state;         /* PLOD__P_* | PLOD__STAR_* this frame */
+    uint8_t *node_leaves;        /* how many of its 2 children are leaves */
     size_t node_capacity, node_top, node_used; /* node_top: slots ever used */
     int32_t node_free;           /* head of the free-slot list, -1 = none */
     uint32_t frame;
@@ -381,7 +382,11 @@ static plod_status plod__node_reserve(plod_refiner *r, size_t extra)
     if (!state)
         return PLOD_ERR_NO_MEMORY;
     r->node_state = state;
-    r->node_capacity = capacity; /* only once all three have grown */
+    uint8_t *leaves = realloc(r->node_leaves, capacity);
+    if (!leaves)
+        return PLOD_ERR_NO_MEMORY;
+    r->node_leaves = leaves;
+    r->node_capacity = capacity; /* only once all four have grown */
     return PLOD_OK;
 }
 
@@ -402,6 +407,7 @@ static int32_t plod__node_add(plod_refiner *r, uint64_t id, const plod__bound *b
     n->bound = *bound;
     r->node_parent[at] = parent;
     r->node_state[at] = 0; /* evaluated on demand this frame */
+    r->node_leaves[at] = 2;
     r->node_used++;
     return at;
 }
@@ -764,6 +770,11 @@ static void plod__split_diamond(plod_refiner *r, size_t i, size_t n)
     int32_t node[2] = {plod__node_add(r, parents[0].id, &r->geom[i].self, r->geom[i].parent),
                        plod__node_add(r, parents[1].id, &r->geom[n].self, r->geom[n].parent)};
     for (int k = 0; k < 2; k++) {
+        int32_t up = r->node_parent[node[k]];
+        if (up >= 0)
+            r->node_leaves[up]--; /* that child is a node now */
+    }
+    for (int k = 0; k < 2; k++) {
         for (int bit = 0; bit < 2; bit++) {
             size_t at = bit ? r->count++ : pair[k];
             plod_sector *c = &r->leaves[at];
@@ -877,27 +888,34 @@ static int plod__try_merge(plod_refiner *r, size_t ia)
     if (a->level == 0 || (a->id & 1))
         return 0;
     int level = a->level;
+    /* necessary conditions that need no edge lookup come first (leaf-child
+     * counts, the memoised predicate); every condition is pure, so the
+     * order does not change which diamonds merge */
     int32_t pi = r->geom[ia].parent;
     assert(pi >= 0 && r->nodes[pi].id == plod__parent_id(a->id));
-    if (!plod__allows_merge(r, pi))
+    if (r->node_leaves[pi] != 2 || !plod__allows_merge(r, pi))
+        return 0; /* a's sibling is split, or p still wants its split */
+    int32_t ic = plod__across(r, ia, 1);
+    if (ic < 0)
         return 0;
-    int32_t ib = plod__across(r, ia, 0), ic = plod__across(r, ia, 1);
-    if (ib < 0 || ic < 0)
-        return 0;
-    const plod_sector *b = &r->leaves[ib], *c = &r->leaves[ic];
-    if (b->level != level || c->level != level || (a->id ^ b->id) != 1)
-        return 0;
-    if (!plod__same_point(r, a, 1, c, 1))
+    const plod_sector *c = &r->leaves[ic];
+    if (c->level != level || !plod__same_point(r, a, 1, c, 1))
         return 0; /* c is not the partner parent's child (it is split) */
+    int32_t qi = r->geom[ic].parent;
+    assert(qi >= 0 && r->nodes[qi].id == plod__parent_id(c->id));
+    if (r->node_leaves[qi] != 2 || !plod__allows_merge(r, qi))
+        return 0;
+    int32_t ib = plod__across(r, ia, 0);
+    if (ib < 0)
+        return 0;
+    const plod_sector *b = &r->leaves[ib];
+    if (b->level != level || (a->id ^ b->id) != 1)
+        return 0;
     int32_t id_ = plod__across(r, (size_t)ib, 0);
     if (id_ < 0)
         return 0;
     const plod_sector *d = &r->leaves[id_];
     if (d->level != level || (c->id ^ d->id) != 1 || !plod__same_point(r, a, 1, d, 1))
-        return 0;
-    int32_t qi = r->geom[ic].parent;
-    assert(qi >= 0 && r->nodes[qi].id == plod__parent_id(c->id));
-    if (!plod__allows_merge(r, qi))
         return 0;
     const plod__node *pn = &r->nodes[pi], *qn = &r->nodes[qi];
 
@@ -911,6 +929,7 @@ static int plod__try_merge(plod_refiner *r, size_t ia)
     p.birth = q.birth = r->frame;
     plod__apply_bound(&p, &gp.self);
     plod__apply_bound(&q, &gq.self);
+    int32_t gp_gq_parent[2] = {gp.parent, gq.parent};
     plod__node_remove(r, pi);
     plod__node_remove(r, qi);
     size_t ib_ = (size_t)ib, ic_ = (size_t)ic, id2 = (size_t)id_;
@@ -933,6 +952,11 @@ static int plod__try_merge(plod_refiner *r, size_t ia)
             if (at[j] == last)
                 at[j] = hole;
         plod__drop_unlinked(r, hole);
+    }
+    for (int k = 0; k < 2; k++) {
+        int32_t up = gp_gq_parent[k];
+        if (up >= 0)
+            r->node_leaves[up]++; /* its child is a leaf again */
     }
     r->merges += 2;
     uint64_t q_id = r->leaves[at[1]].id;
@@ -1048,6 +1072,7 @@ void plod_refiner_destroy(plod_refiner *refiner)
     free(refiner->nodes);
     free(refiner->node_parent);
     free(refiner->node_state);
+    free(refiner->node_leaves);
     free(refiner->pending);
     free(refiner);
 }
@@ -1294,7 +1319,7 @@ size_t plod_refiner_memory_bytes(const plod_refiner *r)
     size_t bytes = sizeof *r + r->capacity * (sizeof(plod_sector) + sizeof(plod__geom));
     if (r->edges)
         bytes += (r->edge_mask + 1) * sizeof(plod__edge);
-    bytes += r->node_capacity * (sizeof(plod__node) + sizeof(int32_t) + 1);
+    bytes += r->node_capacity * (sizeof(plod__node) + sizeof(int32_t) + 2);
     return bytes;
 }
 
@@ -1357,6 +1382,20 @@ plod_status plod_refiner_check(const plod_refiner *r)
     }
     if (live != r->node_used)
         return PLOD_ERR_BAD_PARAM;
+    /* leaf-child counts: every node's children, leaves or nodes, add to 2 */
+    uint8_t *count = calloc(r->node_top ? r->node_top : 1, 1);
+    if (!count)
+        return PLOD_ERR_NO_MEMORY;
+    for (size_t i = 0; i < r->count; i++)
+        if (r->geom[i].parent >= 0)
+            count[r->geom[i].parent]++;
+    plod_status st = PLOD_OK;
+    for (size_t k = 0; k < r->node_top; k++)
+        if (r->nodes[k].id && count[k] != r->node_leaves[k])
+            st = PLOD_ERR_BAD_PARAM;
+    free(count);
+    if (st != PLOD_OK)
+        return st;
     return PLOD_OK;
 }
 
