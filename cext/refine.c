@@ -72,7 +72,6 @@ typedef struct plod__geom {
     uint8_t eval_split;    /* predicate result */
     uint8_t eval_flags;    /* PLOD_SECTOR_BACKFACING | OUTSIDE_FRUSTUM */
     double eval_distance;
-    int32_t parent;        /* index in nodes[], -1 for a base sector */
 } plod__geom;
 
 typedef struct plod__edge {
@@ -97,6 +96,9 @@ struct plod_refiner {
     const plod_planet *planet;
     plod_sector *leaves;
     plod__geom *geom;
+    int32_t *leaf_parent;        /* parent's index in nodes[], -1 at level 0;
+                                    apart from geom: the merge sweep reads
+                                    it for every leaf */
     size_t count, capacity;
     plod__edge *edges;
     size_t edge_mask, edge_used; /* capacity - 1, live entries */
@@ -344,6 +346,10 @@ static plod_status plod__reserve(plod_refiner *r, size_t extra)
         if (!geom)
             return PLOD_ERR_NO_MEMORY;
         r->geom = geom;
+        int32_t *parent = realloc(r->leaf_parent, capacity * sizeof *parent);
+        if (!parent)
+            return PLOD_ERR_NO_MEMORY;
+        r->leaf_parent = parent;
         r->capacity = capacity;
     }
     /* every leaf has 3 edges, each shared by 2 leaves: 1.5 keys per leaf */
@@ -699,10 +705,11 @@ static int plod__leaf_wants_split(plod_refiner *r, size_t i)
         g->eval_flags = (uint8_t)flags;
         g->eval_frame = r->frame;
     }
-    if (!g->eval_split || g->parent < 0)
+    int32_t parent = r->leaf_parent[i];
+    if (!g->eval_split || parent < 0)
         return g->eval_split;
-    assert(r->nodes[g->parent].id == plod__parent_id(r->leaves[i].id));
-    return plod__node_wants(r, g->parent);
+    assert(r->nodes[parent].id == plod__parent_id(r->leaves[i].id));
+    return plod__node_wants(r, parent);
 }
 
 /* ---- node algebra ---------------------------------------------------------- */
@@ -767,8 +774,8 @@ static void plod__split_diamond(plod_refiner *r, size_t i, size_t n)
     plod_sector parents[2] = {r->leaves[i], r->leaves[n]};
     plod__leaf_unlink(r, i);
     plod__leaf_unlink(r, n);
-    int32_t node[2] = {plod__node_add(r, parents[0].id, &r->geom[i].self, r->geom[i].parent),
-                       plod__node_add(r, parents[1].id, &r->geom[n].self, r->geom[n].parent)};
+    int32_t node[2] = {plod__node_add(r, parents[0].id, &r->geom[i].self, r->leaf_parent[i]),
+                       plod__node_add(r, parents[1].id, &r->geom[n].self, r->leaf_parent[n])};
     for (int k = 0; k < 2; k++) {
         int32_t up = r->node_parent[node[k]];
         if (up >= 0)
@@ -782,7 +789,7 @@ static void plod__split_diamond(plod_refiner *r, size_t i, size_t n)
             plod__geom *g = &r->geom[at];
             plod__compute_bound(r, c, &g->self);
             g->eval_frame = r->frame - 1;
-            g->parent = node[k];
+            r->leaf_parent[at] = node[k];
             plod__apply_bound(c, &g->self);
             plod__leaf_link(r, at);
         }
@@ -849,6 +856,7 @@ static void plod__drop_unlinked(plod_refiner *r, size_t x)
         }
         r->leaves[x] = r->leaves[last];
         r->geom[x] = r->geom[last];
+        r->leaf_parent[x] = r->leaf_parent[last];
     }
     r->count--;
 }
@@ -882,26 +890,35 @@ static void plod__cascade(plod_refiner *r, size_t index)
         plod__try_merge(r, (size_t)sibling);
 }
 
+static int plod__merge_diamond(plod_refiner *r, size_t ia, int32_t pi);
+
 static int plod__try_merge(plod_refiner *r, size_t ia)
 {
     const plod_sector *a = &r->leaves[ia];
     if (a->level == 0 || (a->id & 1))
         return 0;
-    int level = a->level;
     /* necessary conditions that need no edge lookup come first (leaf-child
      * counts, the memoised predicate); every condition is pure, so the
      * order does not change which diamonds merge */
-    int32_t pi = r->geom[ia].parent;
+    int32_t pi = r->leaf_parent[ia];
     assert(pi >= 0 && r->nodes[pi].id == plod__parent_id(a->id));
     if (r->node_leaves[pi] != 2 || !plod__allows_merge(r, pi))
         return 0; /* a's sibling is split, or p still wants its split */
+    return plod__merge_diamond(r, ia, pi);
+}
+
+/* The rest of try_merge: the partner half, then the merge itself. */
+static int plod__merge_diamond(plod_refiner *r, size_t ia, int32_t pi)
+{
+    const plod_sector *a = &r->leaves[ia];
+    int level = a->level;
     int32_t ic = plod__across(r, ia, 1);
     if (ic < 0)
         return 0;
     const plod_sector *c = &r->leaves[ic];
     if (c->level != level || !plod__same_point(r, a, 1, c, 1))
         return 0; /* c is not the partner parent's child (it is split) */
-    int32_t qi = r->geom[ic].parent;
+    int32_t qi = r->leaf_parent[ic];
     assert(qi >= 0 && r->nodes[qi].id == plod__parent_id(c->id));
     if (r->node_leaves[qi] != 2 || !plod__allows_merge(r, qi))
         return 0;
@@ -922,14 +939,12 @@ static int plod__try_merge(plod_refiner *r, size_t ia)
     plod_sector p, q;
     plod__parent(a, &p);
     plod__parent(c, &q);
-    plod__geom gp = {.self = pn->bound, .eval_frame = r->frame - 1,
-                     .parent = r->node_parent[pi]};
-    plod__geom gq = {.self = qn->bound, .eval_frame = r->frame - 1,
-                     .parent = r->node_parent[qi]};
+    plod__geom gp = {.self = pn->bound, .eval_frame = r->frame - 1};
+    plod__geom gq = {.self = qn->bound, .eval_frame = r->frame - 1};
     p.birth = q.birth = r->frame;
     plod__apply_bound(&p, &gp.self);
     plod__apply_bound(&q, &gq.self);
-    int32_t gp_gq_parent[2] = {gp.parent, gq.parent};
+    int32_t gp_gq_parent[2] = {r->node_parent[pi], r->node_parent[qi]};
     plod__node_remove(r, pi);
     plod__node_remove(r, qi);
     size_t ib_ = (size_t)ib, ic_ = (size_t)ic, id2 = (size_t)id_;
@@ -940,8 +955,10 @@ static int plod__try_merge(plod_refiner *r, size_t ia)
     plod__leaf_unlink(r, id2);
     r->leaves[ia] = p;
     r->geom[ia] = gp;
+    r->leaf_parent[ia] = gp_gq_parent[0];
     r->leaves[ic_] = q;
     r->geom[ic_] = gq;
+    r->leaf_parent[ic_] = gp_gq_parent[1];
     plod__leaf_link(r, ia);
     plod__leaf_link(r, ic_);
     size_t hi = ib_ > id2 ? ib_ : id2, lo = ib_ > id2 ? id2 : ib_;
@@ -987,7 +1004,7 @@ static void plod__add_base(plod_refiner *r, unsigned base, int face,
     memset(g, 0, sizeof *g);
     plod__compute_bound(r, s, &g->self);
     g->eval_frame = r->frame - 1;
-    g->parent = -1;
+    r->leaf_parent[at] = -1;
     plod__apply_bound(s, &g->self);
     plod__leaf_link(r, at);
 }
@@ -1068,6 +1085,7 @@ void plod_refiner_destroy(plod_refiner *refiner)
         return;
     free(refiner->leaves);
     free(refiner->geom);
+    free(refiner->leaf_parent);
     free(refiner->edges);
     free(refiner->nodes);
     free(refiner->node_parent);
@@ -1316,7 +1334,8 @@ size_t plod_refiner_memory_bytes(const plod_refiner *r)
 {
     if (!r)
         return 0;
-    size_t bytes = sizeof *r + r->capacity * (sizeof(plod_sector) + sizeof(plod__geom));
+    size_t bytes = sizeof *r + r->capacity * (sizeof(plod_sector) + sizeof(plod__geom) +
+                                              sizeof(int32_t));
     if (r->edges)
         bytes += (r->edge_mask + 1) * sizeof(plod__edge);
     bytes += r->node_capacity * (sizeof(plod__node) + sizeof(int32_t) + 2);
@@ -1348,7 +1367,7 @@ plod_status plod_refiner_check(const plod_refiner *r)
             if (dl < -1 || dl > 1)
                 return PLOD_ERR_BAD_PARAM;
         }
-        int32_t parent = r->geom[i].parent;
+        int32_t parent = r->leaf_parent[i];
         if ((s->level > 0) != (parent >= 0))
             return PLOD_ERR_BAD_PARAM;
         if (parent >= 0 && ((size_t)parent >= r->node_top ||
@@ -1387,8 +1406,8 @@ plod_status plod_refiner_check(const plod_refiner *r)
     if (!count)
         return PLOD_ERR_NO_MEMORY;
     for (size_t i = 0; i < r->count; i++)
-        if (r->geom[i].parent >= 0)
-            count[r->geom[i].parent]++;
+        if (r->leaf_parent[i] >= 0)
+            count[r->leaf_parent[i]]++;
     plod_status st = PLOD_OK;
     for (size_t k = 0; k < r->node_top; k++)
         if (r->nodes[k].id && count[k] != r->node_leaves[k])
