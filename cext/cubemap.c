@@ -60,6 +60,7 @@ struct plod_cubemap {
     size_t face_cells;                     /* cells of all levels, per face */
     float *pyramid_min;                    /* face_count * face_cells */
     float *pyramid_max;
+    size_t nonfinite_texels;               /* NaN channel-0 texels (build_pyramid) */
 };
 
 /* ======================================================================== */
@@ -478,6 +479,7 @@ plod_status plod_cubemap_build_pyramid(plod_cubemap *m)
     }
     m->levels = levels;
     m->face_cells = cells;
+    m->nonfinite_texels = 0;
     for (int f = 0; f < m->face_count; f++) {
         float *lo = m->pyramid_min + (size_t)f * cells;
         float *hi = m->pyramid_max + (size_t)f * cells;
@@ -485,8 +487,10 @@ plod_status plod_cubemap_build_pyramid(plod_cubemap *m)
         size_t count = (size_t)m->width * (size_t)m->height;
         for (size_t t = 0; t < count; t++) {
             float value = plod__raw0(m, base, t);
-            if (value != value) /* NaN texels do not bound anything */
+            if (value != value) { /* NaN texels do not bound anything */
                 value = 0.0f;
+                m->nonfinite_texels++;
+            }
             lo[t] = hi[t] = value;
         }
         for (int L = 1; L < levels; L++) {
@@ -520,6 +524,11 @@ plod_status plod_cubemap_build_pyramid(plod_cubemap *m)
     }
     m->pyramid_valid = 1;
     return PLOD_OK;
+}
+
+size_t plod_cubemap_nan_count(const plod_cubemap *m)
+{
+    return m && m->pyramid_valid ? m->nonfinite_texels : 0;
 }
 
 /* Raw min/max over in-face texels [i0,i1]x[j0,j1] (inclusive, clamped). */

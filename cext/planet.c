@@ -23,6 +23,8 @@ plod_status plod_planet_check(const plod_planet *planet)
     if (planet->heightmap) {
         if (plod_cubemap_projection(planet->heightmap) != planet->projection)
             return PLOD_ERR_BAD_PROJECTION;
+        if (plod_cubemap_nan_count(planet->heightmap) != 0)
+            return PLOD_ERR_BAD_IMAGE;
         double lo, hi;
         plod_cubemap_global_range(planet->heightmap, &lo, &hi);
         if (!isfinite(lo) || !isfinite(hi) || lo > hi)

@@ -96,6 +96,10 @@ void plod_cubemap_global_range(const plod_cubemap *cubemap, double *min_value,
 /* Non-zero when the pyramid is built and no face was opened for writing
  * since. */
 int plod_cubemap_has_pyramid(const plod_cubemap *cubemap);
+/* NaN texels of channel 0 counted by the last plod_cubemap_build_pyramid
+ * (0 without a pyramid).  A height map with any is refused by
+ * plod_planet_check: NaN heights would reach the emitted vertices. */
+size_t plod_cubemap_nan_count(const plod_cubemap *cubemap);
 
 #ifdef __cplusplus
 }

@@ -13,6 +13,7 @@
 #include "pyplanetlod.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 /* Supplied by py_cubemap.c / py_mesh.c; weak so this stage builds and
@@ -233,7 +234,26 @@ typedef struct {
     plod_refine_params params;
     plod_refine_stats stats;
     int has_camera;
+    /* Serialises every method that reads or writes the refiner: refine() and
+     * mesh() run with the GIL released, so two Python threads (a render job
+     * and the viewport) could otherwise be inside one refiner at once.  Taken
+     * only through plod__planet_lock, which never waits holding the GIL. */
+    PyThread_type_lock lock;
 } plod_py_planet;
+
+static void plod__planet_lock(plod_py_planet *self)
+{
+    if (PyThread_acquire_lock(self->lock, NOWAIT_LOCK))
+        return;
+    Py_BEGIN_ALLOW_THREADS
+    PyThread_acquire_lock(self->lock, WAIT_LOCK);
+    Py_END_ALLOW_THREADS
+}
+
+static void plod__planet_unlock(plod_py_planet *self)
+{
+    PyThread_release_lock(self->lock);
+}
 
 static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwds)
 {
@@ -245,6 +265,17 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
     int size = 0;
     if (self->refiner) {
         PyErr_SetString(PyExc_RuntimeError, "Planet already initialised");
+        return -1;
+    }
+    if (!self->lock) {
+        self->lock = PyThread_allocate_lock();
+        if (!self->lock) {
+            PyErr_NoMemory();
+            return -1;
+        }
+    }
+    if (self->refiner) {
+        PyErr_SetString(PyExc_RuntimeError, "Planet is already initialised");
         return -1;
     }
     if (!PyArg_ParseTupleAndKeywords(args, kwds, "d|OOdOi", kwlist, &radius, &proj,
@@ -313,6 +344,15 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
             PyErr_NoMemory();
             return -1;
         }
+        size_t nan_texels = plod_cubemap_nan_count(cm);
+        if (nan_texels != 0) {
+            Py_DECREF(map);
+            char detail[160];
+            snprintf(detail, sizeof detail, "height map has %zu NaN samples (no-data "
+                     "texels); fill them before using it as a height map", nan_texels);
+            plod_py_raise_detail(PLOD_ERR_BAD_IMAGE, "Planet", detail);
+            return -1;
+        }
         self->planet.heightmap = cm;
     }
     self->heightmap = map;
@@ -332,6 +372,8 @@ static void plod__planet_dealloc(plod_py_planet *self)
 {
     plod_refiner_destroy(self->refiner);
     Py_CLEAR(self->heightmap);
+    if (self->lock)
+        PyThread_free_lock(self->lock);
     PyTypeObject *tp = Py_TYPE(self);
     tp->tp_free((PyObject *)self);
     Py_DECREF(tp);
@@ -627,42 +669,102 @@ static PyObject *plod__planet_get(plod_py_planet *self, void *closure)
     }
 }
 
+/* ---- locked entry points (see plod_py_planet.lock) ---------------------------- */
+
+typedef PyObject *(*plod__kw_method)(plod_py_planet *, PyObject *, PyObject *);
+typedef PyObject *(*plod__no_arg_method)(plod_py_planet *, PyObject *);
+
+static PyObject *plod__locked_kw(plod__kw_method fn, plod_py_planet *self, PyObject *args,
+                                 PyObject *kwds)
+{
+    if (!plod__planet_ready(self))
+        return NULL;
+    plod__planet_lock(self);
+    PyObject *result = fn(self, args, kwds);
+    plod__planet_unlock(self);
+    return result;
+}
+
+static PyObject *plod__locked_no_arg(plod__no_arg_method fn, plod_py_planet *self,
+                                     PyObject *unused)
+{
+    if (!plod__planet_ready(self))
+        return NULL;
+    plod__planet_lock(self);
+    PyObject *result = fn(self, unused);
+    plod__planet_unlock(self);
+    return result;
+}
+
+#define PLOD__LOCKED_KW(name)                                                         \
+    static PyObject *name##_locked(plod_py_planet *self, PyObject *a, PyObject *k)   \
+    {                                                                                 \
+        return plod__locked_kw(name, self, a, k);                                     \
+    }
+#define PLOD__LOCKED_NO_ARG(name)                                                     \
+    static PyObject *name##_locked(plod_py_planet *self, PyObject *unused)           \
+    {                                                                                 \
+        return plod__locked_no_arg(name, self, unused);                               \
+    }
+
+PLOD__LOCKED_KW(plod__planet_refine)
+PLOD__LOCKED_KW(plod__planet_sector_ids)
+PLOD__LOCKED_KW(plod__planet_sector_levels)
+PLOD__LOCKED_KW(plod__planet_sector_corners)
+PLOD__LOCKED_KW(plod__planet_sector_flags)
+PLOD__LOCKED_KW(plod__planet_sector_heights)
+PLOD__LOCKED_KW(plod__planet_mesh)
+PLOD__LOCKED_KW(plod__planet_instances)
+PLOD__LOCKED_NO_ARG(plod__planet_reset)
+PLOD__LOCKED_NO_ARG(plod__planet_check)
+PLOD__LOCKED_NO_ARG(plod__planet_sectors)
+
+static PyObject *plod__planet_get_locked(plod_py_planet *self, void *closure)
+{
+    if (!plod__planet_ready(self))
+        return NULL;
+    plod__planet_lock(self);
+    PyObject *result = plod__planet_get(self, closure);
+    plod__planet_unlock(self);
+    return result;
+}
+
 static PyGetSetDef plod__planet_getset[] = {
-    {"sector_count", (getter)plod__planet_get, NULL, "leaf sectors", (void *)0},
-    {"visible_count", (getter)plod__planet_get, NULL, "visible leaf sectors", (void *)1},
-    {"radius", (getter)plod__planet_get, NULL, "metres", (void *)2},
-    {"projection", (getter)plod__planet_get, NULL, "projection name", (void *)3},
-    {"height_scale", (getter)plod__planet_get, NULL, "metres per height unit", (void *)4},
-    {"sea_level", (getter)plod__planet_get, NULL, "metres or None", (void *)5},
-    {"heightmap", (getter)plod__planet_get, NULL, "CubeMap or None", (void *)6},
-    {"memory_bytes", (getter)plod__planet_get, NULL,
+    {"sector_count", (getter)plod__planet_get_locked, NULL, "leaf sectors", (void *)0},
+    {"visible_count", (getter)plod__planet_get_locked, NULL, "visible leaf sectors", (void *)1},
+    {"radius", (getter)plod__planet_get_locked, NULL, "metres", (void *)2},
+    {"projection", (getter)plod__planet_get_locked, NULL, "projection name", (void *)3},
+    {"height_scale", (getter)plod__planet_get_locked, NULL, "metres per height unit", (void *)4},
+    {"sea_level", (getter)plod__planet_get_locked, NULL, "metres or None", (void *)5},
+    {"heightmap", (getter)plod__planet_get_locked, NULL, "CubeMap or None", (void *)6},
+    {"memory_bytes", (getter)plod__planet_get_locked, NULL,
      "bytes held by the refiner (sectors, bounds, adjacency, internal nodes)", (void *)7},
     {NULL},
 };
 
 static PyMethodDef plod__planet_methods[] = {
-    {"refine", (PyCFunction)(void (*)(void))plod__planet_refine, METH_VARARGS | METH_KEYWORDS,
+    {"refine", (PyCFunction)(void (*)(void))plod__planet_refine_locked, METH_VARARGS | METH_KEYWORDS,
      "refine(camera, criterion='pixel', max_pixel_error=1.0, split_border=0.5, "
      "merge_border=0.25, hysteresis=False, template_level=4, max_level=48, budget=0, "
      "backface=True, frustum=True, skip_sea=False, max_sectors=1<<20) -> dict"},
-    {"reset", (PyCFunction)plod__planet_reset, METH_NOARGS, "back to the base sectors"},
-    {"check_invariants", (PyCFunction)plod__planet_check, METH_NOARGS,
+    {"reset", (PyCFunction)(void (*)(void))plod__planet_reset_locked, METH_NOARGS, "back to the base sectors"},
+    {"check_invariants", (PyCFunction)(void (*)(void))plod__planet_check_locked, METH_NOARGS,
      "check_invariants() -> bool: internal adjacency/tree invariants hold (tests)"},
-    {"sectors", (PyCFunction)plod__planet_sectors, METH_NOARGS,
+    {"sectors", (PyCFunction)(void (*)(void))plod__planet_sectors_locked, METH_NOARGS,
      "raw plod_sector records (SECTOR_SIZE bytes each), all leaves"},
-    {"sector_ids", (PyCFunction)(void (*)(void))plod__planet_sector_ids,
+    {"sector_ids", (PyCFunction)(void (*)(void))plod__planet_sector_ids_locked,
      METH_VARARGS | METH_KEYWORDS, "sector_ids(visible_only=True) -> Buffer('Q')"},
-    {"sector_levels", (PyCFunction)(void (*)(void))plod__planet_sector_levels,
+    {"sector_levels", (PyCFunction)(void (*)(void))plod__planet_sector_levels_locked,
      METH_VARARGS | METH_KEYWORDS, "sector_levels(visible_only=True) -> Buffer('i')"},
-    {"sector_corners", (PyCFunction)(void (*)(void))plod__planet_sector_corners,
+    {"sector_corners", (PyCFunction)(void (*)(void))plod__planet_sector_corners_locked,
      METH_VARARGS | METH_KEYWORDS,
      "sector_corners(visible_only=True) -> Buffer('d'), 9 per sector: unit corner "
      "directions, counter-clockwise from outside, corner 1 the right-angle apex"},
-    {"sector_flags", (PyCFunction)(void (*)(void))plod__planet_sector_flags,
+    {"sector_flags", (PyCFunction)(void (*)(void))plod__planet_sector_flags_locked,
      METH_VARARGS | METH_KEYWORDS,
      "sector_flags(visible_only=False) -> Buffer('i'): 1 visible, 2 beyond horizon, "
      "4 outside frustum, 8 over budget, 16 sea"},
-    {"sector_heights", (PyCFunction)(void (*)(void))plod__planet_sector_heights,
+    {"sector_heights", (PyCFunction)(void (*)(void))plod__planet_sector_heights_locked,
      METH_VARARGS | METH_KEYWORDS,
      "sector_heights(visible_only=True) -> Buffer('f'), (min, max) metres per sector"},
     {"recommended_clip", (PyCFunction)plod__planet_recommended_clip, METH_VARARGS,
@@ -670,9 +772,9 @@ static PyMethodDef plod__planet_methods[] = {
     {"height", (PyCFunction)plod__planet_height, METH_VARARGS, "height(x, y, z) -> metres"},
     {"height_range", (PyCFunction)plod__planet_height_range, METH_NOARGS,
      "height_range() -> (min, max) metres"},
-    {"mesh", (PyCFunction)(void (*)(void))plod__planet_mesh, METH_VARARGS | METH_KEYWORDS,
+    {"mesh", (PyCFunction)(void (*)(void))plod__planet_mesh_locked, METH_VARARGS | METH_KEYWORDS,
      "mesh(template_level=None, morph=False, threads=2, visible_only=True) -> Mesh"},
-    {"instances", (PyCFunction)(void (*)(void))plod__planet_instances,
+    {"instances", (PyCFunction)(void (*)(void))plod__planet_instances_locked,
      METH_VARARGS | METH_KEYWORDS, "instances(template_level=None) -> dict"},
     {NULL},
 };

@@ -182,6 +182,32 @@ def refine(planet, camera, settings, hysteresis=False):
     return stats
 
 
+# Most triangles one mesh build may emit.  Template density x sectors can ask for
+# billions (16384 x a budget of 1e6); past this the build is refused with a clear
+# message instead of exhausting memory inside Blender.
+MAX_MESH_TRIANGLES = 1 << 24
+
+
+def check_mesh_size(stats, template_level):
+    """Raises ValueError when the refined LOD would emit more than MAX_MESH_TRIANGLES."""
+    triangles = stats["visible"] * 4 ** template_level
+    if triangles > MAX_MESH_TRIANGLES:
+        raise ValueError(
+            f"the LOD would build {triangles:,} triangles ({stats['visible']:,} sectors x "
+            f"{4 ** template_level} per sector), more than the limit of "
+            f"{MAX_MESH_TRIANGLES:,}: lower the template density or the sector budget")
+
+
+def camera_inside(planet, matrix_world):
+    """True when the camera (planet-space row-major matrix) is below the terrain."""
+    location = [row[3] for row in matrix_world[:3]]
+    distance = math.sqrt(sum(c * c for c in location))
+    if distance == 0.0:
+        return True
+    ground = planet.radius + planet.height(*(c / distance for c in location))
+    return not distance >= ground  # NaN-safe
+
+
 def template_level_from_density(triangles):
     """Template density (1..16384 triangles per sector, a power of 4) -> level 0..7."""
     level = 0

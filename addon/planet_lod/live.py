@@ -1,9 +1,24 @@
 """Refreshing planets: LOD cameras, refinement, mesh (re)build, timers, handlers.
 
 Runtime state lives in RUNTIME keyed by object name (never a bpy reference, so
-undo/redo and file loads cannot leave dangling pointers).  One refresh runs at
-a time (the timer and the handlers run on Blender's main thread; `_busy`
-guards re-entry from handlers fired during a refresh).
+undo/redo and file loads cannot leave dangling pointers).
+
+Threads: the viewport refresh (the `tick` timer) and most handlers run on
+Blender's main thread, but an animation render started from the UI (Ctrl F12)
+calls the frame_change handlers from the render job's thread.  So:
+  * one refresh runs at a time, process-wide: refresh() holds `_lock` (an RLock)
+    from refine to the written mesh, so a render thread never emits the LOD a
+    viewport refine made between its refine and its mesh() call; render-side
+    callers wait for the lock, the timer only tries it and retries next tick;
+  * the timer does no refresh while a render is in progress (`_renders`,
+    counted from render_init to render_complete / render_cancel), so the
+    viewport never rewrites a mesh the render is reading;
+  * `_local.busy` marks *this thread* as inside refresh(), to ignore handlers
+    fired by our own mesh writes (re-entry), never another thread's refresh;
+  * the native Planet has its own lock as well (planetlod), so direct calls
+    from other threads cannot corrupt its refiner either;
+  * planet_add turns on Render > Lock Interface, which Blender requires for
+    handlers that write data from the render thread.
 """
 import hashlib
 import threading
@@ -19,7 +34,13 @@ from . import core, materials
 RUNTIME = {}
 DEBOUNCE_S = 0.15
 TICK_S = 0.1
-_busy = False
+_lock = threading.RLock()   # one refresh at a time, across threads
+_local = threading.local()  # .busy: this thread is inside refresh()
+_renders = 0                # renders in progress (render_init .. complete/cancel)
+
+
+def _in_refresh():
+    return getattr(_local, "busy", False)
 
 
 class PlanetState:
@@ -31,6 +52,7 @@ class PlanetState:
         self.changed_at = 0.0
         self.stats = {}
         self.error = ""
+        self.warning = ""          # last refresh worked but looks wrong (camera inside)
         self.instances = None      # dict from planet.instances() for the GPU preview
         self.gpu_version = 0       # bumped when instances change
         self.frozen_camera = None  # (matrix_world planet space, params) while frozen
@@ -148,18 +170,33 @@ def lod_camera_params(obj, scene, for_render=False, depsgraph=None):
 
 # ---- refresh ------------------------------------------------------------------
 
+NO_CAMERA = "no LOD camera: add a camera to the scene or use the viewport"
+
+
+def forget_removed():
+    """Drops the runtime state of planets deleted since (a scheduled refresh of a
+    deleted planet then finds nothing to do)."""
+    alive = {obj.name_full for obj in bpy.data.objects}
+    for name in [n for n in RUNTIME if n not in alive]:
+        del RUNTIME[name]
+
+
 def refresh(obj, scene, params=None, build_mesh=False, for_render=False):
     """Refines `obj` for its LOD camera; optionally rebuilds its mesh.  Raises
     core.native_errors() on bad input (callers report them)."""
-    global _busy
+    with _lock:
+        return _refresh_locked(obj, scene, params, build_mesh, for_render)
+
+
+def _refresh_locked(obj, scene, params, build_mesh, for_render):
     st = state(obj)
     settings = obj.planet_lod.as_dict()
     planet = core.build_planet(settings)
     if params is None:
         params = lod_camera_params(obj, scene, for_render=for_render)
     if params is None:
-        raise RuntimeError("no LOD camera: add a camera to the scene or use the viewport")
-    _busy = True
+        raise RuntimeError(NO_CAMERA)
+    was_busy, _local.busy = _in_refresh(), True
     try:
         frozen = obj.planet_lod.freeze_lod and st.frozen_camera is not None and not for_render
         if not frozen:
@@ -168,8 +205,14 @@ def refresh(obj, scene, params=None, build_mesh=False, for_render=False):
                 # from the base sectors: the sector set *and order* (so the mesh
                 # bytes) depend on this camera only, not on earlier frames
                 planet.reset()
-            st.stats = core.refine(planet, camera, settings, hysteresis=not for_render)
+            stats = core.refine(planet, camera, settings, hysteresis=not for_render)
+            if build_mesh:  # refuse before the mesh (or anything in bpy) is touched
+                core.check_mesh_size(stats, settings["template_level"])
+            st.stats = stats
             st.frozen_camera = params
+            st.warning = ("the LOD camera is inside the planet (below the terrain): only "
+                          "the sectors around it are refined"
+                          if core.camera_inside(planet, params["matrix_world"]) else "")
             if obj.planet_lod.clip_from_horizon and for_render:
                 _apply_clip(obj, scene, planet, camera)
         if obj.planet_lod.gpu_preview and not bpy.app.background:
@@ -194,7 +237,7 @@ def refresh(obj, scene, params=None, build_mesh=False, for_render=False):
         st.error = ""
         return st.stats
     finally:
-        _busy = False
+        _local.busy = was_busy
 
 
 def _apply_clip(obj, scene, planet, camera):
@@ -290,13 +333,24 @@ def _signature(obj, scene):
 
 def tick():
     """bpy.app.timers callback: debounced refresh of planets whose view changed."""
-    if _busy or core.native is None:
+    if _in_refresh() or _renders or core.native is None:
         return TICK_S
+    if not _lock.acquire(blocking=False):  # a render thread is refreshing: retry
+        return TICK_S
+    try:
+        _tick_locked()
+    finally:
+        _lock.release()
+    return TICK_S
+
+
+def _tick_locked():
     context = bpy.context
     scene = getattr(context, "scene", None)
     if scene is None:
-        return TICK_S
+        return
     now = time.monotonic()
+    forget_removed()
     for obj in planets(scene):
         s = obj.planet_lod
         if not s.live_update:
@@ -306,7 +360,9 @@ def tick():
             sig, params = _signature(obj, scene)
         except (ReferenceError, AttributeError):
             continue
-        if sig is None:
+        if sig is None:  # the camera went away (deleted before the refresh ran)
+            if st.dirty:
+                st.error = NO_CAMERA
             continue
         if sig != st.signature:
             st.signature, st.changed_at, st.dirty = sig, now, True
@@ -318,7 +374,7 @@ def tick():
             st.error, st.dirty = str(exc), False
         _redraw_views()
         break  # one planet per tick keeps the UI responsive
-    return TICK_S
+    return
 
 
 def _redraw_views():
@@ -339,7 +395,7 @@ def on_frame_change_pre(scene, depsgraph=None):
 
 @persistent
 def on_frame_change_post(scene, depsgraph=None):
-    if not _busy and core.native is not None:
+    if not _in_refresh() and core.native is not None:
         refresh_for_render(scene, depsgraph)
 
 
@@ -348,11 +404,23 @@ def on_render_pre(scene, depsgraph=None):
     """render_init / render_pre: refine for the render camera at render resolution.
     F12 runs render_pre in the render job's thread, where bpy data must not be
     written; there the main-thread render_init call has already done the work."""
-    if _busy or core.native is None:
+    if _in_refresh() or core.native is None:
         return
     if threading.current_thread() is not threading.main_thread():
         return
     refresh_for_render(scene)
+
+
+@persistent
+def on_render_started(*_args):
+    global _renders
+    _renders += 1
+
+
+@persistent
+def on_render_finished(*_args):
+    global _renders
+    _renders = max(0, _renders - 1)
 
 
 @persistent
@@ -378,7 +446,7 @@ def on_undo(*_args):
 
 @persistent
 def on_depsgraph_update(scene, depsgraph=None):
-    if depsgraph is None or _busy:
+    if depsgraph is None or _in_refresh():
         return
     for update in depsgraph.updates:
         if isinstance(update.id, bpy.types.Object) and update.is_updated_transform:
@@ -390,7 +458,10 @@ def on_depsgraph_update(scene, depsgraph=None):
 HANDLERS = (
     (bpy.app.handlers.frame_change_pre, on_frame_change_pre),
     (bpy.app.handlers.frame_change_post, on_frame_change_post),
+    (bpy.app.handlers.render_init, on_render_started),
     (bpy.app.handlers.render_init, on_render_pre),
+    (bpy.app.handlers.render_complete, on_render_finished),
+    (bpy.app.handlers.render_cancel, on_render_finished),
     (bpy.app.handlers.render_pre, on_render_pre),
     (bpy.app.handlers.load_post, on_load_post),
     (bpy.app.handlers.undo_post, on_undo),

@@ -78,6 +78,9 @@ class PLOD_OT_planet_add(bpy.types.Operator):
                 bpy.data.meshes.remove(mesh)
             self.report({'ERROR'}, f"Planet not added: {exc}")
             return {'CANCELLED'}
+        # the frame-change handlers write the planet's mesh from the render thread
+        # in UI animation renders: Blender requires Lock Interface for that
+        context.scene.render.use_lock_interface = True
         for other in context.selected_objects:
             other.select_set(False)
         obj.select_set(True)
@@ -110,6 +113,8 @@ class PLOD_OT_planet_refresh(bpy.types.Operator):
             live.state(obj).error = str(exc)
             self.report({'ERROR'}, f"{obj.name}: {exc}")
             return {'CANCELLED'}
+        if live.state(obj).warning:
+            self.report({'WARNING'}, f"{obj.name}: {live.state(obj).warning}")
         self.report({'INFO'}, f"{obj.name}: {stats.get('visible', 0)} sectors, "
                               f"{stats.get('triangles', 0)} triangles")
         return {'FINISHED'}

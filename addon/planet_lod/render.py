@@ -78,6 +78,44 @@ def render_flyby(scene, planet_obj, first, last, out_dir, path_frames, report=_l
     """Renders frames first..last of the flyby to out_dir/frame_####.png; writes
     stats.csv and contact_sheet.png.  Returns the list of per-frame stat dicts."""
     os.makedirs(out_dir, exist_ok=True)
+    saved = _SceneState(scene, planet_obj)
+    try:
+        rows = _render_frames(scene, planet_obj, first, last, out_dir, path_frames, report)
+    except BaseException:
+        # cancelled (Esc, a failed frame, KeyboardInterrupt): put the scene back
+        saved.restore()
+        raise
+    return rows
+
+
+class _SceneState:
+    """What a flyby changes in the scene, to undo it when the flyby is cancelled."""
+
+    def __init__(self, scene, planet_obj):
+        self.scene = scene
+        self.camera_name = scene.camera.name if scene.camera else None
+        self.flyby_name = "Flyby " + planet_obj.name
+        self.had_flyby = bpy.data.objects.get(self.flyby_name) is not None
+        self.frame = scene.frame_current
+        self.filepath = scene.render.filepath
+        self.file_format = scene.render.image_settings.file_format
+
+    def restore(self):
+        scene = self.scene
+        if not self.had_flyby:
+            cam = bpy.data.objects.get(self.flyby_name)
+            if cam is not None:
+                data = cam.data
+                bpy.data.objects.remove(cam)
+                if data is not None and data.users == 0:
+                    bpy.data.cameras.remove(data)
+        scene.camera = bpy.data.objects.get(self.camera_name) if self.camera_name else None
+        scene.render.filepath = self.filepath
+        scene.render.image_settings.file_format = self.file_format
+        scene.frame_set(self.frame)  # handlers rebuild the LOD for the restored camera
+
+
+def _render_frames(scene, planet_obj, first, last, out_dir, path_frames, report):
     ensure_flyby_camera(scene, planet_obj, path_frames)
     wm = bpy.context.window_manager
     rows = []
@@ -98,7 +136,8 @@ def render_flyby(scene, planet_obj, first, last, out_dir, path_frames, report=_l
                 path = os.path.join(out_dir, f"frame_{frame:04d}.png")
                 scene.render.filepath = path
                 t0 = time.perf_counter()
-                bpy.ops.render.render(write_still=True)
+                if 'CANCELLED' in bpy.ops.render.render(write_still=True):
+                    raise RuntimeError(f"flyby cancelled at frame {frame}")
                 row = dict(st.stats)
                 row["frame"] = frame
                 row["render_s"] = round(time.perf_counter() - t0, 3)

@@ -1,0 +1,85 @@
+"""Issue 7 item 5 in Blender: a render and a viewport refresh never work on the
+same planet at once (live.py docstring).  The viewport timer (live.tick) skips
+while a render is in progress and while another thread holds the refresh lock;
+render-side refreshes wait for the lock instead of skipping; planet_add turns
+on Lock Interface."""
+import threading
+import time
+
+import bpy
+
+import plod_robustlib as rob
+import plod_testlib as lib
+
+
+def main():
+    lib.enable()
+    from planet_lod import live
+    lib.clear_scene()
+    scene = bpy.context.scene
+    scene.render.resolution_x, scene.render.resolution_y = 64, 36
+    scene.render.engine = 'BLENDER_WORKBENCH'
+    cam = lib.add_camera((0, -3.0e7, 0))
+    assert bpy.ops.mesh.planet_add(preset='EARTH', quality='DRAFT') == {'FINISHED'}
+    earth = bpy.context.object
+    assert scene.render.use_lock_interface
+    earth.planet_lod.gpu_preview = False  # the timer rebuilds the mesh itself
+    live.DEBOUNCE_S = 0.0
+
+    def move_and_tick():
+        cam.location.x += 1.0e5
+        bpy.context.view_layer.update()
+        live.tick()  # notices the change
+        live.tick()  # runs the refresh (debounce 0) unless it must not
+
+    # 1. a render in progress: the viewport timer leaves the planet alone
+    live.on_render_started()
+    before = rob.snapshot()
+    move_and_tick()
+    del before["camera TestCam"]
+    after = rob.snapshot()
+    del after["camera TestCam"]
+    rob.assert_same(before, after, "tick during a render")
+    assert live.state(earth).dirty
+    live.on_render_finished()
+    mesh_before = rob.snapshot()["mesh Earth"]
+    live.tick()
+    assert not live.state(earth).dirty and rob.snapshot()["mesh Earth"] != mesh_before
+
+    # 2. another thread holds the refresh lock (a render thread mid-refresh): the
+    # timer does not wait (the UI stays responsive) and does not refresh
+    held, release = threading.Event(), threading.Event()
+
+    def render_thread():
+        with live._lock:
+            held.set()
+            release.wait(30)
+    worker = threading.Thread(target=render_thread)
+    worker.start()
+    assert held.wait(30)
+    mesh_before = rob.snapshot()["mesh Earth"]
+    move_and_tick()
+    assert live.state(earth).dirty and rob.snapshot()["mesh Earth"] == mesh_before
+    # ... while a render-side refresh waits for the lock, then runs
+    order = []
+
+    def let_go():
+        time.sleep(0.3)
+        order.append("released")
+        release.set()
+    threading.Thread(target=let_go).start()
+    live.refresh_for_render(scene)
+    order.append("refreshed")
+    worker.join()
+    assert order == ["released", "refreshed"], order
+    assert not live.state(earth).dirty
+
+    # 3. a real render: the counter goes up and back to zero
+    assert live._renders == 0
+    bpy.ops.render.render()
+    assert live._renders == 0, live._renders
+    move_and_tick()
+    assert not live.state(earth).dirty
+
+
+lib.run(main)
