@@ -23,8 +23,9 @@
  * queries).  Caps of children do not nest in their parents' (projection
  * distortion), so P alone is not monotone; the refinement uses
  * P*(node) = P(node) and P*(parent), which is.  The bounds of the internal
- * (split) nodes are kept in a hash table by id, so P* costs one memoised
- * evaluation per node per frame.  Each frame merges every diamond whose two
+ * (split) nodes are kept in a dense array with a free list; every leaf and
+ * node holds its parent's index there, so P* costs one memoised evaluation
+ * per node per frame and no lookups.  Each frame merges every diamond whose two
  * parents fail P*, then splits every leaf that passes it (with forced
  * splits), until stable: the unique minimal conforming refinement of
  * {P* true}, whatever the previous frame was.  With `hysteresis` the merge
@@ -81,23 +82,35 @@ typedef struct plod__edge {
 /* An internal (split) node: its bound and this frame's effective predicate
  * P*(node) = P(node) and P*(parent), memoised per frame. */
 typedef struct plod__node {
-    uint64_t id;        /* 0 = empty slot */
+    uint64_t id;        /* 0 = free slot */
     plod__bound bound;
-    uint32_t eval_frame;
-    uint8_t wants;      /* P*(node) */
 } plod__node;
+
+/* node_state bits, valid for the current frame (cleared by its pre-pass) */
+enum {
+    PLOD__P_KNOWN = 1, PLOD__P_TRUE = 2,        /* P(node) */
+    PLOD__STAR_KNOWN = 4, PLOD__STAR_TRUE = 8   /* P*(node) */
+};
 
 struct plod_refiner {
     const plod_planet *planet;
     plod_sector *leaves;
     plod__geom *geom;
+    int32_t *leaf_parent;        /* parent's index in nodes[], -1 at level 0;
+                                    apart from geom: the merge sweep reads
+                                    it for every leaf */
     size_t count, capacity;
     plod__edge *edges;
     size_t edge_mask, edge_used; /* capacity - 1, live entries */
     size_t *pending;             /* split pass: in-place children to revisit */
     size_t pending_count, pending_capacity;
-    plod__node *nodes;           /* internal nodes, open addressing by id */
-    size_t node_mask, node_used;
+    plod__node *nodes;           /* internal nodes, dense, stable indices */
+    int32_t *node_parent;        /* parent's index, -1 for a base sector;
+                                    the next free slot while free */
+    uint8_t *node_state;         /* PLOD__P_* | PLOD__STAR_* this frame */
+    uint8_t *node_leaves;        /* how many of its 2 children are leaves */
+    size_t node_capacity, node_top, node_used; /* node_top: slots ever used */
+    int32_t node_free;           /* head of the free-slot list, -1 = none */
     uint32_t frame;
     double global_hmin, global_hmax;
     /* per-update evaluation context */
@@ -333,6 +346,10 @@ static plod_status plod__reserve(plod_refiner *r, size_t extra)
         if (!geom)
             return PLOD_ERR_NO_MEMORY;
         r->geom = geom;
+        int32_t *parent = realloc(r->leaf_parent, capacity * sizeof *parent);
+        if (!parent)
+            return PLOD_ERR_NO_MEMORY;
+        r->leaf_parent = parent;
         r->capacity = capacity;
     }
     /* every leaf has 3 edges, each shared by 2 leaves: 1.5 keys per leaf */
@@ -349,88 +366,65 @@ static plod_status plod__reserve(plod_refiner *r, size_t extra)
 
 /* ---- internal nodes ----------------------------------------------------------- */
 
-static size_t plod__id_hash(uint64_t id)
-{
-    uint64_t h = id * 0x9E3779B97F4A7C15ull;
-    h ^= h >> 32;
-    return (size_t)h;
-}
-
-static plod__node *plod__node_find(const plod_refiner *r, uint64_t id)
-{
-    size_t i = plod__id_hash(id) & r->node_mask;
-    for (;;) {
-        plod__node *n = &r->nodes[i];
-        if (n->id == id)
-            return n;
-        if (n->id == 0)
-            return NULL;
-        i = (i + 1) & r->node_mask;
-    }
-}
-
 static plod_status plod__node_reserve(plod_refiner *r, size_t extra)
 {
-    size_t capacity = r->nodes ? r->node_mask + 1 : 0;
-    size_t need = (r->node_used + extra) * 2;
-    if (need <= capacity)
+    size_t need = r->node_top + extra;
+    if (need <= r->node_capacity)
         return PLOD_OK;
-    size_t fresh_capacity = capacity ? capacity : 64;
-    while (fresh_capacity < need)
-        fresh_capacity *= 2;
-    plod__node *fresh = calloc(fresh_capacity, sizeof *fresh);
+    if (need > (size_t)INT32_MAX)
+        return PLOD_ERR_NO_MEMORY;
+    size_t capacity = r->node_capacity ? r->node_capacity : 64;
+    while (capacity < need)
+        capacity *= 2;
+    plod__node *fresh = realloc(r->nodes, capacity * sizeof *fresh);
     if (!fresh)
         return PLOD_ERR_NO_MEMORY;
-    size_t mask = fresh_capacity - 1;
-    for (size_t i = 0; i < capacity; i++) {
-        if (!r->nodes[i].id)
-            continue;
-        size_t j = plod__id_hash(r->nodes[i].id) & mask;
-        while (fresh[j].id)
-            j = (j + 1) & mask;
-        fresh[j] = r->nodes[i];
-    }
-    free(r->nodes);
     r->nodes = fresh;
-    r->node_mask = mask;
+    int32_t *parent = realloc(r->node_parent, capacity * sizeof *parent);
+    if (!parent)
+        return PLOD_ERR_NO_MEMORY;
+    r->node_parent = parent;
+    uint8_t *state = realloc(r->node_state, capacity);
+    if (!state)
+        return PLOD_ERR_NO_MEMORY;
+    r->node_state = state;
+    uint8_t *leaves = realloc(r->node_leaves, capacity);
+    if (!leaves)
+        return PLOD_ERR_NO_MEMORY;
+    r->node_leaves = leaves;
+    r->node_capacity = capacity; /* only once all four have grown */
     return PLOD_OK;
 }
 
-/* Capacity ensured by plod__node_reserve. */
-static void plod__node_add(plod_refiner *r, uint64_t id, const plod__bound *bound)
+/* Capacity ensured by plod__node_reserve; returns the node's index. */
+static int32_t plod__node_add(plod_refiner *r, uint64_t id, const plod__bound *bound,
+                              int32_t parent)
 {
-    size_t i = plod__id_hash(id) & r->node_mask;
-    while (r->nodes[i].id) {
-        assert(r->nodes[i].id != id);
-        i = (i + 1) & r->node_mask;
+    int32_t at;
+    if (r->node_free >= 0) {
+        at = r->node_free;
+        r->node_free = r->node_parent[at];
+    } else {
+        assert(r->node_top < r->node_capacity);
+        at = (int32_t)r->node_top++;
     }
-    plod__node *n = &r->nodes[i];
+    plod__node *n = &r->nodes[at];
     n->id = id;
     n->bound = *bound;
-    n->eval_frame = 0;
+    r->node_parent[at] = parent;
+    r->node_state[at] = 0; /* evaluated on demand this frame */
+    r->node_leaves[at] = 2;
     r->node_used++;
+    return at;
 }
 
-static void plod__node_remove(plod_refiner *r, uint64_t id)
+static void plod__node_remove(plod_refiner *r, int32_t at)
 {
-    plod__node *n = plod__node_find(r, id);
-    assert(n);
-    size_t hole = (size_t)(n - r->nodes), j = hole;
-    n->id = 0;
+    assert(at >= 0 && (size_t)at < r->node_top && r->nodes[at].id);
+    r->nodes[at].id = 0;
+    r->node_parent[at] = r->node_free;
+    r->node_free = at;
     r->node_used--;
-    for (;;) {
-        j = (j + 1) & r->node_mask;
-        plod__node *m = &r->nodes[j];
-        if (!m->id)
-            break;
-        size_t home = plod__id_hash(m->id) & r->node_mask;
-        int stays = hole <= j ? (home > hole && home <= j) : (home > hole || home <= j);
-        if (stays)
-            continue;
-        r->nodes[hole] = *m;
-        m->id = 0;
-        hole = j;
-    }
 }
 
 /* ---- geometry of a node ---------------------------------------------------- */
@@ -656,38 +650,44 @@ static uint64_t plod__parent_id(uint64_t id)
     return (id & ~PLOD__HEAP_MASK) | ((id & PLOD__HEAP_MASK) >> 1);
 }
 
+/* P(node) of an internal node. */
+static int plod__node_p(const plod_refiner *r, int32_t k)
+{
+    const plod__node *n = &r->nodes[k];
+    unsigned flags;
+    double distance;
+    return plod__wants_split(r, &n->bound, plod__id_level(n->id), &flags, &distance);
+}
+
 /* P*(node) = P(node) and P*(parent): monotone by construction, so the
  * refinement it defines has a unique minimal conforming closure.  For an
  * internal node, memoised per frame. */
-static int plod__node_wants(plod_refiner *r, plod__node *n)
+static int plod__node_wants(plod_refiner *r, int32_t k)
 {
-    if (n->eval_frame == r->frame)
-        return n->wants;
-    int level = plod__id_level(n->id);
-    unsigned flags;
-    double distance;
-    int wants = plod__wants_split(r, &n->bound, level, &flags, &distance);
-    if (wants && level > 0) {
-        plod__node *parent = plod__node_find(r, plod__parent_id(n->id));
-        assert(parent);
-        wants = parent ? plod__node_wants(r, parent) : 1;
+    unsigned st = r->node_state[k];
+    if (st & PLOD__STAR_KNOWN)
+        return (st & PLOD__STAR_TRUE) != 0;
+    if (!(st & PLOD__P_KNOWN))
+        st |= PLOD__P_KNOWN | (plod__node_p(r, k) ? PLOD__P_TRUE : 0u);
+    int wants = (st & PLOD__P_TRUE) != 0;
+    int32_t parent = r->node_parent[k];
+    if (wants && parent >= 0) {
+        assert(r->nodes[parent].id == plod__parent_id(r->nodes[k].id));
+        wants = plod__node_wants(r, parent);
     }
-    n->wants = (uint8_t)wants;
-    n->eval_frame = r->frame;
+    r->node_state[k] = (uint8_t)(st | PLOD__STAR_KNOWN | (wants ? PLOD__STAR_TRUE : 0u));
     return wants;
 }
 
 /* Whether an internal node may be merged back (its children removed). */
-static int plod__allows_merge(plod_refiner *r, plod__node *n)
+static int plod__allows_merge(plod_refiner *r, int32_t k)
 {
     if (!r->params->hysteresis)
-        return !plod__node_wants(r, n);
+        return !plod__node_wants(r, k);
+    const plod__node *n = &r->nodes[k];
     int level = plod__id_level(n->id);
-    if (level > 0) {
-        plod__node *parent = plod__node_find(r, plod__parent_id(n->id));
-        if (parent && !plod__node_wants(r, parent))
-            return 1;
-    }
+    if (r->node_parent[k] >= 0 && !plod__node_wants(r, r->node_parent[k]))
+        return 1;
     double distance;
     unsigned flags = plod__cull(r, &n->bound, &distance);
     return flags || level >= r->params->max_level ||
@@ -705,11 +705,11 @@ static int plod__leaf_wants_split(plod_refiner *r, size_t i)
         g->eval_flags = (uint8_t)flags;
         g->eval_frame = r->frame;
     }
-    if (!g->eval_split || r->leaves[i].level == 0)
+    int32_t parent = r->leaf_parent[i];
+    if (!g->eval_split || parent < 0)
         return g->eval_split;
-    plod__node *parent = plod__node_find(r, plod__parent_id(r->leaves[i].id));
-    assert(parent);
-    return parent ? plod__node_wants(r, parent) : 1;
+    assert(r->nodes[parent].id == plod__parent_id(r->leaves[i].id));
+    return plod__node_wants(r, parent);
 }
 
 /* ---- node algebra ---------------------------------------------------------- */
@@ -774,8 +774,13 @@ static void plod__split_diamond(plod_refiner *r, size_t i, size_t n)
     plod_sector parents[2] = {r->leaves[i], r->leaves[n]};
     plod__leaf_unlink(r, i);
     plod__leaf_unlink(r, n);
-    plod__node_add(r, parents[0].id, &r->geom[i].self);
-    plod__node_add(r, parents[1].id, &r->geom[n].self);
+    int32_t node[2] = {plod__node_add(r, parents[0].id, &r->geom[i].self, r->leaf_parent[i]),
+                       plod__node_add(r, parents[1].id, &r->geom[n].self, r->leaf_parent[n])};
+    for (int k = 0; k < 2; k++) {
+        int32_t up = r->node_parent[node[k]];
+        if (up >= 0)
+            r->node_leaves[up]--; /* that child is a node now */
+    }
     for (int k = 0; k < 2; k++) {
         for (int bit = 0; bit < 2; bit++) {
             size_t at = bit ? r->count++ : pair[k];
@@ -784,6 +789,7 @@ static void plod__split_diamond(plod_refiner *r, size_t i, size_t n)
             plod__geom *g = &r->geom[at];
             plod__compute_bound(r, c, &g->self);
             g->eval_frame = r->frame - 1;
+            r->leaf_parent[at] = node[k];
             plod__apply_bound(c, &g->self);
             plod__leaf_link(r, at);
         }
@@ -850,6 +856,7 @@ static void plod__drop_unlinked(plod_refiner *r, size_t x)
         }
         r->leaves[x] = r->leaves[last];
         r->geom[x] = r->geom[last];
+        r->leaf_parent[x] = r->leaf_parent[last];
     }
     r->count--;
 }
@@ -883,34 +890,51 @@ static void plod__cascade(plod_refiner *r, size_t index)
         plod__try_merge(r, (size_t)sibling);
 }
 
+static int plod__merge_diamond(plod_refiner *r, size_t ia, int32_t pi);
+
 static int plod__try_merge(plod_refiner *r, size_t ia)
 {
     const plod_sector *a = &r->leaves[ia];
     if (a->level == 0 || (a->id & 1))
         return 0;
+    /* necessary conditions that need no edge lookup come first (leaf-child
+     * counts, the memoised predicate); every condition is pure, so the
+     * order does not change which diamonds merge */
+    int32_t pi = r->leaf_parent[ia];
+    assert(pi >= 0 && r->nodes[pi].id == plod__parent_id(a->id));
+    if (r->node_leaves[pi] != 2 || !plod__allows_merge(r, pi))
+        return 0; /* a's sibling is split, or p still wants its split */
+    return plod__merge_diamond(r, ia, pi);
+}
+
+/* The rest of try_merge: the partner half, then the merge itself. */
+static int plod__merge_diamond(plod_refiner *r, size_t ia, int32_t pi)
+{
+    const plod_sector *a = &r->leaves[ia];
     int level = a->level;
-    plod__node *pn = plod__node_find(r, plod__parent_id(a->id));
-    assert(pn);
-    if (!pn || !plod__allows_merge(r, pn))
+    int32_t ic = plod__across(r, ia, 1);
+    if (ic < 0)
         return 0;
-    int32_t ib = plod__across(r, ia, 0), ic = plod__across(r, ia, 1);
-    if (ib < 0 || ic < 0)
-        return 0;
-    const plod_sector *b = &r->leaves[ib], *c = &r->leaves[ic];
-    if (b->level != level || c->level != level || (a->id ^ b->id) != 1)
-        return 0;
-    if (!plod__same_point(r, a, 1, c, 1))
+    const plod_sector *c = &r->leaves[ic];
+    if (c->level != level || !plod__same_point(r, a, 1, c, 1))
         return 0; /* c is not the partner parent's child (it is split) */
+    int32_t qi = r->leaf_parent[ic];
+    assert(qi >= 0 && r->nodes[qi].id == plod__parent_id(c->id));
+    if (r->node_leaves[qi] != 2 || !plod__allows_merge(r, qi))
+        return 0;
+    int32_t ib = plod__across(r, ia, 0);
+    if (ib < 0)
+        return 0;
+    const plod_sector *b = &r->leaves[ib];
+    if (b->level != level || (a->id ^ b->id) != 1)
+        return 0;
     int32_t id_ = plod__across(r, (size_t)ib, 0);
     if (id_ < 0)
         return 0;
     const plod_sector *d = &r->leaves[id_];
     if (d->level != level || (c->id ^ d->id) != 1 || !plod__same_point(r, a, 1, d, 1))
         return 0;
-    plod__node *qn = plod__node_find(r, plod__parent_id(c->id));
-    assert(qn);
-    if (!qn || !plod__allows_merge(r, qn))
-        return 0;
+    const plod__node *pn = &r->nodes[pi], *qn = &r->nodes[qi];
 
     plod_sector p, q;
     plod__parent(a, &p);
@@ -920,8 +944,9 @@ static int plod__try_merge(plod_refiner *r, size_t ia)
     p.birth = q.birth = r->frame;
     plod__apply_bound(&p, &gp.self);
     plod__apply_bound(&q, &gq.self);
-    plod__node_remove(r, p.id);
-    plod__node_remove(r, q.id);
+    int32_t gp_gq_parent[2] = {r->node_parent[pi], r->node_parent[qi]};
+    plod__node_remove(r, pi);
+    plod__node_remove(r, qi);
     size_t ib_ = (size_t)ib, ic_ = (size_t)ic, id2 = (size_t)id_;
     /* all four out before the parents go in: their outer edges are shared */
     plod__leaf_unlink(r, ia);
@@ -930,8 +955,10 @@ static int plod__try_merge(plod_refiner *r, size_t ia)
     plod__leaf_unlink(r, id2);
     r->leaves[ia] = p;
     r->geom[ia] = gp;
+    r->leaf_parent[ia] = gp_gq_parent[0];
     r->leaves[ic_] = q;
     r->geom[ic_] = gq;
+    r->leaf_parent[ic_] = gp_gq_parent[1];
     plod__leaf_link(r, ia);
     plod__leaf_link(r, ic_);
     size_t hi = ib_ > id2 ? ib_ : id2, lo = ib_ > id2 ? id2 : ib_;
@@ -942,6 +969,11 @@ static int plod__try_merge(plod_refiner *r, size_t ia)
             if (at[j] == last)
                 at[j] = hole;
         plod__drop_unlinked(r, hole);
+    }
+    for (int k = 0; k < 2; k++) {
+        int32_t up = gp_gq_parent[k];
+        if (up >= 0)
+            r->node_leaves[up]++; /* its child is a leaf again */
     }
     r->merges += 2;
     uint64_t q_id = r->leaves[at[1]].id;
@@ -972,6 +1004,7 @@ static void plod__add_base(plod_refiner *r, unsigned base, int face,
     memset(g, 0, sizeof *g);
     plod__compute_bound(r, s, &g->self);
     g->eval_frame = r->frame - 1;
+    r->leaf_parent[at] = -1;
     plod__apply_bound(s, &g->self);
     plod__leaf_link(r, at);
 }
@@ -982,8 +1015,8 @@ static plod_status plod__build_base(plod_refiner *r)
     r->count = 0;
     r->edge_used = 0;
     r->node_used = 0;
-    if (r->nodes)
-        memset(r->nodes, 0, (r->node_mask + 1) * sizeof *r->nodes);
+    r->node_top = 0;
+    r->node_free = -1;
     if (r->edges)
         for (size_t i = 0; i <= r->edge_mask; i++)
             r->edges[i].leaf[0] = r->edges[i].leaf[1] = -1;
@@ -1052,8 +1085,12 @@ void plod_refiner_destroy(plod_refiner *refiner)
         return;
     free(refiner->leaves);
     free(refiner->geom);
+    free(refiner->leaf_parent);
     free(refiner->edges);
     free(refiner->nodes);
+    free(refiner->node_parent);
+    free(refiner->node_state);
+    free(refiner->node_leaves);
     free(refiner->pending);
     free(refiner);
 }
@@ -1182,6 +1219,13 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
     r->truncated = 0;
     r->splits = r->merges = 0;
 
+    /* P of every internal node in one sequential sweep (cache-friendly);
+     * P* then follows parent indices through the byte states */
+    for (size_t k = 0; k < r->node_top; k++)
+        r->node_state[k] = r->nodes[k].id
+                               ? (uint8_t)(PLOD__P_KNOWN |
+                                           (plod__node_p(r, (int32_t)k) ? PLOD__P_TRUE : 0u))
+                               : 0;
     /* merge pass: every diamond whose parents fail the split predicate;
      * downwards, so the leaves moved into holes were already visited, and
      * merges cascade upwards as subtrees collapse */
@@ -1219,8 +1263,15 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
     int deepest = 0;
     for (size_t i = 0; i < r->count; i++) {
         plod_sector *sec = &r->leaves[i];
-        plod__leaf_wants_split(r, i); /* fills the cached cull flags */
-        unsigned flags = r->geom[i].eval_flags;
+        plod__geom *g = &r->geom[i];
+        if (g->eval_frame != r->frame) { /* not visited (truncated pass) */
+            unsigned cull_flags;
+            g->eval_split = (uint8_t)plod__wants_split(r, &g->self, sec->level,
+                                                       &cull_flags, &g->eval_distance);
+            g->eval_flags = (uint8_t)cull_flags;
+            g->eval_frame = r->frame;
+        }
+        unsigned flags = g->eval_flags;
         int sea = r->planet->has_sea_level && sec->height_max <= r->planet->sea_level;
         if (sea)
             flags |= PLOD_SECTOR_SEA;
@@ -1283,11 +1334,11 @@ size_t plod_refiner_memory_bytes(const plod_refiner *r)
 {
     if (!r)
         return 0;
-    size_t bytes = sizeof *r + r->capacity * (sizeof(plod_sector) + sizeof(plod__geom));
+    size_t bytes = sizeof *r + r->capacity * (sizeof(plod_sector) + sizeof(plod__geom) +
+                                              sizeof(int32_t));
     if (r->edges)
         bytes += (r->edge_mask + 1) * sizeof(plod__edge);
-    if (r->nodes)
-        bytes += (r->node_mask + 1) * sizeof(plod__node);
+    bytes += r->node_capacity * (sizeof(plod__node) + sizeof(int32_t) + 2);
     return bytes;
 }
 
@@ -1316,7 +1367,11 @@ plod_status plod_refiner_check(const plod_refiner *r)
             if (dl < -1 || dl > 1)
                 return PLOD_ERR_BAD_PARAM;
         }
-        if (s->level > 0 && !plod__node_find(r, plod__parent_id(s->id)))
+        int32_t parent = r->leaf_parent[i];
+        if ((s->level > 0) != (parent >= 0))
+            return PLOD_ERR_BAD_PARAM;
+        if (parent >= 0 && ((size_t)parent >= r->node_top ||
+                            r->nodes[parent].id != plod__parent_id(s->id)))
             return PLOD_ERR_BAD_PARAM;
         links += 3;
     }
@@ -1330,6 +1385,36 @@ plod_status plod_refiner_check(const plod_refiner *r)
     size_t bases = plod_projection_is_cube(r->planet->projection) ? 12 : 8;
     if (r->node_used + bases != r->count)
         return PLOD_ERR_BAD_PARAM;
+    size_t live = 0;
+    for (size_t k = 0; k < r->node_top; k++) {
+        const plod__node *n = &r->nodes[k];
+        if (!n->id)
+            continue;
+        live++;
+        int top = plod__id_level(n->id) == 0;
+        int32_t parent = r->node_parent[k];
+        if (top != (parent < 0))
+            return PLOD_ERR_BAD_PARAM;
+        if (!top && ((size_t)parent >= r->node_top ||
+                     r->nodes[parent].id != plod__parent_id(n->id)))
+            return PLOD_ERR_BAD_PARAM;
+    }
+    if (live != r->node_used)
+        return PLOD_ERR_BAD_PARAM;
+    /* leaf-child counts: every node's children, leaves or nodes, add to 2 */
+    uint8_t *count = calloc(r->node_top ? r->node_top : 1, 1);
+    if (!count)
+        return PLOD_ERR_NO_MEMORY;
+    for (size_t i = 0; i < r->count; i++)
+        if (r->leaf_parent[i] >= 0)
+            count[r->leaf_parent[i]]++;
+    plod_status st = PLOD_OK;
+    for (size_t k = 0; k < r->node_top; k++)
+        if (r->nodes[k].id && count[k] != r->node_leaves[k])
+            st = PLOD_ERR_BAD_PARAM;
+    free(count);
+    if (st != PLOD_OK)
+        return st;
     return PLOD_OK;
 }
 
