@@ -398,8 +398,11 @@ static PyObject *plod__planet_refine(plod_py_planet *self, PyObject *args, PyObj
     self->params = p;
     self->stats = s;
     self->has_camera = 1;
+    /* what planet.mesh(template_level) would emit for the visible sectors */
+    size_t per_v = plod_template_vertex_count(p.template_level);
+    size_t per_t = plod_template_triangle_count(p.template_level);
     return Py_BuildValue(
-        "{s:n,s:n,s:n,s:n,s:n,s:n,s:n,s:d,s:d,s:i,s:O,s:I}", "sectors_total",
+        "{s:n,s:n,s:n,s:n,s:n,s:n,s:n,s:d,s:d,s:i,s:O,s:I,s:K,s:K}", "sectors_total",
         (Py_ssize_t)s.sectors_total, "sectors_after_backface",
         (Py_ssize_t)s.sectors_after_backface, "sectors_after_frustum",
         (Py_ssize_t)s.sectors_after_frustum, "sectors_after_budget",
@@ -407,7 +410,8 @@ static PyObject *plod__planet_refine(plod_py_planet *self, PyObject *args, PyObj
         (Py_ssize_t)s.sectors_sea_skipped, "splits", (Py_ssize_t)s.splits, "merges",
         (Py_ssize_t)s.merges, "refine_us", s.refine_us, "cull_us", s.cull_us, "max_level",
         s.max_level_reached, "truncated", s.truncated ? Py_True : Py_False, "frame",
-        s.frame);
+        s.frame, "vertices", (unsigned long long)(s.sectors_after_budget * per_v),
+        "triangles", (unsigned long long)(s.sectors_after_budget * per_t));
 }
 
 static PyObject *plod__planet_reset(plod_py_planet *self, PyObject *unused)
