@@ -23,9 +23,11 @@
  * queries).  Caps of children do not nest in their parents' (projection
  * distortion), so P alone is not monotone; the refinement uses
  * P*(node) = P(node) and P*(parent), which is.  The bounds of the internal
- * (split) nodes are kept in a dense array with a free list; every leaf and
- * node holds its parent's index there, so P* costs one memoised evaluation
- * per node per frame and no lookups.  Each frame merges every diamond whose two
+ * (split) nodes are kept in a dense array in creation order (removed ones
+ * leave holes until the next compaction, which keeps the order), so a
+ * parent always precedes its children; every leaf and node holds its
+ * parent's index.  One sequential sweep per frame then gives P* of every
+ * node top-down, skipping P where the parent already fails P*.  Each frame merges every diamond whose two
  * parents fail P*, then splits every leaf that passes it (with forced
  * splits), until stable: the unique minimal conforming refinement of
  * {P* true}, whatever the previous frame was.  With `hysteresis` the merge
@@ -105,12 +107,11 @@ struct plod_refiner {
     size_t *pending;             /* split pass: in-place children to revisit */
     size_t pending_count, pending_capacity;
     plod__node *nodes;           /* internal nodes, dense, stable indices */
-    int32_t *node_parent;        /* parent's index, -1 for a base sector;
-                                    the next free slot while free */
+    int32_t *node_parent;        /* parent's index (< own), -1 at level 0 */
     uint8_t *node_state;         /* PLOD__P_* | PLOD__STAR_* this frame */
     uint8_t *node_leaves;        /* how many of its 2 children are leaves */
-    size_t node_capacity, node_top, node_used; /* node_top: slots ever used */
-    int32_t node_free;           /* head of the free-slot list, -1 = none */
+    size_t node_capacity, node_top, node_used; /* node_top: slots in use or
+                                                  holes (id 0) */
     uint32_t frame;
     double global_hmin, global_hmax;
     /* per-update evaluation context */
@@ -400,14 +401,9 @@ static plod_status plod__node_reserve(plod_refiner *r, size_t extra)
 static int32_t plod__node_add(plod_refiner *r, uint64_t id, const plod__bound *bound,
                               int32_t parent)
 {
-    int32_t at;
-    if (r->node_free >= 0) {
-        at = r->node_free;
-        r->node_free = r->node_parent[at];
-    } else {
-        assert(r->node_top < r->node_capacity);
-        at = (int32_t)r->node_top++;
-    }
+    assert(r->node_top < r->node_capacity);
+    assert(parent < (int32_t)r->node_top);
+    int32_t at = (int32_t)r->node_top++; /* after its parent: creation order */
     plod__node *n = &r->nodes[at];
     n->id = id;
     n->bound = *bound;
@@ -421,10 +417,40 @@ static int32_t plod__node_add(plod_refiner *r, uint64_t id, const plod__bound *b
 static void plod__node_remove(plod_refiner *r, int32_t at)
 {
     assert(at >= 0 && (size_t)at < r->node_top && r->nodes[at].id);
-    r->nodes[at].id = 0;
-    r->node_parent[at] = r->node_free;
-    r->node_free = at;
+    r->nodes[at].id = 0; /* a hole until plod__node_compact */
     r->node_used--;
+}
+
+/* Squeezes the holes out of the node arrays, keeping the order (parents
+ * before children), and renumbers the parent indices of nodes and leaves.
+ * Runs when holes outnumber live nodes: amortised O(1) per removal. */
+static void plod__node_compact(plod_refiner *r)
+{
+    if (r->node_top < 64 || r->node_top < 2 * r->node_used)
+        return;
+    int32_t *map = malloc(r->node_top * sizeof *map);
+    if (!map)
+        return; /* the holes stay: only memory, never correctness */
+    size_t next = 0;
+    for (size_t k = 0; k < r->node_top; k++) {
+        if (!r->nodes[k].id) {
+            map[k] = -1;
+            continue;
+        }
+        int32_t parent = r->node_parent[k];
+        assert(parent < (int32_t)k);
+        map[k] = (int32_t)next;
+        r->nodes[next] = r->nodes[k]; /* next <= k: in place */
+        r->node_parent[next] = parent >= 0 ? map[parent] : -1;
+        r->node_leaves[next] = r->node_leaves[k];
+        next++;
+    }
+    for (size_t i = 0; i < r->count; i++)
+        if (r->leaf_parent[i] >= 0)
+            r->leaf_parent[i] = map[r->leaf_parent[i]];
+    assert(next == r->node_used);
+    r->node_top = next;
+    free(map);
 }
 
 /* ---- geometry of a node ---------------------------------------------------- */
@@ -1016,7 +1042,6 @@ static plod_status plod__build_base(plod_refiner *r)
     r->edge_used = 0;
     r->node_used = 0;
     r->node_top = 0;
-    r->node_free = -1;
     if (r->edges)
         for (size_t i = 0; i <= r->edge_mask; i++)
             r->edges[i].leaf[0] = r->edges[i].leaf[1] = -1;
@@ -1219,13 +1244,23 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
     r->truncated = 0;
     r->splits = r->merges = 0;
 
-    /* P of every internal node in one sequential sweep (cache-friendly);
-     * P* then follows parent indices through the byte states */
-    for (size_t k = 0; k < r->node_top; k++)
-        r->node_state[k] = r->nodes[k].id
-                               ? (uint8_t)(PLOD__P_KNOWN |
-                                           (plod__node_p(r, (int32_t)k) ? PLOD__P_TRUE : 0u))
-                               : 0;
+    /* P* of every internal node in one sequential, top-down sweep (parents
+     * come first); P is evaluated only where the parent passes P* */
+    plod__node_compact(r);
+    for (size_t k = 0; k < r->node_top; k++) {
+        if (!r->nodes[k].id) {
+            r->node_state[k] = 0;
+            continue;
+        }
+        int32_t parent = r->node_parent[k];
+        if (parent >= 0 && !(r->node_state[parent] & PLOD__STAR_TRUE)) {
+            r->node_state[k] = PLOD__STAR_KNOWN; /* P* false, P not needed */
+            continue;
+        }
+        r->node_state[k] = plod__node_p(r, (int32_t)k)
+                               ? PLOD__STAR_KNOWN | PLOD__P_KNOWN | PLOD__P_TRUE | PLOD__STAR_TRUE
+                               : PLOD__STAR_KNOWN | PLOD__P_KNOWN;
+    }
     /* merge pass: every diamond whose parents fail the split predicate;
      * downwards, so the leaves moved into holes were already visited, and
      * merges cascade upwards as subtrees collapse */
@@ -1395,7 +1430,7 @@ plod_status plod_refiner_check(const plod_refiner *r)
         int32_t parent = r->node_parent[k];
         if (top != (parent < 0))
             return PLOD_ERR_BAD_PARAM;
-        if (!top && ((size_t)parent >= r->node_top ||
+        if (!top && ((size_t)parent >= k ||
                      r->nodes[parent].id != plod__parent_id(n->id)))
             return PLOD_ERR_BAD_PARAM;
     }
