@@ -322,15 +322,6 @@ static void plod__leaf_link(plod_refiner *r, size_t index)
     }
 }
 
-static void plod__leaf_unlink(plod_refiner *r, size_t index)
-{
-    for (int e = 0; e < 3; e++) {
-        int32_t key[3];
-        plod__edge_key(r, &r->leaves[index], e, key);
-        plod__edge_remove(r, key, (int32_t)index);
-    }
-}
-
 /* Room for `extra` more leaves (and their edges). */
 static plod_status plod__reserve(plod_refiner *r, size_t extra)
 {
@@ -798,8 +789,14 @@ static void plod__split_diamond(plod_refiner *r, size_t i, size_t n)
 {
     size_t pair[2] = {i, n};
     plod_sector parents[2] = {r->leaves[i], r->leaves[n]};
-    plod__leaf_unlink(r, i);
-    plod__leaf_unlink(r, n);
+    /* edge table, incrementally: the shared hypotenuse goes; a child's own
+     * hypotenuse is one of its parent's legs (child 0 keeps the parent's
+     * slot, so only child 1's leg is relinked); the children's other two
+     * edges are new (each shared by two of the four children) */
+    int32_t hyp[3];
+    plod__edge_key(r, &parents[0], 2, hyp);
+    plod__edge_remove(r, hyp, (int32_t)i);
+    plod__edge_remove(r, hyp, (int32_t)n);
     int32_t node[2] = {plod__node_add(r, parents[0].id, &r->geom[i].self, r->leaf_parent[i]),
                        plod__node_add(r, parents[1].id, &r->geom[n].self, r->leaf_parent[n])};
     for (int k = 0; k < 2; k++) {
@@ -817,7 +814,15 @@ static void plod__split_diamond(plod_refiner *r, size_t i, size_t n)
             g->eval_frame = r->frame - 1;
             r->leaf_parent[at] = node[k];
             plod__apply_bound(c, &g->self);
-            plod__leaf_link(r, at);
+            int32_t key[3];
+            if (at != pair[k]) {
+                plod__edge_key(r, c, 2, key);
+                plod__edge_replace(r, key, (int32_t)pair[k], (int32_t)at);
+            }
+            for (int e = 0; e < 2; e++) {
+                plod__edge_key(r, c, e, key);
+                plod__edge_add(r, key, (int32_t)at);
+            }
         }
     }
     r->splits += 2;
@@ -974,19 +979,34 @@ static int plod__merge_diamond(plod_refiner *r, size_t ia, int32_t pi)
     plod__node_remove(r, pi);
     plod__node_remove(r, qi);
     size_t ib_ = (size_t)ib, ic_ = (size_t)ic, id2 = (size_t)id_;
-    /* all four out before the parents go in: their outer edges are shared */
-    plod__leaf_unlink(r, ia);
-    plod__leaf_unlink(r, ib_);
-    plod__leaf_unlink(r, ic_);
-    plod__leaf_unlink(r, id2);
+    /* edge table, incrementally (the reverse of plod__split_diamond): each
+     * child's hypotenuse is a leg of its parent, relinked to the parent's
+     * slot; the children's other edges go; the parents' shared hypotenuse
+     * comes back */
+    const size_t child_at[4] = {ia, ib_, ic_, id2};
+    for (int x = 0; x < 4; x++) {
+        size_t to = x < 2 ? ia : ic_;
+        const plod_sector *child = &r->leaves[child_at[x]];
+        int32_t key[3];
+        if (child_at[x] != to) {
+            plod__edge_key(r, child, 2, key);
+            plod__edge_replace(r, key, (int32_t)child_at[x], (int32_t)to);
+        }
+        for (int e = 0; e < 2; e++) {
+            plod__edge_key(r, child, e, key);
+            plod__edge_remove(r, key, (int32_t)child_at[x]);
+        }
+    }
     r->leaves[ia] = p;
     r->geom[ia] = gp;
     r->leaf_parent[ia] = gp_gq_parent[0];
     r->leaves[ic_] = q;
     r->geom[ic_] = gq;
     r->leaf_parent[ic_] = gp_gq_parent[1];
-    plod__leaf_link(r, ia);
-    plod__leaf_link(r, ic_);
+    int32_t hyp[3];
+    plod__edge_key(r, &p, 2, hyp);
+    plod__edge_add(r, hyp, (int32_t)ia);
+    plod__edge_add(r, hyp, (int32_t)ic_);
     size_t hi = ib_ > id2 ? ib_ : id2, lo = ib_ > id2 ? id2 : ib_;
     size_t at[2] = {ia, ic_};
     for (int k = 0; k < 2; k++) {
