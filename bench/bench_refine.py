@@ -65,9 +65,9 @@ def descent(frames, lat_deg=27.9, lon_deg=86.9, terrain_top=0.0):
         yield alt, look_at(eye, target, up)
 
 
-def run(planet, frames, every, label, terrain_top, fresh_too=True, template_level=4):
+def run(planet, frames, every, label, terrain_top, fresh_too=True, template_level=4, threads=1):
     print(f"\n== {label}: {frames} frames, 1 px, 1920x1080, template level {template_level} "
-          f"({4 ** template_level} triangles/sector) ==")
+          f"({4 ** template_level} triangles/sector), {threads} thread(s) ==")
     head = (f"{'altitude m':>12} {'total':>7} {'backface':>8} {'frustum':>8} {'visible':>8} "
             f"{'splits':>6} {'merges':>6} {'level':>5} {'refine µs':>9} {'cull µs':>8} {'fresh µs':>9}")
     print(head)
@@ -80,7 +80,7 @@ def run(planet, frames, every, label, terrain_top, fresh_too=True, template_leve
         cam = planetlod.Camera(m, lens=50.0, sensor_width=36.0, resolution_x=1920,
                                resolution_y=1080, clip_start=near, clip_end=far)
         t_cpu = time.thread_time()
-        s = planet.refine(cam, template_level=template_level)
+        s = planet.refine(cam, template_level=template_level, threads=threads)
         s["cpu_us"] = (time.thread_time() - t_cpu) * 1e6
         fresh_us = float("nan")
         if fresh_too and k % every == 0:
@@ -123,11 +123,13 @@ def main():
     ap.add_argument("--every", type=int, default=20)
     ap.add_argument("--size", type=int, default=0, help="cube map face size (0 = from image)")
     ap.add_argument("--sphere", action="store_true", help="only the perfect sphere")
+    ap.add_argument("--threads", type=int, default=1,
+                    help="refine(threads=...): parallel predicate evaluation (default 1)")
     ap.add_argument("--template-level", type=int, default=4,
                     help="sector template level (4 = 256 triangles/sector, the default)")
     args = ap.parse_args()
     print(f"planetlod refine benchmark; python {sys.version.split()[0]}; "
-          f"{os.cpu_count()} cpus; single thread")
+          f"{os.cpu_count()} cpus; refine threads={args.threads}")
     if not args.sphere:
         path = os.path.join(ROOT, "data", "earth-topology.png")
         t = time.perf_counter()
@@ -137,10 +139,10 @@ def main():
         print(f"Earth topology -> QSC cube map {earth.heightmap.size}^2 x 6 in "
               f"{time.perf_counter() - t:.2f} s; heights {lo:.0f}..{hi:.0f} m")
         run(earth, args.frames, args.every, "Earth topology (QSC), descent to 2 m over Everest",
-            terrain_top=hi, template_level=args.template_level)
+            terrain_top=hi, template_level=args.template_level, threads=args.threads)
     sphere = planetlod.Planet(R, projection="qsc")
     run(sphere, args.frames, args.every, "perfect sphere (QSC)", terrain_top=0.0,
-        template_level=args.template_level)
+        template_level=args.template_level, threads=args.threads)
     side = planetlod.Planet(R, projection="qsc")
     print("\n(side/distance criterion, split 0.5, on the sphere)")
     per = []

@@ -37,6 +37,7 @@
 
 #include <assert.h>
 #include <math.h>
+#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
@@ -1171,6 +1172,67 @@ void plod_refine_params_default(plod_refine_params *params)
     params->frustum_culling = 1;
     params->skip_sea = 0;
     params->max_sectors = PLOD_DEFAULT_MAX_SECTORS;
+    params->threads = 1;
+}
+
+/* ---- parallel evaluation ------------------------------------------------------- */
+
+/* P of nodes [node_begin, node_end) and P plus cull flags of leaves
+ * [leaf_begin, leaf_end), written to their own slots only (pure functions
+ * of the bounds and the camera, so any split of the work gives the same
+ * bits as the lazy single-threaded evaluation). */
+typedef struct plod__eval_chunk {
+    plod_refiner *r;
+    size_t node_begin, node_end, leaf_begin, leaf_end;
+} plod__eval_chunk;
+
+static void *plod__eval_run(void *arg)
+{
+    const plod__eval_chunk *c = arg;
+    plod_refiner *r = c->r;
+    for (size_t k = c->node_begin; k < c->node_end; k++)
+        r->node_state[k] = r->nodes[k].id && plod__node_p(r, (int32_t)k)
+                               ? PLOD__P_KNOWN | PLOD__P_TRUE
+                               : PLOD__P_KNOWN;
+    for (size_t i = c->leaf_begin; i < c->leaf_end; i++) {
+        plod__geom *g = &r->geom[i];
+        unsigned flags;
+        g->eval_split = (uint8_t)plod__wants_split(r, &g->self, r->leaves[i].level, &flags,
+                                                   &g->eval_distance);
+        g->eval_flags = (uint8_t)flags;
+        g->eval_frame = r->frame;
+    }
+    return NULL;
+}
+
+/* Evaluates every node's P and every leaf's P and flags on `threads`
+ * threads; returns 0 (nothing done) for small sets or when no thread could
+ * be started, and the caller evaluates lazily as usual. */
+static int plod__eval_parallel(plod_refiner *r, int threads)
+{
+    size_t work = r->node_top + r->count;
+    if (threads < 2 || work < 4096)
+        return 0;
+    plod__eval_chunk chunks[PLOD_REFINE_MAX_THREADS];
+    pthread_t ids[PLOD_REFINE_MAX_THREADS];
+    int started[PLOD_REFINE_MAX_THREADS] = {0};
+    for (int t = 0; t < threads; t++) {
+        chunks[t].r = r;
+        chunks[t].node_begin = r->node_top * (size_t)t / (size_t)threads;
+        chunks[t].node_end = r->node_top * (size_t)(t + 1) / (size_t)threads;
+        chunks[t].leaf_begin = r->count * (size_t)t / (size_t)threads;
+        chunks[t].leaf_end = r->count * (size_t)(t + 1) / (size_t)threads;
+    }
+    for (int t = 1; t < threads; t++)
+        started[t] = pthread_create(&ids[t], NULL, plod__eval_run, &chunks[t]) == 0;
+    plod__eval_run(&chunks[0]);
+    for (int t = 1; t < threads; t++) {
+        if (started[t])
+            pthread_join(ids[t], NULL);
+        else
+            plod__eval_run(&chunks[t]); /* could not start: do it here */
+    }
+    return 1;
 }
 
 /* ---- update ------------------------------------------------------------------ */
@@ -1211,6 +1273,8 @@ static plod_status plod__check_params(const plod_refine_params *p)
     if (p->max_level < 0 || p->max_level > PLOD_MAX_LEVEL)
         return PLOD_ERR_BAD_PARAM;
     if (p->max_sectors < 12)
+        return PLOD_ERR_BAD_PARAM;
+    if (p->threads < 1 || p->threads > PLOD_REFINE_MAX_THREADS)
         return PLOD_ERR_BAD_PARAM;
     return PLOD_OK;
 }
@@ -1267,6 +1331,7 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
     /* P* of every internal node in one sequential, top-down sweep (parents
      * come first); P is evaluated only where the parent passes P* */
     plod__node_compact(r);
+    int evaluated = plod__eval_parallel(r, params->threads);
     for (size_t k = 0; k < r->node_top; k++) {
         if (!r->nodes[k].id) {
             r->node_state[k] = 0;
@@ -1277,9 +1342,9 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
             r->node_state[k] = PLOD__STAR_KNOWN; /* P* false, P not needed */
             continue;
         }
-        r->node_state[k] = plod__node_p(r, (int32_t)k)
-                               ? PLOD__STAR_KNOWN | PLOD__P_KNOWN | PLOD__P_TRUE | PLOD__STAR_TRUE
-                               : PLOD__STAR_KNOWN | PLOD__P_KNOWN;
+        int p = evaluated ? (r->node_state[k] & PLOD__P_TRUE) != 0 : plod__node_p(r, (int32_t)k);
+        r->node_state[k] = p ? PLOD__STAR_KNOWN | PLOD__P_KNOWN | PLOD__P_TRUE | PLOD__STAR_TRUE
+                             : PLOD__STAR_KNOWN | PLOD__P_KNOWN;
     }
     /* merge pass: every diamond whose parents fail the split predicate;
      * downwards, so the leaves moved into holes were already visited, and

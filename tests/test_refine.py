@@ -150,6 +150,35 @@ def test_deterministic_with_heightmap(planetlod, earth):
     assert sorted_ids(earth) == want
 
 
+def test_threads_identical(planetlod, earth):
+    """threads=2 evaluates the per-frame predicates in parallel: same sectors,
+    same flags (budget ranking included) as one thread, frame after frame."""
+    cams = [surface_camera(planetlod, EARTH_R, alt, lat=0.5, lon=1.4) for alt in (3e5, 300.0, 5.0, 2e4)]
+    one = planetlod.Planet(EARTH_R, projection="qsc", heightmap=earth.heightmap,
+                           height_scale=8848.0, sea_level=0.0)
+    two = planetlod.Planet(EARTH_R, projection="qsc", heightmap=earth.heightmap,
+                           height_scale=8848.0, sea_level=0.0)
+    parallel = 0
+    for budget in (0, 300):
+        for cam in cams:
+            s1 = one.refine(cam, budget=budget, max_pixel_error=0.5)
+            s2 = two.refine(cam, budget=budget, max_pixel_error=0.5, threads=2)
+            assert s1["sectors_total"] > 12
+            parallel += 2 * s1["sectors_total"] >= 4096  # large: the threaded path runs
+            for key in ("sectors_total", "sectors_after_frustum", "sectors_after_budget",
+                        "splits", "merges"):
+                assert s1[key] == s2[key]
+            assert one.sector_ids(visible_only=False).tolist() == \
+                two.sector_ids(visible_only=False).tolist()
+            assert one.sector_flags(visible_only=False).tolist() == \
+                two.sector_flags(visible_only=False).tolist()
+    assert parallel >= 4
+    assert two.check_invariants()
+    for bad in (0, 17):
+        with pytest.raises(planetlod.InvalidArgument):
+            two.refine(cams[0], threads=bad)
+
+
 def test_hysteresis_keeps_history(planetlod):
     near = surface_camera(planetlod, EARTH_R, 100.0)
     far = surface_camera(planetlod, EARTH_R, 400.0)
