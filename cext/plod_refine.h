@@ -63,7 +63,12 @@ typedef struct plod_refine_params {
     size_t max_sectors;      /* hard cap on leaves (memory bound); default
                                 PLOD_DEFAULT_MAX_SECTORS; when reached the
                                 split pass stops (stats.truncated) */
+    int threads;             /* 1..PLOD_REFINE_MAX_THREADS, default 1: threads
+                                that evaluate the per-frame predicates of
+                                large sector sets; result identical to 1 */
 } plod_refine_params;
+
+#define PLOD_REFINE_MAX_THREADS 16
 
 #define PLOD_DEFAULT_MAX_SECTORS ((size_t)1 << 20)
 

@@ -393,7 +393,7 @@ static PyObject *plod__planet_refine(plod_py_planet *self, PyObject *args, PyObj
     static char *kwlist[] = {"camera", "criterion", "max_pixel_error", "split_border",
                              "merge_border", "hysteresis", "template_level", "max_level",
                              "budget", "backface", "frustum", "skip_sea", "max_sectors",
-                             NULL};
+                             "threads", NULL};
     PyObject *cam_obj;
     const char *criterion = "pixel";
     plod_refine_params p;
@@ -401,11 +401,12 @@ static PyObject *plod__planet_refine(plod_py_planet *self, PyObject *args, PyObj
     Py_ssize_t budget = 0, max_sectors = (Py_ssize_t)PLOD_DEFAULT_MAX_SECTORS;
     if (!plod__planet_ready(self))
         return NULL;
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O|sdddpiinpppn", kwlist, &cam_obj,
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O|sdddpiinpppni", kwlist, &cam_obj,
                                      &criterion, &p.max_pixel_error, &p.split_border,
                                      &p.merge_border, &p.hysteresis, &p.template_level,
                                      &p.max_level, &budget, &p.backface_culling,
-                                     &p.frustum_culling, &p.skip_sea, &max_sectors))
+                                     &p.frustum_culling, &p.skip_sea, &max_sectors,
+                                     &p.threads))
         return NULL;
     const plod_camera *cam = plod__camera_arg(cam_obj);
     if (!cam)
@@ -422,6 +423,8 @@ static PyObject *plod__planet_refine(plod_py_planet *self, PyObject *args, PyObj
                                     "budget must be >= 0 (0 = unlimited)");
     if (max_sectors < 12)
         return plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "refine", "max_sectors must be >= 12");
+    if (p.threads < 1 || p.threads > PLOD_REFINE_MAX_THREADS)
+        return plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "refine", "threads must be 1..16");
     p.budget = (size_t)budget;
     p.max_sectors = (size_t)max_sectors;
     plod_refine_stats s;
@@ -440,8 +443,11 @@ static PyObject *plod__planet_refine(plod_py_planet *self, PyObject *args, PyObj
     self->params = p;
     self->stats = s;
     self->has_camera = 1;
+    /* what planet.mesh(template_level) would emit for the visible sectors */
+    size_t per_v = plod_template_vertex_count(p.template_level);
+    size_t per_t = plod_template_triangle_count(p.template_level);
     return Py_BuildValue(
-        "{s:n,s:n,s:n,s:n,s:n,s:n,s:n,s:d,s:d,s:i,s:O,s:I}", "sectors_total",
+        "{s:n,s:n,s:n,s:n,s:n,s:n,s:n,s:d,s:d,s:i,s:O,s:I,s:K,s:K}", "sectors_total",
         (Py_ssize_t)s.sectors_total, "sectors_after_backface",
         (Py_ssize_t)s.sectors_after_backface, "sectors_after_frustum",
         (Py_ssize_t)s.sectors_after_frustum, "sectors_after_budget",
@@ -449,7 +455,8 @@ static PyObject *plod__planet_refine(plod_py_planet *self, PyObject *args, PyObj
         (Py_ssize_t)s.sectors_sea_skipped, "splits", (Py_ssize_t)s.splits, "merges",
         (Py_ssize_t)s.merges, "refine_us", s.refine_us, "cull_us", s.cull_us, "max_level",
         s.max_level_reached, "truncated", s.truncated ? Py_True : Py_False, "frame",
-        s.frame);
+        s.frame, "vertices", (unsigned long long)(s.sectors_after_budget * per_v),
+        "triangles", (unsigned long long)(s.sectors_after_budget * per_t));
 }
 
 static PyObject *plod__planet_reset(plod_py_planet *self, PyObject *unused)
@@ -746,7 +753,7 @@ static PyMethodDef plod__planet_methods[] = {
     {"refine", (PyCFunction)(void (*)(void))plod__planet_refine_locked, METH_VARARGS | METH_KEYWORDS,
      "refine(camera, criterion='pixel', max_pixel_error=1.0, split_border=0.5, "
      "merge_border=0.25, hysteresis=False, template_level=4, max_level=48, budget=0, "
-     "backface=True, frustum=True, skip_sea=False, max_sectors=1<<20) -> dict"},
+     "backface=True, frustum=True, skip_sea=False, max_sectors=1<<20, threads=1) -> dict"},
     {"reset", (PyCFunction)(void (*)(void))plod__planet_reset_locked, METH_NOARGS, "back to the base sectors"},
     {"check_invariants", (PyCFunction)(void (*)(void))plod__planet_check_locked, METH_NOARGS,
      "check_invariants() -> bool: internal adjacency/tree invariants hold (tests)"},

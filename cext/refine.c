@@ -23,9 +23,11 @@
  * queries).  Caps of children do not nest in their parents' (projection
  * distortion), so P alone is not monotone; the refinement uses
  * P*(node) = P(node) and P*(parent), which is.  The bounds of the internal
- * (split) nodes are kept in a dense array with a free list; every leaf and
- * node holds its parent's index there, so P* costs one memoised evaluation
- * per node per frame and no lookups.  Each frame merges every diamond whose two
+ * (split) nodes are kept in a dense array in creation order (removed ones
+ * leave holes until the next compaction, which keeps the order), so a
+ * parent always precedes its children; every leaf and node holds its
+ * parent's index.  One sequential sweep per frame then gives P* of every
+ * node top-down, skipping P where the parent already fails P*.  Each frame merges every diamond whose two
  * parents fail P*, then splits every leaf that passes it (with forced
  * splits), until stable: the unique minimal conforming refinement of
  * {P* true}, whatever the previous frame was.  With `hysteresis` the merge
@@ -35,6 +37,7 @@
 
 #include <assert.h>
 #include <math.h>
+#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
@@ -105,12 +108,11 @@ struct plod_refiner {
     size_t *pending;             /* split pass: in-place children to revisit */
     size_t pending_count, pending_capacity;
     plod__node *nodes;           /* internal nodes, dense, stable indices */
-    int32_t *node_parent;        /* parent's index, -1 for a base sector;
-                                    the next free slot while free */
+    int32_t *node_parent;        /* parent's index (< own), -1 at level 0 */
     uint8_t *node_state;         /* PLOD__P_* | PLOD__STAR_* this frame */
     uint8_t *node_leaves;        /* how many of its 2 children are leaves */
-    size_t node_capacity, node_top, node_used; /* node_top: slots ever used */
-    int32_t node_free;           /* head of the free-slot list, -1 = none */
+    size_t node_capacity, node_top, node_used; /* node_top: slots in use or
+                                                  holes (id 0) */
     uint32_t frame;
     double global_hmin, global_hmax;
     /* per-update evaluation context */
@@ -321,15 +323,6 @@ static void plod__leaf_link(plod_refiner *r, size_t index)
     }
 }
 
-static void plod__leaf_unlink(plod_refiner *r, size_t index)
-{
-    for (int e = 0; e < 3; e++) {
-        int32_t key[3];
-        plod__edge_key(r, &r->leaves[index], e, key);
-        plod__edge_remove(r, key, (int32_t)index);
-    }
-}
-
 /* Room for `extra` more leaves (and their edges). */
 static plod_status plod__reserve(plod_refiner *r, size_t extra)
 {
@@ -400,14 +393,9 @@ static plod_status plod__node_reserve(plod_refiner *r, size_t extra)
 static int32_t plod__node_add(plod_refiner *r, uint64_t id, const plod__bound *bound,
                               int32_t parent)
 {
-    int32_t at;
-    if (r->node_free >= 0) {
-        at = r->node_free;
-        r->node_free = r->node_parent[at];
-    } else {
-        assert(r->node_top < r->node_capacity);
-        at = (int32_t)r->node_top++;
-    }
+    assert(r->node_top < r->node_capacity);
+    assert(parent < (int32_t)r->node_top);
+    int32_t at = (int32_t)r->node_top++; /* after its parent: creation order */
     plod__node *n = &r->nodes[at];
     n->id = id;
     n->bound = *bound;
@@ -421,10 +409,40 @@ static int32_t plod__node_add(plod_refiner *r, uint64_t id, const plod__bound *b
 static void plod__node_remove(plod_refiner *r, int32_t at)
 {
     assert(at >= 0 && (size_t)at < r->node_top && r->nodes[at].id);
-    r->nodes[at].id = 0;
-    r->node_parent[at] = r->node_free;
-    r->node_free = at;
+    r->nodes[at].id = 0; /* a hole until plod__node_compact */
     r->node_used--;
+}
+
+/* Squeezes the holes out of the node arrays, keeping the order (parents
+ * before children), and renumbers the parent indices of nodes and leaves.
+ * Runs when holes outnumber live nodes: amortised O(1) per removal. */
+static void plod__node_compact(plod_refiner *r)
+{
+    if (r->node_top < 64 || r->node_top < 2 * r->node_used)
+        return;
+    int32_t *map = malloc(r->node_top * sizeof *map);
+    if (!map)
+        return; /* the holes stay: only memory, never correctness */
+    size_t next = 0;
+    for (size_t k = 0; k < r->node_top; k++) {
+        if (!r->nodes[k].id) {
+            map[k] = -1;
+            continue;
+        }
+        int32_t parent = r->node_parent[k];
+        assert(parent < (int32_t)k);
+        map[k] = (int32_t)next;
+        r->nodes[next] = r->nodes[k]; /* next <= k: in place */
+        r->node_parent[next] = parent >= 0 ? map[parent] : -1;
+        r->node_leaves[next] = r->node_leaves[k];
+        next++;
+    }
+    for (size_t i = 0; i < r->count; i++)
+        if (r->leaf_parent[i] >= 0)
+            r->leaf_parent[i] = map[r->leaf_parent[i]];
+    assert(next == r->node_used);
+    r->node_top = next;
+    free(map);
 }
 
 /* ---- geometry of a node ---------------------------------------------------- */
@@ -772,8 +790,14 @@ static void plod__split_diamond(plod_refiner *r, size_t i, size_t n)
 {
     size_t pair[2] = {i, n};
     plod_sector parents[2] = {r->leaves[i], r->leaves[n]};
-    plod__leaf_unlink(r, i);
-    plod__leaf_unlink(r, n);
+    /* edge table, incrementally: the shared hypotenuse goes; a child's own
+     * hypotenuse is one of its parent's legs (child 0 keeps the parent's
+     * slot, so only child 1's leg is relinked); the children's other two
+     * edges are new (each shared by two of the four children) */
+    int32_t hyp[3];
+    plod__edge_key(r, &parents[0], 2, hyp);
+    plod__edge_remove(r, hyp, (int32_t)i);
+    plod__edge_remove(r, hyp, (int32_t)n);
     int32_t node[2] = {plod__node_add(r, parents[0].id, &r->geom[i].self, r->leaf_parent[i]),
                        plod__node_add(r, parents[1].id, &r->geom[n].self, r->leaf_parent[n])};
     for (int k = 0; k < 2; k++) {
@@ -791,7 +815,15 @@ static void plod__split_diamond(plod_refiner *r, size_t i, size_t n)
             g->eval_frame = r->frame - 1;
             r->leaf_parent[at] = node[k];
             plod__apply_bound(c, &g->self);
-            plod__leaf_link(r, at);
+            int32_t key[3];
+            if (at != pair[k]) {
+                plod__edge_key(r, c, 2, key);
+                plod__edge_replace(r, key, (int32_t)pair[k], (int32_t)at);
+            }
+            for (int e = 0; e < 2; e++) {
+                plod__edge_key(r, c, e, key);
+                plod__edge_add(r, key, (int32_t)at);
+            }
         }
     }
     r->splits += 2;
@@ -948,19 +980,34 @@ static int plod__merge_diamond(plod_refiner *r, size_t ia, int32_t pi)
     plod__node_remove(r, pi);
     plod__node_remove(r, qi);
     size_t ib_ = (size_t)ib, ic_ = (size_t)ic, id2 = (size_t)id_;
-    /* all four out before the parents go in: their outer edges are shared */
-    plod__leaf_unlink(r, ia);
-    plod__leaf_unlink(r, ib_);
-    plod__leaf_unlink(r, ic_);
-    plod__leaf_unlink(r, id2);
+    /* edge table, incrementally (the reverse of plod__split_diamond): each
+     * child's hypotenuse is a leg of its parent, relinked to the parent's
+     * slot; the children's other edges go; the parents' shared hypotenuse
+     * comes back */
+    const size_t child_at[4] = {ia, ib_, ic_, id2};
+    for (int x = 0; x < 4; x++) {
+        size_t to = x < 2 ? ia : ic_;
+        const plod_sector *child = &r->leaves[child_at[x]];
+        int32_t key[3];
+        if (child_at[x] != to) {
+            plod__edge_key(r, child, 2, key);
+            plod__edge_replace(r, key, (int32_t)child_at[x], (int32_t)to);
+        }
+        for (int e = 0; e < 2; e++) {
+            plod__edge_key(r, child, e, key);
+            plod__edge_remove(r, key, (int32_t)child_at[x]);
+        }
+    }
     r->leaves[ia] = p;
     r->geom[ia] = gp;
     r->leaf_parent[ia] = gp_gq_parent[0];
     r->leaves[ic_] = q;
     r->geom[ic_] = gq;
     r->leaf_parent[ic_] = gp_gq_parent[1];
-    plod__leaf_link(r, ia);
-    plod__leaf_link(r, ic_);
+    int32_t hyp[3];
+    plod__edge_key(r, &p, 2, hyp);
+    plod__edge_add(r, hyp, (int32_t)ia);
+    plod__edge_add(r, hyp, (int32_t)ic_);
     size_t hi = ib_ > id2 ? ib_ : id2, lo = ib_ > id2 ? id2 : ib_;
     size_t at[2] = {ia, ic_};
     for (int k = 0; k < 2; k++) {
@@ -1016,7 +1063,6 @@ static plod_status plod__build_base(plod_refiner *r)
     r->edge_used = 0;
     r->node_used = 0;
     r->node_top = 0;
-    r->node_free = -1;
     if (r->edges)
         for (size_t i = 0; i <= r->edge_mask; i++)
             r->edges[i].leaf[0] = r->edges[i].leaf[1] = -1;
@@ -1126,6 +1172,67 @@ void plod_refine_params_default(plod_refine_params *params)
     params->frustum_culling = 1;
     params->skip_sea = 0;
     params->max_sectors = PLOD_DEFAULT_MAX_SECTORS;
+    params->threads = 1;
+}
+
+/* ---- parallel evaluation ------------------------------------------------------- */
+
+/* P of nodes [node_begin, node_end) and P plus cull flags of leaves
+ * [leaf_begin, leaf_end), written to their own slots only (pure functions
+ * of the bounds and the camera, so any split of the work gives the same
+ * bits as the lazy single-threaded evaluation). */
+typedef struct plod__eval_chunk {
+    plod_refiner *r;
+    size_t node_begin, node_end, leaf_begin, leaf_end;
+} plod__eval_chunk;
+
+static void *plod__eval_run(void *arg)
+{
+    const plod__eval_chunk *c = arg;
+    plod_refiner *r = c->r;
+    for (size_t k = c->node_begin; k < c->node_end; k++)
+        r->node_state[k] = r->nodes[k].id && plod__node_p(r, (int32_t)k)
+                               ? PLOD__P_KNOWN | PLOD__P_TRUE
+                               : PLOD__P_KNOWN;
+    for (size_t i = c->leaf_begin; i < c->leaf_end; i++) {
+        plod__geom *g = &r->geom[i];
+        unsigned flags;
+        g->eval_split = (uint8_t)plod__wants_split(r, &g->self, r->leaves[i].level, &flags,
+                                                   &g->eval_distance);
+        g->eval_flags = (uint8_t)flags;
+        g->eval_frame = r->frame;
+    }
+    return NULL;
+}
+
+/* Evaluates every node's P and every leaf's P and flags on `threads`
+ * threads; returns 0 (nothing done) for small sets or when no thread could
+ * be started, and the caller evaluates lazily as usual. */
+static int plod__eval_parallel(plod_refiner *r, int threads)
+{
+    size_t work = r->node_top + r->count;
+    if (threads < 2 || work < 4096)
+        return 0;
+    plod__eval_chunk chunks[PLOD_REFINE_MAX_THREADS];
+    pthread_t ids[PLOD_REFINE_MAX_THREADS];
+    int started[PLOD_REFINE_MAX_THREADS] = {0};
+    for (int t = 0; t < threads; t++) {
+        chunks[t].r = r;
+        chunks[t].node_begin = r->node_top * (size_t)t / (size_t)threads;
+        chunks[t].node_end = r->node_top * (size_t)(t + 1) / (size_t)threads;
+        chunks[t].leaf_begin = r->count * (size_t)t / (size_t)threads;
+        chunks[t].leaf_end = r->count * (size_t)(t + 1) / (size_t)threads;
+    }
+    for (int t = 1; t < threads; t++)
+        started[t] = pthread_create(&ids[t], NULL, plod__eval_run, &chunks[t]) == 0;
+    plod__eval_run(&chunks[0]);
+    for (int t = 1; t < threads; t++) {
+        if (started[t])
+            pthread_join(ids[t], NULL);
+        else
+            plod__eval_run(&chunks[t]); /* could not start: do it here */
+    }
+    return 1;
 }
 
 /* ---- update ------------------------------------------------------------------ */
@@ -1166,6 +1273,8 @@ static plod_status plod__check_params(const plod_refine_params *p)
     if (p->max_level < 0 || p->max_level > PLOD_MAX_LEVEL)
         return PLOD_ERR_BAD_PARAM;
     if (p->max_sectors < 12)
+        return PLOD_ERR_BAD_PARAM;
+    if (p->threads < 1 || p->threads > PLOD_REFINE_MAX_THREADS)
         return PLOD_ERR_BAD_PARAM;
     return PLOD_OK;
 }
@@ -1219,13 +1328,24 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
     r->truncated = 0;
     r->splits = r->merges = 0;
 
-    /* P of every internal node in one sequential sweep (cache-friendly);
-     * P* then follows parent indices through the byte states */
-    for (size_t k = 0; k < r->node_top; k++)
-        r->node_state[k] = r->nodes[k].id
-                               ? (uint8_t)(PLOD__P_KNOWN |
-                                           (plod__node_p(r, (int32_t)k) ? PLOD__P_TRUE : 0u))
-                               : 0;
+    /* P* of every internal node in one sequential, top-down sweep (parents
+     * come first); P is evaluated only where the parent passes P* */
+    plod__node_compact(r);
+    int evaluated = plod__eval_parallel(r, params->threads);
+    for (size_t k = 0; k < r->node_top; k++) {
+        if (!r->nodes[k].id) {
+            r->node_state[k] = 0;
+            continue;
+        }
+        int32_t parent = r->node_parent[k];
+        if (parent >= 0 && !(r->node_state[parent] & PLOD__STAR_TRUE)) {
+            r->node_state[k] = PLOD__STAR_KNOWN; /* P* false, P not needed */
+            continue;
+        }
+        int p = evaluated ? (r->node_state[k] & PLOD__P_TRUE) != 0 : plod__node_p(r, (int32_t)k);
+        r->node_state[k] = p ? PLOD__STAR_KNOWN | PLOD__P_KNOWN | PLOD__P_TRUE | PLOD__STAR_TRUE
+                             : PLOD__STAR_KNOWN | PLOD__P_KNOWN;
+    }
     /* merge pass: every diamond whose parents fail the split predicate;
      * downwards, so the leaves moved into holes were already visited, and
      * merges cascade upwards as subtrees collapse */
@@ -1395,7 +1515,7 @@ plod_status plod_refiner_check(const plod_refiner *r)
         int32_t parent = r->node_parent[k];
         if (top != (parent < 0))
             return PLOD_ERR_BAD_PARAM;
-        if (!top && ((size_t)parent >= r->node_top ||
+        if (!top && ((size_t)parent >= k ||
                      r->nodes[parent].id != plod__parent_id(n->id)))
             return PLOD_ERR_BAD_PARAM;
     }

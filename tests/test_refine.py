@@ -150,6 +150,35 @@ def test_deterministic_with_heightmap(planetlod, earth):
     assert sorted_ids(earth) == want
 
 
+def test_threads_identical(planetlod, earth):
+    """threads=2 evaluates the per-frame predicates in parallel: same sectors,
+    same flags (budget ranking included) as one thread, frame after frame."""
+    cams = [surface_camera(planetlod, EARTH_R, alt, lat=0.5, lon=1.4) for alt in (3e5, 300.0, 5.0, 2e4)]
+    one = planetlod.Planet(EARTH_R, projection="qsc", heightmap=earth.heightmap,
+                           height_scale=8848.0, sea_level=0.0)
+    two = planetlod.Planet(EARTH_R, projection="qsc", heightmap=earth.heightmap,
+                           height_scale=8848.0, sea_level=0.0)
+    parallel = 0
+    for budget in (0, 300):
+        for cam in cams:
+            s1 = one.refine(cam, budget=budget, max_pixel_error=0.5)
+            s2 = two.refine(cam, budget=budget, max_pixel_error=0.5, threads=2)
+            assert s1["sectors_total"] > 12
+            parallel += 2 * s1["sectors_total"] >= 4096  # large: the threaded path runs
+            for key in ("sectors_total", "sectors_after_frustum", "sectors_after_budget",
+                        "splits", "merges"):
+                assert s1[key] == s2[key]
+            assert one.sector_ids(visible_only=False).tolist() == \
+                two.sector_ids(visible_only=False).tolist()
+            assert one.sector_flags(visible_only=False).tolist() == \
+                two.sector_flags(visible_only=False).tolist()
+    assert parallel >= 4
+    assert two.check_invariants()
+    for bad in (0, 17):
+        with pytest.raises(planetlod.InvalidArgument):
+            two.refine(cams[0], threads=bad)
+
+
 def test_hysteresis_keeps_history(planetlod):
     near = surface_camera(planetlod, EARTH_R, 100.0)
     far = surface_camera(planetlod, EARTH_R, 400.0)
@@ -178,6 +207,30 @@ def test_depth_48_near_the_surface(planetlod):
     assert s["max_level"] > 48
     with pytest.raises(planetlod.InvalidArgument):
         p.refine(cam, max_level=53)
+
+
+def test_depth_48_over_terrain(planetlod, earth):
+    """Depth >= 48 with the Earth map: the height-range queries of sub-metre
+    sectors (far below one texel) still give sound bounds, and the leaves
+    under a camera 0.5 m above the local terrain are below a metre."""
+    lat, lon = 0.5, 1.4
+    d = np.array([math.cos(lat) * math.cos(lon), math.cos(lat) * math.sin(lon), math.sin(lat)])
+    ground = earth.height(*d)
+    cam = surface_camera(planetlod, EARTH_R + ground, 0.5, lat=lat, lon=lon, pitch=-0.5)
+    s = earth.refine(cam, criterion="side_distance", max_level=48)
+    assert s["max_level"] == 48
+    levels = np.array(earth.sector_levels(visible_only=False).tolist())
+    c = corners(earth)[levels == 48]
+    chords = np.linalg.norm(c[:, 0] - c[:, 2], axis=1) * EARTH_R
+    assert chords.max() < 1.0
+    h = np.array(earth.sector_heights(visible_only=False).tolist()).reshape(-1, 2)[levels == 48]
+    # the terrain under the deepest sectors lies inside their height bounds
+    for tri, (lo, hi) in zip(c[:50], h[:50]):
+        centre = tri.mean(0)
+        z = earth.height(*(centre / np.linalg.norm(centre)))
+        assert lo <= z <= hi
+    check_conforming(earth)
+    earth.reset()
 
 
 def test_pixel_criterion_scales_with_error_and_resolution(planetlod, earth):
@@ -209,6 +262,9 @@ def test_stats_consistent(planetlod, earth):
             >= s["sectors_after_budget"])
     assert s["refine_us"] > 0 and s["cull_us"] >= 0
     assert s["max_level"] == max(earth.sector_levels(visible_only=False).tolist())
+    # emitted geometry: what planet.mesh() writes for the visible sectors
+    assert s["vertices"] == earth.mesh(template_level=4).vertex_count
+    assert s["triangles"] == 4 ** 4 * s["sectors_after_budget"]  # default template_level 4
     raw = earth.sectors()
     assert len(raw) == earth.SECTOR_SIZE * earth.sector_count and earth.SECTOR_SIZE <= 64
     assert len(earth.sector_ids()) == earth.visible_count
@@ -329,3 +385,32 @@ def test_bad_cameras(planetlod):
     for kw in cases:
         with pytest.raises(planetlod.InvalidArgument):
             planetlod.Camera(**kw)
+
+
+def test_extreme_cameras_give_safe_results(planetlod):
+    """Documented safe results instead of errors or unbounded work."""
+    p = planetlod.Planet(EARTH_R)
+    # so far away that the planet is below a pixel: base sectors, nothing visible
+    s = p.refine(planetlod.Camera(look_at((1e30, 0, 0), (0, 0, 0))))
+    assert s["sectors_total"] == 12 and s["sectors_after_budget"] == 0
+    # a scaled camera object (Blender allows it) is a valid camera
+    m = look_at((EARTH_R + 100.0, 0, 0), (0, 0, 0))
+    for i in range(3):
+        for j in range(3):
+            m[i][j] *= 1000.0
+    s = p.refine(planetlod.Camera(m))
+    assert s["sectors_after_budget"] > 0
+    # an absurdly wide view asks for millions of sectors: max_sectors caps it
+    wide = surface_camera(planetlod, EARTH_R, 10.0, lens=1e-9)
+    s = p.refine(wide, max_sectors=20000)
+    assert s["truncated"] and p.sector_count <= 20000
+    check_conforming(p)
+    # clip/pixel-aspect nonsense is refused when the camera is built
+    good = look_at((1e7, 0, 0), (0, 0, 0))
+    for kw in (dict(pixel_aspect_x=0.0), dict(pixel_aspect_y=float("nan")),
+               dict(clip_start=0.0), dict(clip_end=float("inf"))):
+        with pytest.raises(planetlod.InvalidArgument):
+            planetlod.Camera(good, **kw)
+    # and the planet is still usable
+    s = p.refine(surface_camera(planetlod, EARTH_R, 10.0))
+    assert not s["truncated"] and s["sectors_after_budget"] > 0
