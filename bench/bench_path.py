@@ -2,7 +2,7 @@
 """Camera-path benchmark (thesis 000_59ebda7e9bf9fb33.txt, chapter 6) plus the
 LOD-vs-uniform and sea-level-skipping comparisons (issue 6, parts 1, 2, 4).
 
-    /usr/bin/python3 bench/bench_path.py [--frames 400] [--smoke] [--out bench/results]
+    /usr/bin/python3 bench/bench_path.py [--frames 300] [--smoke] [--out bench/results]
 
 Replays bench/camera_path.csv (approach, orbit over both poles, descent, skim;
 linear interpolation between keyframes) over an Earth-radius planet with the
@@ -62,8 +62,12 @@ def mesh_bytes(mesh):
     return sum(memoryview(getattr(mesh, f)).nbytes for f in MESH_FIELDS)
 
 
+MAX_LEVEL = 24            # the add-on's default cap (props.max_level); --max-level
+
+
 def step(planet, cam, template_level, emit=True, **kw):
     """One frame: refine (+cull) then emission.  Returns a row dict."""
+    kw.setdefault("max_level", MAX_LEVEL)
     s = planet.refine(cam, template_level=template_level, **kw)
     row = {k: s[k] for k in ("sectors_total", "sectors_after_backface", "sectors_after_frustum",
                              "sectors_sea_skipped", "splits", "merges", "max_level")}
@@ -96,19 +100,24 @@ def mean(xs):
 
 
 def main():
+    global MAX_LEVEL
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--frames", type=int, default=400, help="frames along the 80 s path")
-    ap.add_argument("--template-frames", type=int, default=100,
+    ap.add_argument("--frames", type=int, default=300, help="frames along the 80 s path")
+    ap.add_argument("--template-frames", type=int, default=60,
                     help="frames for the template-density sweep")
     ap.add_argument("--smoke", action="store_true", help="a few frames, for CI (< 20 s)")
+    ap.add_argument("--max-level", type=int, default=MAX_LEVEL,
+                    help="refinement level cap (add-on default 24; the C default is 48)")
     ap.add_argument("--out", default=os.path.join(HERE, "results"))
     args = ap.parse_args()
+    MAX_LEVEL = args.max_level
     if args.smoke:
-        args.frames, args.template_frames = 24, 12
+        args.frames, args.template_frames = 10, 4
+    template_levels = range(6) if args.smoke else range(8)  # 4^7 = 16384 triangles
     os.makedirs(args.out, exist_ok=True)
     t_start = time.perf_counter()
     poses = camera_path.frames(args.frames)
-    summary = {"frames": args.frames, "resolution": RES, "height_scale": HEIGHT_SCALE,
+    summary = {"frames": args.frames, "resolution": RES, "max_level_cap": MAX_LEVEL, "height_scale": HEIGHT_SCALE,
                "cpus": os.cpu_count(), "loadavg_start": os.getloadavg()}
 
     # ---- part 1: projections x criteria, template 256 triangles ---------------
@@ -182,7 +191,7 @@ def main():
     tplanets = {(proj, lvl): planetlod.Planet(R, projection=proj,
                                                heightmap=planets[proj].heightmap,
                                                height_scale=HEIGHT_SCALE, sea_level=0.0)
-                for proj in ("qsc", "car") for lvl in range(8)}
+                for proj in ("qsc", "car") for lvl in template_levels}
     trows = []
     for k, (t, m, alt, seg) in enumerate(tposes):
         for (proj, lvl), p in tplanets.items():
