@@ -2,7 +2,7 @@
 """Camera-path benchmark (thesis 000_59ebda7e9bf9fb33.txt, chapter 6) plus the
 LOD-vs-uniform and sea-level-skipping comparisons (issue 6, parts 1, 2, 4).
 
-    /usr/bin/python3 bench/bench_path.py [--frames 300] [--smoke] [--out bench/results]
+    /usr/bin/python3 bench/bench_path.py [--frames 240] [--smoke] [--out bench/results]
 
 Replays bench/camera_path.csv (approach, orbit over both poles, descent, skim;
 linear interpolation between keyframes) over an Earth-radius planet with the
@@ -11,8 +11,10 @@ Per frame: sectors total / after backface / after frustum, triangles, splits,
 merges, refine µs (refine + cull) and emission ms (planet.mesh, 2 threads).
 Writes CSVs into --out:
   path_projections.csv  CAR quad-sphere and TSC/CSC/QSC cube-spheres, 1 px
-                        pixel criterion and the thesis's side/distance
-                        criterion (0.5/0.25), template 256 triangles
+                        pixel criterion, the thesis's side/distance
+                        criterion (0.5/0.25) and the 1 px criterion on a
+                        smooth sphere (pixel_smooth: geometry alone),
+                        template 256 triangles
   path_templates.csv    QSC, template densities 1..16384 (pixel criterion)
   uniform.csv           LOD vs the uniform mesh of the same finest level
   sealevel.csv          QSC Earth with and without sea-level skipping
@@ -41,6 +43,7 @@ R = camera_path.R_EARTH
 RES = (1280, 720)          # the thesis's resolution
 HEIGHT_SCALE = 8848.0
 EARTH = os.path.join(ROOT, "data", "earth-topology.png")
+CRITERIA = ("pixel", "side_distance", "pixel_smooth")
 MESH_FIELDS = ("positions", "normals", "uv", "morph", "triangles", "sector_level", "face")
 
 
@@ -102,8 +105,8 @@ def mean(xs):
 def main():
     global MAX_LEVEL
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--frames", type=int, default=300, help="frames along the 80 s path")
-    ap.add_argument("--template-frames", type=int, default=60,
+    ap.add_argument("--frames", type=int, default=240, help="frames along the 80 s path")
+    ap.add_argument("--template-frames", type=int, default=40,
                     help="frames for the template-density sweep")
     ap.add_argument("--smoke", action="store_true", help="a few frames, for CI (< 20 s)")
     ap.add_argument("--max-level", type=int, default=MAX_LEVEL,
@@ -112,7 +115,7 @@ def main():
     args = ap.parse_args()
     MAX_LEVEL = args.max_level
     if args.smoke:
-        args.frames, args.template_frames = 10, 4
+        args.frames, args.template_frames = 12, 4
     template_levels = range(6) if args.smoke else range(8)  # 4^7 = 16384 triangles
     os.makedirs(args.out, exist_ok=True)
     t_start = time.perf_counter()
@@ -129,11 +132,17 @@ def main():
         print(f"{proj}: Earth topology -> {planets[proj].heightmap.size}^2 cube map in "
               f"{time.perf_counter() - t0:.2f} s", flush=True)
     configs = []
-    for crit in ("pixel", "side_distance"):
+    # pixel_smooth: the 1 px criterion on a smooth sphere (no height map): the
+    # projections' geometry alone (curvature sag), without the height bounds
+    for crit in CRITERIA:
         for proj in ("car", "tsc", "csc", "qsc"):
-            p = planets[proj] if crit == "pixel" else planetlod.Planet(
-                R, projection=proj, heightmap=planets[proj].heightmap, height_scale=HEIGHT_SCALE,
-                sea_level=0.0)
+            if crit == "pixel":
+                p = planets[proj]
+            elif crit == "pixel_smooth":
+                p = planetlod.Planet(R, projection=proj)
+            else:
+                p = planetlod.Planet(R, projection=proj, heightmap=planets[proj].heightmap,
+                                     height_scale=HEIGHT_SCALE, sea_level=0.0)
             configs.append((proj, crit, p))
     rows = []
     tl = 4
@@ -141,7 +150,8 @@ def main():
         lat, lon = camera_latlon(m)
         for proj, crit, p in configs:
             cam = make_camera(p, m)
-            kw = {"criterion": crit, "max_pixel_error": 1.0}
+            kw = {"criterion": "pixel" if crit == "pixel_smooth" else crit,
+                  "max_pixel_error": 1.0}
             if crit == "side_distance":
                 kw.update(split_border=0.5, merge_border=0.25)
             r = {"frame": k, "t_s": round(t, 3), "segment": seg, "altitude_m": round(alt, 1),
@@ -160,7 +170,7 @@ def main():
     polar = lambda r: r["segment"] == "orbit" and abs(r["cam_lat"]) >= 60.0  # noqa: E731
     equatorial = lambda r: r["segment"] == "orbit" and abs(r["cam_lat"]) <= 30.0  # noqa: E731
     proj_summary = {}
-    for crit in ("pixel", "side_distance"):
+    for crit in CRITERIA:
         for proj in ("car", "tsc", "csc", "qsc"):
             allr = sel(proj, crit)
             proj_summary[f"{proj}/{crit}"] = {
@@ -177,7 +187,7 @@ def main():
                 "max_level": max(r["max_level"] for r in allr),
             }
     summary["projections"] = proj_summary
-    for crit in ("pixel", "side_distance"):
+    for crit in CRITERIA:
         for cube in ("qsc", "tsc", "csc"):
             a, b = proj_summary[f"car/{crit}"], proj_summary[f"{cube}/{crit}"]
             summary[f"polar_ratio_car_{cube}_{crit}"] = a["tri_polar"] / max(b["tri_polar"], 1e-9)
@@ -186,12 +196,12 @@ def main():
     print(json.dumps({k: v for k, v in summary.items() if k.startswith(("polar", "equator"))},
                      indent=1), flush=True)
 
-    # ---- part 1b: template densities 1..16384 (QSC and CAR, pixel) -------------
+    # ---- part 1b: template densities 1..16384 (QSC, pixel) ---------------------
     tposes = camera_path.frames(args.template_frames)
     tplanets = {(proj, lvl): planetlod.Planet(R, projection=proj,
                                                heightmap=planets[proj].heightmap,
                                                height_scale=HEIGHT_SCALE, sea_level=0.0)
-                for proj in ("qsc", "car") for lvl in template_levels}
+                for proj in ("qsc",) for lvl in template_levels}
     trows = []
     for k, (t, m, alt, seg) in enumerate(tposes):
         for (proj, lvl), p in tplanets.items():

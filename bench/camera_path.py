@@ -78,7 +78,9 @@ def pose(keys, t, radius=R_EARTH):
     fw = _norm(tuple(x + s * (y - x) for x, y in zip(f0, f1)))
     alt = math.exp(math.log(a0) + s * (math.log(a1) - math.log(a0)))
     loc = tuple(c * (radius + alt) for c in d)
-    return look_matrix(loc, fw, d), alt, (seg0 if s < 1.0 else seg1)
+    # an interval belongs to the segment of the key it leads to (the turn from
+    # the approach into the orbit is orbit, the first leg down is descent)
+    return look_matrix(loc, fw, d), alt, (seg0 if t1 == t0 else seg1)
 
 
 def frames(count, keys=None, radius=R_EARTH):

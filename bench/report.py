@@ -110,8 +110,10 @@ def fig_sectors(proj_rows, ctx):
 
 
 def fig_projections(proj_rows, ctx):
-    fig, axes = plt.subplots(2, 1, figsize=(10, 6.5), sharex=True)
-    for ax, crit in zip(axes, ("pixel", "side_distance")):
+    crits = [c for c in ("pixel", "side_distance", "pixel_smooth")
+             if any(r["criterion"] == c for r in proj_rows)]
+    fig, axes = plt.subplots(len(crits), 1, figsize=(10, 3.2 * len(crits)), sharex=True)
+    for ax, crit in zip(axes, crits):
         first = [r for r in proj_rows if r["projection"] == "qsc" and r["criterion"] == crit]
         shade_segments(ax, first)
         for proj in ("car", "tsc", "csc", "qsc"):
@@ -223,7 +225,9 @@ def table(summary, handoff, handoff_gpu, cyc, ctx):
     if summary:
         lines.append(f"| 1 | path frames (1280x720, level cap {summary.get('max_level_cap')}) "
                      f"| {summary['frames']} | |")
-        for crit in ("pixel", "side_distance"):
+        for crit in ("pixel", "side_distance", "pixel_smooth"):
+            if f"polar_ratio_car_qsc_{crit}" not in summary:
+                continue
             r = [summary.get(f"polar_ratio_car_{c}_{crit}") for c in ("tsc", "csc", "qsc")]
             e = [summary.get(f"equator_ratio_car_{c}_{crit}") for c in ("tsc", "csc", "qsc")]
             lines.append(f"| 1 | CAR / cube triangles over the poles ({crit}; TSC, CSC, QSC) | "
