@@ -206,7 +206,21 @@ def fig_cycles(cyc, ctx):
         ax.set_title(title, fontsize=9)
     axes[0].legend(fontsize=8)
     fig.suptitle("Cycles: LOD mesh vs adaptive subdivision + displacement", fontsize=10)
-    return save(fig, ctx, "fig_cycles.png")
+    name = save(fig, ctx, "fig_cycles.png")
+    # the renders themselves (reference, LOD, adaptive) per frame
+    fig, axes = plt.subplots(len(frames), 3, figsize=(10, 1.9 * len(frames) + 0.4),
+                             squeeze=False)
+    for row, f in zip(axes, frames):
+        for ax, method in zip(row, ("ref", "lod", "adaptive")):
+            path = os.path.join(ctx["results"], f[method]["png"])
+            if os.path.isfile(path):
+                ax.imshow(plt.imread(path))
+            extra = "" if method == "ref" else f", {f[method].get('psnr_db', 0):.1f} dB"
+            ax.set_title(f"t={f['t_s']:g} s {method}: {f[method]['time_s']:.1f} s{extra}",
+                         fontsize=8)
+            ax.axis("off")
+    save(fig, ctx, "fig_cycles_renders.png")
+    return name
 
 
 def fmt(v, nd=1):
