@@ -186,7 +186,9 @@ def main():
         row["floor_total_ms"] = round(push_ms + feval_ms, 3)
         assert len(floor_me.polygons) == row["triangles"]
 
-    path = os.path.join(args.out, "blender_handoff.csv")
+    gpu_run = args.gpu and not bpy.app.background
+    stem = "blender_handoff_gpu" if gpu_run else "blender_handoff"
+    path = os.path.join(args.out, stem + ".csv")
     with open(path, "w") as f:
         keys = list(rows[0].keys())
         f.write(",".join(keys) + "\n")
@@ -214,11 +216,7 @@ def main():
         "gpu_build_ms_median": med("gpu_build_ms"),
         "gpu_note": gpu_note,
     }
-    name = "blender_handoff_gpu.json" if args.gpu and not bpy.app.background \
-        else "blender_handoff.json"
-    if args.gpu and not bpy.app.background:
-        os.replace(path, os.path.join(args.out, "blender_handoff_gpu.csv"))
-    with open(os.path.join(args.out, name), "w") as f:
+    with open(os.path.join(args.out, stem + ".json"), "w") as f:
         json.dump(summary, f, indent=1)
     print("bench_blender:", json.dumps(summary), flush=True)
 

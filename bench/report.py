@@ -258,6 +258,13 @@ def table(summary, handoff, handoff_gpu, cyc, ctx):
         lines.append(f"| 2 | ... frames with ratio ≥ 50 / frames; lowest ratio | "
                      f"{u.get('frames_ratio_ge_50')} / {u.get('frames')}; "
                      f"{fmt(u.get('ratio_min'), 2)} (far view, frame {u.get('ratio_min_frame')}) | |")
+        urows = read_csv(os.path.join(ctx["results"], "uniform.csv")) or []
+        segs = []
+        for seg in ("approach", "orbit", "descent", "skim"):
+            vals = sorted(r["ratio"] for r in urows if r["segment"] == seg)
+            if vals:
+                segs.append(f"{seg} {fmt(vals[len(vals) // 2], 0)}")
+        lines.append(f"| 2 | ... median ratio per segment | {'; '.join(segs)} | |")
         lines.append(f"| 2 | ... lowest ratio among frames at level ≥ 20 | "
                      f"{fmt(u.get('ratio_min_deep'), 0)} | |")
         s = summary.get("sealevel", {})
@@ -281,7 +288,7 @@ def table(summary, handoff, handoff_gpu, cyc, ctx):
             lines.append(f"| 5 | GPU preview per update: instances / batch+texture build ms "
                          f"(median, llvmpipe) | {fmt(h['gpu_instances_ms_median'], 3)} / "
                          f"{fmt(h['gpu_build_ms_median'], 2)} | |")
-        elif h.get("gpu_note"):
+        elif h.get("gpu_note") and not handoff_gpu:
             lines.append(f"| 5 | GPU preview per update | {h['gpu_note']} | |")
     if cyc:
         agg = cyc.get("aggregate", {})
