@@ -61,7 +61,7 @@ def _grey_material():
     return mat
 
 
-def _displaced_material(image_path):
+def _displaced_material(image_path, radius_m):
     """Grey diffuse + true displacement: height = map(equirect(object position)) * 8848 m."""
     mat = _grey_material()
     mat.cycles.displacement_method = 'DISPLACEMENT'
@@ -97,11 +97,27 @@ def _displaced_material(image_path):
     tex.interpolation = 'Linear'
     tex.extension = 'EXTEND'
     links.new(comb.outputs[0], tex.inputs["Vector"])
-    disp = nodes.new("ShaderNodeDisplacement")
+    # vector displacement onto the true sphere + height: normalize(P) * (R + h) - P
+    # (the UV sphere's flat facets sag up to R (1 - cos(pi / 128)) = 1.9 km below it;
+    # a plain height displacement along the normal would keep that sag)
+    height = math_node('MULTIPLY', tex.outputs["Color"], value_b=HEIGHT_SCALE)
+    radius = math_node('ADD', height, value_b=radius_m)
+    unit = nodes.new("ShaderNodeVectorMath")
+    unit.operation = 'NORMALIZE'
+    links.new(coord.outputs["Object"], unit.inputs[0])
+    scaled = nodes.new("ShaderNodeVectorMath")
+    scaled.operation = 'SCALE'
+    links.new(unit.outputs[0], scaled.inputs[0])
+    links.new(radius, scaled.inputs["Scale"])
+    offset = nodes.new("ShaderNodeVectorMath")
+    offset.operation = 'SUBTRACT'
+    links.new(scaled.outputs[0], offset.inputs[0])
+    links.new(coord.outputs["Object"], offset.inputs[1])
+    disp = nodes.new("ShaderNodeVectorDisplacement")
+    disp.space = 'OBJECT'
     disp.inputs["Midlevel"].default_value = 0.0
-    disp.inputs["Scale"].default_value = HEIGHT_SCALE
-    disp.space = 'WORLD'  # metres (object scale is 1)
-    links.new(tex.outputs["Color"], disp.inputs["Height"])
+    disp.inputs["Scale"].default_value = 1.0
+    links.new(offset.outputs[0], disp.inputs["Vector"])
     out = nodes.get("Material Output")
     links.new(disp.outputs[0], out.inputs["Displacement"])
     return mat
@@ -177,7 +193,7 @@ def render_job(argv):
                                              radius=camera_path.R_EARTH)
         obj = bpy.context.view_layer.objects.active
         bpy.ops.object.shade_smooth()
-        obj.data.materials.append(_displaced_material(EARTH))
+        obj.data.materials.append(_displaced_material(EARTH, camera_path.R_EARTH))
         mod = obj.modifiers.new("Subdivision", 'SUBSURF')
         mod.subdivision_type = 'SIMPLE'
         obj.cycles.use_adaptive_subdivision = True
@@ -245,6 +261,7 @@ def ssim(a, b, win=7):
 def driver():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--frames", type=int, default=3, help="how many of the 3 path moments")
+    ap.add_argument("--times", default="", help="path times (s), comma separated")
     ap.add_argument("--resolution", default="320x180")
     ap.add_argument("--samples", type=int, default=16)
     ap.add_argument("--ref-samples", type=int, default=64)
@@ -256,7 +273,8 @@ def driver():
     img_dir = os.path.join(args.out, "cycles")
     os.makedirs(img_dir, exist_ok=True)
     frames = []
-    for k, t in enumerate(FRAME_TIMES[:args.frames]):
+    times = [float(v) for v in args.times.split(",")] if args.times else FRAME_TIMES[:args.frames]
+    for k, t in enumerate(times):
         entry = {"frame": k, "t_s": t}
         for method, samples, dicing in (("ref", args.ref_samples, args.ref_dicing),
                                         ("lod", args.samples, 1.0),
