@@ -40,7 +40,7 @@ ROOT = os.path.dirname(HERE)
 sys.path.insert(0, HERE)
 EARTH = os.path.join(ROOT, "data", "earth-topology.png")
 HEIGHT_SCALE = 8848.0
-FRAME_TIMES = (30.0, 63.0, 72.0)  # seconds on the 80 s path: orbit (north pole), descent, skim
+FRAME_TIMES = (23.0, 63.0, 72.0)  # seconds on the 80 s path: over the north pole (800 km), descent, skim
 
 try:
     import bpy  # noqa: F401
