@@ -468,6 +468,38 @@ static double plod__angle(const double a[3], const double b[3])
                  a[0] * b[0] + a[1] * b[1] + a[2] * b[2]);
 }
 
+/* Below a texel the pyramid range (of the texels a sample can touch) stops
+ * shrinking, so a camera a few metres over rough ground would sit inside
+ * the prism of every sector under it at every level (distance 0: splits to
+ * max_level, sectors of nanometres).  A sub-texel sector's bilinear surface
+ * stays within lip * reach of its corner heights: the bilinear gradient is
+ * at most sqrt(2) * (range of the touched texels) per texel, and a point of
+ * the sector (edges bulge by < PLOD__RANGE_MARGIN of the box) is at most
+ * sqrt(2) * (1 + 2 margin) * extent texels from a corner.  Only cube maps:
+ * their texels are square in (u, v). */
+static void plod__tighten_subtexel(const plod_planet *planet, const double corners[3][3],
+                                   double texels, double *hmin, double *hmax)
+{
+    if (!planet->heightmap || !plod_projection_is_cube(planet->projection) ||
+        !(texels < 0.5) || !(*hmax > *hmin))
+        return;
+    double lo = INFINITY, hi = -INFINITY;
+    for (int k = 0; k < 3; k++) {
+        double h = plod_planet_height(planet, corners[k]);
+        lo = h < lo ? h : lo;
+        hi = h > hi ? h : hi;
+    }
+    double reach = 1.4142135623730951 * (1.0 + 2.0 * PLOD__RANGE_MARGIN) * texels;
+    double deviation = 1.01 * 1.4142135623730951 * (*hmax - *hmin) * reach;
+    double tight_min = lo - deviation, tight_max = hi + deviation;
+    if (!(tight_min <= tight_max)) /* NaN corner heights: keep the range */
+        return;
+    *hmin = tight_min > *hmin ? tight_min : *hmin;
+    *hmax = tight_max < *hmax ? tight_max : *hmax;
+    if (*hmin > *hmax)
+        *hmin = *hmax;
+}
+
 static void plod__compute_bound(const plod_refiner *r, const plod_sector *s,
                                 plod__bound *b)
 {
@@ -511,6 +543,9 @@ static void plod__compute_bound(const plod_refiner *r, const plod_sector *s,
     v1 = fmin(1.0, v1 + mv);
     double hmin, hmax;
     plod_planet_height_range_uv(planet, s->face, u0, v0, u1, v1, &hmin, &hmax);
+    double texels = extent * r->texels_per_unit;
+    double relief_range = hmax - hmin;
+    plod__tighten_subtexel(planet, c, texels, &hmin, &hmax);
     float fmin_ = (float)hmin, fmax_ = (float)hmax;
     if ((double)fmin_ > hmin)
         fmin_ = nextafterf(fmin_, -INFINITY);
@@ -521,8 +556,7 @@ static void plod__compute_bound(const plod_refiner *r, const plod_sector *s,
     b->r_min = planet->radius + fmin_;
     b->r_max = planet->radius + fmax_;
     b->sag0 = b->size * b->size / (8.0 * b->r_min);
-    double texels = extent * r->texels_per_unit;
-    b->relief0 = ((double)fmax_ - (double)fmin_) * (texels < 1.0 ? texels : 1.0);
+    b->relief0 = relief_range * (texels < 1.0 ? texels : 1.0);
     double rho = r->occluder;
     if (b->r_max >= rho) {
         b->horizon_angle = angle + atan2(sqrt((b->r_max - rho) * (b->r_max + rho)), rho);

@@ -233,6 +233,36 @@ def test_depth_48_over_terrain(planetlod, earth):
     earth.reset()
 
 
+def test_subtexel_bounds_follow_the_terrain(planetlod, earth):
+    """Below one texel a sector's height bounds shrink around its own corner
+    heights: a camera 120 m over high ground (Himalaya) refines to sectors of
+    tens of metres, not to max_level (with the touched texels' range only, the
+    camera sat inside every prism under it: distance 0, level 48).  The
+    bounds stay sound: the terrain at sample points spread over each deep
+    sector (corners, edge midpoints, centre) lies inside them."""
+    lat, lon = math.radians(27.9), math.radians(86.9)
+    d = np.array([math.cos(lat) * math.cos(lon), math.cos(lat) * math.sin(lon), math.sin(lat)])
+    ground = earth.height(*d)
+    assert ground > 5000.0
+    cam = surface_camera(planetlod, EARTH_R + ground, 120.0, lat=lat, lon=lon, pitch=-0.2)
+    s = earth.refine(cam, max_level=48)
+    assert s["max_level"] <= 40, s["max_level"]
+    levels = np.array(earth.sector_levels(visible_only=False).tolist())
+    deep = levels >= 30
+    assert deep.sum() > 100
+    c = corners(earth)[deep]
+    h = np.array(earth.sector_heights(visible_only=False).tolist()).reshape(-1, 2)[deep]
+    weights = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [.5, .5, 0], [0, .5, .5], [.5, 0, .5],
+                        [1 / 3, 1 / 3, 1 / 3], [.7, .2, .1], [.1, .2, .7]])
+    for tri, (lo, hi) in zip(c, h):
+        for w in weights:
+            p = w @ tri
+            z = earth.height(*(p / np.linalg.norm(p)))
+            assert lo <= z <= hi, (lo, z, hi)
+    check_conforming(earth)
+    earth.reset()
+
+
 def test_pixel_criterion_scales_with_error_and_resolution(planetlod, earth):
     cam = surface_camera(planetlod, EARTH_R, 2000.0, lat=0.5, lon=1.4)
     counts = []
