@@ -45,6 +45,8 @@ double plod_planet_height(const plod_planet *planet, const double dir[3])
     return plod_cubemap_sample_height(planet->heightmap, dir) * planet->height_scale;
 }
 
+#define PLOD__PLANET_PI 3.141592653589793
+
 static void plod__scaled(const plod_planet *planet, double lo, double hi,
                          double *min_m, double *max_m)
 {
@@ -81,4 +83,50 @@ void plod_planet_height_range_uv(const plod_planet *planet, int face, double u0,
     double lo, hi;
     plod_cubemap_range(planet->heightmap, face, u0, v0, u1, v1, &lo, &hi);
     plod__scaled(planet, lo, hi, min_m, max_m);
+}
+
+void plod_planet_height_range_cap(const plod_planet *planet, const double axis[3],
+                                  double angle, double *min_m, double *max_m,
+                                  double *texels)
+{
+    *texels = INFINITY;
+    plod_planet_height_range(planet, min_m, max_m);
+    if (!planet->heightmap || plod_cubemap_face_count(planet->heightmap) != 1 ||
+        !(angle >= 0.0) || angle >= 0.5 * PLOD__PLANET_PI)
+        return;
+    const double deg = 180.0 / PLOD__PLANET_PI;
+    double lat = asin(fmax(-1.0, fmin(1.0, axis[2])));
+    double lon = atan2(axis[1], axis[0]);
+    double lat0 = lat - angle, lat1 = lat + angle, half_lon;
+    if (lat1 >= 0.5 * PLOD__PLANET_PI || lat0 <= -0.5 * PLOD__PLANET_PI) {
+        half_lon = PLOD__PLANET_PI; /* a pole inside: every longitude */
+        lat0 = fmax(lat0, -0.5 * PLOD__PLANET_PI);
+        lat1 = fmin(lat1, 0.5 * PLOD__PLANET_PI);
+    } else {
+        /* longitude half-width of a cap not holding a pole */
+        half_lon = asin(fmin(1.0, sin(angle) / cos(lat)));
+    }
+    double v0 = lat0 * deg / 90.0, v1 = lat1 * deg / 90.0;
+    double lo, hi, lo2, hi2;
+    if (half_lon >= PLOD__PLANET_PI) {
+        plod_cubemap_range(planet->heightmap, 0, -1.0, v0, 1.0, v1, &lo, &hi);
+    } else {
+        double u0 = (lon - half_lon) * deg / 180.0, u1 = (lon + half_lon) * deg / 180.0;
+        if (u0 < -1.0) { /* across the +-180 deg seam: two boxes */
+            plod_cubemap_range(planet->heightmap, 0, -1.0, v0, u1, v1, &lo, &hi);
+            plod_cubemap_range(planet->heightmap, 0, u0 + 2.0, v0, 1.0, v1, &lo2, &hi2);
+            lo = fmin(lo, lo2);
+            hi = fmax(hi, hi2);
+        } else if (u1 > 1.0) {
+            plod_cubemap_range(planet->heightmap, 0, u0, v0, 1.0, v1, &lo, &hi);
+            plod_cubemap_range(planet->heightmap, 0, -1.0, v0, u1 - 2.0, v1, &lo2, &hi2);
+            lo = fmin(lo, lo2);
+            hi = fmax(hi, hi2);
+        } else {
+            plod_cubemap_range(planet->heightmap, 0, u0, v0, u1, v1, &lo, &hi);
+        }
+    }
+    plod__scaled(planet, lo, hi, min_m, max_m);
+    int size = plod_cubemap_size(planet->heightmap); /* rows; 2 * size columns */
+    *texels = fmax(2.0 * half_lon * deg / 360.0 * 2.0 * size, (lat1 - lat0) * deg / 180.0 * size);
 }

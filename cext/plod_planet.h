@@ -35,6 +35,15 @@ void plod_planet_height_range(const plod_planet *planet, double *min_m,
 void plod_planet_height_range_uv(const plod_planet *planet, int face, double u0,
                                  double v0, double u1, double v1, double *min_m,
                                  double *max_m);
+/* Conservative height bounds in metres over the spherical cap of unit
+ * centre `axis` and angular radius `angle` (radians), for a CAR map:
+ * through the cap's longitude/latitude box (the whole longitude range
+ * when the cap holds a pole).  *texels: the box's larger side in map
+ * texels (for sub-texel refinements).  Cube maps and no map: as
+ * plod_planet_height_range, *texels = INFINITY. */
+void plod_planet_height_range_cap(const plod_planet *planet, const double axis[3],
+                                  double angle, double *min_m, double *max_m,
+                                  double *texels);
 
 #ifdef __cplusplus
 }

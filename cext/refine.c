@@ -475,13 +475,12 @@ static double plod__angle(const double a[3], const double b[3])
  * stays within lip * reach of its corner heights: the bilinear gradient is
  * at most sqrt(2) * (range of the touched texels) per texel, and a point of
  * the sector (edges bulge by < PLOD__RANGE_MARGIN of the box) is at most
- * sqrt(2) * (1 + 2 margin) * extent texels from a corner.  Only cube maps:
- * their texels are square in (u, v). */
+ * sqrt(2) * (1 + 2 margin) * extent texels from a corner (CAR: texels of
+ * the lon/lat box around the sector's cap). */
 static void plod__tighten_subtexel(const plod_planet *planet, const double corners[3][3],
                                    double texels, double *hmin, double *hmax)
 {
-    if (!planet->heightmap || !plod_projection_is_cube(planet->projection) ||
-        !(texels < 0.5) || !(*hmax > *hmin))
+    if (!planet->heightmap || !(texels < 0.5) || !(*hmax > *hmin))
         return;
     double lo = INFINITY, hi = -INFINITY;
     for (int k = 0; k < 3; k++) {
@@ -541,9 +540,14 @@ static void plod__compute_bound(const plod_refiner *r, const plod_sector *s,
     u1 = fmin(1.0, u1 + mu);
     v0 = fmax(-1.0, v0 - mv);
     v1 = fmin(1.0, v1 + mv);
-    double hmin, hmax;
-    plod_planet_height_range_uv(planet, s->face, u0, v0, u1, v1, &hmin, &hmax);
-    double texels = extent * r->texels_per_unit;
+    double hmin, hmax, texels;
+    if (plod_projection_is_cube(planet->projection)) {
+        plod_planet_height_range_uv(planet, s->face, u0, v0, u1, v1, &hmin, &hmax);
+        texels = extent * r->texels_per_unit;
+    } else {
+        /* CAR: the octahedral square is not the map's lon/lat grid */
+        plod_planet_height_range_cap(planet, b->axis, angle, &hmin, &hmax, &texels);
+    }
     double relief_range = hmax - hmin;
     plod__tighten_subtexel(planet, c, texels, &hmin, &hmax);
     float fmin_ = (float)hmin, fmax_ = (float)hmax;

@@ -147,9 +147,10 @@ def test_culling_conservative_sphere(planetlod, projection):
     assert total_culled > 50  # the test exercised culling
 
 
-def test_culling_conservative_terrain(planetlod):
+@pytest.mark.parametrize("projection", ["qsc", "car"])
+def test_culling_conservative_terrain(planetlod, projection):
     rng = np.random.default_rng(11)
-    planet = planetlod.Planet(1737400.0, projection="qsc", heightmap=data_path("lunar_bumpmap.jpg"),
+    planet = planetlod.Planet(1737400.0, projection=projection, heightmap=data_path("lunar_bumpmap.jpg"),
                               height_scale=20000.0, heightmap_size=64)
     hmin, hmax = planet.height_range()
     assert hmax - hmin > 1000

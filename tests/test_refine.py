@@ -263,6 +263,41 @@ def test_subtexel_bounds_follow_the_terrain(planetlod, earth):
     earth.reset()
 
 
+def test_car_sector_bounds_are_local_and_sound(planetlod):
+    """The CAR quad-sphere bounds a sector's heights through its cap's
+    lon/lat box in the map (not the global range): small sectors get tight
+    bounds, every sampled height lies inside them, also for sectors at the
+    poles and across the +-180 deg seam."""
+    planet = planetlod.Planet(EARTH_R, projection="car", heightmap=data_path("earth-topology.png"),
+                              height_scale=8848.0, sea_level=0.0, heightmap_size=256)
+    lo_all, hi_all = planet.height_range()
+    weights = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [.5, .5, 0], [0, .5, .5], [.5, 0, .5],
+                        [1 / 3, 1 / 3, 1 / 3], [.7, .2, .1], [.1, .2, .7]])
+    for lat, lon, alt in [(27.9, 86.9, 2000.0), (89.0, 10.0, 5e4), (-88.0, 0.0, 5e4),
+                          (10.0, 179.99, 3e4), (46.5, 8.0, 120.0)]:
+        la, lo_ = math.radians(lat), math.radians(lon)
+        d = np.array([math.cos(la) * math.cos(lo_), math.cos(la) * math.sin(lo_), math.sin(la)])
+        ground = max(planet.height(*d), 0.0)
+        cam = surface_camera(planetlod, EARTH_R + ground, alt, lat=la, lon=lo_, pitch=-0.3)
+        s = planet.refine(cam, max_level=48)
+        assert s["max_level"] <= 42, (lat, lon, s["max_level"])
+        levels = np.array(planet.sector_levels(visible_only=False).tolist())
+        c = corners(planet)
+        h = np.array(planet.sector_heights(visible_only=False).tolist()).reshape(-1, 2)
+        deep = levels >= 12
+        assert deep.sum() >= 10, (lat, lon, deep.sum())
+        # local: most small sectors' bounds are far narrower than the whole map's
+        widths = h[deep, 1] - h[deep, 0]
+        assert np.median(widths) < 0.25 * (hi_all - lo_all)
+        for tri, (lo, hi) in zip(c[deep][:300], h[deep][:300]):
+            for w in weights:
+                p = w @ tri
+                z = planet.height(*(p / np.linalg.norm(p)))
+                assert lo <= z <= hi, (lat, lon, lo, z, hi)
+        check_conforming(planet)
+        planet.reset()
+
+
 def test_pixel_criterion_scales_with_error_and_resolution(planetlod, earth):
     cam = surface_camera(planetlod, EARTH_R, 2000.0, lat=0.5, lon=1.4)
     counts = []
