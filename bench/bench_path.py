@@ -108,7 +108,7 @@ def main():
     ap.add_argument("--frames", type=int, default=240, help="frames along the 80 s path")
     ap.add_argument("--template-frames", type=int, default=40,
                     help="frames for the template-density sweep")
-    ap.add_argument("--smoke", action="store_true", help="a few frames, for CI (< 20 s)")
+    ap.add_argument("--smoke", action="store_true", help="a few frames, for CI (~15 s)")
     ap.add_argument("--max-level", type=int, default=MAX_LEVEL,
                     help="refinement level cap (add-on default 24; the C default is 48)")
     ap.add_argument("--out", default=os.path.join(HERE, "results"))
@@ -229,9 +229,6 @@ def main():
     # at most the LOD's everywhere needs the LOD's finest level everywhere.
     urows = []
     qsc = planets["qsc"]
-    for r in sel("qsc", "pixel"):
-        pass
-    checked = False
     for r in sel("qsc", "pixel"):
         L = r["max_level"]
         uni_sectors = 12 * 2 ** L

@@ -219,7 +219,7 @@ def fig_cycles(cyc, ctx):
             ax.set_title(f"t={f['t_s']:g} s {method}: {f[method]['time_s']:.1f} s{extra}",
                          fontsize=8)
             ax.axis("off")
-    save(fig, ctx, "fig_cycles_renders.png")
+    ctx["figures"].append(save(fig, ctx, "fig_cycles_renders.png"))
     return name
 
 
