@@ -176,7 +176,7 @@ static void fuzz__emit(fuzz_input *in, const plod_planet *planet, const plod_cam
     plod_mesh_params mp;
     plod_mesh_params_init(&mp, planet, level);
     plod_mesh_origin(planet, camera->position, mp.origin);
-    if (finite_heights) /* NaN texels pass plod_planet_check (reported) */
+    if (finite_heights) /* non-finite maps are refused by plod_planet_check (NaN count, range) */
         FUZZ_CHECK(fuzz__finite3(mp.origin), "origin not finite");
     mp.threads = (flags & 2) ? 2 : 1;
     if (flags & 4) {
