@@ -12,6 +12,7 @@
  */
 #include "pyplanetlod.h"
 
+#include <limits.h>
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -595,6 +596,19 @@ static PyObject *plod__planet_height_range(plod_py_planet *self, PyObject *unuse
     return Py_BuildValue("(dd)", a, b);
 }
 
+/* template_level=None means the level of the last refine. */
+static int plod__template_level_arg(const plod_py_planet *self, PyObject *level_obj, int *level)
+{
+    *level = self->params.template_level;
+    if (level_obj == Py_None)
+        return 0;
+    long value = PyLong_AsLong(level_obj);
+    if (value == -1 && PyErr_Occurred())
+        return -1;
+    *level = value < INT_MIN ? INT_MIN : value > INT_MAX ? INT_MAX : (int)value;
+    return 0;
+}
+
 static PyObject *plod__planet_mesh(plod_py_planet *self, PyObject *args, PyObject *kwds)
 {
     static char *kwlist[] = {"template_level", "morph", "threads", "visible_only", NULL};
@@ -605,12 +619,9 @@ static PyObject *plod__planet_mesh(plod_py_planet *self, PyObject *args, PyObjec
     if (!PyArg_ParseTupleAndKeywords(args, kwds, "|Opip", kwlist, &level_obj, &morph,
                                      &threads, &visible_only))
         return NULL;
-    int level = self->params.template_level;
-    if (level_obj != Py_None) {
-        level = (int)PyLong_AsLong(level_obj);
-        if (level == -1 && PyErr_Occurred())
-            return NULL;
-    }
+    int level;
+    if (plod__template_level_arg(self, level_obj, &level) < 0)
+        return NULL;
     if (!plod_py_mesh_emit) {
         PyErr_SetString(PyExc_NotImplementedError, "mesh emission is not built in");
         return NULL;
@@ -629,12 +640,9 @@ static PyObject *plod__planet_instances(plod_py_planet *self, PyObject *args, Py
         return NULL;
     if (!PyArg_ParseTupleAndKeywords(args, kwds, "|O", kwlist, &level_obj))
         return NULL;
-    int level = self->params.template_level;
-    if (level_obj != Py_None) {
-        level = (int)PyLong_AsLong(level_obj);
-        if (level == -1 && PyErr_Occurred())
-            return NULL;
-    }
+    int level;
+    if (plod__template_level_arg(self, level_obj, &level) < 0)
+        return NULL;
     if (!plod_py_instances) {
         PyErr_SetString(PyExc_NotImplementedError, "instancing is not built in");
         return NULL;
