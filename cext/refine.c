@@ -489,7 +489,10 @@ static void plod__tighten_subtexel(const plod_planet *planet, const double corne
         hi = h > hi ? h : hi;
     }
     double reach = 1.4142135623730951 * (1.0 + 2.0 * PLOD__RANGE_MARGIN) * texels;
-    double deviation = 1.01 * 1.4142135623730951 * (*hmax - *hmin) * reach;
+    /* + the seam tolerance: across a face edge the two faces' samples
+     * agree to ~1e-6 relative, not exactly */
+    double deviation = 1.01 * 1.4142135623730951 * (*hmax - *hmin) * reach +
+                       2e-6 * fmax(fabs(*hmin), fabs(*hmax));
     double tight_min = lo - deviation, tight_max = hi + deviation;
     if (!(tight_min <= tight_max)) /* NaN corner heights: keep the range */
         return;
