@@ -19,6 +19,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <memory>
+#include <new>
 #include <string>
 
 namespace {
@@ -77,6 +79,28 @@ bool plod__writer_holds(const std::string &ext, plod_texel_type type)
     if (ext == "exr" || ext == "hdr" || ext == "pfm")
         return type == PLOD_TEXEL_F32;
     return true;
+}
+
+/* Reads the whole first subimage as `format`.  OIIO's converting
+ * read_image allocates a fixed ~64 MB chunk per call whatever the image's
+ * size (read_scanlines), which made every small read cost page faults for
+ * 64 MB; a native read goes straight into `pixels`, and a conversion goes
+ * through a buffer of the image's own size. */
+bool plod__read_pixels(OIIO::ImageInput &input, OIIO::TypeDesc format, void *pixels)
+{
+    const OIIO::ImageSpec &spec = input.spec();
+    if (!spec.channelformats.empty())
+        return input.read_image(0, 0, 0, spec.nchannels, format, pixels);
+    if (spec.format == format)
+        return input.read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UNKNOWN, pixels);
+    std::unique_ptr<char[]> native(new (std::nothrow) char[spec.image_bytes(true)]);
+    if (!native)
+        return false;
+    return input.read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UNKNOWN, native.get()) &&
+           OIIO::convert_image(spec.nchannels, spec.width, spec.height, 1, native.get(),
+                               spec.format, OIIO::AutoStride, OIIO::AutoStride,
+                               OIIO::AutoStride, pixels, format, OIIO::AutoStride,
+                               OIIO::AutoStride, OIIO::AutoStride);
 }
 
 plod_status plod__read(plod_image *image, const char *path, size_t max_pixels,
@@ -153,7 +177,7 @@ plod_status plod__read(plod_image *image, const char *path, size_t max_pixels,
                               std::to_string(spec.height) + " pixels for '" + path + "'");
         return status;
     }
-    bool ok = input->read_image(0, 0, 0, spec.nchannels, plod__oiio_type(type), loaded.pixels);
+    bool ok = plod__read_pixels(*input, plod__oiio_type(type), loaded.pixels);
     if (!ok) {
         std::string why = input->geterror();
         plod_image_free(&loaded);
