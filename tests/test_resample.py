@@ -468,3 +468,43 @@ print(cube.size, 'numpy' in sys.modules and sys.modules['numpy'] is not None)
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert r.returncode == 0, r.stderr
     assert r.stdout.split() == ["16", "False"]
+
+
+def test_exr_with_oversized_attribute_refused(planetlod, tmp_path):
+    """A header attribute declaring more bytes than the file holds is refused
+    before OpenEXR allocates it (fuzz finding: 282 bytes made it allocate 1.9 GB);
+    the same file with an honest size decodes."""
+    import struct
+
+    def attribute(name, kind, value):
+        return name + b"\0" + kind + b"\0" + struct.pack("<i", len(value)) + value
+
+    def exr(extra):
+        w, h = 4, 2
+        header = (attribute(b"channels", b"chlist", b"Y\0" + struct.pack("<iBBBBii", 2, 0, 0, 0, 0, 1, 1) + b"\0")
+                  + attribute(b"compression", b"compression", b"\0")
+                  + attribute(b"dataWindow", b"box2i", struct.pack("<4i", 0, 0, w - 1, h - 1))
+                  + attribute(b"displayWindow", b"box2i", struct.pack("<4i", 0, 0, w - 1, h - 1))
+                  + attribute(b"lineOrder", b"lineOrder", b"\0")
+                  + attribute(b"pixelAspectRatio", b"float", struct.pack("<f", 1.0))
+                  + attribute(b"screenWindowCenter", b"v2f", struct.pack("<2f", 0, 0))
+                  + attribute(b"screenWindowWidth", b"float", struct.pack("<f", 1.0))
+                  + extra + b"\0")
+        start = 8 + len(header) + 8 * h
+        rows, offsets = b"", []
+        for y in range(h):
+            offsets.append(start + len(rows))
+            rows += struct.pack("<ii", y, 4 * w) + struct.pack(f"<{w}f", *(y + 0.5 * x for x in range(w)))
+        return b"\x76\x2f\x31\x01" + struct.pack("<i", 2) + header + struct.pack(f"<{h}Q", *offsets) + rows
+
+    good = tmp_path / "good.exr"
+    good.write_bytes(exr(attribute(b"note", b"opaque", b"1234")))
+    cube = planetlod.CubeMap.from_image(str(good), size=2)
+    assert cube.range()[1] > 1.0
+    bad = tmp_path / "bad.exr"
+    data = bytearray(exr(attribute(b"note", b"opaque", b"1234")))
+    at = data.index(b"opaque\0") + 7
+    data[at:at + 4] = struct.pack("<i", 1900 << 20)
+    bad.write_bytes(bytes(data))
+    with pytest.raises(planetlod.ImageError, match="larger than the file"):
+        planetlod.CubeMap.from_image(str(bad), size=2)
