@@ -31,6 +31,7 @@
 #include <string.h>
 
 #define PLOD__MAX_LEVELS 20
+#define PLOD__CUBEMAP_PI 3.14159265358979323846
 
 typedef struct plod__edge_link {
     int face;  /* neighbour face */
@@ -312,21 +313,27 @@ static void plod__fetch_cube(const plod_cubemap *m, int f, int i, int j, double 
         out[k] = (a[k] + b[k] + c[k]) / 3.0;
 }
 
-/* CAR texel with wrap in longitude and reflection across the poles. */
-static void plod__fetch_car(const plod_cubemap *m, int i, int j, double *out)
+/* CAR texel indices with wrap in longitude and reflection across the
+ * poles, into the map. */
+static void plod__car_wrap(const plod_cubemap *m, int *i, int *j)
 {
     int w = m->width, h = m->height;
-    if (j < 0 || j >= h) {
-        j = j < 0 ? -1 - j : 2 * h - 1 - j;
-        i += w / 2;
+    if (*j < 0 || *j >= h) {
+        *j = *j < 0 ? -1 - *j : 2 * h - 1 - *j;
+        *i += w / 2;
     }
-    if (j < 0)
-        j = 0;
-    if (j >= h)
-        j = h - 1;
-    i %= w;
-    if (i < 0)
-        i += w;
+    if (*j < 0)
+        *j = 0;
+    if (*j >= h)
+        *j = h - 1;
+    *i %= w;
+    if (*i < 0)
+        *i += w;
+}
+
+static void plod__fetch_car(const plod_cubemap *m, int i, int j, double *out)
+{
+    plod__car_wrap(m, &i, &j);
     plod__texel(m, 0, i, j, out);
 }
 
@@ -347,11 +354,24 @@ static void plod__bilinear(const plod_cubemap *m, int face, double s, double t, 
     int i0 = (int)fi, j0 = (int)fj;
     double tap[4][4];
     int cube = m->face_count == PLOD_FACE_COUNT;
-    if (cube && i0 >= 0 && j0 >= 0 && i0 + 1 < m->size && j0 + 1 < m->size) {
-        plod__texel(m, face, i0, j0, tap[0]);
-        plod__texel(m, face, i0 + 1, j0, tap[1]);
-        plod__texel(m, face, i0, j0 + 1, tap[2]);
-        plod__texel(m, face, i0 + 1, j0 + 1, tap[3]);
+    if (i0 >= 0 && j0 >= 0 && i0 + 1 < m->width && j0 + 1 < m->height) {
+        /* Interior (nearly every sample): the four taps straight from the
+         * face, converted exactly as plod__texel does. */
+        size_t channels = (size_t)m->channels, row = (size_t)m->width * channels;
+        size_t at = ((size_t)j0 * (size_t)m->width + (size_t)i0) * channels;
+        const unsigned char *base = m->texels + (size_t)face * m->face_bytes;
+        size_t offset[4] = {at, at + channels, at + row, at + row + channels};
+        for (int k = 0; k < 4; k++)
+            for (size_t c = 0; c < channels; c++) {
+                size_t index = offset[k] + c;
+                switch (m->type) {
+                case PLOD_TEXEL_U8: tap[k][c] = base[index] * (1.0 / 255.0); break;
+                case PLOD_TEXEL_U16:
+                    tap[k][c] = ((const uint16_t *)base)[index] * (1.0 / 65535.0);
+                    break;
+                default: tap[k][c] = ((const float *)base)[index]; break;
+                }
+            }
     } else if (cube) {
         plod__fetch_cube(m, face, i0, j0, tap[0]);
         plod__fetch_cube(m, face, i0 + 1, j0, tap[1]);
@@ -398,22 +418,34 @@ void plod_cubemap_sample_face(const plod_cubemap *m, int face, double u, double 
         out[c] = (float)acc[c];
 }
 
-static int plod__sample_dir_d(const plod_cubemap *m, const double dir[3], double *acc)
+int plod_cubemap_locate(const plod_cubemap *m, const double dir[3], int *face, double *u,
+                        double *v)
 {
     if (!(isfinite(dir[0]) && isfinite(dir[1]) && isfinite(dir[2])) ||
         (dir[0] == 0.0 && dir[1] == 0.0 && dir[2] == 0.0))
         return 0;
     if (m->face_count == 1) {
-        const double pi = 3.14159265358979323846;
         double lon = atan2(dir[1], dir[0]);
         double lat = atan2(dir[2], hypot(dir[0], dir[1]));
-        return plod__sample_face_d(m, 0, lon / pi, lat / (0.5 * pi), acc);
+        *face = 0;
+        *u = lon / PLOD__CUBEMAP_PI;
+        *v = lat / (0.5 * PLOD__CUBEMAP_PI);
+        return 1;
     }
+    return plod_dir_to_face(m->projection, dir, face, u, v) == PLOD_OK;
+}
+
+int plod_cubemap_sample_face_d(const plod_cubemap *m, int face, double u, double v,
+                               double *out)
+{
+    return plod__sample_face_d(m, face, u, v, out);
+}
+
+static int plod__sample_dir_d(const plod_cubemap *m, const double dir[3], double *acc)
+{
     int face;
     double u, v;
-    if (plod_dir_to_face(m->projection, dir, &face, &u, &v) != PLOD_OK)
-        return 0;
-    return plod__sample_face_d(m, face, u, v, acc);
+    return plod_cubemap_locate(m, dir, &face, &u, &v) && plod__sample_face_d(m, face, u, v, acc);
 }
 
 void plod_cubemap_sample(const plod_cubemap *m, const double dir[3], float *out)
@@ -433,6 +465,137 @@ double plod_cubemap_sample_height(const plod_cubemap *m, const double dir[3])
     if (!plod__sample_dir_d(m, dir, acc))
         return NAN;
     return acc[0];
+}
+
+/* ======================================================================== */
+/* normal maps                                                              */
+/* ======================================================================== */
+
+/* Unit direction and height (metres) of texel (i, j) of face f, where i
+ * or j may be one step outside the face (not both): the neighbour face's
+ * texel there, or the CAR wrap.  point = {x, y, z, height}. */
+static void plod__texel_point(const plod_cubemap *m, int f, int i, int j, double height_scale,
+                              double point[4])
+{
+    int n = m->size;
+    if (m->face_count == PLOD_FACE_COUNT) {
+        if (i < 0 || i >= n)
+            plod__across(m, f, i < 0 ? 0 : 1, j, &f, &i, &j);
+        else if (j < 0 || j >= n)
+            plod__across(m, f, j < 0 ? 2 : 3, i, &f, &i, &j);
+        (void)plod_face_to_dir(m->projection, f, (i + 0.5) * 2.0 / n - 1.0,
+                               (j + 0.5) * 2.0 / n - 1.0, point);
+    } else {
+        plod__car_wrap(m, &i, &j);
+        double lon = ((i + 0.5) * 2.0 / m->width - 1.0) * PLOD__CUBEMAP_PI;
+        double lat = ((j + 0.5) * 2.0 / m->height - 1.0) * 0.5 * PLOD__CUBEMAP_PI;
+        point[0] = cos(lat) * cos(lon);
+        point[1] = cos(lat) * sin(lon);
+        point[2] = sin(lat);
+    }
+    double texel[4];
+    plod__texel(m, f, i, j, texel);
+    point[3] = height_scale * texel[0];
+}
+
+/* Gnomonic offset of unit direction q seen from unit direction d: a
+ * tangent vector at d, in radians to first order. */
+static void plod__gnomonic(const double d[3], const double q[3], double g[3])
+{
+    double inv = 1.0 / (q[0] * d[0] + q[1] * d[1] + q[2] * d[2]);
+    for (int k = 0; k < 3; k++)
+        g[k] = q[k] * inv - d[k];
+}
+
+/* Normal at the centre point from its four grid neighbours: the height
+ * gradient G in the tangent plane solves G . (g+ - g-) = h+ - h- along
+ * both grid directions (g: gnomonic offsets, so uneven texel spacing and
+ * the sphere's curvature do not bias it), then n ~ r d - G. */
+static void plod__grid_normal(const double *c, const double *left, const double *right,
+                              const double *down, const double *up, double radius,
+                              double normal[3])
+{
+    double gl[3], gr[3], gd[3], gu[3];
+    plod__gnomonic(c, left, gl);
+    plod__gnomonic(c, right, gr);
+    plod__gnomonic(c, down, gd);
+    plod__gnomonic(c, up, gu);
+    double a[3] = {gr[0] - gl[0], gr[1] - gl[1], gr[2] - gl[2]};
+    double b[3] = {gu[0] - gd[0], gu[1] - gd[1], gu[2] - gd[2]};
+    double aa = a[0] * a[0] + a[1] * a[1] + a[2] * a[2];
+    double bb = b[0] * b[0] + b[1] * b[1] + b[2] * b[2];
+    double ab = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    double det = aa * bb - ab * ab;
+    double dh_a = right[3] - left[3], dh_b = up[3] - down[3];
+    normal[0] = c[0], normal[1] = c[1], normal[2] = c[2];
+    if (!(det > 1e-9 * aa * bb) || !isfinite(det))
+        return; /* grid directions (nearly) parallel: keep radial */
+    double x = (dh_a * bb - dh_b * ab) / det, y = (dh_b * aa - dh_a * ab) / det;
+    double r = radius + c[3], v[3], len2 = 0.0;
+    for (int k = 0; k < 3; k++) {
+        v[k] = r * c[k] - (x * a[k] + y * b[k]);
+        len2 += v[k] * v[k];
+    }
+    if (!(len2 > 0.0) || !isfinite(len2))
+        return;
+    double inv = (v[0] * c[0] + v[1] * c[1] + v[2] * c[2] < 0.0 ? -1.0 : 1.0) / sqrt(len2);
+    for (int k = 0; k < 3; k++)
+        normal[k] = v[k] * inv;
+}
+
+static uint16_t plod__unorm16(double x)
+{
+    double q = (x + 1.0) * 0.5 * 65535.0 + 0.5;
+    return (uint16_t)(q < 0.0 ? 0.0 : q > 65535.0 ? 65535.0 : q);
+}
+
+plod_status plod_cubemap_build_normals(plod_cubemap **out, const plod_cubemap *heights,
+                                       double radius, double height_scale)
+{
+    if (!out || !heights)
+        return PLOD_ERR_NULL;
+    *out = NULL;
+    if (!(radius > 0.0) || !isfinite(radius) || !isfinite(height_scale))
+        return PLOD_ERR_BAD_PARAM;
+    plod_cubemap *normals = NULL;
+    plod_status st = plod_cubemap_create(&normals, heights->projection, heights->size, 3,
+                                         PLOD_TEXEL_U16);
+    if (st != PLOD_OK)
+        return st;
+    int w = heights->width, h = heights->height;
+    /* Three rolling rows of points, each with a ghost column at both ends. */
+    size_t row_doubles = (size_t)(w + 2) * 4;
+    double *rows = malloc(3 * row_doubles * sizeof *rows);
+    if (!rows) {
+        plod_cubemap_destroy(normals);
+        return PLOD_ERR_NO_MEMORY;
+    }
+    for (int f = 0; f < heights->face_count; f++) {
+        uint16_t *texels = (uint16_t *)(normals->texels + (size_t)f * normals->face_bytes);
+        for (int j = -1; j <= h; j++) {
+            double *row = rows + (size_t)((j + 3) % 3) * row_doubles;
+            int ghost_row = j < 0 || j >= h;
+            for (int i = ghost_row ? 0 : -1; i <= (ghost_row ? w - 1 : w); i++)
+                plod__texel_point(heights, f, i, j, height_scale, row + 4 * (i + 1));
+            if (j < 1)
+                continue;
+            int jc = j - 1; /* complete now: its row and both neighbours */
+            const double *below = rows + (size_t)((jc + 2) % 3) * row_doubles;
+            const double *centre = rows + (size_t)((jc + 3) % 3) * row_doubles;
+            for (int i = 0; i < w; i++) {
+                const double *c = centre + 4 * (i + 1);
+                double normal[3];
+                plod__grid_normal(c, c - 4, c + 4, below + 4 * (i + 1), row + 4 * (i + 1),
+                                  radius, normal);
+                uint16_t *texel = texels + 3 * ((size_t)jc * (size_t)w + (size_t)i);
+                for (int k = 0; k < 3; k++)
+                    texel[k] = plod__unorm16(isfinite(normal[k]) ? normal[k] : 0.0);
+            }
+        }
+    }
+    free(rows);
+    *out = normals;
+    return PLOD_OK;
 }
 
 /* ======================================================================== */

@@ -346,64 +346,6 @@ static void plod__vertex_direction(const double corners[3][3], const int k[3],
     dir[2] = v[2] * inv_len;
 }
 
-/* Unit normal of the displaced surface d*(R+h(d)) from central differences
- * of h along a tangent frame chosen from d alone: n ~ r d - h1 t1 - h2 t2
- * with h1, h2 in metres per radian. */
-static void plod__surface_normal(const plod_planet *planet, const double dir[3],
-                                 double r, double step, double inv_2angle,
-                                 double normal[3])
-{
-    double ax = fabs(dir[0]), ay = fabs(dir[1]), az = fabs(dir[2]);
-    double axis[3] = {0.0, 0.0, 0.0};
-    if (ax <= ay && ax <= az)
-        axis[0] = 1.0;
-    else if (ay <= az)
-        axis[1] = 1.0;
-    else
-        axis[2] = 1.0;
-    double t1[3] = {axis[1] * dir[2] - axis[2] * dir[1],
-                    axis[2] * dir[0] - axis[0] * dir[2],
-                    axis[0] * dir[1] - axis[1] * dir[0]};
-    double inv_l1 = 1.0 / sqrt(t1[0] * t1[0] + t1[1] * t1[1] + t1[2] * t1[2]);
-    t1[0] *= inv_l1; t1[1] *= inv_l1; t1[2] *= inv_l1;
-    double t2[3] = {dir[1] * t1[2] - dir[2] * t1[1],
-                    dir[2] * t1[0] - dir[0] * t1[2],
-                    dir[0] * t1[1] - dir[1] * t1[0]};
-    const double *frame[2] = {t1, t2};
-    double slope[2];
-    for (int f = 0; f < 2; f++) {
-        double h[2];
-        for (int s = 0; s < 2; s++) {
-            double sign = s ? -step : step;
-            double p[3] = {dir[0] + sign * frame[f][0], dir[1] + sign * frame[f][1],
-                           dir[2] + sign * frame[f][2]};
-            double inv_lp = 1.0 / sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
-            p[0] *= inv_lp; p[1] *= inv_lp; p[2] *= inv_lp;
-            h[s] = plod_planet_height(planet, p);
-        }
-        slope[f] = (h[0] - h[1]) * inv_2angle;
-    }
-    double v[3];
-    for (int c = 0; c < 3; c++)
-        v[c] = r * dir[c] - slope[0] * t1[c] - slope[1] * t2[c];
-    double inv_len = 1.0 / sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-    normal[0] = v[0] * inv_len;
-    normal[1] = v[1] * inv_len;
-    normal[2] = v[2] * inv_len;
-}
-
-/* Angular finite-difference step: one texel of a cube face (pi/2 / size);
- * 0 without a map (normal = direction). */
-static double plod__normal_step(const plod_planet *planet)
-{
-    if (!planet->heightmap)
-        return 0.0;
-    int size = plod_cubemap_size(planet->heightmap);
-    if (size < 1)
-        size = 1;
-    return tan(PLOD__PI / 2 / (double)size);
-}
-
 /* ---- one sector ---------------------------------------------------------------- */
 
 typedef struct plod__emitter {
@@ -411,7 +353,6 @@ typedef struct plod__emitter {
     const plod_mesh_buffers *out;
     int n;
     size_t vertices_per_sector, triangles_per_sector;
-    double normal_step, inv_2angle;
 } plod__emitter;
 
 static void plod__emitter_init(plod__emitter *e, const plod_mesh_params *params,
@@ -422,8 +363,6 @@ static void plod__emitter_init(plod__emitter *e, const plod_mesh_params *params,
     e->n = 1 << params->template_level;
     e->vertices_per_sector = plod_template_vertex_count(params->template_level);
     e->triangles_per_sector = plod_template_triangle_count(params->template_level);
-    e->normal_step = plod__normal_step(params->planet);
-    e->inv_2angle = e->normal_step > 0.0 ? 0.5 / atan(e->normal_step) : 0.0;
 }
 
 static void plod__morph_sector(const plod__emitter *e, size_t vbase)
@@ -496,24 +435,16 @@ static plod_status plod__emit_sector(const plod__emitter *e,
     for (int i = 0; i <= n; i++)
         for (int j = 0; j <= n - i; j++, v++) {
             int k[3] = {n - i - j, j, i};
-            double dir[3];
+            double dir[3], normal[3];
             plod__vertex_direction(corners, k, inv_n, dir);
-            double r = planet->radius + plod__height(planet, dir);
+            double r = planet->radius +
+                       plod_planet_surface(planet, dir, out->normals ? normal : NULL);
             if (out->positions)
                 for (int c = 0; c < 3; c++)
                     out->positions[3 * v + c] = (float)(dir[c] * r - params->origin[c]);
-            if (out->normals) {
-                if (e->normal_step > 0.0) {
-                    double normal[3];
-                    plod__surface_normal(planet, dir, r, e->normal_step,
-                                         e->inv_2angle, normal);
-                    for (int c = 0; c < 3; c++)
-                        out->normals[3 * v + c] = (float)normal[c];
-                } else {
-                    for (int c = 0; c < 3; c++)
-                        out->normals[3 * v + c] = (float)dir[c];
-                }
-            }
+            if (out->normals)
+                for (int c = 0; c < 3; c++)
+                    out->normals[3 * v + c] = (float)normal[c];
             if (out->uv) {
                 double horizontal = sqrt(dir[0] * dir[0] + dir[1] * dir[1]);
                 double lon = lon_ref;

@@ -35,7 +35,25 @@ plod_status plod_planet_check(const plod_planet *planet)
         if (low <= -0.5 * planet->radius || high > 10.0 * planet->radius)
             return PLOD_ERR_BAD_PARAM;
     }
+    if (planet->normalmap) {
+        const plod_cubemap *n = planet->normalmap;
+        if (!planet->heightmap || plod_cubemap_projection(n) != planet->projection ||
+            plod_cubemap_size(n) != plod_cubemap_size(planet->heightmap) ||
+            plod_cubemap_channels(n) != 3)
+            return PLOD_ERR_BAD_PARAM;
+    }
     return PLOD_OK;
+}
+
+plod_status plod_planet_build_normals(const plod_planet *planet, plod_cubemap **out)
+{
+    if (!out)
+        return PLOD_ERR_NULL;
+    *out = NULL;
+    if (!planet || !planet->heightmap)
+        return PLOD_ERR_NULL;
+    return plod_cubemap_build_normals(out, planet->heightmap, planet->radius,
+                                      planet->height_scale);
 }
 
 double plod_planet_height(const plod_planet *planet, const double dir[3])
@@ -43,6 +61,80 @@ double plod_planet_height(const plod_planet *planet, const double dir[3])
     if (!planet->heightmap)
         return 0.0;
     return plod_cubemap_sample_height(planet->heightmap, dir) * planet->height_scale;
+}
+
+/* Unit normal of the displaced surface d*(R+h(d)) from central differences
+ * of h along a tangent frame chosen from d alone, one texel apart:
+ * n ~ r d - h1 t1 - h2 t2 with h1, h2 in metres per radian. */
+static void plod__difference_normal(const plod_planet *planet, const double dir[3],
+                                    double r, double normal[3])
+{
+    int size = plod_cubemap_size(planet->heightmap);
+    double step = tan(1.5707963267948966 / (double)(size < 1 ? 1 : size));
+    double inv_2angle = 0.5 / atan(step);
+    double ax = fabs(dir[0]), ay = fabs(dir[1]), az = fabs(dir[2]);
+    double axis[3] = {0.0, 0.0, 0.0};
+    if (ax <= ay && ax <= az)
+        axis[0] = 1.0;
+    else if (ay <= az)
+        axis[1] = 1.0;
+    else
+        axis[2] = 1.0;
+    double t1[3] = {axis[1] * dir[2] - axis[2] * dir[1], axis[2] * dir[0] - axis[0] * dir[2],
+                    axis[0] * dir[1] - axis[1] * dir[0]};
+    double inv_l1 = 1.0 / sqrt(t1[0] * t1[0] + t1[1] * t1[1] + t1[2] * t1[2]);
+    t1[0] *= inv_l1, t1[1] *= inv_l1, t1[2] *= inv_l1;
+    double t2[3] = {dir[1] * t1[2] - dir[2] * t1[1], dir[2] * t1[0] - dir[0] * t1[2],
+                    dir[0] * t1[1] - dir[1] * t1[0]};
+    const double *frame[2] = {t1, t2};
+    double slope[2];
+    for (int f = 0; f < 2; f++) {
+        double h[2];
+        for (int s = 0; s < 2; s++) {
+            double sign = s ? -step : step;
+            double p[3] = {dir[0] + sign * frame[f][0], dir[1] + sign * frame[f][1],
+                           dir[2] + sign * frame[f][2]};
+            double inv_lp = 1.0 / sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+            p[0] *= inv_lp, p[1] *= inv_lp, p[2] *= inv_lp;
+            h[s] = plod_planet_height(planet, p);
+        }
+        slope[f] = (h[0] - h[1]) * inv_2angle;
+    }
+    double v[3];
+    for (int c = 0; c < 3; c++)
+        v[c] = r * dir[c] - slope[0] * t1[c] - slope[1] * t2[c];
+    double inv_len = 1.0 / sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    for (int c = 0; c < 3; c++)
+        normal[c] = v[c] * inv_len;
+}
+
+double plod_planet_surface(const plod_planet *planet, const double dir[3], double normal[3])
+{
+    if (normal)
+        normal[0] = dir[0], normal[1] = dir[1], normal[2] = dir[2];
+    if (!planet->heightmap)
+        return 0.0;
+    int face;
+    double u, v, sample[4] = {0.0, 0.0, 0.0, 0.0};
+    if (!plod_cubemap_locate(planet->heightmap, dir, &face, &u, &v) ||
+        !plod_cubemap_sample_face_d(planet->heightmap, face, u, v, sample))
+        return NAN;
+    double height = sample[0] * planet->height_scale;
+    if (!normal)
+        return height;
+    if (!planet->normalmap) {
+        plod__difference_normal(planet, dir, planet->radius + height, normal);
+        return height;
+    }
+    if (plod_cubemap_sample_face_d(planet->normalmap, face, u, v, sample)) {
+        double m[3] = {2.0 * sample[0] - 1.0, 2.0 * sample[1] - 1.0, 2.0 * sample[2] - 1.0};
+        double len2 = m[0] * m[0] + m[1] * m[1] + m[2] * m[2];
+        if (len2 > 0.25) { /* else interpolated across a fold: keep radial */
+            double inv_len = 1.0 / sqrt(len2);
+            normal[0] = m[0] * inv_len, normal[1] = m[1] * inv_len, normal[2] = m[2] * inv_len;
+        }
+    }
+    return height;
 }
 
 #define PLOD__PLANET_PI 3.141592653589793

@@ -78,6 +78,27 @@ double plod_cubemap_sample_height(const plod_cubemap *cubemap,
 void plod_cubemap_sample_face(const plod_cubemap *cubemap, int face, double u,
                               double v, float *out);
 
+/* Where a direction samples: face and (u, v) as plod_cubemap_sample_face
+ * takes them (CAR: lon / 180 deg, lat / 90 deg).  Returns 0 for a zero or
+ * non-finite direction.  plod_cubemap_sample(dir) is exactly
+ * plod_cubemap_sample_face_d at the located point. */
+int plod_cubemap_locate(const plod_cubemap *cubemap, const double dir[3],
+                        int *face, double *u, double *v);
+/* plod_cubemap_sample_face in double precision; returns 0 (out untouched)
+ * for a bad face or non-finite u, v. */
+int plod_cubemap_sample_face_d(const plod_cubemap *cubemap, int face, double u,
+                               double v, double *out);
+
+/* ---- normal maps ----------------------------------------------------------- */
+/* Unit outward normals of the surface dir * (radius + height_scale * h) at
+ * every texel centre of `heights` (channel 0), from central differences of
+ * the displaced texel-centre points (neighbours across face edges, or the
+ * CAR wrap, as in sampling).  *out: a new map of the same projection and
+ * size, 3 channels u16, n = 2 * sample - 1 (renormalise after sampling).
+ * Meshes sample it at each vertex instead of differencing heights there. */
+plod_status plod_cubemap_build_normals(plod_cubemap **out, const plod_cubemap *heights,
+                                       double radius, double height_scale);
+
 /* ---- min/max pyramid (culling bounds) ----------------------------------- */
 /* Builds the min/max pyramid of channel 0 (idempotent; call again after
  * editing texels). */

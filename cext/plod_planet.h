@@ -17,6 +17,11 @@ typedef struct plod_planet {
                                       projection equals `projection` (CAR:
                                       an equirectangular map). */
     double height_scale;        /* metres per unit of sampled height */
+    const plod_cubemap *normalmap; /* borrowed, optional: the normals of
+                                      heightmap for this radius and
+                                      height_scale (plod_planet_build_normals);
+                                      NULL: normals from height differences
+                                      (slower) */
     int has_sea_level;          /* non-zero: sea_level is set */
     double sea_level;           /* metres; sectors whose heights are all
                                    <= sea_level may be skipped */
@@ -24,8 +29,18 @@ typedef struct plod_planet {
 
 /* Validates fields (finite, radius range, pyramid built).  */
 plod_status plod_planet_check(const plod_planet *planet);
+/* The normal map of planet's height map (plod_cubemap_build_normals with
+ * its radius and height_scale), for planet->normalmap; caller owns *out. */
+plod_status plod_planet_build_normals(const plod_planet *planet, plod_cubemap **out);
 /* Height in metres above `radius` at a unit direction. */
 double plod_planet_height(const plod_planet *planet, const double dir[3]);
+/* Height as plod_planet_height (bit for bit) and, if `normal` is not NULL,
+ * the unit outward surface normal at a unit direction: sampled from
+ * normalmap at the same map location (one projection for both); without a
+ * normal map, from central differences of four more heights (4x slower);
+ * without a height map, the direction. */
+double plod_planet_surface(const plod_planet *planet, const double dir[3],
+                           double normal[3]);
 /* Global height bounds in metres (0, 0 without a map). */
 void plod_planet_height_range(const plod_planet *planet, double *min_m,
                               double *max_m);

@@ -353,18 +353,18 @@ static PyObject *plod__mesh_from_corners(PyObject *module, PyObject *args, PyObj
     static char *keywords[] = {"corners", "radius", "template_level", "levels", "faces",
                                "threads", "heightmap", "height_scale", "projection",
                                "origin", "eye", "morph_lod_scale", "morph_ramp",
-                               "instances", NULL};
+                               "instances", "normal_map", NULL};
     PyObject *corners_obj, *levels_obj = Py_None, *faces_obj = Py_None;
     PyObject *heightmap_obj = Py_None, *projection_obj = NULL;
     PyObject *origin_obj = Py_None, *eye_obj = Py_None;
     double radius = 1.0, height_scale = 1.0, morph_lod_scale = 0.0, morph_ramp = 0.5;
-    int template_level = 2, threads = 1, instances = 0;
-    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "Od|iOOiOdOOOddp", keywords,
+    int template_level = 2, threads = 1, instances = 0, normal_map = 1;
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "Od|iOOiOdOOOddpp", keywords,
                                      &corners_obj, &radius, &template_level,
                                      &levels_obj, &faces_obj, &threads, &heightmap_obj,
                                      &height_scale, &projection_obj, &origin_obj,
                                      &eye_obj, &morph_lod_scale, &morph_ramp,
-                                     &instances))
+                                     &instances, &normal_map))
         return NULL;
     plod_planet planet = {0};
     planet.radius = radius;
@@ -424,8 +424,18 @@ static PyObject *plod__mesh_from_corners(PyObject *module, PyObject *args, PyObj
         plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "mesh", "radius must be > 0");
         goto done;
     }
+    plod_cubemap *normals = NULL;
+    if (planet.heightmap && normal_map && !instances) {
+        plod_status st = plod_planet_build_normals(&planet, &normals);
+        if (st != PLOD_OK) {
+            plod_py_raise(st, "mesh (normal map)");
+            goto done;
+        }
+        planet.normalmap = normals;
+    }
     result = instances ? plod__instances_build(&params, plod__corner_sector, &src, count)
                        : plod__mesh_build(&params, plod__corner_sector, &src, count);
+    plod_cubemap_destroy(normals);
 done:
     free(corners);
     free(levels);
@@ -438,7 +448,8 @@ static PyMethodDef plod__mesh_methods[] = {
      METH_VARARGS | METH_KEYWORDS,
      "_mesh_from_corners(corners, radius, template_level=2, levels=None, faces=None, "
      "threads=1, heightmap=None, height_scale=1.0, projection='qsc', origin=None, "
-     "eye=None, morph_lod_scale=0.0, morph_ramp=0.5, instances=False) -> Mesh | dict\n"
+     "eye=None, morph_lod_scale=0.0, morph_ramp=0.5, instances=False, normal_map=True) "
+     "-> Mesh | dict\n"
      "Test/diagnostic entry: emits explicit sectors (9 corner floats each, unit "
      "directions CCW from outside) without a refiner."},
     {NULL, NULL, 0, NULL}

@@ -230,6 +230,7 @@ typedef struct {
     PyObject_HEAD
     plod_planet planet;
     PyObject *heightmap;  /* the CubeMap keeping planet.heightmap alive */
+    plod_cubemap *normalmap; /* owned; built by the first mesh() with a map */
     plod_refiner *refiner;
     plod_camera camera;   /* last refine's */
     plod_refine_params params;
@@ -372,6 +373,9 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
 static void plod__planet_dealloc(plod_py_planet *self)
 {
     plod_refiner_destroy(self->refiner);
+    self->planet.normalmap = NULL;
+    plod_cubemap_destroy(self->normalmap);
+    self->normalmap = NULL;
     Py_CLEAR(self->heightmap);
     if (self->lock)
         PyThread_free_lock(self->lock);
@@ -625,6 +629,17 @@ static PyObject *plod__planet_mesh(plod_py_planet *self, PyObject *args, PyObjec
     if (!plod_py_mesh_emit) {
         PyErr_SetString(PyExc_NotImplementedError, "mesh emission is not built in");
         return NULL;
+    }
+    if (self->planet.heightmap && !self->normalmap) {
+        /* Once per planet (the map and the planet never change); then each
+         * vertex samples its normal instead of differencing four heights. */
+        plod_status st;
+        Py_BEGIN_ALLOW_THREADS
+        st = plod_planet_build_normals(&self->planet, &self->normalmap);
+        Py_END_ALLOW_THREADS
+        if (st != PLOD_OK)
+            return plod_py_raise(st, "mesh (normal map)");
+        self->planet.normalmap = self->normalmap;
     }
     size_t count;
     const plod_sector *sec = plod_refiner_sectors(self->refiner, &count);

@@ -25,10 +25,53 @@ double plod_planet_height(const plod_planet *planet, const double dir[3])
            (sin(7.0 * dir[0]) * cos(5.0 * dir[1]) + 0.5 * sin(11.0 * dir[2] + dir[0]));
 }
 
-int plod_cubemap_size(const plod_cubemap *cubemap)
+/* Normal by central differences of the analytic field (the core samples a
+ * normal map; here only the mesh stage's use of it is under test). */
+double plod_planet_surface(const plod_planet *planet, const double dir[3], double normal[3])
 {
-    (void)cubemap;
-    return 1024;
+    if (!planet->heightmap) {
+        if (normal)
+            memcpy(normal, dir, 3 * sizeof(double));
+        return 0.0;
+    }
+    double height = plod_planet_height(planet, dir);
+    if (!normal)
+        return height;
+    double axis[3] = {fabs(dir[0]) <= fabs(dir[1]) && fabs(dir[0]) <= fabs(dir[2]),
+                      fabs(dir[0]) > fabs(dir[1]) && fabs(dir[1]) <= fabs(dir[2]), 0.0};
+    if (axis[0] == 0.0 && axis[1] == 0.0)
+        axis[2] = 1.0;
+    double t1[3] = {axis[1] * dir[2] - axis[2] * dir[1], axis[2] * dir[0] - axis[0] * dir[2],
+                    axis[0] * dir[1] - axis[1] * dir[0]};
+    double l1 = sqrt(t1[0] * t1[0] + t1[1] * t1[1] + t1[2] * t1[2]);
+    for (int c = 0; c < 3; c++)
+        t1[c] /= l1;
+    double t2[3] = {dir[1] * t1[2] - dir[2] * t1[1], dir[2] * t1[0] - dir[0] * t1[2],
+                    dir[0] * t1[1] - dir[1] * t1[0]};
+    const double step = 1e-5;
+    double slope[2];
+    const double *frame[2] = {t1, t2};
+    for (int f = 0; f < 2; f++) {
+        double h[2];
+        for (int s = 0; s < 2; s++) {
+            double p[3];
+            for (int c = 0; c < 3; c++)
+                p[c] = dir[c] + (s ? -step : step) * frame[f][c];
+            double l = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+            for (int c = 0; c < 3; c++)
+                p[c] /= l;
+            h[s] = plod_planet_height(planet, p);
+        }
+        slope[f] = (h[0] - h[1]) / (2.0 * atan(step));
+    }
+    double r = planet->radius + height, len = 0.0;
+    for (int c = 0; c < 3; c++) {
+        normal[c] = r * dir[c] - slope[0] * t1[c] - slope[1] * t2[c];
+        len += normal[c] * normal[c];
+    }
+    for (int c = 0; c < 3; c++)
+        normal[c] /= sqrt(len);
+    return height;
 }
 
 static int g_failures = 0;
