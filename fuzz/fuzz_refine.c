@@ -343,6 +343,25 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         plod_cubemap_destroy(map);
         return 0;
     }
+    plod_cubemap *normals = NULL;
+    if (planet.heightmap && (fuzz_u8(&in) & 1)) {
+        FUZZ_CHECK(plod_planet_build_normals(&planet, &normals) == PLOD_OK,
+                   "normal map of a valid planet refused");
+        FUZZ_CHECK(plod_cubemap_channels(normals) == 3 &&
+                       plod_cubemap_size(normals) == plod_cubemap_size(planet.heightmap),
+                   "normal map shape");
+        for (int f = 0; f < plod_cubemap_face_count(normals); f++) {
+            const uint16_t *t = plod_cubemap_face_data_const(normals, f);
+            size_t n = plod_cubemap_face_bytes(normals) / 6;
+            for (size_t i = 0; i < n && finite_heights; i++) {
+                double x = t[3 * i] / 32767.5 - 1, y = t[3 * i + 1] / 32767.5 - 1,
+                       z = t[3 * i + 2] / 32767.5 - 1;
+                FUZZ_CHECK(fabs(x * x + y * y + z * z - 1.0) < 1e-3, "normal texel not unit");
+            }
+        }
+        planet.normalmap = normals;
+        FUZZ_CHECK(plod_planet_check(&planet) == PLOD_OK, "planet with its normal map refused");
+    }
     if (fuzz__dump())
         fprintf(stderr, "planet: radius %.17g projection %d height_scale %.17g sea %d %.17g map %s\n",
                 planet.radius, planet.projection, planet.height_scale, planet.has_sea_level,
@@ -431,6 +450,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             plod_refiner_reset(refiner);
     }
     plod_refiner_destroy(refiner);
+    plod_cubemap_destroy(normals);
     plod_cubemap_destroy(map);
     return 0;
 }
