@@ -218,7 +218,13 @@ plod_status plod__read(plod_image *image, const char *path, size_t max_pixels,
                               std::to_string(spec.height) + " pixels for '" + path + "'");
         return status;
     }
-    bool ok = plod__read_pixels(*input, plod__oiio_type(type), loaded.pixels);
+    bool ok;
+    try { /* decoders throw (OpenEXR, bad_alloc): never leak the pixels */
+        ok = plod__read_pixels(*input, plod__oiio_type(type), loaded.pixels);
+    } catch (...) {
+        plod_image_free(&loaded);
+        throw;
+    }
     if (!ok) {
         std::string why = input->geterror();
         plod_image_free(&loaded);
