@@ -519,3 +519,13 @@ def test_decoder_exception_is_an_image_error(planetlod):
                         "fuzz", "repro", "sgi-throws-leak.sgi")
     with pytest.raises(planetlod.ImageError, match="failed"):
         planetlod.CubeMap.from_image(path, size=2)
+
+
+def test_sgi_with_negative_rle_length_is_a_clear_error(planetlod):
+    """OpenImageIO's SGI reader allocates a negative RLE run length (fuzz
+    finding, fuzz/repro/sgi-rle-negative-length.sgi): std::bad_alloc, caught
+    in the bridge and raised as MemoryError with the file named."""
+    path = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
+                        "fuzz", "repro", "sgi-rle-negative-length.sgi")
+    with pytest.raises(MemoryError, match="sgi-rle-negative-length"):
+        planetlod.CubeMap.from_image(path, size=2)
