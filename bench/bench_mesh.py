@@ -9,8 +9,12 @@ normals, uv, morph, triangles, sector_level, face) at template levels 3..7,
 best of N runs.  Prints a table; target >= 50 M vertices/s on 2 threads.
 """
 import argparse
+import glob
 import os
+import shutil
+import subprocess
 import sys
+import tempfile
 import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -53,11 +57,40 @@ def bytes_per_vertex(mesh):
     return total / max(1, mesh.vertex_count)
 
 
+def c_emission(topo):
+    """Builds bench_mesh_c.c against the core (setup.py's flags) and returns
+    its table: plod_mesh_emit into buffers allocated once and reused."""
+    cc, cxx = shutil.which("gcc") or shutil.which("cc"), shutil.which("g++") or shutil.which("c++")
+    if not cc or not cxx:
+        return "(no C/C++ compiler: C-level table skipped)"
+    cext = os.path.join(ROOT, "cext")
+    sources = [p for p in sorted(glob.glob(os.path.join(cext, "*.c")))
+               if not os.path.basename(p).startswith(("py_", "pymodule"))]
+    sources.append(os.path.join(ROOT, "bench", "bench_mesh_c.c"))
+    oiio = subprocess.run(["pkg-config", "--cflags", "--libs", "OpenImageIO"],
+                          capture_output=True, text=True).stdout.split()
+    with tempfile.TemporaryDirectory() as tmp:
+        objects = []
+        for src in sources:
+            obj = os.path.join(tmp, os.path.basename(src) + ".o")
+            subprocess.run([cc, "-std=c11", "-O2", "-ffp-contract=off", "-D_POSIX_C_SOURCE=200809L",
+                            "-I", cext, "-c", src, "-o", obj], check=True)
+            objects.append(obj)
+        exe = os.path.join(tmp, "bench_mesh_c")
+        subprocess.run([cxx, "-std=c++17", "-O2", "-ffp-contract=off", "-I", cext,
+                        os.path.join(cext, "image_io.cpp")] + objects + oiio +
+                       ["-lm", "-lpthread", "-o", exe], check=True)
+        return subprocess.run([exe] + ([topo] if topo else []), check=True,
+                              capture_output=True, text=True).stdout.rstrip()
+
+
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--repeat", type=int, default=5)
     parser.add_argument("--no-map", action="store_true")
     parser.add_argument("--levels", default="4,5,6,7")
+    parser.add_argument("--c", action="store_true",
+                        help="also the C-level table (reused buffers, no Python)")
     args = parser.parse_args()
     radius = 6371e3
     planets = [("sphere", planetlod.Planet(radius))]
@@ -84,6 +117,9 @@ def main():
                       f"{bytes_per_vertex(mesh):>7.1f}")
     print("(all outputs written; fresh output buffers allocated inside each call (first-touch page faults included); "
           "target >= 50 M vertices/s on 2 threads)")
+    if args.c:
+        print("\nC level (plod_mesh_emit, buffers allocated once and reused, best of 5):")
+        print(c_emission(None if args.no_map or not os.path.exists(topo) else topo))
 
 
 if __name__ == "__main__":

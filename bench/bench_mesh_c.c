@@ -1,0 +1,176 @@
+/* bench_mesh_c.c -- C-level mesh emission throughput (no Python, buffers
+ * allocated once and reused, as a renderer streaming frames would).
+ * Built (the core's C files and image_io.cpp, as setup.py compiles them)
+ * and run by `bench_mesh.py --c`.  Scene as bench_mesh.py: an
+ * Earth-radius planet, perfect sphere and the Earth topology map as a 1024^2
+ * QSC cube map with its normal map, camera 10 km up, refined without
+ * culling; then plod_mesh_emit of every sector with every output, at
+ * template levels 4..7 on 1 and 2 threads, best of 5 (wall clock).
+ *     bench_mesh_c [earth-topology.png]
+ */
+#include "plod.h"
+#include "plod_image.h"
+#include "plod_resample.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <time.h>
+
+static double bench__now(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+typedef struct bench_source {
+    const plod_planet *planet;
+    const plod_sector *sectors;
+} bench_source;
+
+static int bench__sector(const void *context, size_t index, plod_mesh_sector *out)
+{
+    const bench_source *src = context;
+    if (out) {
+        plod_sector_corners(src->planet, &src->sectors[index], out->corners);
+        out->level = src->sectors[index].level;
+        out->face = src->sectors[index].face;
+    }
+    return 1;
+}
+
+/* Blender-style camera matrix looking from eye at target, +Z up. */
+static void bench__look_at(const double eye[3], const double target[3], double m[16])
+{
+    double back[3], right[3], up[3], z[3] = {0.0, 0.0, 1.0};
+    double n = 0.0;
+    for (int k = 0; k < 3; k++) {
+        back[k] = eye[k] - target[k];
+        n += back[k] * back[k];
+    }
+    for (int k = 0; k < 3; k++)
+        back[k] /= sqrt(n);
+    right[0] = z[1] * back[2] - z[2] * back[1];
+    right[1] = z[2] * back[0] - z[0] * back[2];
+    right[2] = z[0] * back[1] - z[1] * back[0];
+    n = sqrt(right[0] * right[0] + right[1] * right[1] + right[2] * right[2]);
+    for (int k = 0; k < 3; k++)
+        right[k] /= n;
+    up[0] = back[1] * right[2] - back[2] * right[1];
+    up[1] = back[2] * right[0] - back[0] * right[2];
+    up[2] = back[0] * right[1] - back[1] * right[0];
+    for (int k = 0; k < 3; k++) {
+        m[4 * k + 0] = right[k];
+        m[4 * k + 1] = up[k];
+        m[4 * k + 2] = back[k];
+        m[4 * k + 3] = eye[k];
+    }
+    m[12] = m[13] = m[14] = 0.0;
+    m[15] = 1.0;
+}
+
+static int bench__run(const char *name, const plod_planet *planet, const plod_camera *camera)
+{
+    plod_refiner *refiner = NULL;
+    plod_refine_params rp;
+    plod_refine_params_default(&rp);
+    rp.backface_culling = 0;
+    rp.frustum_culling = 0;
+    if (plod_refiner_create(&refiner, planet) != PLOD_OK ||
+        plod_refiner_update(refiner, camera, &rp, NULL) != PLOD_OK) {
+        fprintf(stderr, "bench_mesh_c: refine failed\n");
+        return 1;
+    }
+    size_t count = 0;
+    const plod_sector *sectors = plod_refiner_sectors(refiner, &count);
+    bench_source src = {planet, sectors};
+    for (int level = 4; level <= 7; level++) {
+        size_t vb = plod_mesh_vertex_bound(count, level), tb = plod_mesh_triangle_bound(count, level);
+        plod_mesh_buffers out = {
+            malloc(3 * vb * sizeof(float)), malloc(3 * vb * sizeof(float)),
+            malloc(2 * vb * sizeof(float)), malloc(vb * sizeof(float)),
+            malloc(3 * tb * sizeof(int32_t)), malloc(tb * sizeof(int32_t)),
+            malloc(tb * sizeof(int32_t)),
+        };
+        if (!out.positions || !out.normals || !out.uv || !out.morph || !out.triangles ||
+            !out.sector_level || !out.face) {
+            fprintf(stderr, "bench_mesh_c: out of memory\n");
+            return 1;
+        }
+        for (int threads = 1; threads <= 2; threads++) {
+            plod_mesh_params mp;
+            plod_mesh_params_init(&mp, planet, level);
+            mp.threads = threads;
+            plod_mesh_origin(planet, camera->position, mp.origin);
+            double best = INFINITY;
+            size_t vertices = 0;
+            for (int run = 0; run < 6; run++) { /* the first run warms the buffers */
+                double t0 = bench__now();
+                if (plod_mesh_emit(&mp, bench__sector, &src, count, &out, &vertices, NULL) !=
+                    PLOD_OK) {
+                    fprintf(stderr, "bench_mesh_c: emission failed\n");
+                    return 1;
+                }
+                double dt = bench__now() - t0;
+                if (run > 0 && dt < best)
+                    best = dt;
+            }
+            printf("%15s %3d %8zu %10zu %4d %8.2f %8.1f\n", name, level, count, vertices,
+                   threads, 1e3 * best, (double)vertices / best / 1e6);
+        }
+        free(out.positions), free(out.normals), free(out.uv), free(out.morph);
+        free(out.triangles), free(out.sector_level), free(out.face);
+    }
+    plod_refiner_destroy(refiner);
+    return 0;
+}
+
+int main(int argc, char **argv)
+{
+    const double radius = 6371e3;
+    double eye[3] = {radius + 10e3, 0.0, 0.0}, target[3] = {radius, 50e3, 20e3};
+    plod_camera_desc desc;
+    plod_camera_desc_default(&desc);
+    bench__look_at(eye, target, desc.matrix_world);
+    desc.clip_start = 0.1;
+    desc.clip_end = 1e9;
+    plod_camera camera;
+    if (plod_camera_init(&camera, &desc) != PLOD_OK) {
+        fprintf(stderr, "bench_mesh_c: bad camera\n");
+        return 1;
+    }
+    printf("%15s %3s %8s %10s %4s %8s %8s\n", "planet", "tl", "sectors", "vertices", "thr",
+           "ms", "Mvert/s");
+    plod_planet sphere = {0};
+    sphere.radius = radius;
+    sphere.projection = PLOD_PROJ_QSC;
+    sphere.height_scale = 1.0;
+    if (bench__run("sphere", &sphere, &camera))
+        return 1;
+    if (argc < 2)
+        return 0;
+    plod_image image = {0};
+    char message[256];
+    plod_cubemap *heights = NULL, *normals = NULL;
+    if (plod_image_read(&image, argv[1], 0, message, sizeof message) != PLOD_OK ||
+        plod_cubemap_create(&heights, PLOD_PROJ_QSC, 1024, 1, image.type) != PLOD_OK ||
+        plod_resample_car_to_cube(heights, &image, PLOD_FILTER_BILINEAR, NULL, NULL) != PLOD_OK ||
+        plod_cubemap_build_pyramid(heights) != PLOD_OK) {
+        fprintf(stderr, "bench_mesh_c: cannot load %s: %s\n", argv[1], message);
+        return 1;
+    }
+    plod_image_free(&image);
+    plod_planet earth = sphere;
+    earth.heightmap = heights;
+    earth.height_scale = 8848.0;
+    double t0 = bench__now();
+    if (plod_planet_build_normals(&earth, &normals) != PLOD_OK)
+        return 1;
+    printf("(normal map 6 x 1024^2 built in %.1f ms, once per planet)\n", 1e3 * (bench__now() - t0));
+    earth.normalmap = normals;
+    int failed = bench__run("earth-topology", &earth, &camera);
+    plod_cubemap_destroy(normals);
+    plod_cubemap_destroy(heights);
+    return failed;
+}
