@@ -179,6 +179,16 @@ plod_status plod__read(plod_image *image, const char *path, size_t max_pixels,
                               (why.empty() ? "" : ": " + why));
         return PLOD_ERR_BAD_IMAGE;
     }
+    /* OpenImageIO 2.4's SGI reader writes past the caller's buffer on
+     * corrupt RLE data (fuzz_image: fuzz/repro/sgi-rle-overflow.sgi) and
+     * news negative sizes; heightmaps do not come as SGI, so it is refused
+     * rather than trusted with Blender's heap. */
+    if (std::strcmp(input->format_name(), "sgi") == 0) {
+        plod__set_message(message, message_size,
+                          std::string("'") + path +
+                              "' is an SGI image; SGI is not supported (use PNG, TIFF or EXR)");
+        return PLOD_ERR_BAD_IMAGE;
+    }
     const OIIO::ImageSpec &spec = input->spec();
     if (spec.width <= 0 || spec.height <= 0 || spec.depth != 1 || spec.deep) {
         plod__set_message(message, message_size,
