@@ -1587,7 +1587,7 @@ void plod_recommended_clip(const plod_planet *planet, const plod_camera *camera,
     double hmin, hmax;
     plod_planet_height_range(planet, &hmin, &hmax);
     const double *p = camera->position;
-    double dist = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+    double dist = hypot(hypot(p[0], p[1]), p[2]); /* no overflow below ~1e308 */
     double top = planet->radius + hmax, rho = planet->radius + hmin;
     double corner = 1.0;
     if (!camera->desc.orthographic) {
@@ -1602,7 +1602,7 @@ void plod_recommended_clip(const plod_planet *planet, const plod_camera *camera,
     double floor_ = fmax(1e-3, 1e-7 * planet->radius);
     if (clearance <= 0)
         floor_ = 1e-3;
-    if (near_ < floor_)
+    if (!(near_ >= floor_)) /* also NaN: infinite clearance times a zero corner */
         near_ = floor_;
     /* farthest visible terrain: the horizon of the occluder ball plus the
      * distance at which the highest peak still rises above it */

@@ -387,6 +387,18 @@ def test_recommended_clip(planetlod, earth):
         assert far2 > far and near2 <= near
 
 
+def test_recommended_clip_of_a_camera_near_float_limits(planetlod):
+    """Fuzz finding: at 1e200 m the squared distance overflowed, and an
+    infinite clearance times a wide view's zero corner factor gave a NaN near
+    clip.  Now a positive near, and a far beyond it."""
+    for coord in (1e200, 1e300):
+        for lens in (50.0, 1e-300):
+            m = [1, 0, 0, coord, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]
+            cam = planetlod.Camera(m, lens=lens)
+            near, far = planetlod.Planet(EARTH_R).recommended_clip(cam)
+            assert near > 0 and not math.isnan(far) and far >= near
+
+
 def test_camera_below_surface_and_orthographic(planetlod):
     p = planetlod.Planet(EARTH_R)
     cam = surface_camera(planetlod, EARTH_R, -100.0)
