@@ -56,12 +56,6 @@ plod_status plod_planet_build_normals(const plod_planet *planet, plod_cubemap **
                                       planet->height_scale);
 }
 
-double plod_planet_height(const plod_planet *planet, const double dir[3])
-{
-    if (!planet->heightmap)
-        return 0.0;
-    return plod_cubemap_sample_height(planet->heightmap, dir) * planet->height_scale;
-}
 
 /* Unit normal of the displaced surface d*(R+h(d)) from central differences
  * of h along a tangent frame chosen from d alone, one texel apart:
@@ -135,6 +129,13 @@ double plod_planet_surface(const plod_planet *planet, const double dir[3], doubl
         }
     }
     return height;
+}
+
+/* One sampling path for heights, so that mesh vertices (through
+ * plod_planet_surface) and every other caller agree bit for bit. */
+double plod_planet_height(const plod_planet *planet, const double dir[3])
+{
+    return plod_planet_surface(planet, dir, NULL);
 }
 
 #define PLOD__PLANET_PI 3.141592653589793
