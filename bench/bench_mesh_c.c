@@ -27,15 +27,20 @@ static double bench__now(void)
 typedef struct bench_source {
     const plod_planet *planet;
     const plod_sector *sectors;
+    int visible_only;
 } bench_source;
 
 static int bench__sector(const void *context, size_t index, plod_mesh_sector *out)
 {
     const bench_source *src = context;
+    const plod_sector *s = &src->sectors[index];
+    if (src->visible_only && !(s->flags & PLOD_SECTOR_VISIBLE))
+        return 0;
     if (out) {
-        plod_sector_corners(src->planet, &src->sectors[index], out->corners);
-        out->level = src->sectors[index].level;
-        out->face = src->sectors[index].face;
+        plod_sector_corners(src->planet, s, out->corners);
+        out->level = s->level;
+        out->face = s->face;
+        out->key = s->id;
     }
     return 1;
 }
@@ -84,7 +89,7 @@ static int bench__run(const char *name, const plod_planet *planet, const plod_ca
     }
     size_t count = 0;
     const plod_sector *sectors = plod_refiner_sectors(refiner, &count);
-    bench_source src = {planet, sectors};
+    bench_source src = {planet, sectors, 0};
     for (int level = 4; level <= 7; level++) {
         size_t vb = plod_mesh_vertex_bound(count, level), tb = plod_mesh_triangle_bound(count, level);
         plod_mesh_buffers out = {
@@ -126,6 +131,116 @@ static int bench__run(const char *name, const plod_planet *planet, const plod_ca
     return 0;
 }
 
+/* Emission along bench_refine.py's descent (20,000 km to 2 m over Everest,
+ * 240 frames, 1 px at 1920x1080, template level 4): each frame's visible
+ * sectors emitted with the sector cache and without it, interleaved, into
+ * buffers grown once and reused.  Reports vertices/s over the whole path
+ * and the cache's hit rate. */
+static int bench__flyby(const char *name, const plod_planet *planet, double terrain_top)
+{
+    const double pi = 3.14159265358979323846, radius = planet->radius;
+    const int frames = 240;
+    plod_refiner *refiner = NULL;
+    plod_mesh_cache *cache = NULL;
+    if (plod_refiner_create(&refiner, planet) != PLOD_OK ||
+        plod_mesh_cache_create(&cache, PLOD_MESH_CACHE_DEFAULT_BYTES) != PLOD_OK)
+        return 1;
+    plod_refine_params rp;
+    plod_refine_params_default(&rp);
+    rp.max_level = 24;
+    plod_mesh_buffers out = {0};
+    size_t capacity = 0;
+    for (int threads = 1; threads <= 2; threads++) {
+        double t_cached = 0.0, t_plain = 0.0;
+        size_t vertices_total = 0, hits = 0, misses = 0;
+        plod_refiner_reset(refiner);
+        plod_mesh_cache_clear(cache);
+        for (int k = 0; k < frames; k++) {
+            double t = (double)k / (frames - 1);
+            double alt = exp(log(2e7) * (1 - t) + log(2.0) * t);
+            double lat = 27.9 * pi / 180, lon = 86.9 * pi / 180 + 0.002 * t;
+            double d[3] = {cos(lat) * cos(lon), cos(lat) * sin(lon), sin(lat)};
+            double east[3] = {-sin(lon), cos(lon), 0.0};
+            double pitch = (-90.0 + 80.0 * fmin(1.0, t * 1.25)) * pi / 180;
+            double eye[3], target[3];
+            for (int c = 0; c < 3; c++) {
+                eye[c] = d[c] * (radius + terrain_top + alt);
+                target[c] = eye[c] + east[c] * cos(pitch) + d[c] * sin(pitch);
+            }
+            plod_camera_desc desc;
+            plod_camera_desc_default(&desc);
+            bench__look_at(eye, target, desc.matrix_world); /* +Z up: pole-safe here */
+            desc.resolution_x = 1920;
+            desc.resolution_y = 1080;
+            desc.clip_start = 0.1;
+            desc.clip_end = 1e9;
+            plod_camera camera;
+            if (plod_camera_init(&camera, &desc) != PLOD_OK ||
+                plod_refiner_update(refiner, &camera, &rp, NULL) != PLOD_OK)
+                return 1;
+            size_t count = 0;
+            const plod_sector *sectors = plod_refiner_sectors(refiner, &count);
+            bench_source src = {planet, sectors, 1};
+            size_t emitted = plod_mesh_count_sectors(bench__sector, &src, count);
+            if (emitted > capacity) {
+                capacity = emitted + emitted / 2;
+                size_t vb = plod_mesh_vertex_bound(capacity, rp.template_level);
+                size_t tb = plod_mesh_triangle_bound(capacity, rp.template_level);
+                free(out.positions), free(out.normals), free(out.uv), free(out.morph);
+                free(out.triangles), free(out.sector_level), free(out.face);
+                out = (plod_mesh_buffers){
+                    calloc(3 * vb, sizeof(float)), calloc(3 * vb, sizeof(float)),
+                    calloc(2 * vb, sizeof(float)), calloc(vb, sizeof(float)),
+                    calloc(3 * tb, sizeof(int32_t)), calloc(tb, sizeof(int32_t)),
+                    calloc(tb, sizeof(int32_t))};
+                if (!out.positions || !out.normals || !out.uv || !out.morph ||
+                    !out.triangles || !out.sector_level || !out.face)
+                    return 1;
+                /* touch every page once, as a reused buffer would be */
+                plod_mesh_params warm;
+                plod_mesh_params_init(&warm, planet, rp.template_level);
+                plod_mesh_emit(&warm, bench__sector, &src, count, &out, NULL, NULL);
+            }
+            plod_mesh_params mp;
+            plod_mesh_params_init(&mp, planet, rp.template_level);
+            mp.threads = threads;
+            plod_mesh_origin(planet, camera.position, mp.origin);
+            size_t vertices = 0;
+            double t0 = bench__now();
+            if (plod_mesh_emit(&mp, bench__sector, &src, count, &out, &vertices, NULL) != PLOD_OK)
+                return 1;
+            double t1 = bench__now();
+            mp.cache = cache;
+            if (plod_mesh_emit(&mp, bench__sector, &src, count, &out, NULL, NULL) != PLOD_OK)
+                return 1;
+            double t2 = bench__now();
+            plod_mesh_cache_stats cs;
+            plod_mesh_cache_get_stats(cache, &cs);
+            hits += cs.hits;
+            misses += cs.misses;
+            t_plain += t1 - t0;
+            t_cached += t2 - t1;
+            vertices_total += vertices;
+        }
+        printf("%15s %4d %10zu %10.1f %10.1f %7.2fx %8.1f%%\n", name, threads, vertices_total,
+               vertices_total / t_plain / 1e6, vertices_total / t_cached / 1e6,
+               t_plain / t_cached, 100.0 * (double)hits / (double)(hits + misses));
+    }
+    free(out.positions), free(out.normals), free(out.uv), free(out.morph);
+    free(out.triangles), free(out.sector_level), free(out.face);
+    plod_mesh_cache_destroy(cache);
+    plod_refiner_destroy(refiner);
+    return 0;
+}
+
+static void bench__flyby_header(void)
+{
+    printf("\nflyby: bench_refine.py's descent, 240 frames, visible sectors, template level 4,\n"
+           "uncached vs sector cache, interleaved per frame (Mvert/s over the whole path)\n");
+    printf("%15s %4s %10s %10s %10s %8s %9s\n", "planet", "thr", "vertices", "uncached",
+           "cached", "ratio", "hit rate");
+}
+
 int main(int argc, char **argv)
 {
     const double radius = 6371e3;
@@ -148,8 +263,10 @@ int main(int argc, char **argv)
     sphere.height_scale = 1.0;
     if (bench__run("sphere", &sphere, &camera))
         return 1;
-    if (argc < 2)
-        return 0;
+    if (argc < 2) {
+        bench__flyby_header();
+        return bench__flyby("sphere", &sphere, 0.0);
+    }
     plod_image image = {0};
     char message[256];
     plod_cubemap *heights = NULL, *normals = NULL;
@@ -170,6 +287,11 @@ int main(int argc, char **argv)
     printf("(normal map 6 x 1024^2 built in %.1f ms, once per planet)\n", 1e3 * (bench__now() - t0));
     earth.normalmap = normals;
     int failed = bench__run("earth-topology", &earth, &camera);
+    double lo, hi;
+    plod_planet_height_range(&earth, &lo, &hi);
+    bench__flyby_header();
+    failed = failed || bench__flyby("sphere", &sphere, 0.0) ||
+             bench__flyby("earth-topology", &earth, hi);
     plod_cubemap_destroy(normals);
     plod_cubemap_destroy(heights);
     return failed;

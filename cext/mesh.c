@@ -18,6 +18,7 @@
 #include <assert.h>
 #include <math.h>
 #include <pthread.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "plod.h"
@@ -409,43 +410,211 @@ static void plod__morph_sector(const plod__emitter *e, size_t vbase)
         }
 }
 
-static plod_status plod__emit_sector(const plod__emitter *e,
-                                     const plod_mesh_sector *sector, size_t slot)
+/* ---- sector cache -------------------------------------------------------------- */
+
+typedef struct plod__cache_entry {
+    uint64_t key;
+    unsigned char *data; /* plod__block layout, vertices_per_sector vertices */
+} plod__cache_entry;
+
+struct plod_mesh_cache {
+    size_t max_bytes, bytes;
+    /* what the entries were computed for */
+    const plod_planet *planet;
+    double radius, height_scale;
+    const void *heightmap, *normalmap;
+    int template_level;
+    size_t entry_bytes;
+    plod__cache_entry *entries;
+    size_t count, capacity;
+    int32_t *table; /* open addressing over entries: index or -1 */
+    size_t table_size; /* power of two, >= 2 * count, or 0 */
+    size_t hits, misses;
+};
+
+/* Per vertex: planet-space position (3 doubles), normal (3 floats), uv (2). */
+typedef struct plod__block {
+    double *position;
+    float *normal;
+    float *uv;
+} plod__block;
+
+#define PLOD__VERTEX_CACHE_BYTES (3 * sizeof(double) + 5 * sizeof(float))
+
+static void plod__block_view(unsigned char *data, size_t vertices, plod__block *b)
 {
-    if (!plod__sector_ok(sector))
-        return PLOD_ERR_BAD_COORD;
+    b->position = (double *)data;
+    b->normal = (float *)(data + 3 * sizeof(double) * vertices);
+    b->uv = b->normal + 3 * vertices;
+}
+
+static size_t plod__key_hash(uint64_t key)
+{
+    key ^= key >> 33;
+    key *= 0xff51afd7ed558ccdULL;
+    key ^= key >> 33;
+    return (size_t)key;
+}
+
+static int32_t plod__cache_find(const plod_mesh_cache *c, uint64_t key)
+{
+    if (!c->table_size || !key)
+        return -1;
+    size_t mask = c->table_size - 1;
+    for (size_t h = plod__key_hash(key) & mask;; h = (h + 1) & mask) {
+        int32_t e = c->table[h];
+        if (e < 0 || c->entries[e].key == key)
+            return e;
+    }
+}
+
+/* Rebuilds the table over entries[0, count), sized for `expected` entries;
+ * on allocation failure the cache is emptied (never wrong, only colder). */
+static int plod__cache_rehash(plod_mesh_cache *c, size_t expected)
+{
+    size_t size = 16;
+    while (size < 2 * expected)
+        size *= 2;
+    if (size != c->table_size) {
+        int32_t *t = realloc(c->table, size * sizeof *t);
+        if (!t)
+            return 0;
+        c->table = t;
+        c->table_size = size;
+    }
+    memset(c->table, 0xff, c->table_size * sizeof *c->table);
+    size_t mask = c->table_size - 1;
+    for (size_t i = 0; i < c->count; i++) {
+        size_t h = plod__key_hash(c->entries[i].key) & mask;
+        while (c->table[h] >= 0)
+            h = (h + 1) & mask;
+        c->table[h] = (int32_t)i;
+    }
+    return 1;
+}
+
+plod_status plod_mesh_cache_create(plod_mesh_cache **out, size_t max_bytes)
+{
+    if (!out)
+        return PLOD_ERR_NULL;
+    *out = calloc(1, sizeof **out);
+    if (!*out)
+        return PLOD_ERR_NO_MEMORY;
+    (*out)->max_bytes = max_bytes;
+    (*out)->template_level = -1;
+    return PLOD_OK;
+}
+
+void plod_mesh_cache_clear(plod_mesh_cache *cache)
+{
+    if (!cache)
+        return;
+    for (size_t i = 0; i < cache->count; i++)
+        free(cache->entries[i].data);
+    free(cache->entries);
+    free(cache->table);
+    cache->entries = NULL;
+    cache->table = NULL;
+    cache->count = cache->capacity = cache->table_size = 0;
+    cache->bytes = 0;
+    cache->planet = NULL;
+    cache->template_level = -1;
+}
+
+void plod_mesh_cache_destroy(plod_mesh_cache *cache)
+{
+    plod_mesh_cache_clear(cache);
+    free(cache);
+}
+
+void plod_mesh_cache_set_max_bytes(plod_mesh_cache *cache, size_t max_bytes)
+{
+    if (!cache)
+        return;
+    cache->max_bytes = max_bytes;
+    if (cache->bytes > max_bytes)
+        plod_mesh_cache_clear(cache);
+}
+
+void plod_mesh_cache_get_stats(const plod_mesh_cache *cache, plod_mesh_cache_stats *stats)
+{
+    memset(stats, 0, sizeof *stats);
+    if (!cache)
+        return;
+    stats->sectors = cache->count;
+    stats->bytes = cache->bytes;
+    stats->max_bytes = cache->max_bytes;
+    stats->hits = cache->hits;
+    stats->misses = cache->misses;
+}
+
+/* Empties the cache unless its entries were computed for these parameters. */
+static void plod__cache_bind(plod_mesh_cache *c, const plod_mesh_params *params,
+                             size_t vertices_per_sector)
+{
+    const plod_planet *p = params->planet;
+    if (c->planet != p || c->template_level != params->template_level ||
+        c->radius != p->radius || c->height_scale != p->height_scale ||
+        c->heightmap != (const void *)p->heightmap || c->normalmap != (const void *)p->normalmap)
+        plod_mesh_cache_clear(c);
+    c->planet = p;
+    c->radius = p->radius;
+    c->height_scale = p->height_scale;
+    c->heightmap = p->heightmap;
+    c->normalmap = p->normalmap;
+    c->template_level = params->template_level;
+    c->entry_bytes = vertices_per_sector * PLOD__VERTEX_CACHE_BYTES;
+}
+
+/* ---- one sector ---------------------------------------------------------------- */
+
+/* Where a sector's vertex data comes from and goes to, per output slot. */
+typedef struct plod__slot_cache {
+    int32_t hit;          /* entry to copy from, or -1 */
+    unsigned char *fresh; /* new entry data to fill (a miss that fits), or NULL */
+    uint64_t key;
+} plod__slot_cache;
+
+/* Computes the sector's vertices into the outputs and, when `block` is not
+ * NULL, into it (every field). */
+static void plod__compute_vertices(const plod__emitter *e, const plod_mesh_sector *sector,
+                                   size_t vbase, const plod__block *block)
+{
     const plod_mesh_params *params = e->params;
     const plod_planet *planet = params->planet;
     const plod_mesh_buffers *out = e->out;
     const double (*corners)[3] = (const double (*)[3])sector->corners;
     int n = e->n;
     double inv_n = 1.0 / (double)n;
-    size_t vbase = slot * e->vertices_per_sector;
-    size_t tbase = slot * e->triangles_per_sector;
+    int want_normal = out->normals || block, want_uv = out->uv || block;
 
     double lon_ref = 0.0;
-    if (out->uv) {
+    if (want_uv) {
         double cx = corners[0][0] + corners[1][0] + corners[2][0];
         double cy = corners[0][1] + corners[1][1] + corners[2][1];
         if (cx != 0.0 || cy != 0.0)
             lon_ref = plod__atan2(cy, cx);
     }
 
-    size_t v = vbase;
+    size_t v = vbase, b = 0;
     for (int i = 0; i <= n; i++)
-        for (int j = 0; j <= n - i; j++, v++) {
+        for (int j = 0; j <= n - i; j++, v++, b++) {
             int k[3] = {n - i - j, j, i};
             double dir[3], normal[3];
             plod__vertex_direction(corners, k, inv_n, dir);
             double r = planet->radius +
-                       plod_planet_surface(planet, dir, out->normals ? normal : NULL);
+                       plod_planet_surface(planet, dir, want_normal ? normal : NULL);
+            double p[3] = {dir[0] * r, dir[1] * r, dir[2] * r};
             if (out->positions)
                 for (int c = 0; c < 3; c++)
-                    out->positions[3 * v + c] = (float)(dir[c] * r - params->origin[c]);
-            if (out->normals)
+                    out->positions[3 * v + c] = (float)(p[c] - params->origin[c]);
+            float nf[3], uvf[2];
+            if (want_normal)
                 for (int c = 0; c < 3; c++)
-                    out->normals[3 * v + c] = (float)normal[c];
-            if (out->uv) {
+                    nf[c] = (float)normal[c];
+            if (out->normals)
+                memcpy(out->normals + 3 * v, nf, sizeof nf);
+            if (want_uv) {
                 double horizontal = sqrt(dir[0] * dir[0] + dir[1] * dir[1]);
                 double lon = lon_ref;
                 if (horizontal > 1e-12) {
@@ -456,12 +625,64 @@ static plod_status plod__emit_sector(const plod__emitter *e,
                         lon += 2 * PLOD__PI;
                 }
                 double lat = plod__atan2(dir[2], horizontal);
-                out->uv[2 * v + 0] = (float)(lon / (2 * PLOD__PI) + 0.5);
-                out->uv[2 * v + 1] = (float)(lat / PLOD__PI + 0.5);
+                uvf[0] = (float)(lon / (2 * PLOD__PI) + 0.5);
+                uvf[1] = (float)(lat / PLOD__PI + 0.5);
+                if (out->uv)
+                    memcpy(out->uv + 2 * v, uvf, sizeof uvf);
             }
-            if (out->morph)
-                out->morph[v] = 0.0f;
+            if (block) {
+                memcpy(block->position + 3 * b, p, sizeof p);
+                memcpy(block->normal + 3 * b, nf, sizeof nf);
+                memcpy(block->uv + 2 * b, uvf, sizeof uvf);
+            }
         }
+}
+
+/* The same outputs from a cache entry: (float)(p - origin) as computed. */
+static void plod__copy_vertices(const plod__emitter *e, size_t vbase, const plod__block *block)
+{
+    const plod_mesh_buffers *out = e->out;
+    const double *origin = e->params->origin;
+    size_t count = e->vertices_per_sector;
+    if (out->positions) {
+        float *dst = out->positions + 3 * vbase;
+        const double *src = block->position;
+        for (size_t k = 0; k < 3 * count; k += 3) {
+            dst[k + 0] = (float)(src[k + 0] - origin[0]);
+            dst[k + 1] = (float)(src[k + 1] - origin[1]);
+            dst[k + 2] = (float)(src[k + 2] - origin[2]);
+        }
+    }
+    if (out->normals)
+        memcpy(out->normals + 3 * vbase, block->normal, 3 * count * sizeof(float));
+    if (out->uv)
+        memcpy(out->uv + 2 * vbase, block->uv, 2 * count * sizeof(float));
+}
+
+static plod_status plod__emit_sector(const plod__emitter *e, const plod_mesh_sector *sector,
+                                     size_t slot, const plod_mesh_cache *cache,
+                                     const plod__slot_cache *sc)
+{
+    if (!plod__sector_ok(sector))
+        return PLOD_ERR_BAD_COORD;
+    const plod_mesh_params *params = e->params;
+    const plod_mesh_buffers *out = e->out;
+    int n = e->n;
+    size_t vbase = slot * e->vertices_per_sector;
+    size_t tbase = slot * e->triangles_per_sector;
+
+    plod__block block;
+    if (sc && sc->hit >= 0) {
+        plod__block_view(cache->entries[sc->hit].data, e->vertices_per_sector, &block);
+        plod__copy_vertices(e, vbase, &block);
+    } else if (sc && sc->fresh) {
+        plod__block_view(sc->fresh, e->vertices_per_sector, &block);
+        plod__compute_vertices(e, sector, vbase, &block);
+    } else {
+        plod__compute_vertices(e, sector, vbase, NULL);
+    }
+    if (out->morph)
+        memset(out->morph + vbase, 0, e->vertices_per_sector * sizeof(float));
 
     if (out->triangles)
         plod__write_triangles(out->triangles + 3 * tbase, n, (int32_t)vbase);
@@ -485,25 +706,119 @@ typedef struct plod__chunk {
     size_t begin, end;   /* sector index range */
     size_t first_slot;   /* output slot of its first emitted sector */
     size_t emitted;      /* sectors it emits (counting pass) */
+    /* cache: read-only here; misses get fresh blocks within `budget` bytes */
+    const plod_mesh_cache *cache;
+    plod__slot_cache *slots; /* indexed by output slot */
+    size_t budget;
     plod_status status;
 } plod__chunk;
 
 static void *plod__run_chunk(void *arg)
 {
     plod__chunk *chunk = arg;
+    const plod__emitter *e = chunk->emitter;
+    const plod_mesh_cache *cache = chunk->cache;
     size_t slot = chunk->first_slot;
     plod_mesh_sector sector;
     chunk->status = PLOD_OK;
     for (size_t s = chunk->begin; s < chunk->end; s++) {
+        sector.key = 0;
         if (!chunk->source(chunk->context, s, &sector))
             continue;
-        plod_status st = plod__emit_sector(chunk->emitter, &sector, slot++);
+        plod__slot_cache *sc = NULL;
+        if (cache && sector.key) {
+            sc = &chunk->slots[slot];
+            sc->key = sector.key;
+            sc->hit = plod__cache_find(cache, sector.key);
+            sc->fresh = NULL;
+            size_t need = cache->entry_bytes;
+            if (sc->hit < 0 && need <= chunk->budget) {
+                sc->fresh = malloc(need);
+                if (sc->fresh)
+                    chunk->budget -= need;
+            }
+        }
+        plod_status st = plod__emit_sector(e, &sector, slot, cache, sc);
+        slot++;
         if (st != PLOD_OK) {
             chunk->status = st;
             break;
         }
     }
     return NULL;
+}
+
+/* After the threads: keep the entries this emission used, add its fresh
+ * blocks (a key seen twice keeps its first), free the rest.  Any failure
+ * empties the cache: it is never wrong, only colder. */
+static void plod__cache_commit(plod_mesh_cache *c, plod__slot_cache *slots, size_t total,
+                               int ok)
+{
+    c->hits = c->misses = 0;
+    size_t fresh = 0;
+    for (size_t i = 0; i < total; i++) {
+        if (!slots[i].key)
+            continue;
+        c->hits += slots[i].hit >= 0;
+        c->misses += slots[i].hit < 0;
+        fresh += slots[i].fresh != NULL;
+    }
+    unsigned char *used = ok ? calloc(c->count ? c->count : 1, 1) : NULL;
+    size_t need = c->count + fresh;
+    if (used && need > c->capacity) {
+        size_t cap = c->capacity ? c->capacity : 64;
+        while (cap < need)
+            cap *= 2;
+        plod__cache_entry *grown = realloc(c->entries, cap * sizeof *grown);
+        if (grown) {
+            c->entries = grown;
+            c->capacity = cap;
+        } else {
+            free(used);
+            used = NULL;
+        }
+    }
+    if (!used) {
+        for (size_t i = 0; i < total; i++)
+            free(slots[i].fresh);
+        plod_mesh_cache_clear(c);
+        return;
+    }
+    for (size_t i = 0; i < total; i++)
+        if (slots[i].key && slots[i].hit >= 0)
+            used[slots[i].hit] = 1;
+    size_t kept = 0;
+    for (size_t i = 0; i < c->count; i++) {
+        if (used[i]) {
+            c->entries[kept++] = c->entries[i];
+        } else {
+            free(c->entries[i].data);
+            c->bytes -= c->entry_bytes;
+        }
+    }
+    free(used);
+    c->count = kept;
+    if (!plod__cache_rehash(c, need)) {
+        for (size_t i = 0; i < total; i++)
+            free(slots[i].fresh);
+        plod_mesh_cache_clear(c);
+        return;
+    }
+    size_t mask = c->table_size - 1;
+    for (size_t i = 0; i < total; i++) {
+        if (!slots[i].fresh)
+            continue;
+        size_t h = plod__key_hash(slots[i].key) & mask;
+        while (c->table[h] >= 0 && c->entries[c->table[h]].key != slots[i].key)
+            h = (h + 1) & mask;
+        if (c->table[h] >= 0) { /* the key came twice */
+            free(slots[i].fresh);
+            continue;
+        }
+        c->table[h] = (int32_t)c->count;
+        c->entries[c->count++] = (plod__cache_entry){slots[i].key, slots[i].fresh};
+        c->bytes += c->entry_bytes;
+    }
 }
 
 /* Below this many sectors a second thread costs more than it saves. */
@@ -548,9 +863,33 @@ plod_status plod_mesh_emit(const plod_mesh_params *params,
         chunks[t].first_slot = total;
         total += chunks[t].emitted;
         chunks[t].status = PLOD_OK;
+        chunks[t].cache = NULL;
+        chunks[t].slots = NULL;
+        chunks[t].budget = 0;
     }
     if (total > 0 && plod_mesh_vertex_bound(total, params->template_level) == 0)
         return PLOD_ERR_BAD_PARAM; /* indices would overflow int32 */
+
+    plod_mesh_cache *cache = params->cache;
+    plod__slot_cache *slots = NULL;
+    if (cache) {
+        plod__cache_bind(cache, params, emitter.vertices_per_sector);
+        slots = total ? calloc(total, sizeof *slots) : NULL;
+        if (total && !slots) {
+            plod_mesh_cache_clear(cache); /* emit uncached */
+            cache = NULL;
+        }
+    }
+    if (slots) {
+        /* the entries held now may all be evicted at the end, but they
+         * count until then: each thread gets an equal share of the rest */
+        size_t room = cache->max_bytes > cache->bytes ? cache->max_bytes - cache->bytes : 0;
+        for (int t = 0; t < threads; t++) {
+            chunks[t].cache = cache;
+            chunks[t].slots = slots;
+            chunks[t].budget = room / (size_t)threads;
+        }
+    }
 
     pthread_t ids[PLOD_MESH_MAX_THREADS];
     int started[PLOD_MESH_MAX_THREADS];
@@ -563,9 +902,16 @@ plod_status plod_mesh_emit(const plod_mesh_params *params,
         else
             plod__run_chunk(&chunks[t]); /* no thread: do it here */
     }
+    st = PLOD_OK;
     for (int t = 0; t < threads; t++)
-        if (chunks[t].status != PLOD_OK)
-            return chunks[t].status;
+        if (chunks[t].status != PLOD_OK && st == PLOD_OK)
+            st = chunks[t].status;
+    if (cache) { /* an emission of nothing leaves nothing cached */
+        plod__cache_commit(cache, slots, total, st == PLOD_OK);
+        free(slots);
+    }
+    if (st != PLOD_OK)
+        return st;
 
     if (vertex_count)
         *vertex_count = total * emitter.vertices_per_sector;

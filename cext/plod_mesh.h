@@ -47,6 +47,9 @@ typedef struct plod_mesh_sector {
     double corners[3][3]; /* unit directions, CCW seen from outside */
     int level;            /* written to the sector_level attribute */
     int face;             /* written to the face attribute */
+    uint64_t key;         /* identity for plod_mesh_cache (the refiner's
+                             sector id); 0 = never cached.  The emitter sets
+                             it to 0 before each source call. */
 } plod_mesh_sector;
 
 /* Sector source: returns 1 if sector `index` (0..count-1) is emitted and then
@@ -54,6 +57,40 @@ typedef struct plod_mesh_sector {
  * it.  Called concurrently from several threads: must be reentrant. */
 typedef int (*plod_mesh_sector_fn)(const void *context, size_t index,
                                    plod_mesh_sector *sector);
+
+/* ---- sector cache ----------------------------------------------------------
+ * Sectors persist from frame to frame (a flyby splits or merges a few percent
+ * of them per frame), and a persistent sector's vertices differ between
+ * frames only by the origin they are written relative to.  A cache keeps, per
+ * sector key, the planet-space positions (double), normals and uv of the
+ * sectors emitted by the last plod_mesh_emit that used it; a sector found
+ * there is copied (positions re-offset in double, then cast) instead of
+ * recomputed, so the output is bit-identical to an uncached emission.
+ * Entries not used by an emission are freed at its end: the cache holds one
+ * frame's sectors, at most max_bytes (44 bytes per vertex; sectors that do
+ * not fit are emitted uncached).  One cache serves one planet and template
+ * level: emitting another planet (pointer, radius, height scale, maps) or
+ * level through it empties it first.  Not thread-safe: one emission at a
+ * time per cache (the emission's own threads are handled inside). */
+typedef struct plod_mesh_cache plod_mesh_cache; /* opaque */
+
+typedef struct plod_mesh_cache_stats {
+    size_t sectors;   /* entries held */
+    size_t bytes;     /* their vertex data */
+    size_t max_bytes;
+    size_t hits;      /* last emission: sectors copied from the cache */
+    size_t misses;    /* last emission: keyed sectors computed */
+} plod_mesh_cache_stats;
+
+#define PLOD_MESH_CACHE_DEFAULT_BYTES ((size_t)256 << 20)
+
+plod_status plod_mesh_cache_create(plod_mesh_cache **out, size_t max_bytes);
+void plod_mesh_cache_destroy(plod_mesh_cache *cache);
+void plod_mesh_cache_clear(plod_mesh_cache *cache);
+/* Lowers or raises the budget; entries over it are dropped at once. */
+void plod_mesh_cache_set_max_bytes(plod_mesh_cache *cache, size_t max_bytes);
+void plod_mesh_cache_get_stats(const plod_mesh_cache *cache,
+                               plod_mesh_cache_stats *stats);
 
 /* ---- parameters ---------------------------------------------------------- */
 typedef struct plod_mesh_params {
@@ -77,10 +114,11 @@ typedef struct plod_mesh_params {
     double morph_lod_scale;     /* metres, >= 0 (0: factor 0 everywhere) */
     double morph_level_rate;    /* levels per halving of distance, > 0 */
     double morph_ramp;          /* (0, 1] */
+    plod_mesh_cache *cache;     /* NULL: none (borrowed; see above) */
 } plod_mesh_params;
 
 /* Defaults: origin 0, threads 1, morph off, ramp 0.5, scale = radius,
- * rate 2. */
+ * rate 2, no cache. */
 void plod_mesh_params_init(plod_mesh_params *params, const plod_planet *planet,
                            int template_level);
 /* Surface point nearest the eye: d = eye/|eye|, d * (radius + height(d)).

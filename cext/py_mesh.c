@@ -242,6 +242,7 @@ static int plod__refiner_sector(const void *context, size_t index,
         plod_sector_corners(src->planet, s, out->corners);
         out->level = s->level;
         out->face = s->face;
+        out->key = s->id;
     }
     return 1;
 }
@@ -282,12 +283,13 @@ PyObject *plod_py_mesh_emit(const plod_planet *planet, const plod_camera *camera
                             const plod_refine_params *params,
                             const plod_sector *sectors, size_t count,
                             int template_level, int morph, int threads,
-                            int visible_only)
+                            int visible_only, plod_mesh_cache *cache)
 {
     plod_mesh_params mp;
     if (plod__glue_params(&mp, planet, camera, params, template_level, morph,
                           threads) < 0)
         return NULL;
+    mp.cache = cache;
     if (!sectors && count > 0)
         return plod_py_raise(PLOD_ERR_NULL, "mesh");
     plod__refiner_source src = {planet, sectors, visible_only};

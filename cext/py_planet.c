@@ -231,6 +231,8 @@ typedef struct {
     plod_planet planet;
     PyObject *heightmap;  /* the CubeMap keeping planet.heightmap alive */
     plod_cubemap *normalmap; /* owned; built by the first mesh() with a map */
+    plod_mesh_cache *mesh_cache; /* owned; created by the first cached mesh() */
+    size_t mesh_cache_max_bytes;
     plod_refiner *refiner;
     plod_camera camera;   /* last refine's */
     plod_refine_params params;
@@ -367,12 +369,15 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
         return -1;
     }
     plod_refine_params_default(&self->params);
+    self->mesh_cache_max_bytes = PLOD_MESH_CACHE_DEFAULT_BYTES;
     return 0;
 }
 
 static void plod__planet_dealloc(plod_py_planet *self)
 {
     plod_refiner_destroy(self->refiner);
+    plod_mesh_cache_destroy(self->mesh_cache);
+    self->mesh_cache = NULL;
     self->planet.normalmap = NULL;
     plod_cubemap_destroy(self->normalmap);
     self->normalmap = NULL;
@@ -615,13 +620,14 @@ static int plod__template_level_arg(const plod_py_planet *self, PyObject *level_
 
 static PyObject *plod__planet_mesh(plod_py_planet *self, PyObject *args, PyObject *kwds)
 {
-    static char *kwlist[] = {"template_level", "morph", "threads", "visible_only", NULL};
+    static char *kwlist[] = {"template_level", "morph", "threads", "visible_only", "cache",
+                             NULL};
     PyObject *level_obj = Py_None;
-    int morph = 0, threads = 2, visible_only = 1;
+    int morph = 0, threads = 2, visible_only = 1, use_cache = 1;
     if (!plod__planet_ready(self))
         return NULL;
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "|Opip", kwlist, &level_obj, &morph,
-                                     &threads, &visible_only))
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "|Opipp", kwlist, &level_obj, &morph,
+                                     &threads, &visible_only, &use_cache))
         return NULL;
     int level;
     if (plod__template_level_arg(self, level_obj, &level) < 0)
@@ -641,10 +647,14 @@ static PyObject *plod__planet_mesh(plod_py_planet *self, PyObject *args, PyObjec
             return plod_py_raise(st, "mesh (normal map)");
         self->planet.normalmap = self->normalmap;
     }
+    if (use_cache && !self->mesh_cache &&
+        plod_mesh_cache_create(&self->mesh_cache, self->mesh_cache_max_bytes) != PLOD_OK)
+        return PyErr_NoMemory();
     size_t count;
     const plod_sector *sec = plod_refiner_sectors(self->refiner, &count);
     return plod_py_mesh_emit(&self->planet, self->has_camera ? &self->camera : NULL,
-                             &self->params, sec, count, level, morph, threads, visible_only);
+                             &self->params, sec, count, level, morph, threads, visible_only,
+                             use_cache ? self->mesh_cache : NULL);
 }
 
 static PyObject *plod__planet_instances(plod_py_planet *self, PyObject *args, PyObject *kwds)
@@ -677,6 +687,14 @@ static PyObject *plod__planet_get(plod_py_planet *self, void *closure)
     switch ((int)(intptr_t)closure) {
     case 0: return PyLong_FromSize_t(count);
     case 7: return PyLong_FromSize_t(plod_refiner_memory_bytes(self->refiner));
+    case 8: {
+        plod_mesh_cache_stats st;
+        plod_mesh_cache_get_stats(self->mesh_cache, &st);
+        return Py_BuildValue("{s:n,s:n,s:n,s:n,s:n}", "sectors", (Py_ssize_t)st.sectors,
+                             "bytes", (Py_ssize_t)st.bytes, "max_bytes",
+                             (Py_ssize_t)self->mesh_cache_max_bytes, "hits",
+                             (Py_ssize_t)st.hits, "misses", (Py_ssize_t)st.misses);
+    }
     case 1: {
         size_t n = 0;
         for (size_t i = 0; i < count; i++)
@@ -759,6 +777,41 @@ static PyObject *plod__planet_get_locked(plod_py_planet *self, void *closure)
     return result;
 }
 
+static PyObject *plod__planet_cache_bytes_get_locked(plod_py_planet *self, void *closure)
+{
+    (void)closure;
+    if (!plod__planet_ready(self))
+        return NULL;
+    plod__planet_lock(self);
+    size_t bytes = self->mesh_cache_max_bytes;
+    plod__planet_unlock(self);
+    return PyLong_FromSize_t(bytes);
+}
+
+static int plod__planet_cache_bytes_set_locked(plod_py_planet *self, PyObject *value,
+                                               void *closure)
+{
+    (void)closure;
+    if (!plod__planet_ready(self))
+        return -1;
+    if (!value) {
+        PyErr_SetString(PyExc_AttributeError, "mesh_cache_max_bytes cannot be deleted");
+        return -1;
+    }
+    size_t bytes = PyLong_AsSize_t(value);
+    if (bytes == (size_t)-1 && PyErr_Occurred()) {
+        PyErr_Clear();
+        plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "mesh_cache_max_bytes",
+                             "must be an integer >= 0");
+        return -1;
+    }
+    plod__planet_lock(self);
+    self->mesh_cache_max_bytes = bytes;
+    plod_mesh_cache_set_max_bytes(self->mesh_cache, bytes);
+    plod__planet_unlock(self);
+    return 0;
+}
+
 static PyGetSetDef plod__planet_getset[] = {
     {"sector_count", (getter)plod__planet_get_locked, NULL, "leaf sectors", (void *)0},
     {"visible_count", (getter)plod__planet_get_locked, NULL, "visible leaf sectors", (void *)1},
@@ -769,6 +822,12 @@ static PyGetSetDef plod__planet_getset[] = {
     {"heightmap", (getter)plod__planet_get_locked, NULL, "CubeMap or None", (void *)6},
     {"memory_bytes", (getter)plod__planet_get_locked, NULL,
      "bytes held by the refiner (sectors, bounds, adjacency, internal nodes)", (void *)7},
+    {"mesh_cache_info", (getter)plod__planet_get_locked, NULL,
+     "mesh() sector cache: dict(sectors, bytes, max_bytes, hits, misses); hits and "
+     "misses of the last cached mesh()", (void *)8},
+    {"mesh_cache_max_bytes", (getter)plod__planet_cache_bytes_get_locked,
+     (setter)plod__planet_cache_bytes_set_locked,
+     "budget of mesh()'s sector cache (bytes, default 256 MiB; 0 disables it)", NULL},
     {NULL},
 };
 
@@ -803,7 +862,9 @@ static PyMethodDef plod__planet_methods[] = {
     {"height_range", (PyCFunction)plod__planet_height_range, METH_NOARGS,
      "height_range() -> (min, max) metres"},
     {"mesh", (PyCFunction)(void (*)(void))plod__planet_mesh_locked, METH_VARARGS | METH_KEYWORDS,
-     "mesh(template_level=None, morph=False, threads=2, visible_only=True) -> Mesh"},
+     "mesh(template_level=None, morph=False, threads=2, visible_only=True, cache=True) -> "
+     "Mesh; with cache, sectors kept from the previous mesh() are copied, not recomputed "
+     "(identical output)"},
     {"instances", (PyCFunction)(void (*)(void))plod__planet_instances_locked,
      METH_VARARGS | METH_KEYWORDS, "instances(template_level=None) -> dict"},
     {NULL},

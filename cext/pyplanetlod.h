@@ -55,12 +55,13 @@ PyObject *plod_py_cubemap_from_image(const char *path, plod_projection projectio
  * `sectors` are the refiner's leaves; only those with PLOD_SECTOR_VISIBLE are
  * emitted when visible_only.  `camera` (the last refine's, may be NULL)
  * places the float64 origin on the surface point nearest the camera and
- * drives geomorphing; `params` is the last refine's parameters. */
+ * drives geomorphing; `params` is the last refine's parameters.  `cache`
+ * (may be NULL) keeps sectors' vertices from one mesh() to the next. */
 PyObject *plod_py_mesh_emit(const plod_planet *planet, const plod_camera *camera,
                             const plod_refine_params *params,
                             const plod_sector *sectors, size_t count,
                             int template_level, int morph, int threads,
-                            int visible_only);
+                            int visible_only, plod_mesh_cache *cache);
 PyObject *plod_py_instances(const plod_planet *planet, const plod_camera *camera,
                             const plod_refine_params *params,
                             const plod_sector *sectors, size_t count,

@@ -158,13 +158,22 @@ static int fuzz__sector(const void *context, size_t index, plod_mesh_sector *out
         plod_sector_corners(src->planet, s, out->corners);
         out->level = s->level;
         out->face = s->face;
+        out->key = s->id;
     }
     return 1;
 }
 
+static int fuzz__same(const void *a, const void *b, size_t bytes)
+{
+    return bytes == 0 || memcmp(a, b, bytes) == 0;
+}
+
+/* `cache` persists over the execution's frames: with flag 0x20 the emission
+ * goes through it (budget: everything, or half the sectors with 0x40) and,
+ * for small meshes, must equal an uncached emission bit for bit. */
 static void fuzz__emit(fuzz_input *in, const plod_planet *planet, const plod_camera *camera,
                        const plod_refine_params *rp, const plod_sector *sectors,
-                       size_t count, int finite_heights)
+                       size_t count, int finite_heights, plod_mesh_cache *cache)
 {
     uint8_t flags = fuzz_u8(in);
     int level = (flags & 0x80) ? fuzz_range(in, -2, 9) : fuzz_range(in, 0, 2);
@@ -206,10 +215,56 @@ static void fuzz__emit(fuzz_input *in, const plod_planet *planet, const plod_cam
     };
     FUZZ_CHECK(b.positions && b.normals && b.uv && b.morph && b.triangles &&
                    b.sector_level && b.face, "out of memory");
-    size_t nv = 0, nt = 0;
+    size_t nv = 0, nt = 0, cached_before = 0;
+    if ((flags & 0x20) && cache) {
+        plod_mesh_cache_set_max_bytes(cache, (flags & 0x40) ? vbound * 22 : PLOD_MESH_CACHE_DEFAULT_BYTES);
+        mp.cache = cache;
+        plod_mesh_cache_stats before;
+        plod_mesh_cache_get_stats(cache, &before);
+        cached_before = before.sectors;
+    }
     plod_status s = plod_mesh_emit(&mp, fuzz__sector, &src, count, &b, &nv, &nt);
     if (!level_ok)
         FUZZ_CHECK(s != PLOD_OK, "template level %d accepted", level);
+    if (mp.cache) {
+        plod_mesh_cache_stats cst;
+        plod_mesh_cache_get_stats(cache, &cst);
+        FUZZ_CHECK(cst.bytes <= cst.max_bytes, "cache holds %zu bytes, budget %zu", cst.bytes,
+                   cst.max_bytes);
+        if (s == PLOD_OK)
+            FUZZ_CHECK(cst.hits + cst.misses == emitted && cst.sectors <= emitted,
+                       "cache: %zu hits %zu misses %zu entries, %zu sectors", cst.hits,
+                       cst.misses, cst.sectors, emitted);
+        else /* refused parameters leave it alone; a failed sector empties it */
+            FUZZ_CHECK(cst.sectors == 0 || cst.sectors == cached_before,
+                       "failed emission left %zu cache entries (%zu before)", cst.sectors,
+                       cached_before);
+    }
+    if (mp.cache && s == PLOD_OK && vbound <= 4096) {
+        plod_mesh_buffers u = {
+            malloc(3 * vcap * sizeof(float)), malloc(3 * vcap * sizeof(float)),
+            malloc(2 * vcap * sizeof(float)), malloc(vcap * sizeof(float)),
+            malloc(3 * tcap * sizeof(int32_t)), malloc(tcap * sizeof(int32_t)),
+            malloc(tcap * sizeof(int32_t)),
+        };
+        FUZZ_CHECK(u.positions && u.normals && u.uv && u.morph && u.triangles &&
+                       u.sector_level && u.face, "out of memory");
+        plod_mesh_params plain = mp;
+        plain.cache = NULL;
+        size_t unv = 0, unt = 0;
+        FUZZ_CHECK(plod_mesh_emit(&plain, fuzz__sector, &src, count, &u, &unv, &unt) == PLOD_OK &&
+                       unv == nv && unt == nt,
+                   "uncached emission disagrees on status or counts");
+        FUZZ_CHECK(fuzz__same(u.positions, b.positions, 12 * nv) &&
+                       fuzz__same(u.normals, b.normals, 12 * nv) &&
+                       fuzz__same(u.uv, b.uv, 8 * nv) && fuzz__same(u.morph, b.morph, 4 * nv) &&
+                       fuzz__same(u.triangles, b.triangles, 12 * nt) &&
+                       fuzz__same(u.sector_level, b.sector_level, 4 * nt) &&
+                       fuzz__same(u.face, b.face, 4 * nt),
+                   "cached emission differs from uncached (%zu vertices)", nv);
+        free(u.positions), free(u.normals), free(u.uv), free(u.morph);
+        free(u.triangles), free(u.sector_level), free(u.face);
+    }
     if (s == PLOD_OK) {
         FUZZ_CHECK(nv == vbound && nt == tbound, "emitted %zu/%zu, bounds %zu/%zu", nv, nt,
                    vbound, tbound);
@@ -398,6 +453,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                 rp.frustum_culling, rp.skip_sea, rp.template_level, rp.max_level, rp.budget,
                 rp.max_sectors, frames);
 
+    plod_mesh_cache *cache = NULL; /* shared by the frames, as Planet.mesh() does */
+    FUZZ_CHECK(plod_mesh_cache_create(&cache, PLOD_MESH_CACHE_DEFAULT_BYTES) == PLOD_OK,
+               "cache");
     for (int f = 0; f < frames; f++) {
         plod_camera_desc desc;
         fuzz__camera_desc(&in, planet.radius, &desc);
@@ -446,10 +504,11 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         size_t count = 0;
         const plod_sector *sectors = plod_refiner_sectors(refiner, &count);
         if (f == frames - 1 || (fuzz_u8(&in) & 1))
-            fuzz__emit(&in, &planet, &camera, &rp, sectors, count, finite_heights);
+            fuzz__emit(&in, &planet, &camera, &rp, sectors, count, finite_heights, cache);
         if (fuzz_u8(&in) == 0xff)
             plod_refiner_reset(refiner);
     }
+    plod_mesh_cache_destroy(cache);
     plod_refiner_destroy(refiner);
     plod_cubemap_destroy(normals);
     plod_cubemap_destroy(map);

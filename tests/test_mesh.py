@@ -395,3 +395,69 @@ def test_normal_map_is_seamless_across_face_edges(planetlod, moon):
     across = ew[edges[:, 0]] != ew[edges[:, 1]]
     assert np.percentile(turn[across], 99) < 2.0 * np.percentile(turn[~across], 99) + 0.5
     del rng
+
+
+# ---- sector cache -------------------------------------------------------------
+
+MESH_OUTPUTS = ("positions", "normals", "uv", "morph", "triangles", "sector_level", "face")
+
+
+def test_sector_cache_output_identical_along_a_flight(planetlod, moon):
+    """mesh() copies the sectors kept from the previous frame; every output
+    must equal an uncached emission, frame after frame, while the camera
+    descends and turns (splits, merges, a moving origin) and with morph."""
+    refiner_available(planetlod)
+    radius = 1737.4e3
+    planet = planetlod.Planet(radius, heightmap=moon, height_scale=10e3)
+    hits = 0
+    for k in range(12):
+        alt = 200e3 * 0.6 ** k
+        a = 0.02 * k
+        eye = (radius + 10e3 + alt, 0.1 * radius * math.sin(a), 0.0)
+        target = (radius * math.cos(a + 0.05), radius * math.sin(a + 0.05), 0.0)
+        planet.refine(planetlod.Camera(look_at(eye, target), clip_start=1.0, clip_end=1e8),
+                      max_level=22)
+        for morph, threads in ((False, 1), (True, 2)):
+            cached = planet.mesh(template_level=3, morph=morph, threads=threads)
+            info = planet.mesh_cache_info
+            plain = planet.mesh(template_level=3, morph=morph, threads=1, cache=False)
+            for name in MESH_OUTPUTS:
+                assert bytes(getattr(cached, name)) == bytes(getattr(plain, name)), (k, name)
+            assert cached.origin == plain.origin
+            assert info["sectors"] == cached.sector_count
+            assert info["hits"] + info["misses"] == cached.sector_count
+            assert info["bytes"] == cached.vertex_count * 44
+            hits += info["hits"]
+    assert hits > 0
+
+
+def test_sector_cache_budget_and_template_change(planetlod, moon):
+    refiner_available(planetlod)
+    radius = 1737.4e3
+    planet = planetlod.Planet(radius, heightmap=moon, height_scale=10e3)
+    planet.refine(planetlod.Camera(look_at((radius + 50e3, 0.0, 0.0), (0, 0, 0)),
+                                   clip_start=1.0, clip_end=1e8))
+    assert planet.mesh_cache_max_bytes == 256 << 20
+    first = planet.mesh(template_level=2)
+    again = planet.mesh(template_level=2)
+    assert planet.mesh_cache_info["hits"] == again.sector_count
+    finer = planet.mesh(template_level=3)  # another template: recomputed
+    assert planet.mesh_cache_info["hits"] == 0
+    assert bytes(finer.positions) == bytes(planet.mesh(template_level=3, cache=False).positions)
+    per_sector = finer.vertex_count // finer.sector_count * 44
+    planet.mesh_cache_max_bytes = 4 * per_sector  # below what it holds: emptied
+    assert planet.mesh_cache_info["sectors"] == 0
+    small = planet.mesh(template_level=3)
+    info = planet.mesh_cache_info
+    assert info["bytes"] <= 4 * per_sector and info["max_bytes"] == 4 * per_sector
+    assert bytes(small.positions) == bytes(finer.positions)
+    planet.mesh_cache_max_bytes = 0  # off
+    planet.mesh(template_level=2)
+    assert planet.mesh_cache_info["sectors"] == 0
+    assert first.sector_count == again.sector_count
+    for bad in (-1, "big", 1.5):
+        with pytest.raises((ValueError, TypeError)):
+            planet.mesh_cache_max_bytes = bad
+    assert planet.mesh_cache_max_bytes == 0
+    with pytest.raises((AttributeError, TypeError)):
+        del planet.mesh_cache_max_bytes

@@ -105,6 +105,7 @@ static void set_push(sector_set *set, const double a[3], const double b[3],
     memcpy(s->corners[2], c, sizeof(double[3]));
     s->level = level;
     s->face = face;
+    s->key = 0;
 }
 
 static void normalise(double v[3])
@@ -547,6 +548,105 @@ static void test_threads_identical(void)
     free(set.s);
 }
 
+/* The sector cache: output bit-identical to uncached emission whatever the
+ * hits, entries = the last emission's keyed sectors, budget held, a failed
+ * emission empties it, duplicate keys and unkeyed sectors handled. */
+static void test_cache(void)
+{
+    plod_planet planet = test_planet(1737400.0, 3000.0, 1);
+    sector_set set = {0};
+    uniform(&set, 4);
+    for (size_t i = 0; i < set.count; i++)
+        set.s[i].key = 1000 + i;
+    plod_mesh_cache *cache = NULL;
+    CHECK(plod_mesh_cache_create(&cache, PLOD_MESH_CACHE_DEFAULT_BYTES) == PLOD_OK, "create");
+    plod_mesh_params params;
+    plod_mesh_params_init(&params, &planet, 3);
+    params.origin[2] = planet.radius;
+    params.morph = 1;
+    params.eye[2] = planet.radius + 5000.0;
+    params.morph_lod_scale = 4e5;
+    mesh ref;
+    CHECK(emit(&params, &set, &ref) == PLOD_OK, "uncached");
+    params.cache = cache;
+    plod_mesh_cache_stats st;
+    for (int round = 0; round < 3; round++) {
+        params.threads = 1 + round;
+        mesh m;
+        CHECK(emit(&params, &set, &m) == PLOD_OK, "cached round %d", round);
+        CHECK(mesh_equal(&ref, &m), "cached round %d differs from uncached", round);
+        plod_mesh_cache_get_stats(cache, &st);
+        CHECK(st.sectors == set.count, "entries %zu of %zu", st.sectors, set.count);
+        CHECK(st.hits == (round ? set.count : 0) && st.misses == (round ? 0 : set.count),
+              "round %d: %zu hits %zu misses", round, st.hits, st.misses);
+        mesh_free(&m);
+    }
+    size_t vertices = plod_template_vertex_count(3);
+    CHECK(st.bytes == set.count * vertices * 44, "bytes %zu", st.bytes);
+
+    /* another origin: hits re-offset exactly */
+    params.origin[0] = 12345.678;
+    params.cache = NULL;
+    mesh ref2, m2;
+    CHECK(emit(&params, &set, &ref2) == PLOD_OK, "uncached, moved origin");
+    params.cache = cache;
+    CHECK(emit(&params, &set, &m2) == PLOD_OK && mesh_equal(&ref2, &m2), "moved origin");
+    mesh_free(&ref2);
+    mesh_free(&m2);
+
+    /* half the sectors: the other half is evicted; unkeyed ones never cached */
+    sector_set half = {set.s, set.count / 2, set.count / 2};
+    half.s[0].key = 0;
+    mesh m3;
+    CHECK(emit(&params, &half, &m3) == PLOD_OK, "half");
+    plod_mesh_cache_get_stats(cache, &st);
+    CHECK(st.sectors == half.count - 1 && st.hits == half.count - 1 && st.misses == 0,
+          "half: %zu entries, %zu hits, %zu misses", st.sectors, st.hits, st.misses);
+    mesh_free(&m3);
+    half.s[0].key = 1000;
+
+    /* template level change empties it */
+    params.template_level = 2;
+    mesh m4;
+    CHECK(emit(&params, &set, &m4) == PLOD_OK, "level 2");
+    plod_mesh_cache_get_stats(cache, &st);
+    CHECK(st.hits == 0 && st.misses == set.count, "level change: %zu hits", st.hits);
+    mesh_free(&m4);
+
+    /* budget: room for 10 sectors (split over 2 threads: 5 each) */
+    plod_mesh_cache_clear(cache);
+    plod_mesh_cache_set_max_bytes(cache, 10 * plod_template_vertex_count(2) * 44);
+    params.threads = 2;
+    mesh m5;
+    CHECK(emit(&params, &set, &m5) == PLOD_OK, "budget");
+    plod_mesh_cache_get_stats(cache, &st);
+    CHECK(st.sectors == 10 && st.bytes <= st.max_bytes, "budget: %zu entries %zu bytes",
+          st.sectors, st.bytes);
+    mesh_free(&m5);
+    plod_mesh_cache_set_max_bytes(cache, PLOD_MESH_CACHE_DEFAULT_BYTES);
+
+    /* duplicate keys (a caller error): no crash, no leak, first one kept */
+    set.s[1].key = set.s[0].key;
+    mesh m6;
+    CHECK(emit(&params, &set, &m6) == PLOD_OK, "duplicate keys");
+    plod_mesh_cache_get_stats(cache, &st);
+    CHECK(st.sectors == set.count - 1, "duplicates: %zu entries", st.sectors);
+    mesh_free(&m6);
+
+    /* a bad sector fails the emission and empties the cache */
+    set.s[set.count - 1].corners[0][0] = NAN;
+    mesh m7;
+    CHECK(emit(&params, &set, &m7) == PLOD_ERR_BAD_COORD, "bad sector");
+    plod_mesh_cache_get_stats(cache, &st);
+    CHECK(st.sectors == 0 && st.bytes == 0, "failed emission left %zu entries", st.sectors);
+    mesh_free(&m7);
+
+    plod_mesh_cache_destroy(cache);
+    plod_mesh_cache_destroy(NULL);
+    mesh_free(&ref);
+    free(set.s);
+}
+
 static void test_normals_and_uv(void)
 {
     /* h = H * x: exact normal ~ r d - H (e_x - x d) */
@@ -655,6 +755,7 @@ int main(void)
     test_templates();
     test_watertight();
     test_threads_identical();
+    test_cache();
     test_normals_and_uv();
     test_bad_input();
     if (g_failures) {
