@@ -92,7 +92,8 @@ typedef struct plod__node {
 /* node_state bits, valid for the current frame (cleared by its pre-pass) */
 enum {
     PLOD__P_KNOWN = 1, PLOD__P_TRUE = 2,        /* P(node) */
-    PLOD__STAR_KNOWN = 4, PLOD__STAR_TRUE = 8   /* P*(node) */
+    PLOD__STAR_KNOWN = 4, PLOD__STAR_TRUE = 8,  /* P*(node) */
+    PLOD__INSIDE = 16 /* this frame: the bound is inside every frustum plane */
 };
 
 struct plod_refiner {
@@ -586,9 +587,13 @@ static void plod__compute_bound(const plod_refiner *r, const plod_sector *s,
 /* Culling flags of a bound (PLOD_SECTOR_BACKFACING or OUTSIDE_FRUSTUM,
  * the first failing test only) and, when not culled, the eye distance.
  * Angles are compared through cosines with per-node constants, so a test
- * costs a few dot products (no trigonometry). */
+ * costs a few dot products (no trigonometry).  *inside: the bound is inside
+ * every frustum plane.  parent_inside: the parent's bound was, so this one's
+ * surface (inside the parent's) is too; its bound then contains a point
+ * inside every plane and the plane tests cannot cull it: they are skipped,
+ * with the same result. */
 static unsigned plod__cull(const plod_refiner *r, const plod__bound *b,
-                           double *distance)
+                           double *distance, int parent_inside, int *inside)
 {
     const plod_refine_params *pr = r->params;
     const plod_camera *cam = r->camera;
@@ -602,7 +607,11 @@ static unsigned plod__cull(const plod_refiner *r, const plod__bound *b,
         if (cphi < limit - 1e-12)
             return PLOD_SECTOR_BACKFACING;
     }
-    if (pr->frustum_culling) {
+    *inside = 0;
+    if (pr->frustum_culling && parent_inside) {
+        *inside = 1;
+    } else if (pr->frustum_culling) {
+        int all_inside = 1;
         for (int i = 0; i < 6; i++) {
             const double *pl = cam->planes[i];
             double c = pl[0] * b->axis[0] + pl[1] * b->axis[1] + pl[2] * b->axis[2];
@@ -610,6 +619,7 @@ static unsigned plod__cull(const plod_refiner *r, const plod__bound *b,
             double margin = 1e-9 * (b->r_max + fabs(pl[3]));
             if (centre >= b->sphere_radius)
                 continue; /* the bounding ball is inside this plane */
+            all_inside = 0;
             if (centre < -b->sphere_radius - margin)
                 return PLOD_SECTOR_OUTSIDE_FRUSTUM;
             double best;
@@ -623,6 +633,7 @@ static unsigned plod__cull(const plod_refiner *r, const plod__bound *b,
             if (reach + pl[3] < -margin)
                 return PLOD_SECTOR_OUTSIDE_FRUSTUM;
         }
+        *inside = all_inside;
     }
     double dist = r->eye_dist;
     if (cphi >= b->cos_angle) {
@@ -689,9 +700,10 @@ static int plod__exceeds(const plod_refiner *r, const plod__bound *b, double dis
 
 /* Split predicate P of a node (level = its level), from its own bound. */
 static int plod__wants_split(const plod_refiner *r, const plod__bound *b, int level,
-                             unsigned *flags, double *distance)
+                             unsigned *flags, double *distance, int parent_inside,
+                             int *inside)
 {
-    *flags = plod__cull(r, b, distance);
+    *flags = plod__cull(r, b, distance, parent_inside, inside);
     if (level >= r->params->max_level || *flags)
         return 0;
     return plod__exceeds(r, b, *distance);
@@ -709,13 +721,23 @@ static uint64_t plod__parent_id(uint64_t id)
     return (id & ~PLOD__HEAP_MASK) | ((id & PLOD__HEAP_MASK) >> 1);
 }
 
-/* P(node) of an internal node. */
-static int plod__node_p(const plod_refiner *r, int32_t k)
+/* Whether node k's parent was found inside the frustum this frame (only
+ * where this frame's state of the parent is final: not on the threads). */
+static int plod__parent_inside(const plod_refiner *r, int32_t parent)
+{
+    return parent >= 0 && (r->node_state[parent] & PLOD__INSIDE);
+}
+
+/* P(node) of an internal node, as PLOD__P_KNOWN | P_TRUE | INSIDE bits. */
+static unsigned plod__node_p(const plod_refiner *r, int32_t k, int parent_inside)
 {
     const plod__node *n = &r->nodes[k];
     unsigned flags;
     double distance;
-    return plod__wants_split(r, &n->bound, plod__id_level(n->id), &flags, &distance);
+    int inside;
+    int p = plod__wants_split(r, &n->bound, plod__id_level(n->id), &flags, &distance,
+                              parent_inside, &inside);
+    return PLOD__P_KNOWN | (p ? PLOD__P_TRUE : 0u) | (inside ? PLOD__INSIDE : 0u);
 }
 
 /* P*(node) = P(node) and P*(parent): monotone by construction, so the
@@ -727,7 +749,7 @@ static int plod__node_wants(plod_refiner *r, int32_t k)
     if (st & PLOD__STAR_KNOWN)
         return (st & PLOD__STAR_TRUE) != 0;
     if (!(st & PLOD__P_KNOWN))
-        st |= PLOD__P_KNOWN | (plod__node_p(r, k) ? PLOD__P_TRUE : 0u);
+        st |= plod__node_p(r, k, plod__parent_inside(r, r->node_parent[k]));
     int wants = (st & PLOD__P_TRUE) != 0;
     int32_t parent = r->node_parent[k];
     if (wants && parent >= 0) {
@@ -748,7 +770,8 @@ static int plod__allows_merge(plod_refiner *r, int32_t k)
     if (r->node_parent[k] >= 0 && !plod__node_wants(r, r->node_parent[k]))
         return 1;
     double distance;
-    unsigned flags = plod__cull(r, &n->bound, &distance);
+    int inside;
+    unsigned flags = plod__cull(r, &n->bound, &distance, 0, &inside);
     return flags || level >= r->params->max_level ||
            plod__score(r, &n->bound, distance) < r->merge_ratio;
 }
@@ -759,8 +782,11 @@ static int plod__leaf_wants_split(plod_refiner *r, size_t i)
     plod__geom *g = &r->geom[i];
     if (g->eval_frame != r->frame) {
         unsigned flags;
+        int inside;
         g->eval_split = (uint8_t)plod__wants_split(r, &g->self, r->leaves[i].level,
-                                                   &flags, &g->eval_distance);
+                                                   &flags, &g->eval_distance,
+                                                   plod__parent_inside(r, r->leaf_parent[i]),
+                                                   &inside);
         g->eval_flags = (uint8_t)flags;
         g->eval_frame = r->frame;
     }
@@ -1231,15 +1257,16 @@ static void *plod__eval_run(void *arg)
 {
     const plod__eval_chunk *c = arg;
     plod_refiner *r = c->r;
+    /* no parent hints here: other threads are writing the parents' state */
     for (size_t k = c->node_begin; k < c->node_end; k++)
-        r->node_state[k] = r->nodes[k].id && plod__node_p(r, (int32_t)k)
-                               ? PLOD__P_KNOWN | PLOD__P_TRUE
-                               : PLOD__P_KNOWN;
+        r->node_state[k] = r->nodes[k].id ? (uint8_t)plod__node_p(r, (int32_t)k, 0)
+                                          : PLOD__P_KNOWN;
     for (size_t i = c->leaf_begin; i < c->leaf_end; i++) {
         plod__geom *g = &r->geom[i];
         unsigned flags;
+        int inside;
         g->eval_split = (uint8_t)plod__wants_split(r, &g->self, r->leaves[i].level, &flags,
-                                                   &g->eval_distance);
+                                                   &g->eval_distance, 0, &inside);
         g->eval_flags = (uint8_t)flags;
         g->eval_frame = r->frame;
     }
@@ -1383,9 +1410,11 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
             r->node_state[k] = PLOD__STAR_KNOWN; /* P* false, P not needed */
             continue;
         }
-        int p = evaluated ? (r->node_state[k] & PLOD__P_TRUE) != 0 : plod__node_p(r, (int32_t)k);
-        r->node_state[k] = p ? PLOD__STAR_KNOWN | PLOD__P_KNOWN | PLOD__P_TRUE | PLOD__STAR_TRUE
-                             : PLOD__STAR_KNOWN | PLOD__P_KNOWN;
+        unsigned pk = evaluated ? r->node_state[k]
+                                : plod__node_p(r, (int32_t)k, plod__parent_inside(r, parent));
+        r->node_state[k] = (uint8_t)((pk & (PLOD__P_KNOWN | PLOD__P_TRUE | PLOD__INSIDE)) |
+                                     PLOD__STAR_KNOWN |
+                                     ((pk & PLOD__P_TRUE) ? PLOD__STAR_TRUE : 0u));
     }
     /* merge pass: every diamond whose parents fail the split predicate;
      * downwards, so the leaves moved into holes were already visited, and
@@ -1427,8 +1456,10 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
         plod__geom *g = &r->geom[i];
         if (g->eval_frame != r->frame) { /* not visited (truncated pass) */
             unsigned cull_flags;
+            int inside;
             g->eval_split = (uint8_t)plod__wants_split(r, &g->self, sec->level,
-                                                       &cull_flags, &g->eval_distance);
+                                                       &cull_flags, &g->eval_distance, 0,
+                                                       &inside);
             g->eval_flags = (uint8_t)cull_flags;
             g->eval_frame = r->frame;
         }
