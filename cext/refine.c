@@ -461,14 +461,6 @@ void plod_sector_corners(const plod_planet *planet, const plod_sector *sector,
     }
 }
 
-static double plod__angle(const double a[3], const double b[3])
-{
-    double c[3] = {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
-                   a[0] * b[1] - a[1] * b[0]};
-    return atan2(sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]),
-                 a[0] * b[0] + a[1] * b[1] + a[2] * b[2]);
-}
-
 /* Below a texel the pyramid range (of the texels a sample can touch) stops
  * shrinking, so a camera a few metres over rough ground would sit inside
  * the prism of every sector under it at every level (distance 0: splits to
@@ -478,14 +470,33 @@ static double plod__angle(const double a[3], const double b[3])
  * the sector (edges bulge by < PLOD__RANGE_MARGIN of the box) is at most
  * sqrt(2) * (1 + 2 margin) * extent texels from a corner (CAR: texels of
  * the lon/lat box around the sector's cap). */
-static void plod__tighten_subtexel(const plod_planet *planet, const double corners[3][3],
-                                   double texels, double *hmin, double *hmax)
+/* Corner directions and (lazily) heights shared by the sectors of a split:
+ * a diamond parent's 3 corners and its hypotenuse midpoint serve both its
+ * children, so they are computed once (the same calls: same bits). */
+typedef struct plod__corner_memo {
+    double dir[4][3];
+    double height[4];
+    unsigned known; /* bit k: height[k] computed */
+} plod__corner_memo;
+
+static double plod__memo_height(const plod_planet *planet, plod__corner_memo *memo, int k)
+{
+    if (!(memo->known & (1u << k))) {
+        memo->height[k] = plod_planet_height(planet, memo->dir[k]);
+        memo->known |= 1u << k;
+    }
+    return memo->height[k];
+}
+
+static void plod__tighten_subtexel(const plod_planet *planet, plod__corner_memo *memo,
+                                   const int idx[3], double texels, double *hmin,
+                                   double *hmax)
 {
     if (!planet->heightmap || !(texels < 0.5) || !(*hmax > *hmin))
         return;
     double lo = INFINITY, hi = -INFINITY;
     for (int k = 0; k < 3; k++) {
-        double h = plod_planet_height(planet, corners[k]);
+        double h = plod__memo_height(planet, memo, idx[k]);
         lo = h < lo ? h : lo;
         hi = h > hi ? h : hi;
     }
@@ -503,12 +514,12 @@ static void plod__tighten_subtexel(const plod_planet *planet, const double corne
         *hmin = *hmax;
 }
 
-static void plod__compute_bound(const plod_refiner *r, const plod_sector *s,
-                                plod__bound *b)
+/* Bound of sector s whose corners are memo->dir[idx[0..2]]. */
+static void plod__compute_bound_at(const plod_refiner *r, const plod_sector *s,
+                                   plod__corner_memo *memo, const int idx[3], plod__bound *b)
 {
     const plod_planet *planet = r->planet;
-    double c[3][3];
-    plod_sector_corners(planet, s, c);
+    const double *c[3] = {memo->dir[idx[0]], memo->dir[idx[1]], memo->dir[idx[2]]};
     double axis[3] = {c[0][0] + c[1][0] + c[2][0], c[0][1] + c[1][1] + c[2][1],
                       c[0][2] + c[1][2] + c[2][2]};
     double len = sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
@@ -516,9 +527,25 @@ static void plod__compute_bound(const plod_refiner *r, const plod_sector *s,
     for (int k = 0; k < 3; k++) {
         b->axis[k] = axis[k] / len;
     }
+    /* the cap angle: the largest corner angle from the axis.  Below 90
+     * degrees the angle grows with the sine, so only the corners whose sine
+     * is within rounding of the largest need their atan2 (same result) */
+    double sine[3], cosine[3], top = 0.0;
+    int acute = 1;
     for (int k = 0; k < 3; k++) {
-        double a = plod__angle(b->axis, c[k]);
-        angle = a > angle ? a : angle;
+        const double *a = b->axis, *v = c[k];
+        double x[3] = {a[1] * v[2] - a[2] * v[1], a[2] * v[0] - a[0] * v[2],
+                       a[0] * v[1] - a[1] * v[0]};
+        sine[k] = sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]);
+        cosine[k] = a[0] * v[0] + a[1] * v[1] + a[2] * v[2];
+        acute &= cosine[k] > 0.0;
+        top = sine[k] > top ? sine[k] : top;
+    }
+    for (int k = 0; k < 3; k++) {
+        if (!acute || sine[k] >= top * (1.0 - 1e-9)) {
+            double a = atan2(sine[k], cosine[k]);
+            angle = a > angle ? a : angle;
+        }
         const double *p = c[k], *q = c[(k + 1) % 3];
         double d[3] = {p[0] - q[0], p[1] - q[1], p[2] - q[2]};
         double ch = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
@@ -553,7 +580,7 @@ static void plod__compute_bound(const plod_refiner *r, const plod_sector *s,
         plod_planet_height_range_cap(planet, b->axis, angle, &hmin, &hmax, &texels);
     }
     double relief_range = hmax - hmin;
-    plod__tighten_subtexel(planet, c, texels, &hmin, &hmax);
+    plod__tighten_subtexel(planet, memo, idx, texels, &hmin, &hmax);
     float fmin_ = (float)hmin, fmax_ = (float)hmax;
     if ((double)fmin_ > hmin)
         fmin_ = nextafterf(fmin_, -INFINITY);
@@ -582,6 +609,15 @@ static void plod__compute_bound(const plod_refiner *r, const plod_sector *s,
         b->sphere_z = 0.0;
         b->sphere_radius = b->r_max;
     }
+}
+
+static void plod__compute_bound(const plod_refiner *r, const plod_sector *s, plod__bound *b)
+{
+    plod__corner_memo memo;
+    memo.known = 0;
+    plod_sector_corners(r->planet, s, memo.dir);
+    static const int idx[3] = {0, 1, 2};
+    plod__compute_bound_at(r, s, &memo, idx, b);
 }
 
 /* Culling flags of a bound (PLOD_SECTOR_BACKFACING or OUTSIDE_FRUSTUM,
@@ -873,12 +909,26 @@ static void plod__split_diamond(plod_refiner *r, size_t i, size_t n)
             r->node_leaves[up]--; /* that child is a node now */
     }
     for (int k = 0; k < 2; k++) {
+        /* the parent's corners 0..2 and the midpoint 3 of its hypotenuse */
+        plod__corner_memo memo;
+        memo.known = 0;
+        plod_sector_corners(r->planet, &parents[k], memo.dir);
         for (int bit = 0; bit < 2; bit++) {
             size_t at = bit ? r->count++ : pair[k];
             plod_sector *c = &r->leaves[at];
             plod__child(&parents[k], bit, r->frame, c);
+            if (bit == 0) {
+                const double scale = 1.0 / (double)PLOD__ONE;
+                plod_status st = plod_face_to_dir(r->planet->projection, c->face,
+                                                  c->cu[1] * scale, c->cv[1] * scale,
+                                                  memo.dir[3]);
+                (void)st;
+                assert(st == PLOD_OK);
+            }
+            /* plod__child: corners (parent a, midpoint, parent b) */
+            const int idx[3] = {bit ? 2 : 1, 3, bit ? 1 : 0};
             plod__geom *g = &r->geom[at];
-            plod__compute_bound(r, c, &g->self);
+            plod__compute_bound_at(r, c, &memo, idx, &g->self);
             g->eval_frame = r->frame - 1;
             r->leaf_parent[at] = node[k];
             plod__apply_bound(c, &g->self);
