@@ -5,8 +5,13 @@
 Refines an Earth-radius planet (sphere, then the Earth topology map resampled
 to a 1024 cube map with 20 km relief scale... heights in metres) for a camera
 at 10 km altitude, then times planet.mesh() (every output: positions,
-normals, uv, morph, triangles, sector_level, face) at template levels 3..7,
-best of N runs.  Prints a table; target >= 50 M vertices/s on 2 threads.
+normals, uv, morph, triangles, sector_level, face) at template levels 4..7,
+best of N runs, without the sector cache (every vertex computed: "cold").
+Then the flyby: bench_refine.py's descent (20,000 km to 2 m, 240 frames,
+1 px, template level 4), each frame's mesh() with the sector cache (the
+default: sectors kept from the previous frame are copied) and without,
+interleaved frame by frame.  Prints tables; target >= 50 M vertices/s on
+2 threads.  --c adds the same two measurements at C level (bench_mesh_c.c).
 """
 import argparse
 import glob
@@ -84,11 +89,47 @@ def c_emission(topo):
                               capture_output=True, text=True).stdout.rstrip()
 
 
+def flyby(planet, frames):
+    """Planet.mesh() along bench_refine's descent, with and without the
+    sector cache, interleaved per frame."""
+    sys.path.insert(0, os.path.join(ROOT, "bench"))
+    import bench_refine
+    lo, hi = planet.height_range()
+    print(f"\nflyby: bench_refine.py's descent, {frames} frames, 1 px 1920x1080, template "
+          "level 4, Planet.mesh() with the sector cache vs without, interleaved")
+    print(f"{'thr':>4} {'vertices':>10} {'uncached':>9} {'cached':>9} {'ratio':>6} {'hit rate':>8}")
+    for threads in (1, 2):
+        planet.reset()
+        t_plain = t_cached = 0.0
+        vertices = hits = misses = 0
+        for _alt, m in bench_refine.descent(frames, terrain_top=hi):
+            cam = planetlod.Camera(m, lens=50.0, sensor_width=36.0, resolution_x=1920,
+                                   resolution_y=1080, clip_start=0.1, clip_end=1e9)
+            planet.refine(cam, template_level=4, max_level=24)
+            t0 = time.perf_counter()
+            plain = planet.mesh(threads=threads, cache=False)
+            t1 = time.perf_counter()
+            planet.mesh(threads=threads)
+            t2 = time.perf_counter()
+            info = planet.mesh_cache_info
+            t_plain += t1 - t0
+            t_cached += t2 - t1
+            vertices += plain.vertex_count
+            hits += info["hits"]
+            misses += info["misses"]
+        print(f"{threads:>4} {vertices:>10} {vertices / t_plain / 1e6:>9.1f} "
+              f"{vertices / t_cached / 1e6:>9.1f} {t_plain / t_cached:>5.2f}x "
+              f"{100.0 * hits / max(1, hits + misses):>7.1f}%")
+    print("(M vertices/s over the whole path; the cache holds one frame's sectors, "
+          f"{planet.mesh_cache_info['bytes'] / 2**20:.0f} MiB at the last frame)")
+
+
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--repeat", type=int, default=5)
     parser.add_argument("--no-map", action="store_true")
     parser.add_argument("--levels", default="4,5,6,7")
+    parser.add_argument("--frames", type=int, default=240, help="flyby frames")
     parser.add_argument("--c", action="store_true",
                         help="also the C-level table (reused buffers, no Python)")
     args = parser.parse_args()
@@ -106,17 +147,19 @@ def main():
         planet.refine(camera, backface=False, frustum=False)
         for tl in (int(x) for x in args.levels.split(",")):
             for threads in (1, 2):
-                dt, mesh = best_time(lambda: planet.mesh(template_level=tl, threads=threads),
-                                     args.repeat)
+                dt, mesh = best_time(lambda: planet.mesh(template_level=tl, threads=threads,
+                                                         cache=False), args.repeat)
                 dtm, _ = best_time(lambda: planet.mesh(template_level=tl, threads=threads,
-                                                       morph=True), args.repeat)
+                                                       morph=True, cache=False), args.repeat)
                 rate = mesh.vertex_count / dt / 1e6
                 mrate = mesh.vertex_count / dtm / 1e6
                 print(f"{name:>15} {tl:>3} {mesh.sector_count:>8} {mesh.vertex_count:>10} "
                       f"{threads:>4} {dt * 1e3:>8.2f} {rate:>8.1f} {mrate:>10.1f} "
                       f"{bytes_per_vertex(mesh):>7.1f}")
-    print("(all outputs written; fresh output buffers allocated inside each call (first-touch page faults included); "
-          "target >= 50 M vertices/s on 2 threads)")
+    print("(cold: no sector cache; all outputs written; fresh output buffers allocated inside "
+          "each call (first-touch page faults included); target >= 50 M vertices/s on 2 threads)")
+    if len(planets) > 1:
+        flyby(planets[1][1], args.frames)
     if args.c:
         print("\nC level (plod_mesh_emit, buffers allocated once and reused, best of 5):")
         print(c_emission(None if args.no_map or not os.path.exists(topo) else topo))

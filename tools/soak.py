@@ -126,6 +126,10 @@ def main(argv=None):
           f"{rss_end} KiB: growth after warm-up {growth:+.2f} MiB (limit "
           f"{args.max_growth_mb} MiB); most sectors {max_visible} (budget {args.budget}), "
           f"most triangles {max_triangles}")
+    cache = planet.mesh_cache_info
+    print(f"mesh sector cache at the end: {cache['sectors']} sectors, "
+          f"{cache['bytes'] / 2**20:.2f} MiB (the last frame's; budget "
+          f"{cache['max_bytes'] / 2**20:.0f} MiB)")
     if growth > args.max_growth_mb:
         failures.append(f"RSS grew {growth:.2f} MiB after the warm-up")
     for failure in failures[:20]:
