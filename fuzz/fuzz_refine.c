@@ -203,7 +203,7 @@ static void fuzz__emit(fuzz_input *in, const plod_planet *planet, const plod_cam
     int level_ok = level >= 0 && level <= PLOD_MAX_TEMPLATE_LEVEL;
     if (!level_ok)
         FUZZ_CHECK(vbound == 0 && tbound == 0, "bounds for level %d", level);
-    if (vbound > (1u << 14))
+    if (vbound > 8385u)
         return; /* one level-7 sector (8385 vertices) fits; under ASan a vertex
                    costs ~1 us, and bigger meshes only repeat the same paths */
     size_t vcap = vbound ? vbound : 1, tcap = tbound ? tbound : 1;
@@ -240,7 +240,7 @@ static void fuzz__emit(fuzz_input *in, const plod_planet *planet, const plod_cam
                        "failed emission left %zu cache entries (%zu before)", cst.sectors,
                        cached_before);
     }
-    if (mp.cache && s == PLOD_OK && vbound <= 4096) {
+    if (mp.cache && s == PLOD_OK && vbound <= 1024) { /* 16 level-3 sectors */
         plod_mesh_buffers u = {
             malloc(3 * vcap * sizeof(float)), malloc(3 * vcap * sizeof(float)),
             malloc(2 * vcap * sizeof(float)), malloc(vcap * sizeof(float)),
