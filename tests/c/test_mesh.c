@@ -524,17 +524,23 @@ static void test_watertight(void)
     free(set.s);
 }
 
+/* Template level 3, origin on the surface, morphing for an eye 5 km up. */
+static void morph_params(plod_mesh_params *params, const plod_planet *planet)
+{
+    plod_mesh_params_init(params, planet, 3);
+    params->origin[2] = planet->radius;
+    params->morph = 1;
+    params->eye[2] = planet->radius + 5000.0;
+    params->morph_lod_scale = 4e5;
+}
+
 static void test_threads_identical(void)
 {
     plod_planet planet = test_planet(1737400.0, 3000.0, 1);
     sector_set set = {0};
     uniform(&set, 5);
     plod_mesh_params params;
-    plod_mesh_params_init(&params, &planet, 3);
-    params.origin[2] = planet.radius;
-    params.morph = 1;
-    params.eye[2] = planet.radius + 5000.0;
-    params.morph_lod_scale = 4e5;
+    morph_params(&params, &planet);
     mesh ref;
     CHECK(emit(&params, &set, &ref) == PLOD_OK, "emit 1 thread");
     for (int threads = 2; threads <= 5; threads++) {
@@ -561,11 +567,7 @@ static void test_cache(void)
     plod_mesh_cache *cache = NULL;
     CHECK(plod_mesh_cache_create(&cache, PLOD_MESH_CACHE_DEFAULT_BYTES) == PLOD_OK, "create");
     plod_mesh_params params;
-    plod_mesh_params_init(&params, &planet, 3);
-    params.origin[2] = planet.radius;
-    params.morph = 1;
-    params.eye[2] = planet.radius + 5000.0;
-    params.morph_lod_scale = 4e5;
+    morph_params(&params, &planet);
     mesh ref;
     CHECK(emit(&params, &set, &ref) == PLOD_OK, "uncached");
     params.cache = cache;
