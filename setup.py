@@ -17,7 +17,7 @@ from setuptools.command.build_ext import build_ext
 HERE = os.path.dirname(os.path.abspath(__file__))
 
 C_FLAGS = ["-std=c11", "-O2", "-Wall", "-Wextra", "-Wno-missing-field-initializers",
-           "-ffp-contract=off", "-fno-strict-aliasing", "-D_POSIX_C_SOURCE=200809L"]
+           "-ffp-contract=off", "-fno-math-errno", "-fno-strict-aliasing", "-D_POSIX_C_SOURCE=200809L"]
 CXX_FLAGS = ["-std=c++17", "-O2", "-Wall", "-Wextra", "-ffp-contract=off"]
 SANITIZE_FLAGS = ["-fsanitize=address,undefined", "-fno-omit-frame-pointer", "-g", "-O1"]
 

@@ -106,13 +106,14 @@ const plod_sector *plod_refiner_sectors(const plod_refiner *refiner,
 void plod_sector_corners(const plod_planet *planet, const plod_sector *sector,
                          double corners[3][3]);
 
-/* Bytes held by the refiner (sector records, per-leaf bounds, edge table,
- * internal-node table), capacities included. */
+/* Bytes held by the refiner (sector records, per-leaf bounds and corners,
+ * edge table, internal-node table), capacities included. */
 size_t plod_refiner_memory_bytes(const plod_refiner *refiner);
 
 /* Verifies the internal invariants (edge table matches the leaves, every
  * edge shared by two leaves within one level, internal nodes = leaves -
- * base sectors).  PLOD_OK or PLOD_ERR_BAD_PARAM; O(count). For tests. */
+ * base sectors, cached corners equal to fresh ones).  PLOD_OK or
+ * PLOD_ERR_BAD_PARAM; O(count). For tests. */
 plod_status plod_refiner_check(const plod_refiner *refiner);
 
 /* Horizon-distance correction: recommended clip range for a camera. */

@@ -74,8 +74,16 @@ typedef struct plod__geom {
     uint32_t eval_frame;   /* frame of the cached evaluation below */
     uint8_t eval_split;    /* predicate result */
     uint8_t eval_flags;    /* PLOD_SECTOR_BACKFACING | OUTSIDE_FRUSTUM */
-    double eval_distance;
 } plod__geom;
+
+/* A leaf's corner directions and, once a bound needed them, heights: kept
+ * so that a split computes only the new midpoint (the same calls on the
+ * same corners, so the same bits as computing them again). */
+typedef struct plod__corners {
+    double dir[3][3];
+    double height[3];
+    unsigned known; /* bit k: height[k] computed */
+} plod__corners;
 
 typedef struct plod__edge {
     int32_t key[3];
@@ -100,6 +108,8 @@ struct plod_refiner {
     const plod_planet *planet;
     plod_sector *leaves;
     plod__geom *geom;
+    plod__corners *corners;      /* apart from geom: only splits and merges
+                                    read it, the per-frame sweeps do not */
     int32_t *leaf_parent;        /* parent's index in nodes[], -1 at level 0;
                                     apart from geom: the merge sweep reads
                                     it for every leaf */
@@ -340,6 +350,10 @@ static plod_status plod__reserve(plod_refiner *r, size_t extra)
         if (!geom)
             return PLOD_ERR_NO_MEMORY;
         r->geom = geom;
+        plod__corners *corners = realloc(r->corners, capacity * sizeof *corners);
+        if (!corners)
+            return PLOD_ERR_NO_MEMORY;
+        r->corners = corners;
         int32_t *parent = realloc(r->leaf_parent, capacity * sizeof *parent);
         if (!parent)
             return PLOD_ERR_NO_MEMORY;
@@ -488,6 +502,28 @@ static double plod__memo_height(const plod_planet *planet, plod__corner_memo *me
     return memo->height[k];
 }
 
+/* memo entries idx[0..2] become the corners of the leaf at `at` */
+static void plod__store_corners(plod_refiner *r, size_t at, const plod__corner_memo *memo,
+                                const int idx[3])
+{
+    plod__corners *c = &r->corners[at];
+    c->known = 0;
+    for (int k = 0; k < 3; k++) {
+        memcpy(c->dir[k], memo->dir[idx[k]], sizeof c->dir[k]);
+        c->height[k] = memo->height[idx[k]];
+        if (memo->known & (1u << idx[k]))
+            c->known |= 1u << k;
+    }
+}
+
+static void plod__load_corners(const plod_refiner *r, size_t at, plod__corner_memo *memo)
+{
+    const plod__corners *c = &r->corners[at];
+    memcpy(memo->dir, c->dir, sizeof c->dir);
+    memcpy(memo->height, c->height, sizeof c->height);
+    memo->known = c->known & 7u;
+}
+
 static void plod__tighten_subtexel(const plod_planet *planet, plod__corner_memo *memo,
                                    const int idx[3], double texels, double *hmin,
                                    double *hmax)
@@ -611,31 +647,31 @@ static void plod__compute_bound_at(const plod_refiner *r, const plod_sector *s,
     }
 }
 
-static void plod__compute_bound(const plod_refiner *r, const plod_sector *s, plod__bound *b)
+/* Bound of the leaf at `at` from scratch; fills its corner cache. */
+static void plod__compute_bound(plod_refiner *r, size_t at, plod__bound *b)
 {
     plod__corner_memo memo;
     memo.known = 0;
-    plod_sector_corners(r->planet, s, memo.dir);
+    plod_sector_corners(r->planet, &r->leaves[at], memo.dir);
     static const int idx[3] = {0, 1, 2};
-    plod__compute_bound_at(r, s, &memo, idx, b);
+    plod__compute_bound_at(r, &r->leaves[at], &memo, idx, b);
+    plod__store_corners(r, at, &memo, idx);
 }
 
 /* Culling flags of a bound (PLOD_SECTOR_BACKFACING or OUTSIDE_FRUSTUM,
- * the first failing test only) and, when not culled, the eye distance.
- * Angles are compared through cosines with per-node constants, so a test
+ * the first failing test only).  Angles are compared through cosines with per-node constants, so a test
  * costs a few dot products (no trigonometry).  *inside: the bound is inside
  * every frustum plane.  parent_inside: the parent's bound was, so this one's
  * surface (inside the parent's) is too; its bound then contains a point
  * inside every plane and the plane tests cannot cull it: they are skipped,
  * with the same result. */
 static unsigned plod__cull(const plod_refiner *r, const plod__bound *b,
-                           double *distance, int parent_inside, int *inside)
+                           int parent_inside, int *inside)
 {
     const plod_refine_params *pr = r->params;
     const plod_camera *cam = r->camera;
     const double *e = r->eye_unit;
     double cphi = b->axis[0] * e[0] + b->axis[1] * e[1] + b->axis[2] * e[2];
-    *distance = 0.0;
     if (r->horizon_on && b->horizon_angle >= 0.0 &&
         b->horizon_angle + r->eye_horizon_angle < 3.141592653589793) {
         /* hidden iff phi > horizon_angle + eye angle */
@@ -662,7 +698,8 @@ static unsigned plod__cull(const plod_refiner *r, const plod__bound *b,
             if (c >= b->cos_angle) {
                 best = 1.0;
             } else {
-                double s = sqrt(fmax(0.0, 1.0 - c * c));
+                double s2 = 1.0 - c * c; /* fmax(0, x) without the libm call */
+                double s = sqrt(s2 > 0.0 ? s2 : 0.0);
                 best = c * b->cos_angle + s * b->sin_angle;
             }
             double reach = best * (best >= 0.0 ? b->r_max : b->r_min);
@@ -671,12 +708,17 @@ static unsigned plod__cull(const plod_refiner *r, const plod__bound *b,
         }
         *inside = all_inside;
     }
+    return 0;
+}
+
+/* Eye distance of a bound's prism: to its nearest point. */
+static double plod__prism_distance(const plod_refiner *r, const plod__bound *b)
+{
+    const double *e = r->eye_unit;
+    double cphi = b->axis[0] * e[0] + b->axis[1] * e[1] + b->axis[2] * e[2];
     double dist = r->eye_dist;
-    if (cphi >= b->cos_angle) {
-        *distance = dist > b->r_max ? dist - b->r_max
-                                    : (dist < b->r_min ? b->r_min - dist : 0.0);
-        return 0;
-    }
+    if (cphi >= b->cos_angle)
+        return dist > b->r_max ? dist - b->r_max : (dist < b->r_min ? b->r_min - dist : 0.0);
     double cr[3] = {b->axis[1] * e[2] - b->axis[2] * e[1], b->axis[2] * e[0] - b->axis[0] * e[2],
                     b->axis[0] * e[1] - b->axis[1] * e[0]};
     double sphi = sqrt(cr[0] * cr[0] + cr[1] * cr[1] + cr[2] * cr[2]);
@@ -687,8 +729,7 @@ static unsigned plod__cull(const plod_refiner *r, const plod__bound *b,
     double t = dist * cdelta;
     t = t < b->r_min ? b->r_min : (t > b->r_max ? b->r_max : t);
     double radial = dist - t;
-    *distance = sqrt(radial * radial + 2.0 * dist * t * one_minus);
-    return 0;
+    return sqrt(radial * radial + 2.0 * dist * t * one_minus);
 }
 
 /* Refinement score of a bound: > 1 wants a split (ignoring culling).
@@ -734,15 +775,50 @@ static int plod__exceeds(const plod_refiner *r, const plod__bound *b, double dis
     }
 }
 
+/* plod__exceeds at the prism's distance.  Most nodes are far from the
+ * threshold: two bounds without square roots or divisions decide them, the
+ * bounding ball (no nearer than the prism) and the prism point axis * r_min
+ * (no nearer than the prism's nearest point), each only when it clears the
+ * threshold by a margin far above the rounding of the exact distance; so
+ * the result is the exact test's. */
+static int plod__exceeds_at_prism(const plod_refiner *r, const plod__bound *b)
+{
+    double reach; /* the distance threshold, metres */
+    switch (r->split_mode) {
+    case 0:
+        reach = b->size / r->split_scale;
+        break;
+    case 1:
+        reach = plod__error_m(r, b) * r->split_scale;
+        break;
+    default:
+        return plod__exceeds(r, b, 0.0); /* orthographic: no distance */
+    }
+    const double *eye = r->eye;
+    double margin = 1e-9 * (reach + b->sphere_radius) + 1e-12 * r->eye_dist;
+    double g[3] = {eye[0] - b->axis[0] * b->sphere_z, eye[1] - b->axis[1] * b->sphere_z,
+                   eye[2] - b->axis[2] * b->sphere_z};
+    double far_ = reach + b->sphere_radius + margin;
+    if (g[0] * g[0] + g[1] * g[1] + g[2] * g[2] >= far_ * far_)
+        return 0;
+    double near_ = reach - margin;
+    if (near_ > 0.0) {
+        double q[3] = {eye[0] - b->axis[0] * b->r_min, eye[1] - b->axis[1] * b->r_min,
+                       eye[2] - b->axis[2] * b->r_min};
+        if (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] <= near_ * near_)
+            return plod__exceeds(r, b, 0.0); /* distance below reach: the floor decides */
+    }
+    return plod__exceeds(r, b, plod__prism_distance(r, b));
+}
+
 /* Split predicate P of a node (level = its level), from its own bound. */
 static int plod__wants_split(const plod_refiner *r, const plod__bound *b, int level,
-                             unsigned *flags, double *distance, int parent_inside,
-                             int *inside)
+                             unsigned *flags, int parent_inside, int *inside)
 {
-    *flags = plod__cull(r, b, distance, parent_inside, inside);
+    *flags = plod__cull(r, b, parent_inside, inside);
     if (level >= r->params->max_level || *flags)
         return 0;
-    return plod__exceeds(r, b, *distance);
+    return plod__exceeds_at_prism(r, b);
 }
 
 static int plod__id_level(uint64_t id)
@@ -769,10 +845,9 @@ static unsigned plod__node_p(const plod_refiner *r, int32_t k, int parent_inside
 {
     const plod__node *n = &r->nodes[k];
     unsigned flags;
-    double distance;
     int inside;
-    int p = plod__wants_split(r, &n->bound, plod__id_level(n->id), &flags, &distance,
-                              parent_inside, &inside);
+    int p = plod__wants_split(r, &n->bound, plod__id_level(n->id), &flags, parent_inside,
+                              &inside);
     return PLOD__P_KNOWN | (p ? PLOD__P_TRUE : 0u) | (inside ? PLOD__INSIDE : 0u);
 }
 
@@ -805,11 +880,10 @@ static int plod__allows_merge(plod_refiner *r, int32_t k)
     int level = plod__id_level(n->id);
     if (r->node_parent[k] >= 0 && !plod__node_wants(r, r->node_parent[k]))
         return 1;
-    double distance;
     int inside;
-    unsigned flags = plod__cull(r, &n->bound, &distance, 0, &inside);
+    unsigned flags = plod__cull(r, &n->bound, 0, &inside);
     return flags || level >= r->params->max_level ||
-           plod__score(r, &n->bound, distance) < r->merge_ratio;
+           plod__score(r, &n->bound, plod__prism_distance(r, &n->bound)) < r->merge_ratio;
 }
 
 /* P*(leaf), caching P(leaf) and its cull flags for this frame. */
@@ -820,7 +894,7 @@ static int plod__leaf_wants_split(plod_refiner *r, size_t i)
         unsigned flags;
         int inside;
         g->eval_split = (uint8_t)plod__wants_split(r, &g->self, r->leaves[i].level,
-                                                   &flags, &g->eval_distance,
+                                                   &flags,
                                                    plod__parent_inside(r, r->leaf_parent[i]),
                                                    &inside);
         g->eval_flags = (uint8_t)flags;
@@ -911,8 +985,7 @@ static void plod__split_diamond(plod_refiner *r, size_t i, size_t n)
     for (int k = 0; k < 2; k++) {
         /* the parent's corners 0..2 and the midpoint 3 of its hypotenuse */
         plod__corner_memo memo;
-        memo.known = 0;
-        plod_sector_corners(r->planet, &parents[k], memo.dir);
+        plod__load_corners(r, pair[k], &memo);
         for (int bit = 0; bit < 2; bit++) {
             size_t at = bit ? r->count++ : pair[k];
             plod_sector *c = &r->leaves[at];
@@ -929,6 +1002,7 @@ static void plod__split_diamond(plod_refiner *r, size_t i, size_t n)
             const int idx[3] = {bit ? 2 : 1, 3, bit ? 1 : 0};
             plod__geom *g = &r->geom[at];
             plod__compute_bound_at(r, c, &memo, idx, &g->self);
+            plod__store_corners(r, at, &memo, idx);
             g->eval_frame = r->frame - 1;
             r->leaf_parent[at] = node[k];
             plod__apply_bound(c, &g->self);
@@ -1005,9 +1079,26 @@ static void plod__drop_unlinked(plod_refiner *r, size_t x)
         }
         r->leaves[x] = r->leaves[last];
         r->geom[x] = r->geom[last];
+        r->corners[x] = r->corners[last];
         r->leaf_parent[x] = r->leaf_parent[last];
     }
     r->count--;
+}
+
+/* A parent's corners from its child 0 (p1, m, p0) and child 1 (p2, m, p1). */
+static plod__corners plod__parent_corners(const plod__corners *c0, const plod__corners *c1)
+{
+    plod__corners p;
+    const plod__corners *from[3] = {c0, c0, c1};
+    static const int which[3] = {2, 0, 0};
+    p.known = 0;
+    for (int k = 0; k < 3; k++) {
+        memcpy(p.dir[k], from[k]->dir[which[k]], sizeof p.dir[k]);
+        p.height[k] = from[k]->height[which[k]];
+        if (from[k]->known & (1u << which[k]))
+            p.known |= 1u << k;
+    }
+    return p;
 }
 
 static int plod__same_point(const plod_refiner *r, const plod_sector *a, int ka,
@@ -1115,6 +1206,13 @@ static int plod__merge_diamond(plod_refiner *r, size_t ia, int32_t pi)
             plod__edge_remove(r, key, (int32_t)child_at[x]);
         }
     }
+    plod__corners cp = plod__parent_corners(&r->corners[ia], &r->corners[ib_]);
+    /* a is child 0 of p; c may be either child of q */
+    int c_first = !(r->leaves[ic_].id & 1);
+    plod__corners cq = plod__parent_corners(&r->corners[c_first ? ic_ : id2],
+                                            &r->corners[c_first ? id2 : ic_]);
+    r->corners[ia] = cp;
+    r->corners[ic_] = cq;
     r->leaves[ia] = p;
     r->geom[ia] = gp;
     r->leaf_parent[ia] = gp_gq_parent[0];
@@ -1166,7 +1264,7 @@ static void plod__add_base(plod_refiner *r, unsigned base, int face,
     }
     plod__geom *g = &r->geom[at];
     memset(g, 0, sizeof *g);
-    plod__compute_bound(r, s, &g->self);
+    plod__compute_bound(r, at, &g->self);
     g->eval_frame = r->frame - 1;
     r->leaf_parent[at] = -1;
     plod__apply_bound(s, &g->self);
@@ -1248,6 +1346,7 @@ void plod_refiner_destroy(plod_refiner *refiner)
         return;
     free(refiner->leaves);
     free(refiner->geom);
+    free(refiner->corners);
     free(refiner->leaf_parent);
     free(refiner->edges);
     free(refiner->nodes);
@@ -1316,7 +1415,7 @@ static void *plod__eval_run(void *arg)
         unsigned flags;
         int inside;
         g->eval_split = (uint8_t)plod__wants_split(r, &g->self, r->leaves[i].level, &flags,
-                                                   &g->eval_distance, 0, &inside);
+                                                   0, &inside);
         g->eval_flags = (uint8_t)flags;
         g->eval_frame = r->frame;
     }
@@ -1508,8 +1607,7 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
             unsigned cull_flags;
             int inside;
             g->eval_split = (uint8_t)plod__wants_split(r, &g->self, sec->level,
-                                                       &cull_flags, &g->eval_distance, 0,
-                                                       &inside);
+                                                       &cull_flags, 0, &inside);
             g->eval_flags = (uint8_t)cull_flags;
             g->eval_frame = r->frame;
         }
@@ -1545,7 +1643,8 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
         size_t k = 0;
         for (size_t i = 0; i < r->count; i++)
             if (r->leaves[i].flags & PLOD_SECTOR_VISIBLE)
-                ranks[k++] = (plod__rank){r->geom[i].eval_distance, r->leaves[i].id, i};
+                ranks[k++] = (plod__rank){plod__prism_distance(r, &r->geom[i].self),
+                                          r->leaves[i].id, i};
         qsort(ranks, visible, sizeof *ranks, plod__rank_cmp);
         for (size_t j = params->budget; j < visible; j++) {
             plod_sector *sec = &r->leaves[ranks[j].index];
@@ -1580,6 +1679,7 @@ size_t plod_refiner_memory_bytes(const plod_refiner *r)
                                               sizeof(int32_t));
     if (r->edges)
         bytes += (r->edge_mask + 1) * sizeof(plod__edge);
+    bytes += r->capacity * sizeof(plod__corners);
     bytes += r->node_capacity * (sizeof(plod__node) + sizeof(int32_t) + 2);
     return bytes;
 }
@@ -1607,6 +1707,17 @@ plod_status plod_refiner_check(const plod_refiner *r)
                 return PLOD_ERR_BAD_PARAM; /* closed sphere: always two */
             int dl = (int)r->leaves[other].level - (int)s->level;
             if (dl < -1 || dl > 1)
+                return PLOD_ERR_BAD_PARAM;
+        }
+        /* the corner cache holds the bits a fresh computation gives */
+        double fresh[3][3];
+        plod_sector_corners(r->planet, s, fresh);
+        const plod__corners *cc = &r->corners[i];
+        if (memcmp(fresh, cc->dir, sizeof fresh) != 0)
+            return PLOD_ERR_BAD_PARAM;
+        for (int k = 0; k < 3; k++) {
+            double h = plod_planet_height(r->planet, cc->dir[k]);
+            if ((cc->known & (1u << k)) && memcmp(&h, &cc->height[k], sizeof h) != 0)
                 return PLOD_ERR_BAD_PARAM;
         }
         int32_t parent = r->leaf_parent[i];
