@@ -62,9 +62,9 @@ typedef struct plod__bound {
     double size;          /* longest corner chord, metres at the radius */
     double sag0;          /* size^2 / (8 r_min): curvature sag, template 0 */
     double relief0;       /* (hmax - hmin) * min(1, extent / texel) */
-    double horizon_angle; /* cap angle + angle at which r_max peeks over
-                             the occluder ball (< 0: never hidden) */
-    double horizon_cos, horizon_sin;
+    int horizon;          /* 0: r_max below the occluder, never hidden */
+    double horizon_cos, horizon_sin; /* of the cap angle + the angle at
+                             which r_max peeks over the occluder ball */
     double sphere_z, sphere_radius; /* bounding ball: centre axis*sphere_z */
     float hmin, hmax;     /* metres, outward-rounded */
 } plod__bound;
@@ -550,6 +550,25 @@ static void plod__tighten_subtexel(const plod_planet *planet, plod__corner_memo 
         *hmin = *hmax;
 }
 
+/* cos and sin of a cap angle (given by its cosine and sine) grown by the
+ * rounding slack PLOD__CAP_INFLATE: by delta >= (INFLATE - 1) * angle,
+ * from angle <= pi/2 * sine below 90 degrees and <= pi above. */
+static void plod__inflate_cap(double sine, double cosine, double *sin_out, double *cos_out)
+{
+    double norm = sqrt(sine * sine + cosine * cosine);
+    double s = sine / norm, c = cosine / norm;
+    double bound = c > 0.0 ? 1.5707963267948966 * s : 3.141592653589793;
+    double delta = (PLOD__CAP_INFLATE - 1.0) * bound + 1e-15;
+    double cd = 1.0 - 0.5 * delta * delta, sd = delta - delta * delta * delta / 6.0;
+    double cos_ = c * cd - s * sd, sin_ = s * cd + c * sd;
+    if (sin_ < 0.0) { /* past pi: the whole sphere */
+        cos_ = -1.0;
+        sin_ = 0.0;
+    }
+    *cos_out = cos_;
+    *sin_out = sin_;
+}
+
 /* Bound of sector s whose corners are memo->dir[idx[0..2]]. */
 static void plod__compute_bound_at(const plod_refiner *r, const plod_sector *s,
                                    plod__corner_memo *memo, const int idx[3], plod__bound *b)
@@ -559,37 +578,33 @@ static void plod__compute_bound_at(const plod_refiner *r, const plod_sector *s,
     double axis[3] = {c[0][0] + c[1][0] + c[2][0], c[0][1] + c[1][1] + c[2][1],
                       c[0][2] + c[1][2] + c[2][2]};
     double len = sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
-    double angle = 0.0, chord = 0.0;
+    double chord = 0.0;
     for (int k = 0; k < 3; k++) {
         b->axis[k] = axis[k] / len;
     }
-    /* the cap angle: the largest corner angle from the axis.  Below 90
-     * degrees the angle grows with the sine, so only the corners whose sine
-     * is within rounding of the largest need their atan2 (same result) */
-    double sine[3], cosine[3], top = 0.0;
+    /* the cap angle: the largest corner angle from the axis (largest sine
+     * below 90 degrees, where the sine resolves small angles; smallest
+     * cosine above), kept as its cosine and sine: no trigonometry */
+    double cap_sin = 0.0, cap_cos = 1.0;
     int acute = 1;
     for (int k = 0; k < 3; k++) {
         const double *a = b->axis, *v = c[k];
         double x[3] = {a[1] * v[2] - a[2] * v[1], a[2] * v[0] - a[0] * v[2],
                        a[0] * v[1] - a[1] * v[0]};
-        sine[k] = sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]);
-        cosine[k] = a[0] * v[0] + a[1] * v[1] + a[2] * v[2];
-        acute &= cosine[k] > 0.0;
-        top = sine[k] > top ? sine[k] : top;
-    }
-    for (int k = 0; k < 3; k++) {
-        if (!acute || sine[k] >= top * (1.0 - 1e-9)) {
-            double a = atan2(sine[k], cosine[k]);
-            angle = a > angle ? a : angle;
+        double sine = sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]);
+        double cosine = a[0] * v[0] + a[1] * v[1] + a[2] * v[2];
+        if (cosine <= 0.0 && acute) {
+            acute = 0;
+            cap_sin = sine, cap_cos = cosine;
+        } else if (acute ? sine > cap_sin : cosine < cap_cos) {
+            cap_sin = sine, cap_cos = cosine;
         }
         const double *p = c[k], *q = c[(k + 1) % 3];
         double d[3] = {p[0] - q[0], p[1] - q[1], p[2] - q[2]};
         double ch = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
         chord = ch > chord ? ch : chord;
     }
-    angle = angle * PLOD__CAP_INFLATE + 1e-15;
-    b->cos_angle = cos(angle);
-    b->sin_angle = sin(angle);
+    plod__inflate_cap(cap_sin, cap_cos, &b->sin_angle, &b->cos_angle);
     b->size = chord * planet->radius;
 
     const double scale = 1.0 / (double)PLOD__ONE;
@@ -613,7 +628,8 @@ static void plod__compute_bound_at(const plod_refiner *r, const plod_sector *s,
         texels = extent * r->texels_per_unit;
     } else {
         /* CAR: the octahedral square is not the map's lon/lat grid */
-        plod_planet_height_range_cap(planet, b->axis, angle, &hmin, &hmax, &texels);
+        plod_planet_height_range_cap(planet, b->axis, atan2(b->sin_angle, b->cos_angle),
+                                     &hmin, &hmax, &texels);
     }
     double relief_range = hmax - hmin;
     plod__tighten_subtexel(planet, memo, idx, texels, &hmin, &hmax);
@@ -629,14 +645,13 @@ static void plod__compute_bound_at(const plod_refiner *r, const plod_sector *s,
     b->sag0 = b->size * b->size / (8.0 * b->r_min);
     b->relief0 = relief_range * (texels < 1.0 ? texels : 1.0);
     double rho = r->occluder;
-    if (b->r_max >= rho) {
-        b->horizon_angle = angle + atan2(sqrt((b->r_max - rho) * (b->r_max + rho)), rho);
-        b->horizon_cos = cos(b->horizon_angle);
-        b->horizon_sin = sin(b->horizon_angle);
-    } else {
-        b->horizon_angle = -1.0;
+    b->horizon = b->r_max >= rho;
+    if (b->horizon) { /* cap angle + beta, cos beta = rho / r_max */
+        double cb = rho / b->r_max, sb = sqrt((b->r_max - rho) * (b->r_max + rho)) / b->r_max;
+        b->horizon_cos = b->cos_angle * cb - b->sin_angle * sb;
+        b->horizon_sin = b->sin_angle * cb + b->cos_angle * sb;
     }
-    if (angle < 0.5 * 3.141592653589793) {
+    if (b->cos_angle > 0.0) {
         double z0 = b->r_min * b->cos_angle, lateral = b->r_max * b->sin_angle;
         b->sphere_z = 0.5 * (z0 + b->r_max);
         double half = 0.5 * (b->r_max - z0);
@@ -672,9 +687,11 @@ static unsigned plod__cull(const plod_refiner *r, const plod__bound *b,
     const plod_camera *cam = r->camera;
     const double *e = r->eye_unit;
     double cphi = b->axis[0] * e[0] + b->axis[1] * e[1] + b->axis[2] * e[2];
-    if (r->horizon_on && b->horizon_angle >= 0.0 &&
-        b->horizon_angle + r->eye_horizon_angle < 3.141592653589793) {
-        /* hidden iff phi > horizon_angle + eye angle */
+    /* both angles are in [0, pi): their sum is below pi iff its sine is
+     * positive (rounding near pi only skips the test: conservative) */
+    if (r->horizon_on && b->horizon &&
+        b->horizon_sin * r->eye_horizon_cos + b->horizon_cos * r->eye_horizon_sin > 0.0) {
+        /* hidden iff phi > horizon angle + eye angle */
         double limit = b->horizon_cos * r->eye_horizon_cos - b->horizon_sin * r->eye_horizon_sin;
         if (cphi < limit - 1e-12)
             return PLOD_SECTOR_BACKFACING;
