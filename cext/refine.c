@@ -82,6 +82,7 @@ typedef struct plod__geom {
 typedef struct plod__corners {
     double dir[3][3];
     double height[3];
+    int32_t canon[3][3]; /* canonical points (plod__canon): edge keys */
     unsigned known; /* bit k: height[k] computed */
 } plod__corners;
 
@@ -186,6 +187,19 @@ static void plod__edge_key(const plod_refiner *r, const plod_sector *s, int e,
     plod__canon(r, s->face, s->cu[b], s->cv[b], pb);
     for (int i = 0; i < 3; i++)
         key[i] = pa[i] + pb[i];
+}
+
+/* The key of edge e from cached canonical points (= plod__edge_key). */
+static void plod__corners_key(const plod__corners *c, int e, int32_t key[3])
+{
+    const int32_t *pa = c->canon[e], *pb = c->canon[(e + 1) % 3];
+    for (int i = 0; i < 3; i++)
+        key[i] = pa[i] + pb[i];
+}
+
+static void plod__leaf_key(const plod_refiner *r, size_t at, int e, int32_t key[3])
+{
+    plod__corners_key(&r->corners[at], e, key);
 }
 
 static size_t plod__hash(const int32_t key[3])
@@ -317,7 +331,7 @@ static void plod__edge_replace(plod_refiner *r, const int32_t key[3], int32_t fr
 static int32_t plod__across(const plod_refiner *r, size_t index, int e)
 {
     int32_t key[3];
-    plod__edge_key(r, &r->leaves[index], e, key);
+    plod__leaf_key(r, index, e, key);
     size_t i = plod__edge_find(r, key);
     if (i == (size_t)-1)
         return -1;
@@ -329,7 +343,7 @@ static void plod__leaf_link(plod_refiner *r, size_t index)
 {
     for (int e = 0; e < 3; e++) {
         int32_t key[3];
-        plod__edge_key(r, &r->leaves[index], e, key);
+        plod__leaf_key(r, index, e, key);
         plod__edge_add(r, key, (int32_t)index);
     }
 }
@@ -490,6 +504,7 @@ void plod_sector_corners(const plod_planet *planet, const plod_sector *sector,
 typedef struct plod__corner_memo {
     double dir[4][3];
     double height[4];
+    int32_t canon[4][3];
     unsigned known; /* bit k: height[k] computed */
 } plod__corner_memo;
 
@@ -510,6 +525,7 @@ static void plod__store_corners(plod_refiner *r, size_t at, const plod__corner_m
     c->known = 0;
     for (int k = 0; k < 3; k++) {
         memcpy(c->dir[k], memo->dir[idx[k]], sizeof c->dir[k]);
+        memcpy(c->canon[k], memo->canon[idx[k]], sizeof c->canon[k]);
         c->height[k] = memo->height[idx[k]];
         if (memo->known & (1u << idx[k]))
             c->known |= 1u << k;
@@ -520,6 +536,7 @@ static void plod__load_corners(const plod_refiner *r, size_t at, plod__corner_me
 {
     const plod__corners *c = &r->corners[at];
     memcpy(memo->dir, c->dir, sizeof c->dir);
+    memcpy(memo->canon, c->canon, sizeof c->canon);
     memcpy(memo->height, c->height, sizeof c->height);
     memo->known = c->known & 7u;
 }
@@ -667,7 +684,10 @@ static void plod__compute_bound(plod_refiner *r, size_t at, plod__bound *b)
 {
     plod__corner_memo memo;
     memo.known = 0;
-    plod_sector_corners(r->planet, &r->leaves[at], memo.dir);
+    const plod_sector *s = &r->leaves[at];
+    plod_sector_corners(r->planet, s, memo.dir);
+    for (int k = 0; k < 3; k++)
+        plod__canon(r, s->face, s->cu[k], s->cv[k], memo.canon[k]);
     static const int idx[3] = {0, 1, 2};
     plod__compute_bound_at(r, &r->leaves[at], &memo, idx, b);
     plod__store_corners(r, at, &memo, idx);
@@ -989,7 +1009,7 @@ static void plod__split_diamond(plod_refiner *r, size_t i, size_t n)
      * slot, so only child 1's leg is relinked); the children's other two
      * edges are new (each shared by two of the four children) */
     int32_t hyp[3];
-    plod__edge_key(r, &parents[0], 2, hyp);
+    plod__leaf_key(r, i, 2, hyp);
     plod__edge_remove(r, hyp, (int32_t)i);
     plod__edge_remove(r, hyp, (int32_t)n);
     int32_t node[2] = {plod__node_add(r, parents[0].id, &r->geom[i].self, r->leaf_parent[i]),
@@ -1014,6 +1034,7 @@ static void plod__split_diamond(plod_refiner *r, size_t i, size_t n)
                                                   memo.dir[3]);
                 (void)st;
                 assert(st == PLOD_OK);
+                plod__canon(r, c->face, c->cu[1], c->cv[1], memo.canon[3]);
             }
             /* plod__child: corners (parent a, midpoint, parent b) */
             const int idx[3] = {bit ? 2 : 1, 3, bit ? 1 : 0};
@@ -1025,11 +1046,11 @@ static void plod__split_diamond(plod_refiner *r, size_t i, size_t n)
             plod__apply_bound(c, &g->self);
             int32_t key[3];
             if (at != pair[k]) {
-                plod__edge_key(r, c, 2, key);
+                plod__leaf_key(r, at, 2, key);
                 plod__edge_replace(r, key, (int32_t)pair[k], (int32_t)at);
             }
             for (int e = 0; e < 2; e++) {
-                plod__edge_key(r, c, e, key);
+                plod__leaf_key(r, at, e, key);
                 plod__edge_add(r, key, (int32_t)at);
             }
         }
@@ -1091,7 +1112,7 @@ static void plod__drop_unlinked(plod_refiner *r, size_t x)
     if (x != last) {
         for (int e = 0; e < 3; e++) {
             int32_t key[3];
-            plod__edge_key(r, &r->leaves[last], e, key);
+            plod__leaf_key(r, last, e, key);
             plod__edge_replace(r, key, (int32_t)last, (int32_t)x);
         }
         r->leaves[x] = r->leaves[last];
@@ -1111,6 +1132,7 @@ static plod__corners plod__parent_corners(const plod__corners *c0, const plod__c
     p.known = 0;
     for (int k = 0; k < 3; k++) {
         memcpy(p.dir[k], from[k]->dir[which[k]], sizeof p.dir[k]);
+        memcpy(p.canon[k], from[k]->canon[which[k]], sizeof p.canon[k]);
         p.height[k] = from[k]->height[which[k]];
         if (from[k]->known & (1u << which[k]))
             p.known |= 1u << k;
@@ -1118,13 +1140,9 @@ static plod__corners plod__parent_corners(const plod__corners *c0, const plod__c
     return p;
 }
 
-static int plod__same_point(const plod_refiner *r, const plod_sector *a, int ka,
-                            const plod_sector *b, int kb)
+static int plod__same_point(const plod_refiner *r, size_t a, int ka, size_t b, int kb)
 {
-    int32_t pa[3], pb[3];
-    plod__canon(r, a->face, a->cu[ka], a->cv[ka], pa);
-    plod__canon(r, b->face, b->cu[kb], b->cv[kb], pb);
-    return plod__key_eq(pa, pb);
+    return plod__key_eq(r->corners[a].canon[ka], r->corners[b].canon[kb]);
 }
 
 /* Tries to merge the diamond whose child-0 leaf is at index ia.  Returns 1
@@ -1173,7 +1191,7 @@ static int plod__merge_diamond(plod_refiner *r, size_t ia, int32_t pi)
     if (ic < 0)
         return 0;
     const plod_sector *c = &r->leaves[ic];
-    if (c->level != level || !plod__same_point(r, a, 1, c, 1))
+    if (c->level != level || !plod__same_point(r, ia, 1, (size_t)ic, 1))
         return 0; /* c is not the partner parent's child (it is split) */
     int32_t qi = r->leaf_parent[ic];
     assert(qi >= 0 && r->nodes[qi].id == plod__parent_id(c->id));
@@ -1189,7 +1207,7 @@ static int plod__merge_diamond(plod_refiner *r, size_t ia, int32_t pi)
     if (id_ < 0)
         return 0;
     const plod_sector *d = &r->leaves[id_];
-    if (d->level != level || (c->id ^ d->id) != 1 || !plod__same_point(r, a, 1, d, 1))
+    if (d->level != level || (c->id ^ d->id) != 1 || !plod__same_point(r, ia, 1, (size_t)id_, 1))
         return 0;
     const plod__node *pn = &r->nodes[pi], *qn = &r->nodes[qi];
 
@@ -1212,14 +1230,13 @@ static int plod__merge_diamond(plod_refiner *r, size_t ia, int32_t pi)
     const size_t child_at[4] = {ia, ib_, ic_, id2};
     for (int x = 0; x < 4; x++) {
         size_t to = x < 2 ? ia : ic_;
-        const plod_sector *child = &r->leaves[child_at[x]];
         int32_t key[3];
         if (child_at[x] != to) {
-            plod__edge_key(r, child, 2, key);
+            plod__leaf_key(r, child_at[x], 2, key);
             plod__edge_replace(r, key, (int32_t)child_at[x], (int32_t)to);
         }
         for (int e = 0; e < 2; e++) {
-            plod__edge_key(r, child, e, key);
+            plod__leaf_key(r, child_at[x], e, key);
             plod__edge_remove(r, key, (int32_t)child_at[x]);
         }
     }
@@ -1237,7 +1254,7 @@ static int plod__merge_diamond(plod_refiner *r, size_t ia, int32_t pi)
     r->geom[ic_] = gq;
     r->leaf_parent[ic_] = gp_gq_parent[1];
     int32_t hyp[3];
-    plod__edge_key(r, &p, 2, hyp);
+    plod__leaf_key(r, ia, 2, hyp);
     plod__edge_add(r, hyp, (int32_t)ia);
     plod__edge_add(r, hyp, (int32_t)ic_);
     size_t hi = ib_ > id2 ? ib_ : id2, lo = ib_ > id2 ? id2 : ib_;
@@ -1732,6 +1749,12 @@ plod_status plod_refiner_check(const plod_refiner *r)
         const plod__corners *cc = &r->corners[i];
         if (memcmp(fresh, cc->dir, sizeof fresh) != 0)
             return PLOD_ERR_BAD_PARAM;
+        for (int k = 0; k < 3; k++) {
+            int32_t point[3];
+            plod__canon(r, s->face, s->cu[k], s->cv[k], point);
+            if (!plod__key_eq(point, cc->canon[k]))
+                return PLOD_ERR_BAD_PARAM;
+        }
         for (int k = 0; k < 3; k++) {
             double h = plod_planet_height(r->planet, cc->dir[k]);
             if ((cc->known & (1u << k)) && memcmp(&h, &cc->height[k], sizeof h) != 0)

@@ -148,6 +148,23 @@ def test_deterministic_with_heightmap(planetlod, earth):
     earth.refine(b)
     earth.refine(a)
     assert sorted_ids(earth) == want
+    # after splits and merges, every leaf's cached corners (directions,
+    # heights, canonical points) still equal freshly computed ones
+    assert earth.check_invariants()
+
+
+def test_cached_corners_survive_merges_on_every_projection(planetlod):
+    near = surface_camera(planetlod, EARTH_R, 2e3, lat=0.3, lon=0.7)
+    far = space_camera(planetlod, 3e7)
+    for projection in ("qsc", "csc", "car"):
+        p = planetlod.Planet(EARTH_R, projection=projection)
+        counts = []
+        for cam in (near, far, near):
+            s = p.refine(cam, criterion="side_distance", max_level=24)
+            counts.append(s["sectors_total"])
+            assert p.check_invariants()
+        assert s["merges"] == 0 and s["splits"] > 0  # split again after merging
+        assert counts[0] == counts[2] > counts[1]
 
 
 def test_threads_identical(planetlod, earth):
