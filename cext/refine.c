@@ -101,9 +101,10 @@ typedef struct plod__node {
 /* node_state bits, valid for the current frame (cleared by its pre-pass) */
 enum {
     PLOD__P_KNOWN = 1, PLOD__P_TRUE = 2,        /* P(node) */
-    PLOD__STAR_KNOWN = 4, PLOD__STAR_TRUE = 8,  /* P*(node) */
-    PLOD__INSIDE = 16 /* this frame: the bound is inside every frustum plane */
+    PLOD__STAR_KNOWN = 4, PLOD__STAR_TRUE = 8   /* P*(node) */
 };
+
+#define PLOD__ALL_PLANES 0x3Fu
 
 struct plod_refiner {
     const plod_planet *planet;
@@ -122,6 +123,8 @@ struct plod_refiner {
     plod__node *nodes;           /* internal nodes, dense, stable indices */
     int32_t *node_parent;        /* parent's index (< own), -1 at level 0 */
     uint8_t *node_state;         /* PLOD__P_* | PLOD__STAR_* this frame */
+    uint8_t *node_planes;        /* this frame: bit i, the node's surface is
+                                    inside frustum plane i (0 if unknown) */
     uint8_t *node_leaves;        /* how many of its 2 children are leaves */
     size_t node_capacity, node_top, node_used; /* node_top: slots in use or
                                                   holes (id 0) */
@@ -410,6 +413,10 @@ static plod_status plod__node_reserve(plod_refiner *r, size_t extra)
     if (!state)
         return PLOD_ERR_NO_MEMORY;
     r->node_state = state;
+    uint8_t *planes = realloc(r->node_planes, capacity);
+    if (!planes)
+        return PLOD_ERR_NO_MEMORY;
+    r->node_planes = planes;
     uint8_t *leaves = realloc(r->node_leaves, capacity);
     if (!leaves)
         return PLOD_ERR_NO_MEMORY;
@@ -430,6 +437,7 @@ static int32_t plod__node_add(plod_refiner *r, uint64_t id, const plod__bound *b
     n->bound = *bound;
     r->node_parent[at] = parent;
     r->node_state[at] = 0; /* evaluated on demand this frame */
+    r->node_planes[at] = 0;
     r->node_leaves[at] = 2;
     r->node_used++;
     return at;
@@ -693,16 +701,19 @@ static void plod__compute_bound(plod_refiner *r, size_t at, plod__bound *b)
     plod__store_corners(r, at, &memo, idx);
 }
 
-/* Culling flags of a bound (PLOD_SECTOR_BACKFACING or OUTSIDE_FRUSTUM,
- * the first failing test only).  Angles are compared through cosines with per-node constants, so a test
- * costs a few dot products (no trigonometry).  *inside: the bound is inside
- * every frustum plane.  parent_inside: the parent's bound was, so this one's
- * surface (inside the parent's) is too; its bound then contains a point
- * inside every plane and the plane tests cannot cull it: they are skipped,
- * with the same result. */
+/* Culling flags of a bound (PLOD_SECTOR_BACKFACING or OUTSIDE_FRUSTUM:
+ * culled or not, the same whichever test finds it).  Angles are compared
+ * through cosines with per-node constants, so a test costs a few dot
+ * products (no trigonometry).
+ * Plane masks: bit i of parent_planes says the parent's surface is inside
+ * frustum plane i, so this sector's surface (part of it) is too; its
+ * bound, which contains that surface, then has a point inside plane i and
+ * plane i cannot cull it: the test is skipped, with the same result.
+ * *planes: parent_planes plus the planes this bound is inside of. */
 static unsigned plod__cull(const plod_refiner *r, const plod__bound *b,
-                           int parent_inside, int *inside)
+                           unsigned parent_planes, unsigned *planes)
 {
+    *planes = parent_planes;
     const plod_refine_params *pr = r->params;
     const plod_camera *cam = r->camera;
     const double *e = r->eye_unit;
@@ -716,19 +727,18 @@ static unsigned plod__cull(const plod_refiner *r, const plod__bound *b,
         if (cphi < limit - 1e-12)
             return PLOD_SECTOR_BACKFACING;
     }
-    *inside = 0;
-    if (pr->frustum_culling && parent_inside) {
-        *inside = 1;
-    } else if (pr->frustum_culling) {
-        int all_inside = 1;
+    if (pr->frustum_culling && parent_planes != PLOD__ALL_PLANES) {
         for (int i = 0; i < 6; i++) {
+            if (parent_planes & (1u << i))
+                continue;
             const double *pl = cam->planes[i];
             double c = pl[0] * b->axis[0] + pl[1] * b->axis[1] + pl[2] * b->axis[2];
             double centre = c * b->sphere_z + pl[3];
             double margin = 1e-9 * (b->r_max + fabs(pl[3]));
-            if (centre >= b->sphere_radius)
-                continue; /* the bounding ball is inside this plane */
-            all_inside = 0;
+            if (centre >= b->sphere_radius) {
+                *planes |= 1u << i; /* the bounding ball is inside this plane */
+                continue;
+            }
             if (centre < -b->sphere_radius - margin)
                 return PLOD_SECTOR_OUTSIDE_FRUSTUM;
             double best;
@@ -743,7 +753,6 @@ static unsigned plod__cull(const plod_refiner *r, const plod__bound *b,
             if (reach + pl[3] < -margin)
                 return PLOD_SECTOR_OUTSIDE_FRUSTUM;
         }
-        *inside = all_inside;
     }
     return 0;
 }
@@ -850,9 +859,9 @@ static int plod__exceeds_at_prism(const plod_refiner *r, const plod__bound *b)
 
 /* Split predicate P of a node (level = its level), from its own bound. */
 static int plod__wants_split(const plod_refiner *r, const plod__bound *b, int level,
-                             unsigned *flags, int parent_inside, int *inside)
+                             unsigned *flags, unsigned parent_planes, unsigned *planes)
 {
-    *flags = plod__cull(r, b, parent_inside, inside);
+    *flags = plod__cull(r, b, parent_planes, planes);
     if (level >= r->params->max_level || *flags)
         return 0;
     return plod__exceeds_at_prism(r, b);
@@ -870,22 +879,23 @@ static uint64_t plod__parent_id(uint64_t id)
     return (id & ~PLOD__HEAP_MASK) | ((id & PLOD__HEAP_MASK) >> 1);
 }
 
-/* Whether node k's parent was found inside the frustum this frame (only
- * where this frame's state of the parent is final: not on the threads). */
-static int plod__parent_inside(const plod_refiner *r, int32_t parent)
+/* The frustum planes node `parent`'s surface is inside of, this frame
+ * (only where its state is final: not on the threads). */
+static unsigned plod__parent_planes(const plod_refiner *r, int32_t parent)
 {
-    return parent >= 0 && (r->node_state[parent] & PLOD__INSIDE);
+    return parent >= 0 ? r->node_planes[parent] : 0u;
 }
 
-/* P(node) of an internal node, as PLOD__P_KNOWN | P_TRUE | INSIDE bits. */
-static unsigned plod__node_p(const plod_refiner *r, int32_t k, int parent_inside)
+/* P(node) of an internal node, as PLOD__P_KNOWN | P_TRUE bits; stores its
+ * plane mask. */
+static unsigned plod__node_p(plod_refiner *r, int32_t k, unsigned parent_planes)
 {
     const plod__node *n = &r->nodes[k];
-    unsigned flags;
-    int inside;
-    int p = plod__wants_split(r, &n->bound, plod__id_level(n->id), &flags, parent_inside,
-                              &inside);
-    return PLOD__P_KNOWN | (p ? PLOD__P_TRUE : 0u) | (inside ? PLOD__INSIDE : 0u);
+    unsigned flags, planes;
+    int p = plod__wants_split(r, &n->bound, plod__id_level(n->id), &flags, parent_planes,
+                              &planes);
+    r->node_planes[k] = (uint8_t)planes;
+    return PLOD__P_KNOWN | (p ? PLOD__P_TRUE : 0u);
 }
 
 /* P*(node) = P(node) and P*(parent): monotone by construction, so the
@@ -897,7 +907,7 @@ static int plod__node_wants(plod_refiner *r, int32_t k)
     if (st & PLOD__STAR_KNOWN)
         return (st & PLOD__STAR_TRUE) != 0;
     if (!(st & PLOD__P_KNOWN))
-        st |= plod__node_p(r, k, plod__parent_inside(r, r->node_parent[k]));
+        st |= plod__node_p(r, k, plod__parent_planes(r, r->node_parent[k]));
     int wants = (st & PLOD__P_TRUE) != 0;
     int32_t parent = r->node_parent[k];
     if (wants && parent >= 0) {
@@ -917,8 +927,8 @@ static int plod__allows_merge(plod_refiner *r, int32_t k)
     int level = plod__id_level(n->id);
     if (r->node_parent[k] >= 0 && !plod__node_wants(r, r->node_parent[k]))
         return 1;
-    int inside;
-    unsigned flags = plod__cull(r, &n->bound, 0, &inside);
+    unsigned planes;
+    unsigned flags = plod__cull(r, &n->bound, 0, &planes);
     return flags || level >= r->params->max_level ||
            plod__score(r, &n->bound, plod__prism_distance(r, &n->bound)) < r->merge_ratio;
 }
@@ -929,11 +939,11 @@ static int plod__leaf_wants_split(plod_refiner *r, size_t i)
     plod__geom *g = &r->geom[i];
     if (g->eval_frame != r->frame) {
         unsigned flags;
-        int inside;
+        unsigned planes;
         g->eval_split = (uint8_t)plod__wants_split(r, &g->self, r->leaves[i].level,
                                                    &flags,
-                                                   plod__parent_inside(r, r->leaf_parent[i]),
-                                                   &inside);
+                                                   plod__parent_planes(r, r->leaf_parent[i]),
+                                                   &planes);
         g->eval_flags = (uint8_t)flags;
         g->eval_frame = r->frame;
     }
@@ -1386,6 +1396,7 @@ void plod_refiner_destroy(plod_refiner *refiner)
     free(refiner->nodes);
     free(refiner->node_parent);
     free(refiner->node_state);
+    free(refiner->node_planes);
     free(refiner->node_leaves);
     free(refiner->pending);
     free(refiner);
@@ -1447,9 +1458,9 @@ static void *plod__eval_run(void *arg)
     for (size_t i = c->leaf_begin; i < c->leaf_end; i++) {
         plod__geom *g = &r->geom[i];
         unsigned flags;
-        int inside;
+        unsigned planes;
         g->eval_split = (uint8_t)plod__wants_split(r, &g->self, r->leaves[i].level, &flags,
-                                                   0, &inside);
+                                                   0, &planes);
         g->eval_flags = (uint8_t)flags;
         g->eval_frame = r->frame;
     }
@@ -1591,11 +1602,12 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
         int32_t parent = r->node_parent[k];
         if (parent >= 0 && !(r->node_state[parent] & PLOD__STAR_TRUE)) {
             r->node_state[k] = PLOD__STAR_KNOWN; /* P* false, P not needed */
+            r->node_planes[k] = 0;
             continue;
         }
         unsigned pk = evaluated ? r->node_state[k]
-                                : plod__node_p(r, (int32_t)k, plod__parent_inside(r, parent));
-        r->node_state[k] = (uint8_t)((pk & (PLOD__P_KNOWN | PLOD__P_TRUE | PLOD__INSIDE)) |
+                                : plod__node_p(r, (int32_t)k, plod__parent_planes(r, parent));
+        r->node_state[k] = (uint8_t)((pk & (PLOD__P_KNOWN | PLOD__P_TRUE)) |
                                      PLOD__STAR_KNOWN |
                                      ((pk & PLOD__P_TRUE) ? PLOD__STAR_TRUE : 0u));
     }
@@ -1639,9 +1651,9 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
         plod__geom *g = &r->geom[i];
         if (g->eval_frame != r->frame) { /* not visited (truncated pass) */
             unsigned cull_flags;
-            int inside;
+            unsigned planes;
             g->eval_split = (uint8_t)plod__wants_split(r, &g->self, sec->level,
-                                                       &cull_flags, 0, &inside);
+                                                       &cull_flags, 0, &planes);
             g->eval_flags = (uint8_t)cull_flags;
             g->eval_frame = r->frame;
         }
@@ -1714,7 +1726,7 @@ size_t plod_refiner_memory_bytes(const plod_refiner *r)
     if (r->edges)
         bytes += (r->edge_mask + 1) * sizeof(plod__edge);
     bytes += r->capacity * sizeof(plod__corners);
-    bytes += r->node_capacity * (sizeof(plod__node) + sizeof(int32_t) + 2);
+    bytes += r->node_capacity * (sizeof(plod__node) + sizeof(int32_t) + 3);
     return bytes;
 }
 
