@@ -1617,6 +1617,12 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
     for (size_t i = r->count; i-- > 0;) {
         if (i >= r->count)
             i = r->count - 1;
+        /* plod__try_merge's first tests, inline: most leaves fail them */
+        int32_t pi = r->leaf_parent[i];
+        if (pi < 0 || r->node_leaves[pi] != 2)
+            continue;
+        if (!params->hysteresis && (r->node_state[pi] & PLOD__STAR_TRUE))
+            continue;
         plod__try_merge(r, i);
     }
     /* split pass: one sweep (children appended at the end are swept too);
