@@ -580,11 +580,10 @@ static void plod__tighten_subtexel(const plod_planet *planet, plod__corner_memo 
  * from angle <= pi/2 * sine below 90 degrees and <= pi above. */
 static void plod__inflate_cap(double sine, double cosine, double *sin_out, double *cos_out)
 {
-    double norm = sqrt(sine * sine + cosine * cosine);
-    double s = sine / norm, c = cosine / norm;
+    double s = sine, c = cosine; /* of unit vectors: s^2 + c^2 = 1 within rounding */
     double bound = c > 0.0 ? 1.5707963267948966 * s : 3.141592653589793;
     double delta = (PLOD__CAP_INFLATE - 1.0) * bound + 1e-15;
-    double cd = 1.0 - 0.5 * delta * delta, sd = delta - delta * delta * delta / 6.0;
+    double cd = 1.0 - 0.5 * delta * delta, sd = delta - delta * delta * delta * (1.0 / 6.0);
     double cos_ = c * cd - s * sd, sin_ = s * cd + c * sd;
     if (sin_ < 0.0) { /* past pi: the whole sphere */
         cos_ = -1.0;
@@ -604,9 +603,9 @@ static void plod__compute_bound_at(const plod_refiner *r, const plod_sector *s,
                       c[0][2] + c[1][2] + c[2][2]};
     double len = sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
     double chord = 0.0;
-    for (int k = 0; k < 3; k++) {
-        b->axis[k] = axis[k] / len;
-    }
+    double inv_len = 1.0 / len;
+    for (int k = 0; k < 3; k++)
+        b->axis[k] = axis[k] * inv_len;
     /* the cap angle: the largest corner angle from the axis (largest sine
      * below 90 degrees, where the sine resolves small angles; smallest
      * cosine above), kept as its cosine and sine: no trigonometry */
@@ -672,7 +671,8 @@ static void plod__compute_bound_at(const plod_refiner *r, const plod_sector *s,
     double rho = r->occluder;
     b->horizon = b->r_max >= rho;
     if (b->horizon) { /* cap angle + beta, cos beta = rho / r_max */
-        double cb = rho / b->r_max, sb = sqrt((b->r_max - rho) * (b->r_max + rho)) / b->r_max;
+        double inv_r = 1.0 / b->r_max;
+        double cb = rho * inv_r, sb = sqrt((b->r_max - rho) * (b->r_max + rho)) * inv_r;
         b->horizon_cos = b->cos_angle * cb - b->sin_angle * sb;
         b->horizon_sin = b->sin_angle * cb + b->cos_angle * sb;
     }
