@@ -284,6 +284,21 @@ static void plod__edge_add(plod_refiner *r, const int32_t key[3], int32_t leaf)
     }
 }
 
+/* A new edge shared by leaves a and b (key absent; capacity ensured). */
+static void plod__edge_add_two(plod_refiner *r, const int32_t key[3], int32_t a, int32_t b)
+{
+    size_t i = plod__hash(key) & r->edge_mask;
+    while (!plod__slot_empty(&r->edges[i])) {
+        assert(!plod__key_eq(r->edges[i].key, key));
+        i = (i + 1) & r->edge_mask;
+    }
+    plod__edge *e = &r->edges[i];
+    memcpy(e->key, key, sizeof e->key);
+    e->leaf[0] = a;
+    e->leaf[1] = b;
+    r->edge_used++;
+}
+
 static void plod__edge_remove(plod_refiner *r, const int32_t key[3], int32_t leaf)
 {
     size_t i = plod__edge_find(r, key);
@@ -602,34 +617,34 @@ static void plod__compute_bound_at(const plod_refiner *r, const plod_sector *s,
     double axis[3] = {c[0][0] + c[1][0] + c[2][0], c[0][1] + c[1][1] + c[2][1],
                       c[0][2] + c[1][2] + c[2][2]};
     double len = sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
-    double chord = 0.0;
     double inv_len = 1.0 / len;
     for (int k = 0; k < 3; k++)
         b->axis[k] = axis[k] * inv_len;
     /* the cap angle: the largest corner angle from the axis (largest sine
      * below 90 degrees, where the sine resolves small angles; smallest
-     * cosine above), kept as its cosine and sine: no trigonometry */
-    double cap_sin = 0.0, cap_cos = 1.0;
+     * cosine above), kept as its cosine and sine: no trigonometry.  Sines
+     * and chords are compared squared: one square root each */
+    double cap_sin2 = 0.0, cap_cos = 1.0, chord2 = 0.0;
     int acute = 1;
     for (int k = 0; k < 3; k++) {
         const double *a = b->axis, *v = c[k];
         double x[3] = {a[1] * v[2] - a[2] * v[1], a[2] * v[0] - a[0] * v[2],
                        a[0] * v[1] - a[1] * v[0]};
-        double sine = sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]);
+        double sine2 = x[0] * x[0] + x[1] * x[1] + x[2] * x[2];
         double cosine = a[0] * v[0] + a[1] * v[1] + a[2] * v[2];
         if (cosine <= 0.0 && acute) {
             acute = 0;
-            cap_sin = sine, cap_cos = cosine;
-        } else if (acute ? sine > cap_sin : cosine < cap_cos) {
-            cap_sin = sine, cap_cos = cosine;
+            cap_sin2 = sine2, cap_cos = cosine;
+        } else if (acute ? sine2 > cap_sin2 : cosine < cap_cos) {
+            cap_sin2 = sine2, cap_cos = cosine;
         }
         const double *p = c[k], *q = c[(k + 1) % 3];
         double d[3] = {p[0] - q[0], p[1] - q[1], p[2] - q[2]};
-        double ch = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-        chord = ch > chord ? ch : chord;
+        double ch2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        chord2 = ch2 > chord2 ? ch2 : chord2;
     }
-    plod__inflate_cap(cap_sin, cap_cos, &b->sin_angle, &b->cos_angle);
-    b->size = chord * planet->radius;
+    plod__inflate_cap(sqrt(cap_sin2), cap_cos, &b->sin_angle, &b->cos_angle);
+    b->size = sqrt(chord2) * planet->radius;
 
     const double scale = 1.0 / (double)PLOD__ONE;
     double u0 = 2, u1 = -2, v0 = 2, v1 = -2;
@@ -1017,7 +1032,7 @@ static void plod__split_diamond(plod_refiner *r, size_t i, size_t n)
     /* edge table, incrementally: the shared hypotenuse goes; a child's own
      * hypotenuse is one of its parent's legs (child 0 keeps the parent's
      * slot, so only child 1's leg is relinked); the children's other two
-     * edges are new (each shared by two of the four children) */
+     * edges are new, four keys each shared by two of the four children */
     int32_t hyp[3];
     plod__leaf_key(r, i, 2, hyp);
     plod__edge_remove(r, hyp, (int32_t)i);
@@ -1029,12 +1044,14 @@ static void plod__split_diamond(plod_refiner *r, size_t i, size_t n)
         if (up >= 0)
             r->node_leaves[up]--; /* that child is a node now */
     }
+    size_t child[2][2]; /* [parent][bit] */
     for (int k = 0; k < 2; k++) {
         /* the parent's corners 0..2 and the midpoint 3 of its hypotenuse */
         plod__corner_memo memo;
         plod__load_corners(r, pair[k], &memo);
         for (int bit = 0; bit < 2; bit++) {
             size_t at = bit ? r->count++ : pair[k];
+            child[k][bit] = at;
             plod_sector *c = &r->leaves[at];
             plod__child(&parents[k], bit, r->frame, c);
             if (bit == 0) {
@@ -1054,16 +1071,22 @@ static void plod__split_diamond(plod_refiner *r, size_t i, size_t n)
             g->eval_frame = r->frame - 1;
             r->leaf_parent[at] = node[k];
             plod__apply_bound(c, &g->self);
-            int32_t key[3];
             if (at != pair[k]) {
+                int32_t key[3];
                 plod__leaf_key(r, at, 2, key);
                 plod__edge_replace(r, key, (int32_t)pair[k], (int32_t)at);
             }
-            for (int e = 0; e < 2; e++) {
-                plod__leaf_key(r, at, e, key);
-                plod__edge_add(r, key, (int32_t)at);
-            }
         }
+    }
+    /* p's children (p1, m, p0), (p2, m, p1); q's (q1, m, p2), (p0, m, q1):
+     * edge 0 of each child is edge 1 of the next one around m */
+    static const int ring[4][2] = {{0, 0}, {0, 1}, {1, 0}, {1, 1}}; /* [parent, bit] */
+    for (int k = 0; k < 4; k++) {
+        size_t a = child[ring[k][0]][ring[k][1]];
+        size_t b = child[ring[(k + 1) % 4][0]][ring[(k + 1) % 4][1]];
+        int32_t key[3];
+        plod__leaf_key(r, a, 0, key);
+        plod__edge_add_two(r, key, (int32_t)a, (int32_t)b);
     }
     r->splits += 2;
     r->pending[r->pending_count++] = i;
