@@ -126,6 +126,9 @@ struct plod_refiner {
     uint8_t *node_planes;        /* this frame: bit i, the node's surface is
                                     inside frustum plane i (0 if unknown) */
     uint8_t *node_leaves;        /* how many of its 2 children are leaves */
+    int32_t *node_partner;       /* the other parent of its diamond: both
+                                    are made by one split, removed by one
+                                    merge */
     size_t node_capacity, node_top, node_used; /* node_top: slots in use or
                                                   holes (id 0) */
     uint32_t frame;
@@ -436,6 +439,10 @@ static plod_status plod__node_reserve(plod_refiner *r, size_t extra)
     if (!leaves)
         return PLOD_ERR_NO_MEMORY;
     r->node_leaves = leaves;
+    int32_t *partner = realloc(r->node_partner, capacity * sizeof *partner);
+    if (!partner)
+        return PLOD_ERR_NO_MEMORY;
+    r->node_partner = partner;
     r->node_capacity = capacity; /* only once all four have grown */
     return PLOD_OK;
 }
@@ -487,8 +494,11 @@ static void plod__node_compact(plod_refiner *r)
         r->nodes[next] = r->nodes[k]; /* next <= k: in place */
         r->node_parent[next] = parent >= 0 ? map[parent] : -1;
         r->node_leaves[next] = r->node_leaves[k];
+        r->node_partner[next] = r->node_partner[k]; /* renumbered below */
         next++;
     }
+    for (size_t k = 0; k < next; k++)
+        r->node_partner[k] = map[r->node_partner[k]];
     for (size_t i = 0; i < r->count; i++)
         if (r->leaf_parent[i] >= 0)
             r->leaf_parent[i] = map[r->leaf_parent[i]];
@@ -1039,6 +1049,8 @@ static void plod__split_diamond(plod_refiner *r, size_t i, size_t n)
     plod__edge_remove(r, hyp, (int32_t)n);
     int32_t node[2] = {plod__node_add(r, parents[0].id, &r->geom[i].self, r->leaf_parent[i]),
                        plod__node_add(r, parents[1].id, &r->geom[n].self, r->leaf_parent[n])};
+    r->node_partner[node[0]] = node[1];
+    r->node_partner[node[1]] = node[0];
     for (int k = 0; k < 2; k++) {
         int32_t up = r->node_parent[node[k]];
         if (up >= 0)
@@ -1421,6 +1433,7 @@ void plod_refiner_destroy(plod_refiner *refiner)
     free(refiner->node_state);
     free(refiner->node_planes);
     free(refiner->node_leaves);
+    free(refiner->node_partner);
     free(refiner->pending);
     free(refiner);
 }
@@ -1644,7 +1657,10 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
         int32_t pi = r->leaf_parent[i];
         if (pi < 0 || r->node_leaves[pi] != 2)
             continue;
-        if (!params->hysteresis && (r->node_state[pi] & PLOD__STAR_TRUE))
+        int32_t qi = r->node_partner[pi]; /* its diamond must merge too */
+        if (r->node_leaves[qi] != 2)
+            continue;
+        if (!params->hysteresis && ((r->node_state[pi] | r->node_state[qi]) & PLOD__STAR_TRUE))
             continue;
         plod__try_merge(r, i);
     }
@@ -1831,6 +1847,11 @@ plod_status plod_refiner_check(const plod_refiner *r)
             return PLOD_ERR_BAD_PARAM;
         if (!top && ((size_t)parent >= k ||
                      r->nodes[parent].id != plod__parent_id(n->id)))
+            return PLOD_ERR_BAD_PARAM;
+        int32_t partner = r->node_partner[k];
+        if (partner < 0 || (size_t)partner >= r->node_top || !r->nodes[partner].id ||
+            r->node_partner[partner] != (int32_t)k || partner == (int32_t)k ||
+            plod__id_level(r->nodes[partner].id) != plod__id_level(n->id))
             return PLOD_ERR_BAD_PARAM;
     }
     if (live != r->node_used)
