@@ -62,6 +62,8 @@ typedef struct plod__bound {
     double size;          /* longest corner chord, metres at the radius */
     double sag0;          /* size^2 / (8 r_min): curvature sag, template 0 */
     double relief0;       /* (hmax - hmin) * min(1, extent / texel) */
+    double twist0;        /* inside one bilinear cell: 3 (hmax - hmin) *
+                             (extent / texel)^2; else infinity */
     int horizon;          /* 0: r_max below the occluder, never hidden */
     double horizon_cos, horizon_sin; /* of the cap angle + the angle at
                              which r_max peeks over the occluder ball */
@@ -618,6 +620,22 @@ static void plod__inflate_cap(double sine, double cosine, double *sin_out, doubl
     *sin_out = sin_;
 }
 
+/* Whether every bilinear tap in the face box [u0,u1] x [v0,v1] reads the
+ * same 2 x 2 texels of one face (cube maps, away from face edges, where the
+ * height map is one bilinear patch: the range query then returns exactly
+ * those 4 texels' range). */
+static int plod__inside_one_cell(const plod_refiner *r, double u0, double v0, double u1,
+                                 double v1)
+{
+    if (!r->planet->heightmap || !plod_projection_is_cube(r->planet->projection))
+        return 0;
+    double size = 2.0 * r->texels_per_unit;
+    double i0 = floor((u0 + 1.0) * 0.5 * size - 0.5), i1 = floor((u1 + 1.0) * 0.5 * size - 0.5);
+    double j0 = floor((v0 + 1.0) * 0.5 * size - 0.5), j1 = floor((v1 + 1.0) * 0.5 * size - 0.5);
+    return i0 == i1 && j0 == j1 && i0 >= 0.0 && j0 >= 0.0 && i1 + 1.0 <= size - 1.0 &&
+           j1 + 1.0 <= size - 1.0;
+}
+
 /* Bound of sector s whose corners are memo->dir[idx[0..2]]. */
 static void plod__compute_bound_at(const plod_refiner *r, const plod_sector *s,
                                    plod__corner_memo *memo, const int idx[3], plod__bound *b)
@@ -693,6 +711,9 @@ static void plod__compute_bound_at(const plod_refiner *r, const plod_sector *s,
     b->r_max = planet->radius + fmax_;
     b->sag0 = b->size * b->size / (8.0 * b->r_min);
     b->relief0 = relief_range * (texels < 1.0 ? texels : 1.0);
+    b->twist0 = plod__inside_one_cell(r, u0, v0, u1, v1)
+                    ? 3.0 * relief_range * texels * texels
+                    : INFINITY;
     double rho = r->occluder;
     b->horizon = b->r_max >= rho;
     if (b->horizon) { /* cap angle + beta, cos beta = rho / r_max */
@@ -808,12 +829,19 @@ static double plod__prism_distance(const plod_refiner *r, const plod__bound *b)
  * of 2^t cells per edge, projected at the bound's distance:
  *   curvature sag of a cell   (size / 2^t)^2 / (8 r_min)
  * + relief left between cells (hmax - hmin) * min(1, extent / texel) / 2^t
- * (below one texel the bilinear surface varies ~linearly, so the relief of
- * the texel footprint shrinks with the sector).  Both only decrease from a
- * parent to its children. */
+ * (below one texel the bilinear surface varies ~linearly between its
+ * creases, so the relief of the texel footprint shrinks with the sector),
+ * or, for a sector inside one bilinear cell (no crease), the smaller
+ *   twist of the cell        3 (hmax - hmin) (extent / texel / 2^t)^2:
+ * there h = a + b x + c y + d x y with |d| <= 2 (hmax - hmin) per texel^2,
+ * and linear interpolation over a template cell of diameter
+ * sqrt 2 extent / 2^t leaves at most |d| diameter^2 / 2; times 1.5 for
+ * the projection's curvature inside the cell.  Each term only decreases
+ * from a parent to its children. */
 static double plod__error_m(const plod_refiner *r, const plod__bound *b)
 {
-    return b->sag0 * r->error_scale2 + b->relief0 * r->error_scale;
+    double relief = b->relief0 * r->error_scale, twist = b->twist0 * r->error_scale2;
+    return b->sag0 * r->error_scale2 + (twist < relief ? twist : relief);
 }
 
 static double plod__score(const plod_refiner *r, const plod__bound *b, double distance)
