@@ -64,8 +64,10 @@ typedef struct plod_refine_params {
                                 PLOD_DEFAULT_MAX_SECTORS; when reached the
                                 split pass stops (stats.truncated) */
     int threads;             /* 1..PLOD_REFINE_MAX_THREADS, default 1: threads
-                                that evaluate the per-frame predicates of
-                                large sector sets; result identical to 1 */
+                                that evaluate the leaves' predicates and
+                                flags of large sector sets (>= 8192 leaves;
+                                the node sweep stays sequential); result
+                                identical to 1 */
 } plod_refine_params;
 
 #define PLOD_REFINE_MAX_THREADS 16

@@ -933,7 +933,7 @@ static uint64_t plod__parent_id(uint64_t id)
 }
 
 /* The frustum planes node `parent`'s surface is inside of, this frame
- * (only where its state is final: not on the threads). */
+ * (final once the node sweep, or a lazy evaluation, has visited it). */
 static unsigned plod__parent_planes(const plod_refiner *r, int32_t parent)
 {
     return parent >= 0 ? r->node_planes[parent] : 0u;
@@ -1502,52 +1502,50 @@ void plod_refine_params_default(plod_refine_params *params)
 
 /* ---- parallel evaluation ------------------------------------------------------- */
 
-/* P of nodes [node_begin, node_end) and P plus cull flags of leaves
- * [leaf_begin, leaf_end), written to their own slots only (pure functions
- * of the bounds and the camera, so any split of the work gives the same
- * bits as the lazy single-threaded evaluation). */
+/* P and cull flags of leaves [begin, end), written to their own slots only:
+ * pure functions of the bounds, the camera and the parents' plane masks
+ * (final after the node sweep), so any split of the work gives the bits of
+ * the lazy single-threaded evaluation.  The node sweep itself stays
+ * sequential: top-down, a node's plane mask spares its children most plane
+ * tests, which a split by index range would lose. */
 typedef struct plod__eval_chunk {
     plod_refiner *r;
-    size_t node_begin, node_end, leaf_begin, leaf_end;
+    size_t begin, end;
 } plod__eval_chunk;
 
 static void *plod__eval_run(void *arg)
 {
     const plod__eval_chunk *c = arg;
     plod_refiner *r = c->r;
-    /* no parent hints here: other threads are writing the parents' state */
-    for (size_t k = c->node_begin; k < c->node_end; k++)
-        r->node_state[k] = r->nodes[k].id ? (uint8_t)plod__node_p(r, (int32_t)k, 0)
-                                          : PLOD__P_KNOWN;
-    for (size_t i = c->leaf_begin; i < c->leaf_end; i++) {
+    for (size_t i = c->begin; i < c->end; i++) {
         plod__geom *g = &r->geom[i];
-        unsigned flags;
-        unsigned planes;
+        unsigned flags, planes;
         g->eval_split = (uint8_t)plod__wants_split(r, &g->self, r->leaves[i].level, &flags,
-                                                   0, &planes);
+                                                   plod__parent_planes(r, r->leaf_parent[i]),
+                                                   &planes);
         g->eval_flags = (uint8_t)flags;
         g->eval_frame = r->frame;
     }
     return NULL;
 }
 
-/* Evaluates every node's P and every leaf's P and flags on `threads`
- * threads; returns 0 (nothing done) for small sets or when no thread could
- * be started, and the caller evaluates lazily as usual. */
-static int plod__eval_parallel(plod_refiner *r, int threads)
+/* Evaluates every leaf's P and flags on `threads` threads, after the node
+ * sweep; below PLOD__PARALLEL_LEAVES leaves (thread start-up, ~10-50 us,
+ * would eat the gain) or when no thread can be started the split pass
+ * evaluates them as usual. */
+#define PLOD__PARALLEL_LEAVES 8192
+
+static void plod__eval_parallel(plod_refiner *r, int threads)
 {
-    size_t work = r->node_top + r->count;
-    if (threads < 2 || work < 4096)
-        return 0;
+    if (threads < 2 || r->count < PLOD__PARALLEL_LEAVES)
+        return;
     plod__eval_chunk chunks[PLOD_REFINE_MAX_THREADS];
     pthread_t ids[PLOD_REFINE_MAX_THREADS];
     int started[PLOD_REFINE_MAX_THREADS] = {0};
     for (int t = 0; t < threads; t++) {
         chunks[t].r = r;
-        chunks[t].node_begin = r->node_top * (size_t)t / (size_t)threads;
-        chunks[t].node_end = r->node_top * (size_t)(t + 1) / (size_t)threads;
-        chunks[t].leaf_begin = r->count * (size_t)t / (size_t)threads;
-        chunks[t].leaf_end = r->count * (size_t)(t + 1) / (size_t)threads;
+        chunks[t].begin = r->count * (size_t)t / (size_t)threads;
+        chunks[t].end = r->count * (size_t)(t + 1) / (size_t)threads;
     }
     for (int t = 1; t < threads; t++)
         started[t] = pthread_create(&ids[t], NULL, plod__eval_run, &chunks[t]) == 0;
@@ -1558,7 +1556,6 @@ static int plod__eval_parallel(plod_refiner *r, int threads)
         else
             plod__eval_run(&chunks[t]); /* could not start: do it here */
     }
-    return 1;
 }
 
 /* ---- update ------------------------------------------------------------------ */
@@ -1657,7 +1654,6 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
     /* P* of every internal node in one sequential, top-down sweep (parents
      * come first); P is evaluated only where the parent passes P* */
     plod__node_compact(r);
-    int evaluated = plod__eval_parallel(r, params->threads);
     for (size_t k = 0; k < r->node_top; k++) {
         if (!r->nodes[k].id) {
             r->node_state[k] = 0;
@@ -1669,12 +1665,12 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
             r->node_planes[k] = 0;
             continue;
         }
-        unsigned pk = evaluated ? r->node_state[k]
-                                : plod__node_p(r, (int32_t)k, plod__parent_planes(r, parent));
+        unsigned pk = plod__node_p(r, (int32_t)k, plod__parent_planes(r, parent));
         r->node_state[k] = (uint8_t)((pk & (PLOD__P_KNOWN | PLOD__P_TRUE)) |
                                      PLOD__STAR_KNOWN |
                                      ((pk & PLOD__P_TRUE) ? PLOD__STAR_TRUE : 0u));
     }
+    plod__eval_parallel(r, params->threads);
     /* merge pass: every diamond whose parents fail the split predicate;
      * downwards, so the leaves moved into holes were already visited, and
      * merges cascade upwards as subtrees collapse */
