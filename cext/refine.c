@@ -27,11 +27,19 @@
  * leave holes until the next compaction, which keeps the order), so a
  * parent always precedes its children; every leaf and node holds its
  * parent's index.  One sequential sweep per frame then gives P* of every
- * node top-down, skipping P where the parent already fails P*.  Each frame merges every diamond whose two
- * parents fail P*, then splits every leaf that passes it (with forced
- * splits), until stable: the unique minimal conforming refinement of
- * {P* true}, whatever the previous frame was.  With `hysteresis` the merge
- * test uses the merge border instead and the result depends on history.
+ * node top-down, skipping P where the parent already fails P*, and hands
+ * each node's frustum plane mask to its children.  Each frame merges every
+ * diamond whose two parents fail P*, then splits every leaf that passes it
+ * (with forced splits), until stable: the unique minimal conforming
+ * refinement of {P* true}, whatever the previous frame was.  With
+ * `hysteresis` the merge test uses the merge border instead and the result
+ * depends on history.
+ *
+ * Per-frame cost is the predicate of every node and leaf, so it is kept to
+ * a few dot products (bounds hold cosines and sines, not angles; distance
+ * thresholds are decided by square-root-free bounds where they clear them);
+ * a split costs one new projected point (leaves cache their corners'
+ * directions, heights and canonical points) and two bounds.
  */
 #include "plod_refine.h"
 
