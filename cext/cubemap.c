@@ -390,6 +390,43 @@ static void plod__bilinear(const plod_cubemap *m, int face, double s, double t, 
     }
 }
 
+/* plod__bilinear for one texel type and channel count known at the call
+ * site (the compiler drops the switch and unrolls the taps), with the same
+ * arithmetic in the same order: results are bit for bit plod__bilinear's. */
+static inline __attribute__((always_inline)) void
+plod__bilinear_typed(const plod_cubemap *m, int face, double s, double t, double *acc,
+                     plod_texel_type type, int channels)
+{
+    double fi = floor(s), fj = floor(t);
+    int i0 = (int)fi, j0 = (int)fj;
+    if (!(i0 >= 0 && j0 >= 0 && i0 + 1 < m->width && j0 + 1 < m->height)) {
+        plod__bilinear(m, face, s, t, acc);
+        return;
+    }
+    double wu = s - fi, wv = t - fj;
+    size_t row = (size_t)m->width * (size_t)channels;
+    size_t at = ((size_t)j0 * (size_t)m->width + (size_t)i0) * (size_t)channels;
+    const unsigned char *base = m->texels + (size_t)face * m->face_bytes;
+    size_t offset[4] = {at, at + (size_t)channels, at + row, at + row + (size_t)channels};
+    double tap[4][4];
+    for (int k = 0; k < 4; k++)
+        for (int c = 0; c < channels; c++) {
+            size_t index = offset[k] + (size_t)c;
+            switch (type) {
+            case PLOD_TEXEL_U8: tap[k][c] = base[index] * (1.0 / 255.0); break;
+            case PLOD_TEXEL_U16:
+                tap[k][c] = ((const uint16_t *)base)[index] * (1.0 / 65535.0);
+                break;
+            default: tap[k][c] = ((const float *)base)[index]; break;
+            }
+        }
+    for (int c = 0; c < channels; c++) {
+        double bottom = tap[0][c] + wu * (tap[1][c] - tap[0][c]);
+        double top = tap[2][c] + wu * (tap[3][c] - tap[2][c]);
+        acc[c] = bottom + wv * (top - bottom);
+    }
+}
+
 static double plod__clamp_unit(double x)
 {
     return x < -1.0 ? -1.0 : x > 1.0 ? 1.0 : x;
@@ -440,6 +477,53 @@ int plod_cubemap_sample_face_d(const plod_cubemap *m, int face, double u, double
 {
     return plod__sample_face_d(m, face, u, v, out);
 }
+
+void plod_cubemap_locate_n(const plod_cubemap *m, size_t n, const double *dirs, int *faces,
+                           double *u, double *v)
+{
+    if (m->face_count == 1) {
+        for (size_t i = 0; i < n; i++)
+            if (!plod_cubemap_locate(m, dirs + 3 * i, faces + i, u + i, v + i))
+                faces[i] = -1;
+        return;
+    }
+    /* the projection's own batch loop: the same per-point kernel, inlined */
+    (void)plod_dir_to_face_n(m->projection, n, dirs, faces, u, v, NULL);
+}
+
+#define PLOD__SAMPLE_LOOP(TYPE, CHANNELS)                                                \
+    for (size_t i = 0; i < n; i++) {                                                     \
+        double *acc = out + i * (size_t)(CHANNELS);                                      \
+        double ui = u[i], vi = v[i];                                                     \
+        if (!(isfinite(ui) && isfinite(vi)) || faces[i] < 0 || faces[i] >= m->face_count) { \
+            for (int c = 0; c < (CHANNELS); c++)                                         \
+                acc[c] = NAN;                                                            \
+            continue;                                                                    \
+        }                                                                                \
+        ui = plod__clamp_unit(ui);                                                       \
+        vi = plod__clamp_unit(vi);                                                       \
+        double s = (ui + 1.0) * 0.5 * m->width - 0.5;                                    \
+        double t = (vi + 1.0) * 0.5 * m->height - 0.5;                                   \
+        plod__bilinear_typed(m, faces[i], s, t, acc, (TYPE), (CHANNELS));                \
+    }
+
+void plod_cubemap_sample_face_n(const plod_cubemap *m, size_t n, const int *faces,
+                                const double *u, const double *v, double *out)
+{
+    /* the two layouts meshes sample per vertex get their own loops */
+    if (m->type == PLOD_TEXEL_U8 && m->channels == 1) {
+        PLOD__SAMPLE_LOOP(PLOD_TEXEL_U8, 1)
+    } else if (m->type == PLOD_TEXEL_U16 && m->channels == 1) {
+        PLOD__SAMPLE_LOOP(PLOD_TEXEL_U16, 1)
+    } else if (m->type == PLOD_TEXEL_F32 && m->channels == 1) {
+        PLOD__SAMPLE_LOOP(PLOD_TEXEL_F32, 1)
+    } else if (m->type == PLOD_TEXEL_U16 && m->channels == 3) {
+        PLOD__SAMPLE_LOOP(PLOD_TEXEL_U16, 3)
+    } else {
+        PLOD__SAMPLE_LOOP(m->type, m->channels)
+    }
+}
+#undef PLOD__SAMPLE_LOOP
 
 static int plod__sample_dir_d(const plod_cubemap *m, const double dir[3], double *acc)
 {

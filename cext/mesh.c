@@ -596,14 +596,21 @@ static void plod__compute_vertices(const plod__emitter *e, const plod_mesh_secto
             lon_ref = plod__atan2(cy, cx);
     }
 
+    enum { ROW = (1 << PLOD_MAX_TEMPLATE_LEVEL) + 1 };
+    double dirs[3 * ROW], heights[ROW], normals[3 * ROW];
     size_t v = vbase, b = 0;
-    for (int i = 0; i <= n; i++)
-        for (int j = 0; j <= n - i; j++, v++, b++) {
+    for (int i = 0; i <= n; i++) {
+        /* a row at a time: directions, then the planet's batched sampling */
+        int row = n - i + 1;
+        for (int j = 0; j < row; j++) {
             int k[3] = {n - i - j, j, i};
-            double dir[3], normal[3];
-            plod__vertex_direction(corners, k, inv_n, dir);
-            double r = planet->radius +
-                       plod_planet_surface(planet, dir, want_normal ? normal : NULL);
+            plod__vertex_direction(corners, k, inv_n, dirs + 3 * j);
+        }
+        plod_planet_surface_n(planet, (size_t)row, dirs, heights,
+                              want_normal ? normals : NULL);
+        for (int j = 0; j < row; j++, v++, b++) {
+            const double *dir = dirs + 3 * j, *normal = normals + 3 * j;
+            double r = planet->radius + heights[j];
             double p[3] = {dir[0] * r, dir[1] * r, dir[2] * r};
             if (out->positions)
                 for (int c = 0; c < 3; c++)
@@ -636,6 +643,7 @@ static void plod__compute_vertices(const plod__emitter *e, const plod_mesh_secto
                 memcpy(block->uv + 2 * b, uvf, sizeof uvf);
             }
         }
+    }
 }
 
 /* The same outputs from a cache entry: (float)(p - origin) as computed. */

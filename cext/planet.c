@@ -7,6 +7,7 @@
 #include "plod_planet.h"
 
 #include <math.h>
+#include <string.h>
 
 plod_status plod_planet_check(const plod_planet *planet)
 {
@@ -129,6 +130,53 @@ double plod_planet_surface(const plod_planet *planet, const double dir[3], doubl
         }
     }
     return height;
+}
+
+/* plod_planet_surface over a row of directions: one projection loop and
+ * one bilinear loop per map instead of two calls per point, so the per-point
+ * kernels pipeline; bit for bit the single-point results. */
+void plod_planet_surface_n(const plod_planet *planet, size_t n, const double *dirs,
+                           double *heights, double *normals)
+{
+    enum { CHUNK = 64 };
+    if (normals)
+        memcpy(normals, dirs, 3 * n * sizeof *normals);
+    if (!planet->heightmap) {
+        for (size_t i = 0; i < n; i++)
+            heights[i] = 0.0;
+        return;
+    }
+    if ((normals && (!planet->normalmap || plod_cubemap_channels(planet->normalmap) != 3)) ||
+        plod_cubemap_channels(planet->heightmap) > 4) { /* rare: point by point */
+        for (size_t i = 0; i < n; i++)
+            heights[i] = plod_planet_surface(planet, dirs + 3 * i, normals + 3 * i);
+        return;
+    }
+    int faces[CHUNK];
+    double u[CHUNK], v[CHUNK], sample[4 * CHUNK];
+    size_t height_channels = (size_t)plod_cubemap_channels(planet->heightmap);
+    for (size_t first = 0; first < n; first += CHUNK) {
+        size_t count = n - first < CHUNK ? n - first : CHUNK;
+        plod_cubemap_locate_n(planet->heightmap, count, dirs + 3 * first, faces, u, v);
+        plod_cubemap_sample_face_n(planet->heightmap, count, faces, u, v, sample);
+        for (size_t i = 0; i < count; i++)
+            heights[first + i] = faces[i] < 0 ? NAN : sample[i * height_channels] * planet->height_scale;
+        if (!normals)
+            continue;
+        plod_cubemap_sample_face_n(planet->normalmap, count, faces, u, v, sample);
+        for (size_t i = 0; i < count; i++) {
+            if (faces[i] < 0)
+                continue;
+            const double *s = sample + 3 * i;
+            double m[3] = {2.0 * s[0] - 1.0, 2.0 * s[1] - 1.0, 2.0 * s[2] - 1.0};
+            double len2 = m[0] * m[0] + m[1] * m[1] + m[2] * m[2];
+            if (len2 > 0.25) { /* as plod_planet_surface */
+                double inv_len = 1.0 / sqrt(len2);
+                double *normal = normals + 3 * (first + i);
+                normal[0] = m[0] * inv_len, normal[1] = m[1] * inv_len, normal[2] = m[2] * inv_len;
+            }
+        }
+    }
 }
 
 /* One sampling path for heights, so that mesh vertices (through

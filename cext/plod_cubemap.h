@@ -89,6 +89,15 @@ int plod_cubemap_locate(const plod_cubemap *cubemap, const double dir[3],
 int plod_cubemap_sample_face_d(const plod_cubemap *cubemap, int face, double u,
                                double v, double *out);
 
+/* plod_cubemap_locate over n directions (dirs: 3 n doubles); faces[i] = -1
+ * where it fails.  Bit for bit the single-point results. */
+void plod_cubemap_locate_n(const plod_cubemap *cubemap, size_t n, const double *dirs,
+                           int *faces, double *u, double *v);
+/* plod_cubemap_sample_face_d at n points, bit for bit; out gets n *
+ * channels doubles, NaNs for a point with a bad face or non-finite u, v. */
+void plod_cubemap_sample_face_n(const plod_cubemap *cubemap, size_t n, const int *faces,
+                                const double *u, const double *v, double *out);
+
 /* ---- normal maps ----------------------------------------------------------- */
 /* Unit outward normals of the surface dir * (radius + height_scale * h) at
  * every texel centre of `heights` (channel 0), from central differences of

@@ -41,6 +41,10 @@ double plod_planet_height(const plod_planet *planet, const double dir[3]);
  * without a height map, the direction. */
 double plod_planet_surface(const plod_planet *planet, const double dir[3],
                            double normal[3]);
+/* plod_planet_surface at n unit directions (dirs: 3 n doubles), bit for
+ * bit: heights[i], and normals[3 i..] when `normals` is not NULL. */
+void plod_planet_surface_n(const plod_planet *planet, size_t n, const double *dirs,
+                           double *heights, double *normals);
 /* Global height bounds in metres (0, 0 without a map). */
 void plod_planet_height_range(const plod_planet *planet, double *min_m,
                               double *max_m);

@@ -618,6 +618,69 @@ static int plod__template_level_arg(const plod_py_planet *self, PyObject *level_
     return 0;
 }
 
+/* Once per planet (the map and the planet never change); then each vertex
+ * samples its normal instead of differencing four heights. */
+static int plod__ensure_normalmap(plod_py_planet *self, const char *context)
+{
+    if (!self->planet.heightmap || self->normalmap)
+        return 0;
+    plod_status st;
+    Py_BEGIN_ALLOW_THREADS
+    st = plod_planet_build_normals(&self->planet, &self->normalmap);
+    Py_END_ALLOW_THREADS
+    if (st != PLOD_OK) {
+        plod_py_raise(st, context);
+        return -1;
+    }
+    self->planet.normalmap = self->normalmap;
+    return 0;
+}
+
+static PyObject *plod__planet_surface(plod_py_planet *self, PyObject *args, PyObject *kwds)
+{
+    static char *kwlist[] = {"directions", NULL};
+    PyObject *obj;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O", kwlist, &obj))
+        return NULL;
+    size_t count;
+    double *dirs = plod_py_doubles(obj, &count, "directions");
+    if (!dirs)
+        return NULL;
+    if (count % 3) {
+        free(dirs);
+        return plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "surface",
+                                    "directions must hold 3 floats per point");
+    }
+    size_t n = count / 3;
+    for (size_t i = 0; i < n; i++) {
+        double *d = dirs + 3 * i;
+        double len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        if (!isfinite(len) || !(len > 0)) {
+            free(dirs);
+            return plod_py_raise_detail(PLOD_ERR_BAD_COORD, "surface",
+                                        "every direction must be finite and non-zero");
+        }
+        d[0] /= len, d[1] /= len, d[2] /= len;
+    }
+    if (plod__ensure_normalmap(self, "surface (normal map)") < 0) {
+        free(dirs);
+        return NULL;
+    }
+    double *heights, *normals;
+    PyObject *h = plod_py_buffer_new('d', n, (void **)&heights);
+    PyObject *nb = h ? plod_py_buffer_new('d', 3 * n, (void **)&normals) : NULL;
+    if (!nb) {
+        Py_XDECREF(h);
+        free(dirs);
+        return NULL;
+    }
+    Py_BEGIN_ALLOW_THREADS
+    plod_planet_surface_n(&self->planet, n, dirs, heights, normals);
+    Py_END_ALLOW_THREADS
+    free(dirs);
+    return Py_BuildValue("(NN)", h, nb);
+}
+
 static PyObject *plod__planet_mesh(plod_py_planet *self, PyObject *args, PyObject *kwds)
 {
     static char *kwlist[] = {"template_level", "morph", "threads", "visible_only", "cache",
@@ -636,17 +699,8 @@ static PyObject *plod__planet_mesh(plod_py_planet *self, PyObject *args, PyObjec
         PyErr_SetString(PyExc_NotImplementedError, "mesh emission is not built in");
         return NULL;
     }
-    if (self->planet.heightmap && !self->normalmap) {
-        /* Once per planet (the map and the planet never change); then each
-         * vertex samples its normal instead of differencing four heights. */
-        plod_status st;
-        Py_BEGIN_ALLOW_THREADS
-        st = plod_planet_build_normals(&self->planet, &self->normalmap);
-        Py_END_ALLOW_THREADS
-        if (st != PLOD_OK)
-            return plod_py_raise(st, "mesh (normal map)");
-        self->planet.normalmap = self->normalmap;
-    }
+    if (plod__ensure_normalmap(self, "mesh (normal map)") < 0)
+        return NULL;
     if (use_cache && !self->mesh_cache &&
         plod_mesh_cache_create(&self->mesh_cache, self->mesh_cache_max_bytes) != PLOD_OK)
         return PyErr_NoMemory();
@@ -762,6 +816,7 @@ PLOD__LOCKED_KW(plod__planet_sector_corners)
 PLOD__LOCKED_KW(plod__planet_sector_flags)
 PLOD__LOCKED_KW(plod__planet_sector_heights)
 PLOD__LOCKED_KW(plod__planet_mesh)
+PLOD__LOCKED_KW(plod__planet_surface)
 PLOD__LOCKED_KW(plod__planet_instances)
 PLOD__LOCKED_NO_ARG(plod__planet_reset)
 PLOD__LOCKED_NO_ARG(plod__planet_check)
@@ -865,6 +920,10 @@ static PyMethodDef plod__planet_methods[] = {
      "mesh(template_level=None, morph=False, threads=2, visible_only=True, cache=True) -> "
      "Mesh; with cache, sectors kept from the previous mesh() are copied, not recomputed "
      "(identical output)"},
+    {"surface", (PyCFunction)(void (*)(void))plod__planet_surface_locked,
+     METH_VARARGS | METH_KEYWORDS,
+     "surface(directions) -> (heights, normals): for 3 n floats (any lengths), n heights in "
+     "metres ('d') and n unit surface normals (3 n 'd'), as the mesh vertices sample them"},
     {"instances", (PyCFunction)(void (*)(void))plod__planet_instances_locked,
      METH_VARARGS | METH_KEYWORDS, "instances(template_level=None) -> dict"},
     {NULL},

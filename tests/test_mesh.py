@@ -461,3 +461,71 @@ def test_sector_cache_budget_and_template_change(planetlod, moon):
     assert planet.mesh_cache_max_bytes == 0
     with pytest.raises((AttributeError, TypeError)):
         del planet.mesh_cache_max_bytes
+
+
+def typed_map(planetlod, projection, dtype, size=32):
+    """A random map of one texel type (u8, u16 or f32), one channel."""
+    cube = planetlod.CubeMap(projection=projection, size=size, channels=1, dtype=dtype)
+    width, height = cube.face_shape
+    rng = np.random.default_rng(5)
+    numpy_type = {"u8": np.uint8, "u16": np.uint16, "f32": np.float32}[dtype]
+    for face in range(cube.face_count):
+        if dtype == "f32":
+            texels = rng.random(width * height).astype(np.float32)
+        else:
+            texels = rng.integers(0, np.iinfo(numpy_type).max, width * height).astype(numpy_type)
+        cube.set_face(face, texels.tobytes())
+    return cube
+
+
+@pytest.mark.parametrize("projection,dtype", [("qsc", "u8"), ("qsc", "u16"), ("csc", "f32"),
+                                              ("tsc", "u16"), ("car", "f32")])
+def test_mesh_vertices_sample_as_planet_height(planetlod, projection, dtype):
+    """Mesh vertices are sampled a row at a time (batched projection and
+    bilinear loops per texel type); each must still be bit for bit the
+    point path: (float)(dir * (R + height(dir)) - origin)."""
+    refiner_available(planetlod)
+    radius = 1737.4e3
+    planet = planetlod.Planet(radius, projection=projection,
+                              heightmap=typed_map(planetlod, projection, dtype), height_scale=10e3)
+    planet.refine(planetlod.Camera(look_at((radius * 1.3, radius * 0.4, radius * 0.3), (0, 0, 0)),
+                                   clip_start=1.0, clip_end=1e8), max_level=12)
+    mesh = planet.mesh(template_level=0, threads=1, cache=False)  # vertices = sector corners
+    corners = np.array(planet.sector_corners().tolist()).reshape(-1, 3)
+    positions = np.array(mesh.positions.tolist(), np.float32).reshape(-1, 3)
+    assert len(corners) == len(positions) > 100
+    origin = np.array(mesh.origin)
+    for corner, got in zip(corners, positions):
+        d = corner * (1.0 / math.sqrt(corner[0] * corner[0] + corner[1] * corner[1] +
+                                      corner[2] * corner[2]))
+        point = d * (radius + planet.height(*d))
+        assert np.array_equal((point - origin).astype(np.float32), got)
+
+
+def test_surface_batch(planetlod, moon):
+    """Planet.surface(): heights bit for bit height(); unit normals that
+    tilt with the relief; bad input raises and changes nothing."""
+    radius = 1737.4e3
+    planet = planetlod.Planet(radius, heightmap=moon, height_scale=10e3)
+    rng = np.random.default_rng(3)
+    dirs = rng.normal(size=(500, 3))
+    dirs /= np.linalg.norm(dirs, axis=1)[:, None]
+    # unit as C computes the length: then normalising again changes nothing
+    exact = [d for d in dirs if math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) == 1.0]
+    assert len(exact) > 100
+    heights, normals = planet.surface(np.array(exact).reshape(-1).tolist())
+    assert heights.format == "d" and normals.format == "d"
+    assert len(heights) == len(exact) and len(normals) == 3 * len(exact)
+    assert list(heights) == [planet.height(*d) for d in exact]
+    n = np.array(normals.tolist()).reshape(-1, 3)
+    assert np.allclose(np.linalg.norm(n, axis=1), 1.0, atol=1e-12)
+    tilt = np.einsum("ij,ij->i", n, np.array(exact))
+    assert np.all(tilt > 0.5) and np.any(tilt < 0.9999)
+    scaled, _ = planet.surface((np.array(exact[:3]) * 7.5).reshape(-1).tolist())
+    assert np.allclose(list(scaled), list(heights)[:3], atol=1e-6)
+    for bad in ([1.0, 2.0], [0.0, 0.0, 0.0], [1.0, float("nan"), 0.0], "xyz"):
+        with pytest.raises((planetlod.PlanetLODError, TypeError, ValueError)):
+            planet.surface(bad)
+    h, n = planetlod.Planet(5.0).surface([0.0, 0.0, 2.0])
+    assert list(h) == [0.0] and list(n) == [0.0, 0.0, 1.0]
+    assert list(planet.surface([])[0]) == []

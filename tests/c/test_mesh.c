@@ -74,6 +74,13 @@ double plod_planet_surface(const plod_planet *planet, const double dir[3], doubl
     return height;
 }
 
+void plod_planet_surface_n(const plod_planet *planet, size_t n, const double *dirs,
+                           double *heights, double *normals)
+{
+    for (size_t i = 0; i < n; i++)
+        heights[i] = plod_planet_surface(planet, dirs + 3 * i, normals ? normals + 3 * i : NULL);
+}
+
 static int g_failures = 0;
 #define CHECK(cond, ...)                                                     \
     do {                                                                     \
