@@ -8,7 +8,9 @@ Earth-radius planet with the Earth topology map (1 px at 1920x1080).
 Prints a table (every --every frames) and a summary: refine and cull µs
 per frame (mean, median, p95, max, frames over 1 ms), sectors per frame,
 splits/merges, bytes per sector.  The first descent from a new planet also
-grows the refiner's arrays (once per planet) and is summarised on its own;
+grows the refiner's arrays (once per planet) and is summarised on its own,
+and again side by side for new planets without and with Planet.reserve()
+(--reserve sectors allocated and touched before the first frame);
 then --passes descents after reset() (capacity kept: the steady state of a
 flyby) give per frame the median and the best of the passes (the best
 drops preemption by other tasks), by the refiner's wall-clock timers and by
@@ -102,7 +104,7 @@ def summary(label, per):
 
 
 def run(planet, frames, every, label, terrain_top, fresh_too=True, template_level=4, threads=1,
-        passes=3):
+        passes=3, reserve=16384):
     """The first descent grows the refiner's arrays (a planet's first frames
     pay that once); then `passes` descents after reset(), which keeps the
     capacity: the steady state a flyby runs in.  Per frame, the median and
@@ -111,6 +113,20 @@ def run(planet, frames, every, label, terrain_top, fresh_too=True, template_leve
           f"({4 ** template_level} triangles/sector), {threads} thread(s) ==")
     cams = cameras(planet, frames, terrain_top)
     first = descend(planet, cams, template_level, threads)
+    # A planet's first descent, side by side: new planets without and with
+    # reserve(), alternating; per frame the median over `passes` planets.
+    new_plain, new_reserved, reserve_ms = [], [], []
+    for _ in range(passes):
+        for reserved in (False, True):
+            twin = planetlod.Planet(planet.radius, projection=planet.projection,
+                                    heightmap=planet.heightmap, height_scale=planet.height_scale)
+            if reserved:
+                t = time.perf_counter()
+                twin.reserve(reserve)
+                reserve_ms.append((time.perf_counter() - t) * 1e3)
+            (new_reserved if reserved else new_plain).append(
+                descend(twin, cams, template_level, threads))
+            del twin
     warm = [descend(planet, cams, template_level, threads) for _ in range(passes)]
     median = [statistics.median(w[k]["us"] for w in warm) for k in range(frames)]
     best = [min(w[k]["us"] for w in warm) for k in range(frames)]
@@ -137,6 +153,12 @@ def run(planet, frames, every, label, terrain_top, fresh_too=True, template_leve
               f"{s['splits']:6d} {s['merges']:6d} {s['max_level']:5d} "
               f"{s['refine_us']:9.1f} {s['cull_us']:8.1f} {median[k]:9.1f} {fresh_us:9.1f}")
     summary("first descent (arrays growing), refine+cull µs/frame", [s["us"] for s in first])
+    for name, runs in (("new planet", new_plain),
+                       (f"new planet after reserve({reserve})", new_reserved)):
+        summary(f"first descent of a {name}, median of {passes} planets",
+                [statistics.median(w[k]["us"] for w in runs) for k in range(frames)])
+    print(f"(reserve({reserve}) took {statistics.median(reserve_ms):.2f} ms once per planet, "
+          f"median of {passes})")
     summary(f"refine+cull µs/frame, median of {passes} descents", median)
     summary(f"refine+cull µs/frame, best of {passes} descents", best)
     summary(f"refine() thread CPU µs/frame, median of {passes} descents",
@@ -165,6 +187,8 @@ def main():
                     help="sector template level (4 = 256 triangles/sector, the default)")
     ap.add_argument("--passes", type=int, default=3,
                     help="descents measured after the first (default 3)")
+    ap.add_argument("--reserve", type=int, default=16384,
+                    help="Planet.reserve() for the new-planet comparison (default 16384)")
     args = ap.parse_args()
     print(f"planetlod refine benchmark; python {sys.version.split()[0]}; "
           f"{os.cpu_count()} cpus; refine threads={args.threads}")
@@ -178,10 +202,11 @@ def main():
               f"{time.perf_counter() - t:.2f} s; heights {lo:.0f}..{hi:.0f} m")
         run(earth, args.frames, args.every, "Earth topology (QSC), descent to 2 m over Everest",
             terrain_top=hi, template_level=args.template_level, threads=args.threads,
-            passes=args.passes)
+            passes=args.passes, reserve=args.reserve)
     sphere = planetlod.Planet(R, projection="qsc")
     run(sphere, args.frames, args.every, "perfect sphere (QSC)", terrain_top=0.0,
-        template_level=args.template_level, threads=args.threads, passes=args.passes)
+        template_level=args.template_level, threads=args.threads, passes=args.passes,
+        reserve=args.reserve)
     side = planetlod.Planet(R, projection="qsc")
     print("\n(side/distance criterion, split 0.5, on the sphere)")
     per = []

@@ -94,6 +94,14 @@ typedef struct plod_refiner plod_refiner; /* opaque */
 /* The planet (and its height map) is borrowed and must outlive the refiner. */
 plod_status plod_refiner_create(plod_refiner **out, const plod_planet *planet);
 void plod_refiner_destroy(plod_refiner *refiner);
+/* Room for `sectors` leaf sectors (their internal nodes, edges and split
+ * queue) allocated and touched now, so that refine() does not grow its
+ * arrays, or fault in fresh pages, until the set exceeds it: a planet's
+ * first descent then runs at steady-state cost.  Never shrinks (reset
+ * keeps the capacity).  PLOD_ERR_BAD_PARAM above PLOD_REFINER_MAX_RESERVE,
+ * PLOD_ERR_NO_MEMORY (the refiner unchanged but usable) if it cannot. */
+#define PLOD_REFINER_MAX_RESERVE ((size_t)1 << 26)
+plod_status plod_refiner_reserve(plod_refiner *refiner, size_t sectors);
 /* Back to the base sectors. */
 void plod_refiner_reset(plod_refiner *refiner);
 /* One frame: merge pass, split pass, culling; fills stats (may be NULL). */

@@ -479,6 +479,24 @@ static PyObject *plod__planet_reset(plod_py_planet *self, PyObject *unused)
     Py_RETURN_NONE;
 }
 
+static PyObject *plod__planet_reserve(plod_py_planet *self, PyObject *args, PyObject *kwds)
+{
+    static char *kwlist[] = {"sectors", NULL};
+    Py_ssize_t sectors;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "n", kwlist, &sectors))
+        return NULL;
+    if (sectors < 0 || (size_t)sectors > PLOD_REFINER_MAX_RESERVE)
+        return plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "reserve",
+                                    "sectors must be in 0..2**26");
+    plod_status st;
+    Py_BEGIN_ALLOW_THREADS
+    st = plod_refiner_reserve(self->refiner, (size_t)sectors);
+    Py_END_ALLOW_THREADS
+    if (st != PLOD_OK)
+        return plod_py_raise(st, "reserve");
+    Py_RETURN_NONE;
+}
+
 static int plod__visible_only_arg(PyObject *args, PyObject *kwds, int *visible_only)
 {
     static char *kwlist[] = {"visible_only", NULL};
@@ -817,6 +835,7 @@ PLOD__LOCKED_KW(plod__planet_sector_flags)
 PLOD__LOCKED_KW(plod__planet_sector_heights)
 PLOD__LOCKED_KW(plod__planet_mesh)
 PLOD__LOCKED_KW(plod__planet_surface)
+PLOD__LOCKED_KW(plod__planet_reserve)
 PLOD__LOCKED_KW(plod__planet_instances)
 PLOD__LOCKED_NO_ARG(plod__planet_reset)
 PLOD__LOCKED_NO_ARG(plod__planet_check)
@@ -920,6 +939,10 @@ static PyMethodDef plod__planet_methods[] = {
      "mesh(template_level=None, morph=False, threads=2, visible_only=True, cache=True) -> "
      "Mesh; with cache, sectors kept from the previous mesh() are copied, not recomputed "
      "(identical output)"},
+    {"reserve", (PyCFunction)(void (*)(void))plod__planet_reserve_locked,
+     METH_VARARGS | METH_KEYWORDS,
+     "reserve(sectors): allocate (and touch) room for this many sectors now, so that "
+     "refine() does not grow its arrays mid-flight; never shrinks"},
     {"surface", (PyCFunction)(void (*)(void))plod__planet_surface_locked,
      METH_VARARGS | METH_KEYWORDS,
      "surface(directions) -> (heights, normals): for 3 n floats (any lengths), n heights in "

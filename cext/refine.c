@@ -1455,6 +1455,41 @@ plod_status plod_refiner_create(plod_refiner **out, const plod_planet *planet)
     return PLOD_OK;
 }
 
+plod_status plod_refiner_reserve(plod_refiner *refiner, size_t sectors)
+{
+    if (!refiner)
+        return PLOD_ERR_NULL;
+    if (sectors > PLOD_REFINER_MAX_RESERVE)
+        return PLOD_ERR_BAD_PARAM;
+    plod_refiner *r = refiner;
+    size_t old_leaves = r->capacity, old_nodes = r->node_capacity;
+    size_t old_pending = r->pending_capacity;
+    /* a binary forest over 12 roots: internal nodes = leaves - 12 */
+    plod_status st = plod__reserve(r, sectors > r->count ? sectors - r->count : 0);
+    if (st == PLOD_OK)
+        st = plod__node_reserve(r, sectors > r->node_top ? sectors - r->node_top : 0);
+    if (st == PLOD_OK)
+        st = plod__pending_reserve(r, sectors > r->pending_count ? sectors - r->pending_count : 0);
+    if (st != PLOD_OK)
+        return st;
+    /* Touch the new tails now: the first faults on fresh pages are what
+     * made growth frames slow, and this moves them out of refine(). */
+    size_t grown = r->capacity - old_leaves;
+    memset(r->leaves + old_leaves, 0, grown * sizeof *r->leaves);
+    memset(r->geom + old_leaves, 0, grown * sizeof *r->geom);
+    memset(r->corners + old_leaves, 0, grown * sizeof *r->corners);
+    memset(r->leaf_parent + old_leaves, 0, grown * sizeof *r->leaf_parent);
+    grown = r->node_capacity - old_nodes;
+    memset(r->nodes + old_nodes, 0, grown * sizeof *r->nodes);
+    memset(r->node_parent + old_nodes, 0, grown * sizeof *r->node_parent);
+    memset(r->node_state + old_nodes, 0, grown);
+    memset(r->node_planes + old_nodes, 0, grown);
+    memset(r->node_leaves + old_nodes, 0, grown);
+    memset(r->node_partner + old_nodes, 0, grown * sizeof *r->node_partner);
+    memset(r->pending + old_pending, 0, (r->pending_capacity - old_pending) * sizeof *r->pending);
+    return PLOD_OK;
+}
+
 void plod_refiner_destroy(plod_refiner *refiner)
 {
     if (!refiner)
@@ -1803,7 +1838,8 @@ size_t plod_refiner_memory_bytes(const plod_refiner *r)
     if (r->edges)
         bytes += (r->edge_mask + 1) * sizeof(plod__edge);
     bytes += r->capacity * sizeof(plod__corners);
-    bytes += r->node_capacity * (sizeof(plod__node) + sizeof(int32_t) + 3);
+    bytes += r->node_capacity * (sizeof(plod__node) + 2 * sizeof(int32_t) + 3);
+    bytes += r->pending_capacity * sizeof(size_t);
     return bytes;
 }
 

@@ -167,6 +167,47 @@ def test_cached_corners_survive_merges_on_every_projection(planetlod):
         assert counts[0] == counts[2] > counts[1]
 
 
+def test_reserve_keeps_results_and_capacity(planetlod):
+    """reserve() allocates ahead without changing what refine() computes;
+    it never shrinks, survives reset() and mid-flight growth past it, and
+    refuses a size beyond its cap without changing anything."""
+    near = surface_camera(planetlod, EARTH_R, 2e3, lat=0.3, lon=0.7)
+    far = space_camera(planetlod, 3e7)
+    plain = planetlod.Planet(EARTH_R)
+    reserved = planetlod.Planet(EARTH_R)
+    before = reserved.memory_bytes
+    reserved.reserve(4096)
+    grown = reserved.memory_bytes
+    assert grown > before + 4096 * 48
+    reserved.reserve(100)  # below the capacity: nothing changes
+    assert reserved.memory_bytes == grown
+    for cam in (near, far, near):
+        a = plain.refine(cam, max_level=30)
+        b = reserved.refine(cam, max_level=30)
+        assert sorted_ids(plain) == sorted_ids(reserved)
+        assert (a["splits"], a["merges"]) == (b["splits"], b["merges"])
+        assert reserved.check_invariants()
+    assert a["sectors_total"] < 4096 and reserved.memory_bytes == grown  # no growth
+    reserved.reset()
+    assert reserved.memory_bytes == grown and reserved.sector_count == 12
+    small = planetlod.Planet(EARTH_R)
+    small.reserve(200)
+    deep = surface_camera(planetlod, EARTH_R, 3.0, lat=0.3, lon=0.7)
+    for planet in (small, plain):
+        s = planet.refine(deep, criterion="side_distance", max_level=48)
+    assert s["sectors_total"] > 200  # grew past the reservation mid-refine
+    assert sorted_ids(plain) == sorted_ids(small) and small.check_invariants()
+    small.reserve(16)  # fewer than it holds: nothing changes
+    assert sorted_ids(plain) == sorted_ids(small)
+    held = small.memory_bytes
+    for bad in (-1, 2 ** 27):
+        with pytest.raises(planetlod.PlanetLODError):
+            small.reserve(bad)
+    with pytest.raises(TypeError):
+        small.reserve("many")
+    assert sorted_ids(plain) == sorted_ids(small) and small.memory_bytes == held
+
+
 def test_threads_identical(planetlod, earth):
     """threads=2 evaluates the per-frame predicates in parallel: same sectors,
     same flags (budget ranking included) as one thread, frame after frame."""
