@@ -425,6 +425,26 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     double hmin = 0, hmax = 0;
     plod_planet_height_range(&planet, &hmin, &hmax);
     (void)plod_planet_height(&planet, (const double[3]){0, 0, 1});
+    {
+        /* the batched surface path (mesh rows) is the point path, bit for bit */
+        double dirs[3 * 5], heights[5], normals[3 * 5];
+        for (int i = 0; i < 5; i++) {
+            double *d = dirs + 3 * i;
+            for (int c = 0; c < 3; c++)
+                d[c] = (double)(int8_t)fuzz_u8(&in) + (i == 4 ? 0.0 : 0.5);
+            double len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+            for (int c = 0; c < 3; c++)
+                d[c] /= len;
+        }
+        plod_planet_surface_n(&planet, 5, dirs, heights, normals);
+        for (int i = 0; i < 5; i++) {
+            double normal[3];
+            double h = plod_planet_surface(&planet, dirs + 3 * i, normal);
+            FUZZ_CHECK(memcmp(&h, heights + i, sizeof h) == 0 &&
+                           memcmp(normal, normals + 3 * i, sizeof normal) == 0,
+                       "batched surface differs from the point path at %d", i);
+        }
+    }
 
     /* ---- refinement parameters ---- */
     plod_refine_params rp;
@@ -505,8 +525,16 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         const plod_sector *sectors = plod_refiner_sectors(refiner, &count);
         if (f == frames - 1 || (fuzz_u8(&in) & 1))
             fuzz__emit(&in, &planet, &camera, &rp, sectors, count, finite_heights, cache);
-        if (fuzz_u8(&in) == 0xff)
+        uint8_t op = fuzz_u8(&in);
+        if (op == 0xff) {
             plod_refiner_reset(refiner);
+        } else if (op == 0xfe) { /* capacity ahead: results must not change */
+            size_t want = (size_t)fuzz_u8(&in) * 64;
+            FUZZ_CHECK(plod_refiner_reserve(refiner, want) == PLOD_OK, "reserve(%zu)", want);
+            FUZZ_CHECK(plod_refiner_reserve(refiner, PLOD_REFINER_MAX_RESERVE + 1) ==
+                           PLOD_ERR_BAD_PARAM, "reserve above the cap accepted");
+            FUZZ_CHECK(plod_refiner_check(refiner) == PLOD_OK, "invariants after reserve");
+        }
     }
     plod_mesh_cache_destroy(cache);
     plod_refiner_destroy(refiner);
