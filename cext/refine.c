@@ -1475,18 +1475,24 @@ plod_status plod_refiner_reserve(plod_refiner *refiner, size_t sectors)
     /* Touch the new tails now: the first faults on fresh pages are what
      * made growth frames slow, and this moves them out of refine(). */
     size_t grown = r->capacity - old_leaves;
-    memset(r->leaves + old_leaves, 0, grown * sizeof *r->leaves);
-    memset(r->geom + old_leaves, 0, grown * sizeof *r->geom);
-    memset(r->corners + old_leaves, 0, grown * sizeof *r->corners);
-    memset(r->leaf_parent + old_leaves, 0, grown * sizeof *r->leaf_parent);
+    if (grown) {
+        memset(r->leaves + old_leaves, 0, grown * sizeof *r->leaves);
+        memset(r->geom + old_leaves, 0, grown * sizeof *r->geom);
+        memset(r->corners + old_leaves, 0, grown * sizeof *r->corners);
+        memset(r->leaf_parent + old_leaves, 0, grown * sizeof *r->leaf_parent);
+    }
     grown = r->node_capacity - old_nodes;
-    memset(r->nodes + old_nodes, 0, grown * sizeof *r->nodes);
-    memset(r->node_parent + old_nodes, 0, grown * sizeof *r->node_parent);
-    memset(r->node_state + old_nodes, 0, grown);
-    memset(r->node_planes + old_nodes, 0, grown);
-    memset(r->node_leaves + old_nodes, 0, grown);
-    memset(r->node_partner + old_nodes, 0, grown * sizeof *r->node_partner);
-    memset(r->pending + old_pending, 0, (r->pending_capacity - old_pending) * sizeof *r->pending);
+    if (grown) {
+        memset(r->nodes + old_nodes, 0, grown * sizeof *r->nodes);
+        memset(r->node_parent + old_nodes, 0, grown * sizeof *r->node_parent);
+        memset(r->node_state + old_nodes, 0, grown);
+        memset(r->node_planes + old_nodes, 0, grown);
+        memset(r->node_leaves + old_nodes, 0, grown);
+        memset(r->node_partner + old_nodes, 0, grown * sizeof *r->node_partner);
+    }
+    grown = r->pending_capacity - old_pending;
+    if (grown) /* the split queue may not exist yet (NULL + 0 is undefined) */
+        memset(r->pending + old_pending, 0, grown * sizeof *r->pending);
     return PLOD_OK;
 }
 
