@@ -510,7 +510,8 @@ void plod_cubemap_locate_n(const plod_cubemap *m, size_t n, const double *dirs, 
 void plod_cubemap_sample_face_n(const plod_cubemap *m, size_t n, const int *faces,
                                 const double *u, const double *v, double *out)
 {
-    /* the two layouts meshes sample per vertex get their own loops */
+    /* the layouts meshes sample per vertex (heights, u16x3 normals) get
+     * their own loops; any other layout takes the generic one */
     if (m->type == PLOD_TEXEL_U8 && m->channels == 1) {
         PLOD__SAMPLE_LOOP(PLOD_TEXEL_U8, 1)
     } else if (m->type == PLOD_TEXEL_U16 && m->channels == 1) {

@@ -146,14 +146,13 @@ void plod_planet_surface_n(const plod_planet *planet, size_t n, const double *di
             heights[i] = 0.0;
         return;
     }
-    if ((normals && (!planet->normalmap || plod_cubemap_channels(planet->normalmap) != 3)) ||
-        plod_cubemap_channels(planet->heightmap) > 4) { /* rare: point by point */
-        for (size_t i = 0; i < n; i++)
+    if (normals && (!planet->normalmap || plod_cubemap_channels(planet->normalmap) != 3)) {
+        for (size_t i = 0; i < n; i++) /* rare (C callers only): point by point */
             heights[i] = plod_planet_surface(planet, dirs + 3 * i, normals + 3 * i);
         return;
     }
     int faces[CHUNK];
-    double u[CHUNK], v[CHUNK], sample[4 * CHUNK];
+    double u[CHUNK], v[CHUNK], sample[4 * CHUNK]; /* cube maps have 1..4 channels */
     size_t height_channels = (size_t)plod_cubemap_channels(planet->heightmap);
     for (size_t first = 0; first < n; first += CHUNK) {
         size_t count = n - first < CHUNK ? n - first : CHUNK;
