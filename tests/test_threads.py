@@ -31,6 +31,10 @@ def _hammer(planet, cameras, rounds, errors, results):
             assert mesh.triangle_count == mesh.sector_count * 16
             if i % 7 == 0:
                 planet.reset()
+            if i % 5 == 0:  # capacity and surface queries under the same lock
+                planet.reserve(100 * i)
+                heights, normals = planet.surface([1.0, 0.0, 0.0, 0.0, 2.0, 0.0])
+                assert len(heights) == 2 and len(normals) == 6
             results.append((planet.sector_count, planet.visible_count))
     except BaseException as exc:  # reported by the main thread
         errors.append(exc)
