@@ -390,20 +390,13 @@ static void plod__bilinear(const plod_cubemap *m, int face, double s, double t, 
     }
 }
 
-/* plod__bilinear for one texel type and channel count known at the call
- * site (the compiler drops the switch and unrolls the taps), with the same
- * arithmetic in the same order: results are bit for bit plod__bilinear's. */
+/* The interior case of plod__bilinear for one texel type and channel count
+ * known at the call site (the compiler drops the switch and unrolls the
+ * taps), with the same arithmetic in the same order: bit for bit. */
 static inline __attribute__((always_inline)) void
-plod__bilinear_typed(const plod_cubemap *m, int face, double s, double t, double *acc,
-                     plod_texel_type type, int channels)
+plod__lerp_interior(const plod_cubemap *m, int face, int i0, int j0, double wu, double wv,
+                    double *acc, plod_texel_type type, int channels)
 {
-    double fi = floor(s), fj = floor(t);
-    int i0 = (int)fi, j0 = (int)fj;
-    if (!(i0 >= 0 && j0 >= 0 && i0 + 1 < m->width && j0 + 1 < m->height)) {
-        plod__bilinear(m, face, s, t, acc);
-        return;
-    }
-    double wu = s - fi, wv = t - fj;
     size_t row = (size_t)m->width * (size_t)channels;
     size_t at = ((size_t)j0 * (size_t)m->width + (size_t)i0) * (size_t)channels;
     const unsigned char *base = m->texels + (size_t)face * m->face_bytes;
@@ -425,6 +418,25 @@ plod__bilinear_typed(const plod_cubemap *m, int face, double s, double t, double
         double top = tap[2][c] + wu * (tap[3][c] - tap[2][c]);
         acc[c] = bottom + wv * (top - bottom);
     }
+}
+
+static inline __attribute__((always_inline)) int plod__interior(const plod_cubemap *m, int i0,
+                                                                int j0)
+{
+    return i0 >= 0 && j0 >= 0 && i0 + 1 < m->width && j0 + 1 < m->height;
+}
+
+static inline __attribute__((always_inline)) void
+plod__bilinear_typed(const plod_cubemap *m, int face, double s, double t, double *acc,
+                     plod_texel_type type, int channels)
+{
+    double fi = floor(s), fj = floor(t);
+    int i0 = (int)fi, j0 = (int)fj;
+    if (!plod__interior(m, i0, j0)) {
+        plod__bilinear(m, face, s, t, acc);
+        return;
+    }
+    plod__lerp_interior(m, face, i0, j0, s - fi, t - fj, acc, type, channels);
 }
 
 static double plod__clamp_unit(double x)
@@ -525,6 +537,52 @@ void plod_cubemap_sample_face_n(const plod_cubemap *m, size_t n, const int *face
     }
 }
 #undef PLOD__SAMPLE_LOOP
+
+/* A height map (1 channel) and its u16x3 normal map on one texel grid:
+ * the location, weights and seam test are computed once for both. */
+#define PLOD__PAIR_LOOP(TYPE)                                                            \
+    for (size_t i = 0; i < n; i++) {                                                     \
+        double ui = u[i], vi = v[i];                                                     \
+        if (!(isfinite(ui) && isfinite(vi)) || faces[i] < 0 || faces[i] >= a->face_count) { \
+            out_a[i] = NAN;                                                              \
+            out_b[3 * i] = out_b[3 * i + 1] = out_b[3 * i + 2] = NAN;                    \
+            continue;                                                                    \
+        }                                                                                \
+        ui = plod__clamp_unit(ui);                                                       \
+        vi = plod__clamp_unit(vi);                                                       \
+        double s = (ui + 1.0) * 0.5 * a->width - 0.5;                                    \
+        double t = (vi + 1.0) * 0.5 * a->height - 0.5;                                   \
+        double fi = floor(s), fj = floor(t);                                             \
+        int i0 = (int)fi, j0 = (int)fj;                                                  \
+        if (plod__interior(a, i0, j0)) {                                                 \
+            plod__lerp_interior(a, faces[i], i0, j0, s - fi, t - fj, out_a + i, (TYPE), 1); \
+            plod__lerp_interior(b, faces[i], i0, j0, s - fi, t - fj, out_b + 3 * i,      \
+                                PLOD_TEXEL_U16, 3);                                      \
+        } else {                                                                         \
+            plod__bilinear(a, faces[i], s, t, out_a + i);                                \
+            plod__bilinear(b, faces[i], s, t, out_b + 3 * i);                            \
+        }                                                                                \
+    }
+
+void plod_cubemap_sample_pair_n(const plod_cubemap *a, const plod_cubemap *b, size_t n,
+                                const int *faces, const double *u, const double *v,
+                                double *out_a, double *out_b)
+{
+    int paired = a->channels == 1 && b->channels == 3 && b->type == PLOD_TEXEL_U16 &&
+                 a->width == b->width && a->height == b->height &&
+                 a->face_count == b->face_count;
+    if (!paired) {
+        plod_cubemap_sample_face_n(a, n, faces, u, v, out_a);
+        plod_cubemap_sample_face_n(b, n, faces, u, v, out_b);
+    } else if (a->type == PLOD_TEXEL_U8) {
+        PLOD__PAIR_LOOP(PLOD_TEXEL_U8)
+    } else if (a->type == PLOD_TEXEL_U16) {
+        PLOD__PAIR_LOOP(PLOD_TEXEL_U16)
+    } else {
+        PLOD__PAIR_LOOP(PLOD_TEXEL_F32)
+    }
+}
+#undef PLOD__PAIR_LOOP
 
 static int plod__sample_dir_d(const plod_cubemap *m, const double dir[3], double *acc)
 {

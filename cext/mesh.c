@@ -694,12 +694,12 @@ static plod_status plod__emit_sector(const plod__emitter *e, const plod_mesh_sec
 
     if (out->triangles)
         plod__write_triangles(out->triangles + 3 * tbase, n, (int32_t)vbase);
-    for (size_t t = 0; t < e->triangles_per_sector; t++) {
-        if (out->sector_level)
+    if (out->sector_level) /* tests outside the loops: plain fills */
+        for (size_t t = 0; t < e->triangles_per_sector; t++)
             out->sector_level[tbase + t] = sector->level;
-        if (out->face)
+    if (out->face)
+        for (size_t t = 0; t < e->triangles_per_sector; t++)
             out->face[tbase + t] = sector->face;
-    }
     if (params->morph && n > 1 && out->positions)
         plod__morph_sector(e, vbase);
     return PLOD_OK;

@@ -152,21 +152,26 @@ void plod_planet_surface_n(const plod_planet *planet, size_t n, const double *di
         return;
     }
     int faces[CHUNK];
-    double u[CHUNK], v[CHUNK], sample[4 * CHUNK]; /* cube maps have 1..4 channels */
+    double u[CHUNK], v[CHUNK];
+    double sample[4 * CHUNK], normal_sample[3 * CHUNK]; /* maps have 1..4 channels */
     size_t height_channels = (size_t)plod_cubemap_channels(planet->heightmap);
     for (size_t first = 0; first < n; first += CHUNK) {
         size_t count = n - first < CHUNK ? n - first : CHUNK;
         plod_cubemap_locate_n(planet->heightmap, count, dirs + 3 * first, faces, u, v);
-        plod_cubemap_sample_face_n(planet->heightmap, count, faces, u, v, sample);
+        if (normals)
+            plod_cubemap_sample_pair_n(planet->heightmap, planet->normalmap, count, faces, u, v,
+                                       sample, normal_sample);
+        else
+            plod_cubemap_sample_face_n(planet->heightmap, count, faces, u, v, sample);
         for (size_t i = 0; i < count; i++)
-            heights[first + i] = faces[i] < 0 ? NAN : sample[i * height_channels] * planet->height_scale;
+            heights[first + i] =
+                faces[i] < 0 ? NAN : sample[i * height_channels] * planet->height_scale;
         if (!normals)
             continue;
-        plod_cubemap_sample_face_n(planet->normalmap, count, faces, u, v, sample);
         for (size_t i = 0; i < count; i++) {
             if (faces[i] < 0)
                 continue;
-            const double *s = sample + 3 * i;
+            const double *s = normal_sample + 3 * i;
             double m[3] = {2.0 * s[0] - 1.0, 2.0 * s[1] - 1.0, 2.0 * s[2] - 1.0};
             double len2 = m[0] * m[0] + m[1] * m[1] + m[2] * m[2];
             if (len2 > 0.25) { /* as plod_planet_surface */

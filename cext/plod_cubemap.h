@@ -98,6 +98,13 @@ void plod_cubemap_locate_n(const plod_cubemap *cubemap, size_t n, const double *
 void plod_cubemap_sample_face_n(const plod_cubemap *cubemap, size_t n, const int *faces,
                                 const double *u, const double *v, double *out);
 
+/* plod_cubemap_sample_face_n on two maps at the same points (out_a: n *
+ * channels of a, out_b: n * channels of b), bit for bit; a 1-channel height
+ * map and its u16x3 normal map on one grid share the per-point work. */
+void plod_cubemap_sample_pair_n(const plod_cubemap *a, const plod_cubemap *b, size_t n,
+                                const int *faces, const double *u, const double *v,
+                                double *out_a, double *out_b);
+
 /* ---- normal maps ----------------------------------------------------------- */
 /* Unit outward normals of the surface dir * (radius + height_scale * h) at
  * every texel centre of `heights` (channel 0), from central differences of

@@ -751,7 +751,7 @@ static void plod__compute_bound(plod_refiner *r, size_t at, plod__bound *b)
     for (int k = 0; k < 3; k++)
         plod__canon(r, s->face, s->cu[k], s->cv[k], memo.canon[k]);
     static const int idx[3] = {0, 1, 2};
-    plod__compute_bound_at(r, &r->leaves[at], &memo, idx, b);
+    plod__compute_bound_at(r, s, &memo, idx, b);
     plod__store_corners(r, at, &memo, idx);
 }
 
