@@ -347,52 +347,27 @@ static void plod__nan(const plod_cubemap *m, float *out)
         out[c] = NAN;
 }
 
-static void plod__bilinear(const plod_cubemap *m, int face, double s, double t, double *acc)
+/* Lerps four taps (i0,j0), (i0+1,j0), (i0,j0+1), (i0+1,j0+1). */
+static inline __attribute__((always_inline)) void
+plod__lerp_taps(const double tap[4][4], double wu, double wv, int channels, double *acc)
 {
-    double fi = floor(s), fj = floor(t);
-    double wu = s - fi, wv = t - fj;
-    int i0 = (int)fi, j0 = (int)fj;
-    double tap[4][4];
-    int cube = m->face_count == PLOD_FACE_COUNT;
-    if (i0 >= 0 && j0 >= 0 && i0 + 1 < m->width && j0 + 1 < m->height) {
-        /* Interior (nearly every sample): the four taps straight from the
-         * face, converted exactly as plod__texel does. */
-        size_t channels = (size_t)m->channels, row = (size_t)m->width * channels;
-        size_t at = ((size_t)j0 * (size_t)m->width + (size_t)i0) * channels;
-        const unsigned char *base = m->texels + (size_t)face * m->face_bytes;
-        size_t offset[4] = {at, at + channels, at + row, at + row + channels};
-        for (int k = 0; k < 4; k++)
-            for (size_t c = 0; c < channels; c++) {
-                size_t index = offset[k] + c;
-                switch (m->type) {
-                case PLOD_TEXEL_U8: tap[k][c] = base[index] * (1.0 / 255.0); break;
-                case PLOD_TEXEL_U16:
-                    tap[k][c] = ((const uint16_t *)base)[index] * (1.0 / 65535.0);
-                    break;
-                default: tap[k][c] = ((const float *)base)[index]; break;
-                }
-            }
-    } else if (cube) {
-        plod__fetch_cube(m, face, i0, j0, tap[0]);
-        plod__fetch_cube(m, face, i0 + 1, j0, tap[1]);
-        plod__fetch_cube(m, face, i0, j0 + 1, tap[2]);
-        plod__fetch_cube(m, face, i0 + 1, j0 + 1, tap[3]);
-    } else {
-        plod__fetch_car(m, i0, j0, tap[0]);
-        plod__fetch_car(m, i0 + 1, j0, tap[1]);
-        plod__fetch_car(m, i0, j0 + 1, tap[2]);
-        plod__fetch_car(m, i0 + 1, j0 + 1, tap[3]);
-    }
-    for (int c = 0; c < m->channels; c++) {
+    for (int c = 0; c < channels; c++) {
         double bottom = tap[0][c] + wu * (tap[1][c] - tap[0][c]);
         double top = tap[2][c] + wu * (tap[3][c] - tap[2][c]);
         acc[c] = bottom + wv * (top - bottom);
     }
 }
 
-/* The interior case of plod__bilinear for one texel type and channel count
- * known at the call site (the compiler drops the switch and unrolls the
- * taps), with the same arithmetic in the same order: bit for bit. */
+static inline __attribute__((always_inline)) int plod__interior(const plod_cubemap *m, int i0,
+                                                                int j0)
+{
+    return i0 >= 0 && j0 >= 0 && i0 + 1 < m->width && j0 + 1 < m->height;
+}
+
+/* Interior samples (nearly all): the four taps straight from the face,
+ * converted exactly as plod__texel does.  Batch loops pass a constant type
+ * and channel count, so the compiler drops the switch and unrolls the taps;
+ * plod__bilinear passes the map's own. */
 static inline __attribute__((always_inline)) void
 plod__lerp_interior(const plod_cubemap *m, int face, int i0, int j0, double wu, double wv,
                     double *acc, plod_texel_type type, int channels)
@@ -413,17 +388,31 @@ plod__lerp_interior(const plod_cubemap *m, int face, int i0, int j0, double wu, 
             default: tap[k][c] = ((const float *)base)[index]; break;
             }
         }
-    for (int c = 0; c < channels; c++) {
-        double bottom = tap[0][c] + wu * (tap[1][c] - tap[0][c]);
-        double top = tap[2][c] + wu * (tap[3][c] - tap[2][c]);
-        acc[c] = bottom + wv * (top - bottom);
-    }
+    plod__lerp_taps((const double (*)[4])tap, wu, wv, channels, acc);
 }
 
-static inline __attribute__((always_inline)) int plod__interior(const plod_cubemap *m, int i0,
-                                                                int j0)
+static void plod__bilinear(const plod_cubemap *m, int face, double s, double t, double *acc)
 {
-    return i0 >= 0 && j0 >= 0 && i0 + 1 < m->width && j0 + 1 < m->height;
+    double fi = floor(s), fj = floor(t);
+    double wu = s - fi, wv = t - fj;
+    int i0 = (int)fi, j0 = (int)fj;
+    if (plod__interior(m, i0, j0)) {
+        plod__lerp_interior(m, face, i0, j0, wu, wv, acc, m->type, m->channels);
+        return;
+    }
+    double tap[4][4];
+    if (m->face_count == PLOD_FACE_COUNT) {
+        plod__fetch_cube(m, face, i0, j0, tap[0]);
+        plod__fetch_cube(m, face, i0 + 1, j0, tap[1]);
+        plod__fetch_cube(m, face, i0, j0 + 1, tap[2]);
+        plod__fetch_cube(m, face, i0 + 1, j0 + 1, tap[3]);
+    } else {
+        plod__fetch_car(m, i0, j0, tap[0]);
+        plod__fetch_car(m, i0 + 1, j0, tap[1]);
+        plod__fetch_car(m, i0, j0 + 1, tap[2]);
+        plod__fetch_car(m, i0 + 1, j0 + 1, tap[3]);
+    }
+    plod__lerp_taps((const double (*)[4])tap, wu, wv, m->channels, acc);
 }
 
 static inline __attribute__((always_inline)) void
@@ -444,14 +433,25 @@ static double plod__clamp_unit(double x)
     return x < -1.0 ? -1.0 : x > 1.0 ? 1.0 : x;
 }
 
-static int plod__sample_face_d(const plod_cubemap *m, int face, double u, double v, double *acc)
+/* Texel coordinates (s, t) of face point (u, v), clamped to the face;
+ * 0 for a bad face or non-finite u, v. */
+static inline __attribute__((always_inline)) int
+plod__face_point(const plod_cubemap *m, int face, double u, double v, double *s, double *t)
 {
     if (!(isfinite(u) && isfinite(v)) || face < 0 || face >= m->face_count)
         return 0;
     u = plod__clamp_unit(u);
     v = plod__clamp_unit(v);
-    double s = (u + 1.0) * 0.5 * m->width - 0.5;
-    double t = (v + 1.0) * 0.5 * m->height - 0.5;
+    *s = (u + 1.0) * 0.5 * m->width - 0.5;
+    *t = (v + 1.0) * 0.5 * m->height - 0.5;
+    return 1;
+}
+
+static int plod__sample_face_d(const plod_cubemap *m, int face, double u, double v, double *acc)
+{
+    double s, t;
+    if (!plod__face_point(m, face, u, v, &s, &t))
+        return 0;
     plod__bilinear(m, face, s, t, acc);
     return 1;
 }
@@ -505,17 +505,12 @@ void plod_cubemap_locate_n(const plod_cubemap *m, size_t n, const double *dirs, 
 
 #define PLOD__SAMPLE_LOOP(TYPE, CHANNELS)                                                \
     for (size_t i = 0; i < n; i++) {                                                     \
-        double *acc = out + i * (size_t)(CHANNELS);                                      \
-        double ui = u[i], vi = v[i];                                                     \
-        if (!(isfinite(ui) && isfinite(vi)) || faces[i] < 0 || faces[i] >= m->face_count) { \
+        double *acc = out + i * (size_t)(CHANNELS), s, t;                                \
+        if (!plod__face_point(m, faces[i], u[i], v[i], &s, &t)) {                        \
             for (int c = 0; c < (CHANNELS); c++)                                         \
                 acc[c] = NAN;                                                            \
             continue;                                                                    \
         }                                                                                \
-        ui = plod__clamp_unit(ui);                                                       \
-        vi = plod__clamp_unit(vi);                                                       \
-        double s = (ui + 1.0) * 0.5 * m->width - 0.5;                                    \
-        double t = (vi + 1.0) * 0.5 * m->height - 0.5;                                   \
         plod__bilinear_typed(m, faces[i], s, t, acc, (TYPE), (CHANNELS));                \
     }
 
@@ -542,16 +537,12 @@ void plod_cubemap_sample_face_n(const plod_cubemap *m, size_t n, const int *face
  * the location, weights and seam test are computed once for both. */
 #define PLOD__PAIR_LOOP(TYPE)                                                            \
     for (size_t i = 0; i < n; i++) {                                                     \
-        double ui = u[i], vi = v[i];                                                     \
-        if (!(isfinite(ui) && isfinite(vi)) || faces[i] < 0 || faces[i] >= a->face_count) { \
+        double s, t;                                                                     \
+        if (!plod__face_point(a, faces[i], u[i], v[i], &s, &t)) {                        \
             out_a[i] = NAN;                                                              \
             out_b[3 * i] = out_b[3 * i + 1] = out_b[3 * i + 2] = NAN;                    \
             continue;                                                                    \
         }                                                                                \
-        ui = plod__clamp_unit(ui);                                                       \
-        vi = plod__clamp_unit(vi);                                                       \
-        double s = (ui + 1.0) * 0.5 * a->width - 0.5;                                    \
-        double t = (vi + 1.0) * 0.5 * a->height - 0.5;                                   \
         double fi = floor(s), fj = floor(t);                                             \
         int i0 = (int)fi, j0 = (int)fj;                                                  \
         if (plod__interior(a, i0, j0)) {                                                 \
