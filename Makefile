@@ -32,7 +32,9 @@ fuzz-smoke:
 fuzz:
 	bash tools/fuzz.sh full
 
-soak: build
+soak:
+	bash tools/install_deps.sh soak
+	bash tools/build.sh
 	$(PYTHON) tools/soak.py --frames 1000
 	$(PYTHON) tools/soak.py --frames 1000 --budget 300 --max-pixel-error 0.5
 	PLANET_LOD_NATIVE=$(CURDIR) $(BLENDER) -b --factory-startup --python-exit-code 1 \

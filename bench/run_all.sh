@@ -13,6 +13,7 @@ SMOKE=0
 [ "${1:-}" = "--smoke" ] && SMOKE=1
 if [ $SMOKE = 1 ]; then OUT=${BENCH_OUT:-bench/results/smoke}; else OUT=${BENCH_OUT:-bench/results}; fi
 mkdir -p "$OUT"
+bash tools/install_deps.sh bench
 ls planetlod*.so >/dev/null 2>&1 || $PY setup.py -q build_ext --inplace
 if [ $SMOKE = 1 ]; then
     CMD="bench/run_all.sh --smoke"

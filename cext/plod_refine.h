@@ -52,8 +52,17 @@ typedef struct plod_refine_params {
     double max_pixel_error;  /* pixels, default 1 */
     double split_border;     /* side/distance, default 0.5 */
     double merge_border;     /* default 0.25; used only with hysteresis */
-    int hysteresis;          /* 1: keep splits until below merge border
-                                (viewport); 0: deterministic (renders) */
+    int hysteresis;          /* 0 (renders): the result is a function of the
+                                camera and parameters alone, whatever frames
+                                came before.  1 (viewport): a split node
+                                whose parent still wants its split, that is
+                                not culled and below max_level, keeps its
+                                children while its score (pixel error /
+                                max_pixel_error, or size / distance /
+                                split_border) stays at or above
+                                merge_border / split_border, together with
+                                the forced splits those children need; all
+                                else equals the result without hysteresis */
     int template_level;      /* 0..7: 4^level triangles per sector */
     int max_level;           /* <= PLOD_MAX_LEVEL */
     size_t budget;           /* max visible sectors, 0 = unlimited */
@@ -104,13 +113,22 @@ void plod_refiner_destroy(plod_refiner *refiner);
 plod_status plod_refiner_reserve(plod_refiner *refiner, size_t sectors);
 /* Back to the base sectors. */
 void plod_refiner_reset(plod_refiner *refiner);
-/* One frame: merge pass, split pass, culling; fills stats (may be NULL). */
+/* One frame: merge pass, split pass, culling; fills stats (may be NULL).
+ * Without hysteresis the leaves, their flags and plod_refiner_visible()
+ * equal those of a fresh refiner's first update at this camera, unless
+ * max_sectors truncated either (stats.truncated). */
 plod_status plod_refiner_update(plod_refiner *refiner, const plod_camera *camera,
                                 const plod_refine_params *params,
                                 plod_refine_stats *stats);
 /* Every leaf sector (visible or not), valid until the next update/reset. */
 const plod_sector *plod_refiner_sectors(const plod_refiner *refiner,
                                         size_t *count);
+/* This frame's visible sectors as indices into plod_refiner_sectors(), in
+ * canonical (depth-first) order: the same list for the same leaf set and
+ * camera, whatever frames came before, so meshes emitted in this order are
+ * byte-identical however the planet got there.  Valid until the next
+ * update/reset. */
+const uint32_t *plod_refiner_visible(const plod_refiner *refiner, size_t *count);
 /* Unit directions of a sector's corners, bit-identical wherever two sectors
  * share a corner. */
 void plod_sector_corners(const plod_planet *planet, const plod_sector *sector,

@@ -228,16 +228,14 @@ static PyObject *plod__instances_build(const plod_mesh_params *params,
 typedef struct plod__refiner_source {
     const plod_planet *planet;
     const plod_sector *sectors;
-    int visible_only;
+    const uint32_t *order; /* NULL: storage order */
 } plod__refiner_source;
 
 static int plod__refiner_sector(const void *context, size_t index,
                                 plod_mesh_sector *out)
 {
     const plod__refiner_source *src = context;
-    const plod_sector *s = &src->sectors[index];
-    if (src->visible_only && !(s->flags & PLOD_SECTOR_VISIBLE))
-        return 0;
+    const plod_sector *s = &src->sectors[src->order ? src->order[index] : index];
     if (out) {
         plod_sector_corners(src->planet, s, out->corners);
         out->level = s->level;
@@ -281,9 +279,9 @@ static int plod__glue_params(plod_mesh_params *params, const plod_planet *planet
 
 PyObject *plod_py_mesh_emit(const plod_planet *planet, const plod_camera *camera,
                             const plod_refine_params *params,
-                            const plod_sector *sectors, size_t count,
-                            int template_level, int morph, int threads,
-                            int visible_only, plod_mesh_cache *cache)
+                            const plod_sector *sectors, const uint32_t *order,
+                            size_t count, int template_level, int morph, int threads,
+                            plod_mesh_cache *cache)
 {
     plod_mesh_params mp;
     if (plod__glue_params(&mp, planet, camera, params, template_level, morph,
@@ -292,21 +290,21 @@ PyObject *plod_py_mesh_emit(const plod_planet *planet, const plod_camera *camera
     mp.cache = cache;
     if (!sectors && count > 0)
         return plod_py_raise(PLOD_ERR_NULL, "mesh");
-    plod__refiner_source src = {planet, sectors, visible_only};
+    plod__refiner_source src = {planet, sectors, order};
     return plod__mesh_build(&mp, plod__refiner_sector, &src, count);
 }
 
 PyObject *plod_py_instances(const plod_planet *planet, const plod_camera *camera,
                             const plod_refine_params *params,
-                            const plod_sector *sectors, size_t count,
-                            int template_level)
+                            const plod_sector *sectors, const uint32_t *order,
+                            size_t count, int template_level)
 {
     plod_mesh_params mp;
     if (plod__glue_params(&mp, planet, camera, params, template_level, 1, 1) < 0)
         return NULL;
     if (!sectors && count > 0)
         return plod_py_raise(PLOD_ERR_NULL, "instances");
-    plod__refiner_source src = {planet, sectors, 1};
+    plod__refiner_source src = {planet, sectors, order};
     return plod__instances_build(&mp, plod__refiner_sector, &src, count);
 }
 

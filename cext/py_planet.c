@@ -504,33 +504,27 @@ static int plod__visible_only_arg(PyObject *args, PyObject *kwds, int *visible_o
     return PyArg_ParseTupleAndKeywords(args, kwds, "|p", kwlist, visible_only);
 }
 
-static int plod__selected(const plod_sector *s, int visible_only)
-{
-    return !visible_only || (s->flags & PLOD_SECTOR_VISIBLE);
-}
-
-/* kind: 0 ids, 1 levels, 2 corner directions, 3 flags, 4 height bounds */
+/* kind: 0 ids, 1 levels, 2 corner directions, 3 flags, 4 height bounds;
+ * visible sectors in the canonical order meshes are emitted in, all
+ * sectors in storage order */
 static PyObject *plod__planet_export(plod_py_planet *self, PyObject *args, PyObject *kwds,
                                      int kind)
 {
     int visible_only;
     if (!plod__planet_ready(self) || !plod__visible_only_arg(args, kwds, &visible_only))
         return NULL;
-    size_t count;
+    size_t count, visible;
     const plod_sector *sec = plod_refiner_sectors(self->refiner, &count);
-    size_t n = 0;
-    for (size_t i = 0; i < count; i++)
-        n += (size_t)plod__selected(&sec[i], visible_only);
+    const uint32_t *order = plod_refiner_visible(self->refiner, &visible);
+    size_t n = visible_only ? visible : count;
     static const char formats[] = {'Q', 'i', 'd', 'i', 'f'};
     static const size_t per[] = {1, 1, 9, 1, 2};
     void *data;
     PyObject *buf = plod_py_buffer_new(formats[kind], n * per[kind], &data);
     if (!buf)
         return NULL;
-    size_t k = 0;
-    for (size_t i = 0; i < count; i++) {
-        if (!plod__selected(&sec[i], visible_only))
-            continue;
+    for (size_t k = 0; k < n; k++) {
+        size_t i = visible_only ? order[k] : k;
         switch (kind) {
         case 0: ((uint64_t *)data)[k] = sec[i].id; break;
         case 1: ((int32_t *)data)[k] = sec[i].level; break;
@@ -540,7 +534,6 @@ static PyObject *plod__planet_export(plod_py_planet *self, PyObject *args, PyObj
             ((float *)data)[2 * k] = sec[i].height_min;
             ((float *)data)[2 * k + 1] = sec[i].height_max;
         }
-        k++;
     }
     return buf;
 }
@@ -722,10 +715,12 @@ static PyObject *plod__planet_mesh(plod_py_planet *self, PyObject *args, PyObjec
     if (use_cache && !self->mesh_cache &&
         plod_mesh_cache_create(&self->mesh_cache, self->mesh_cache_max_bytes) != PLOD_OK)
         return PyErr_NoMemory();
-    size_t count;
+    size_t count, visible;
     const plod_sector *sec = plod_refiner_sectors(self->refiner, &count);
+    const uint32_t *order = plod_refiner_visible(self->refiner, &visible);
     return plod_py_mesh_emit(&self->planet, self->has_camera ? &self->camera : NULL,
-                             &self->params, sec, count, level, morph, threads, visible_only,
+                             &self->params, sec, visible_only ? order : NULL,
+                             visible_only ? visible : count, level, morph, threads,
                              use_cache ? self->mesh_cache : NULL);
 }
 
@@ -744,10 +739,11 @@ static PyObject *plod__planet_instances(plod_py_planet *self, PyObject *args, Py
         PyErr_SetString(PyExc_NotImplementedError, "instancing is not built in");
         return NULL;
     }
-    size_t count;
-    const plod_sector *sec = plod_refiner_sectors(self->refiner, &count);
+    size_t visible;
+    const plod_sector *sec = plod_refiner_sectors(self->refiner, NULL);
+    const uint32_t *order = plod_refiner_visible(self->refiner, &visible);
     return plod_py_instances(&self->planet, self->has_camera ? &self->camera : NULL,
-                             &self->params, sec, count, level);
+                             &self->params, sec, order, visible, level);
 }
 
 static PyObject *plod__planet_get(plod_py_planet *self, void *closure)

@@ -57,15 +57,17 @@ PyObject *plod_py_cubemap_from_image(const char *path, plod_projection projectio
  * places the float64 origin on the surface point nearest the camera and
  * drives geomorphing; `params` is the last refine's parameters.  `cache`
  * (may be NULL) keeps sectors' vertices from one mesh() to the next. */
+/* `order` (may be NULL: every sector in storage order) lists the indices
+ * into `sectors` to emit, `count` of them. */
 PyObject *plod_py_mesh_emit(const plod_planet *planet, const plod_camera *camera,
                             const plod_refine_params *params,
-                            const plod_sector *sectors, size_t count,
-                            int template_level, int morph, int threads,
-                            int visible_only, plod_mesh_cache *cache);
+                            const plod_sector *sectors, const uint32_t *order,
+                            size_t count, int template_level, int morph, int threads,
+                            plod_mesh_cache *cache);
 PyObject *plod_py_instances(const plod_planet *planet, const plod_camera *camera,
                             const plod_refine_params *params,
-                            const plod_sector *sectors, size_t count,
-                            int template_level);
+                            const plod_sector *sectors, const uint32_t *order,
+                            size_t count, int template_level);
 
 /* ---- per-stage registration (each py_*.c defines one) --------------------- */
 int plod_py_init_projection(PyObject *module);

@@ -157,6 +157,11 @@ struct plod_refiner {
     size_t max_sectors;
     int truncated;
     size_t splits, merges;
+    /* this frame's visible sectors in canonical order (plod__order_visible) */
+    uint32_t *order;
+    size_t order_count, order_capacity;
+    uint64_t *order_keys;        /* radix-sort scratch: 2 * order_capacity */
+    uint32_t *order_scratch;     /* order_capacity */
 };
 
 /* ---- canonical points and edge keys -------------------------------------- */
@@ -1354,10 +1359,20 @@ static int plod__merge_diamond(plod_refiner *r, size_t ia, int32_t pi)
     }
     r->merges += 2;
     uint64_t q_id = r->leaves[at[1]].id;
+    int32_t q_hyp[3];
+    plod__leaf_key(r, at[1], 2, q_hyp);
     plod__cascade(r, at[0]);
-    /* the first cascade may have moved q: find it again by its slot */
-    if (at[1] < r->count && r->leaves[at[1]].id == q_id)
-        plod__cascade(r, at[1]);
+    /* the first cascade may have moved q into a hole (or merged p away):
+     * q is still on its own hypotenuse edge, found by key */
+    size_t slot = plod__edge_find(r, q_hyp);
+    assert(slot != (size_t)-1);
+    for (int k = 0; k < 2; k++) {
+        int32_t leaf = r->edges[slot].leaf[k];
+        if (leaf >= 0 && r->leaves[leaf].id == q_id) {
+            plod__cascade(r, (size_t)leaf);
+            break;
+        }
+    }
     return 1;
 }
 
@@ -1455,6 +1470,8 @@ plod_status plod_refiner_create(plod_refiner **out, const plod_planet *planet)
     return PLOD_OK;
 }
 
+static plod_status plod__order_reserve(plod_refiner *r, size_t need);
+
 plod_status plod_refiner_reserve(plod_refiner *refiner, size_t sectors)
 {
     if (!refiner)
@@ -1470,6 +1487,8 @@ plod_status plod_refiner_reserve(plod_refiner *refiner, size_t sectors)
         st = plod__node_reserve(r, sectors > r->node_top ? sectors - r->node_top : 0);
     if (st == PLOD_OK)
         st = plod__pending_reserve(r, sectors > r->pending_count ? sectors - r->pending_count : 0);
+    if (st == PLOD_OK)
+        st = plod__order_reserve(r, sectors);
     if (st != PLOD_OK)
         return st;
     /* Touch the new tails now: the first faults on fresh pages are what
@@ -1512,6 +1531,9 @@ void plod_refiner_destroy(plod_refiner *refiner)
     free(refiner->node_leaves);
     free(refiner->node_partner);
     free(refiner->pending);
+    free(refiner->order);
+    free(refiner->order_keys);
+    free(refiner->order_scratch);
     free(refiner);
 }
 
@@ -1520,6 +1542,7 @@ void plod_refiner_reset(plod_refiner *refiner)
     if (!refiner)
         return;
     refiner->frame++;
+    refiner->order_count = 0;
     plod_status st = plod__build_base(refiner);
     (void)st; /* capacity for 12 leaves exists since create */
 }
@@ -1529,6 +1552,13 @@ const plod_sector *plod_refiner_sectors(const plod_refiner *refiner, size_t *cou
     if (count)
         *count = refiner ? refiner->count : 0;
     return refiner ? refiner->leaves : NULL;
+}
+
+const uint32_t *plod_refiner_visible(const plod_refiner *refiner, size_t *count)
+{
+    if (count)
+        *count = refiner ? refiner->order_count : 0;
+    return refiner ? refiner->order : NULL;
 }
 
 void plod_refine_params_default(plod_refine_params *params)
@@ -1628,6 +1658,84 @@ static int plod__rank_cmp(const void *pa, const void *pb)
     if (a->distance != b->distance)
         return a->distance < b->distance ? -1 : 1;
     return a->id < b->id ? -1 : (a->id > b->id);
+}
+
+/* Depth-first key of a sector: its base, then its bisection path
+ * left-aligned (the heap's leading 1 at bit 55), so leaves, which never
+ * nest, sort in depth-first order: a spatially coherent order that depends
+ * on the leaf set alone, not on the order in which splits and merges left
+ * them in the leaf array. */
+static uint64_t plod__order_key(uint64_t id)
+{
+    uint64_t heap = id & PLOD__HEAP_MASK;
+    int level = plod__id_level(id);
+    return (id & ~PLOD__HEAP_MASK) | heap << (PLOD__BASE_SHIFT - 1 - level);
+}
+
+static plod_status plod__order_reserve(plod_refiner *r, size_t need)
+{
+    if (need <= r->order_capacity)
+        return PLOD_OK;
+    size_t capacity = r->order_capacity ? r->order_capacity : 256;
+    while (capacity < need)
+        capacity *= 2;
+    uint32_t *order = realloc(r->order, capacity * sizeof *order);
+    if (!order)
+        return PLOD_ERR_NO_MEMORY;
+    r->order = order;
+    uint32_t *scratch = realloc(r->order_scratch, capacity * sizeof *scratch);
+    if (!scratch)
+        return PLOD_ERR_NO_MEMORY;
+    r->order_scratch = scratch;
+    uint64_t *keys = realloc(r->order_keys, 2 * capacity * sizeof *keys);
+    if (!keys)
+        return PLOD_ERR_NO_MEMORY;
+    r->order_keys = keys;
+    r->order_capacity = capacity; /* only once all three have grown */
+    return PLOD_OK;
+}
+
+/* The visible leaves' indices sorted by plod__order_key: an LSD radix sort,
+ * 8 bits a pass, skipping the passes in which every key has the same digit
+ * (the high bits of a frame's keys mostly agree). */
+static plod_status plod__order_visible(plod_refiner *r, size_t visible)
+{
+    r->order_count = 0;
+    if (visible == 0)
+        return PLOD_OK; /* the arrays may not exist yet (NULL + 0 is undefined) */
+    plod_status st = plod__order_reserve(r, visible);
+    if (st != PLOD_OK)
+        return st;
+    uint64_t *keys = r->order_keys, *keys_out = r->order_keys + r->order_capacity;
+    uint32_t *index = r->order, *index_out = r->order_scratch;
+    size_t n = 0;
+    for (size_t i = 0; i < r->count; i++) {
+        if (!(r->leaves[i].flags & PLOD_SECTOR_VISIBLE))
+            continue;
+        keys[n] = plod__order_key(r->leaves[i].id);
+        index[n++] = (uint32_t)i;
+    }
+    assert(n == visible);
+    for (int shift = 0; shift < 64; shift += 8) {
+        size_t start[257] = {0};
+        for (size_t k = 0; k < n; k++)
+            start[(keys[k] >> shift & 0xFF) + 1]++;
+        if (start[(keys[0] >> shift & 0xFF) + 1] == n)
+            continue; /* one digit for all: this pass keeps the order */
+        for (int d = 0; d < 256; d++)
+            start[d + 1] += start[d];
+        for (size_t k = 0; k < n; k++) {
+            size_t to = start[keys[k] >> shift & 0xFF]++;
+            keys_out[to] = keys[k];
+            index_out[to] = index[k];
+        }
+        uint64_t *tk = keys; keys = keys_out; keys_out = tk;
+        uint32_t *ti = index; index = index_out; index_out = ti;
+    }
+    if (index != r->order) /* an odd number of passes ran */
+        memcpy(r->order, index, n * sizeof *index);
+    r->order_count = n;
+    return PLOD_OK;
 }
 
 static plod_status plod__check_params(const plod_refine_params *p)
@@ -1818,6 +1926,9 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
         free(ranks);
         visible = params->budget;
     }
+    st = plod__order_visible(r, visible);
+    if (st != PLOD_OK)
+        return st;
     double t2 = plod__now_us();
     s.sectors_total = r->count;
     s.sectors_after_budget = visible;
@@ -1846,6 +1957,7 @@ size_t plod_refiner_memory_bytes(const plod_refiner *r)
     bytes += r->capacity * sizeof(plod__corners);
     bytes += r->node_capacity * (sizeof(plod__node) + 2 * sizeof(int32_t) + 3);
     bytes += r->pending_capacity * sizeof(size_t);
+    bytes += r->order_capacity * (2 * sizeof(uint32_t) + 2 * sizeof(uint64_t));
     return bytes;
 }
 

@@ -11,7 +11,9 @@
  * mesh and the instanced form.  Work per input is bounded by max_sectors
  * (16..512), template levels 0..2 and a small budget, so that an execution
  * costs tens of microseconds.  Checks besides ASan/UBSan: bad planets and
- * cameras are refused with a status; statistics are monotone (total >=
+ * cameras are refused with a status; without hysteresis every frame equals
+ * a fresh refiner's at its camera (leaves, flags, visible order), whatever
+ * frames came before; statistics are monotone (total >=
  * backface >= frustum >= budget), the budget and max_level hold, the sector
  * list matches the statistics, corners are finite unit vectors, emitted
  * counts equal the bounds, triangle indices are in range, and with finite
@@ -341,6 +343,58 @@ static void fuzz__check_frame(const plod_refiner *refiner, const plod_planet *pl
                st->sectors_after_budget);
 }
 
+static int fuzz__id_flags_cmp(const void *pa, const void *pb)
+{
+    const uint64_t *a = pa, *b = pb;
+    return a[0] != b[0] ? (a[0] < b[0] ? -1 : 1) : (a[1] > b[1]) - (a[1] < b[1]);
+}
+
+/* (id, flags) of every leaf, sorted: the leaf set a frame decided. */
+static uint64_t *fuzz__leaf_set(const plod_refiner *refiner, size_t *count)
+{
+    const plod_sector *sectors = plod_refiner_sectors(refiner, count);
+    uint64_t *set = malloc(2 * (*count ? *count : 1) * sizeof *set);
+    FUZZ_CHECK(set != NULL, "out of memory");
+    for (size_t i = 0; i < *count; i++) {
+        set[2 * i] = sectors[i].id;
+        set[2 * i + 1] = sectors[i].flags;
+    }
+    qsort(set, *count, 2 * sizeof *set, fuzz__id_flags_cmp);
+    return set;
+}
+
+/* Without hysteresis a frame depends on its camera alone: the incremental
+ * result equals a fresh refiner's at the same camera (leaves, flags and the
+ * canonical visible order), unless max_sectors truncated either. */
+static void fuzz__check_history_free(const plod_refiner *incremental, const plod_planet *planet,
+                                     const plod_camera *camera, const plod_refine_params *rp,
+                                     const plod_refine_stats *st)
+{
+    if (rp->hysteresis || st->truncated)
+        return;
+    plod_refiner *fresh = NULL;
+    FUZZ_CHECK(plod_refiner_create(&fresh, planet) == PLOD_OK, "fresh refiner");
+    plod_refine_stats fst;
+    FUZZ_CHECK(plod_refiner_update(fresh, camera, rp, &fst) == PLOD_OK,
+               "a fresh refiner refused what the incremental one accepted");
+    if (!fst.truncated) {
+        size_t n = 0, m = 0;
+        uint64_t *a = fuzz__leaf_set(incremental, &n), *b = fuzz__leaf_set(fresh, &m);
+        FUZZ_CHECK(n == m && memcmp(a, b, 2 * n * sizeof *a) == 0,
+                   "incremental refinement (%zu leaves) differs from a fresh one (%zu)", n, m);
+        free(a), free(b);
+        size_t va = 0, vb = 0;
+        const uint32_t *oa = plod_refiner_visible(incremental, &va);
+        const uint32_t *ob = plod_refiner_visible(fresh, &vb);
+        const plod_sector *sa = plod_refiner_sectors(incremental, NULL);
+        const plod_sector *sb = plod_refiner_sectors(fresh, NULL);
+        FUZZ_CHECK(va == vb && va == st->sectors_after_budget, "visible %zu vs %zu", va, vb);
+        for (size_t k = 0; k < va; k++)
+            FUZZ_CHECK(sa[oa[k]].id == sb[ob[k]].id, "visible order differs at %zu", k);
+    }
+    plod_refiner_destroy(fresh);
+}
+
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
     fuzz_input in = {data, size};
@@ -521,6 +575,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         if (s != PLOD_OK)
             continue;
         fuzz__check_frame(refiner, &planet, &rp, &st);
+        fuzz__check_history_free(refiner, &planet, &camera, &rp, &st);
         size_t count = 0;
         const plod_sector *sectors = plod_refiner_sectors(refiner, &count);
         if (f == frames - 1 || (fuzz_u8(&in) & 1))

@@ -102,6 +102,7 @@ run_one() { # harness, extra libFuzzer args...
 
 cmd=${1:-smoke}
 shift || true
+[ "$cmd" = repro ] || bash tools/install_deps.sh fuzz
 harnesses=("$@")
 [ ${#harnesses[@]} -eq 0 ] && [ "$cmd" != repro ] && harnesses=("${ALL_HARNESSES[@]}")
 mkdir -p "$OUT"

@@ -1,25 +1,59 @@
 #!/usr/bin/env bash
-# Installs the Debian packages Planet LOD needs (only those missing).
-# Usage: bash tools/install_deps.sh [--blender] [--bench]
+# The one list of the Debian 12 packages Planet LOD needs, by command.  Every
+# command of the README, the Makefile and .ci/run installs what it uses from
+# here (only what is missing), so a fresh machine needs nothing by hand.
+#
+#   bash tools/install_deps.sh COMMAND...
+#
+# COMMAND  who calls it                       groups
+# flyby    tools/run_flyby.sh (main command)  build blender
+# tests    tools/run_tests.sh (test command)  build test blender
+# ci       tools/run_tests.sh with CI=true    build test blender fuzz
+# sanitize tools/sanitize.sh                  build test blender
+# fuzz     tools/fuzz.sh                      build fuzz
+# bench    bench/run_all.sh                   build test blender
+# soak     make soak                          build blender
+#
+# Debian's Blender is installed without its recommends, and then lacks what
+# it loads at run time: libepoxy opens libEGL.so.1 (Blender aborts without
+# it, even in background mode) and the viewport under Xvfb needs Mesa's GL.
 set -euo pipefail
-packages=(build-essential pkg-config python3 python3-dev python3-setuptools python3-pytest
-          python3-numpy libopenimageio-dev wcslib-dev)
-for arg in "$@"; do
-  case "$arg" in
-    --blender) packages+=(blender xvfb xauth python3-openimageio) ;;
-    --bench) packages+=(blender python3-matplotlib python3-openimageio clang) ;;
-    --fuzz) packages+=(clang llvm) ;;
-  esac
+
+declare -A GROUP=(
+    [build]="build-essential pkg-config python3 python3-dev python3-setuptools
+             libopenimageio-dev wcslib-dev"
+    [test]="python3-pytest python3-numpy python3-matplotlib"
+    [blender]="blender libegl1 libgl1 libegl-mesa0 libglx-mesa0 libgl1-mesa-dri
+               xvfb xauth python3-openimageio"
+    [fuzz]="clang llvm libclang-rt-14-dev"
+)
+declare -A COMMAND=(
+    [flyby]="build blender"
+    [tests]="build test blender"
+    [ci]="build test blender fuzz"
+    [sanitize]="build test blender"
+    [fuzz]="build fuzz"
+    [bench]="build test blender"
+    [soak]="build blender"
+)
+
+[ $# -gt 0 ] || { echo "usage: $0 {${!COMMAND[*]}}..." | tr ' ' '|' >&2; exit 2; }
+packages=()
+for command in "$@"; do
+    [ -n "${COMMAND[$command]:-}" ] || { echo "install_deps: unknown command '$command'" >&2; exit 2; }
+    for group in ${COMMAND[$command]}; do
+        packages+=(${GROUP[$group]})
+    done
 done
 missing=()
-for p in "${packages[@]}"; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+for p in $(printf '%s\n' "${packages[@]}" | sort -u); do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
 if [ ${#missing[@]} -gt 0 ]; then
-  echo "planetlod: installing ${missing[*]}"
-  SUDO=""
-  [ "$(id -u)" -ne 0 ] && SUDO="sudo"
-  export DEBIAN_FRONTEND=noninteractive
-  $SUDO apt-get update -q
-  $SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
+    echo "planetlod: installing ${missing[*]}"
+    SUDO=""
+    [ "$(id -u)" -ne 0 ] && SUDO="sudo"
+    export DEBIAN_FRONTEND=noninteractive
+    $SUDO apt-get update -q
+    $SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
 fi

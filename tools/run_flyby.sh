@@ -6,7 +6,7 @@
 # Extra arguments go to tools/flyby.py (e.g. --frames 31-60 --samples 32).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash tools/install_deps.sh --blender
+bash tools/install_deps.sh flyby
 bash tools/build.sh
 BLENDER=${BLENDER:-blender}
 /usr/bin/python3 tools/install_addon.py --blender "$BLENDER"

@@ -7,9 +7,9 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 if [ "${CI:-}" = true ]; then
-    bash tools/install_deps.sh --blender --fuzz
+    bash tools/install_deps.sh ci
 else
-    bash tools/install_deps.sh --blender
+    bash tools/install_deps.sh tests
 fi
 bash tools/build.sh
 PYTHON=${PYTHON:-/usr/bin/python3}

@@ -27,6 +27,7 @@ PYTHON=${PYTHON:-/usr/bin/python3}
 BUILD=$ROOT/build/sanitize
 LOG=$BUILD/sanitize.log
 
+bash tools/install_deps.sh sanitize
 # The uninstrumented in-place build too: tests that spawn python/blender
 # subprocesses import that one.
 bash tools/build.sh

@@ -201,10 +201,8 @@ def _refresh_locked(obj, scene, params, build_mesh, for_render):
         frozen = obj.planet_lod.freeze_lod and st.frozen_camera is not None and not for_render
         if not frozen:
             camera = core.make_camera(params)
-            if for_render:
-                # from the base sectors: the sector set *and order* (so the mesh
-                # bytes) depend on this camera only, not on earlier frames
-                planet.reset()
+            # without hysteresis (renders) the sector set and the order meshes
+            # are emitted in depend on this camera only, never on earlier frames
             stats = core.refine(planet, camera, settings, hysteresis=not for_render)
             if build_mesh:  # refuse before the mesh (or anything in bpy) is touched
                 core.check_mesh_size(stats, settings["template_level"])
