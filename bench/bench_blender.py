@@ -1,4 +1,4 @@
-"""The Blender hand-off (issue 6, part 5), run inside Blender 3.4:
+"""The Blender hand-off (part 5 of bench/README.md), run inside Blender 3.4:
 
     blender -b --factory-startup --python bench/bench_blender.py -- \
         [--frames 36] [--quality FINAL] [--out bench/results]

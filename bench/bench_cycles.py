@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""LOD + Cycles vs Cycles adaptive subdivision with displacement (issue 6, part 3).
+"""LOD + Cycles vs Cycles adaptive subdivision with displacement (part 3 of bench/README.md).
 
     /usr/bin/python3 bench/bench_cycles.py [--frames 3] [--resolution 320x180]
         [--samples 16] [--ref-samples 64] [--out bench/results]

@@ -1,6 +1,8 @@
 #!/usr/bin/env python3
-"""Camera-path benchmark (thesis 000_59ebda7e9bf9fb33.txt, chapter 6) plus the
-LOD-vs-uniform and sea-level-skipping comparisons (issue 6, parts 1, 2, 4).
+"""Camera-path benchmark (K. Gasiński, comparison of real-time terrain
+visualisation methods on the sphere, master's thesis, Gdańsk University of
+Technology, 2010, chapter 6) plus the LOD-vs-uniform and sea-level-skipping
+comparisons (parts 1, 2, 4 of bench/README.md).
 
     /usr/bin/python3 bench/bench_path.py [--frames 240] [--smoke] [--out bench/results]
 

@@ -1,4 +1,4 @@
-"""Projection benchmark (issue 3, item 7): QSC forward+inverse points/s on one
+"""Projection benchmark: QSC forward+inverse points/s on one
 core through the vectorised C path, plus round-trip errors and cell-area
 ratios for every mapping.  Prints a table; asserts nothing about speed.
 

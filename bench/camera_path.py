@@ -1,5 +1,6 @@
-"""The recorded camera path of the thesis-style benchmark (chapter 6 of
-000_59ebda7e9bf9fb33.txt: an 80 s animation replayed frame by frame).
+"""The recorded camera path of the camera-path benchmark (chapter 6 of
+K. Gasiński's master's thesis, Gdańsk University of Technology, 2010: an 80 s
+animation replayed frame by frame).
 
 The path lives in bench/camera_path.csv as keyframes
     t_s, dir_x, dir_y, dir_z, altitude_m, fwd_x, fwd_y, fwd_z, segment

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Plots and the results table of the benchmarks (issue 6).
+"""Plots and the results table of the benchmarks.
 
     /usr/bin/python3 bench/report.py [--results bench/results] [--command "bench/run_all.sh"]
 

@@ -1,6 +1,6 @@
 #!/bin/sh
-# All benchmarks of issue 6 in one command (README "Benchmarks"):
-#   bench/run_all.sh            full run (4.5 min on 2 idle cores, 15-25 min when shared)
+# All benchmarks in one command (README "Benchmarks"):
+#   bench/run_all.sh            full run (~4.5 min on 2 idle cores)
 #   bench/run_all.sh --smoke    CI-sized run (< 60 s), results in bench/results/smoke
 # Builds the extension in place if needed, then runs bench_path.py (parts 1, 2, 4),
 # bench_blender.py (part 5: -b, and --gpu under xvfb-run when available),

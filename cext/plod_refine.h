@@ -1,5 +1,7 @@
-/* plod_refine.h -- HRTMR split/merge refinement of spherical triangle
- * sectors (thesis 000, sections 5.2-5.3), leaves only, implicit ids.
+/* plod_refine.h -- HRTMR (Hybrid Real-Time Mesh Refinement) split/merge
+ * refinement of spherical triangle sectors, leaves only, implicit ids
+ * (K. Gasiński, master's thesis, Gdańsk University of Technology, 2010,
+ * sections 5.2-5.3).
  *
  * Cube-sphere: 12 base sectors, two per face, on the 8 cube corners; CAR:
  * 8 octahedron sectors in the octahedral square.  Split = longest-edge
@@ -44,7 +46,7 @@ enum {
 
 typedef enum plod_criterion {
     PLOD_CRITERION_PIXEL_ERROR = 0, /* screen-space error in pixels */
-    PLOD_CRITERION_SIDE_DISTANCE    /* thesis: side / distance borders */
+    PLOD_CRITERION_SIDE_DISTANCE    /* Gasiński: side / distance borders */
 } plod_criterion;
 
 typedef struct plod_refine_params {

@@ -1,5 +1,8 @@
-/* refine.c -- HRTMR split/merge refinement (thesis 000, 5.2-5.3), leaves
- * only, with implicit longest-edge-bisection ids.
+/* refine.c -- HRTMR (Hybrid Real-Time Mesh Refinement) split/merge
+ * refinement, leaves only, with implicit longest-edge-bisection ids.
+ * K. Gasiński, "Porównanie metod wizualizacji terenu w czasie rzeczywistym"
+ * (comparison of real-time terrain visualisation methods), master's thesis,
+ * Gdańsk University of Technology, 2010, sections 5.2-5.3.
  *
  * Bit rules (libleb-style heap ids):
  *   id        = base << 56 | heap,  heap = 1 << level | path bits

@@ -18,16 +18,6 @@
 #include "fuzz_input.h"
 #include "plod_projection.h"
 
-/* Declared by the projection stage later; weak so the harness links before. */
-plod_status plod_dir_to_face_n(plod_projection projection, size_t n,
-                               const double *dirs, int *faces, double *u,
-                               double *v, int *stat);
-plod_status plod_face_to_dir_n(plod_projection projection, size_t n,
-                               const int *faces, const double *u,
-                               const double *v, double *dirs, int *stat);
-#pragma weak plod_dir_to_face_n
-#pragma weak plod_face_to_dir_n
-
 #define MAX_POINTS 8
 #define DEG (3.14159265358979323846 / 180.0)
 
@@ -213,7 +203,7 @@ static void fuzz__vectorised(plod_projection p, fuzz_input *in)
         }
         FUZZ_CHECK(all == first, "p=%d n-form status %d, first failure %d", p, all, first);
     }
-    if (plod_dir_to_face_n) {
+    {
         for (size_t i = 0; i < n; i++) {
             dirs[3 * i] = a[i];
             dirs[3 * i + 1] = b[i];
@@ -233,7 +223,7 @@ static void fuzz__vectorised(plod_projection p, fuzz_input *in)
                            "dir_to_face_n differs from scalar at %zu", i);
         }
     }
-    if (plod_face_to_dir_n) {
+    {
         plod_face_to_dir_n(p, n, faces, a, b, dirs, use_stat ? stat : NULL);
         for (size_t i = 0; i < n; i++) {
             double d[3];

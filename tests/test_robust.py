@@ -1,5 +1,5 @@
-"""Robustness of the C core against bad height maps (issue 7 item 4, the parts
-that live below the add-on): NaN texels are refused with a readable error."""
+"""Robustness of the C core against bad height maps (the parts that live below
+the add-on): NaN texels are refused with a readable error."""
 import math
 import struct
 

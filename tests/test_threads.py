@@ -1,4 +1,4 @@
-"""Thread safety of planetlod (issue 7 item 5).  refine() and mesh() release
+"""Thread safety of planetlod.  refine() and mesh() release
 the GIL, so a render thread and the viewport (or any two Python threads) can be
 inside one Planet at once: each Planet serialises its methods with its own
 lock.  Separate planets share no mutable state and run in parallel."""

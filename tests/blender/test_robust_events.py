@@ -1,4 +1,4 @@
-"""Issue 7 item 4, bad events: deleting the planet or its camera while a live
+"""Bad events: deleting the planet or its camera while a live
 refresh is scheduled (live.tick debounces: the first tick schedules, a later
 one runs it), cancelling a flyby mid-way (KeyboardInterrupt from the progress
 report, and a failed frame through the operator), and reloading a .blend whose

@@ -1,4 +1,4 @@
-"""Issue 7 item 4, bad input: missing / zero-byte / corrupt / 1x1 / 30000x15000 /
+"""Bad input: missing / zero-byte / corrupt / 1x1 / 30000x15000 /
 NaN height maps (planet_add and Load Height Map); camera inside the planet, at
 its centre, orthographic with zero scale; radius 0 / negative / 1e12; template
 density x sectors above the mesh limit.  Each: a readable report, no crash, and

@@ -1,4 +1,4 @@
-"""Issue 7 item 5 in Blender: a render and a viewport refresh never work on the
+"""Threads in Blender: a render and a viewport refresh never work on the
 same planet at once (live.py docstring).  The viewport timer (live.tick) skips
 while a render is in progress and while another thread holds the refresh lock;
 render-side refreshes wait for the lock instead of skipping; planet_add turns
