@@ -302,6 +302,52 @@ def flyby_pose(frame, path_frames, radius, skim_height=5.0, ground_height=None,
     return look_matrix(location, forward, north if tilt < 0.5 else direction)
 
 
+# ---- placing objects by longitude, latitude, altitude ------------------------
+
+def geo_pose(radius, longitude, latitude, east=0.0, north=0.0, altitude=0.0, heading=0.0,
+             pitch=0.0, roll=0.0, base_height=None):
+    """Row-major 4x4 matrix (planet space, float64) of an object placed on a planet.
+
+    longitude/latitude (degrees) pick a point; east/north (metres, along the
+    surface) move from it, so a float32 property animated in metres keeps
+    millimetre steps where degrees would not (1e-7 degrees is 1 cm).  The
+    object is `altitude` metres above base_height(direction) (None: the
+    sphere of `radius`).  heading (degrees from north towards east), pitch
+    (degrees above the horizon) and roll (degrees about the view direction)
+    turn its -Z axis (a camera's view) and +Y (its up)."""
+    lon, lat = math.radians(longitude), math.radians(latitude)
+    p0 = (math.cos(lat) * math.cos(lon), math.cos(lat) * math.sin(lon), math.sin(lat))
+    east0 = (-math.sin(lon), math.cos(lon), 0.0)
+    north0 = _cross(p0, east0)
+    distance = math.hypot(east, north)
+    if distance > 0.0:
+        tangent = tuple((east * e + north * n) / distance for e, n in zip(east0, north0))
+        angle = distance / radius
+        up = _normalise(tuple(math.cos(angle) * p + math.sin(angle) * t
+                              for p, t in zip(p0, tangent)))
+    else:
+        up = p0
+    east_axis = _cross((0.0, 0.0, 1.0), up)
+    if sum(c * c for c in east_axis) < 1e-24:  # at a pole: keep the start's east
+        east_axis = east0
+    east_axis = _normalise(east_axis)
+    north_axis = _cross(up, east_axis)
+    r = radius + (base_height(up) if base_height else 0.0) + altitude
+    location = tuple(c * r for c in up)
+    h, p, q = math.radians(heading), math.radians(pitch), math.radians(roll)
+    level = tuple(math.cos(h) * n + math.sin(h) * e for n, e in zip(north_axis, east_axis))
+    right = tuple(math.cos(h) * e - math.sin(h) * n for n, e in zip(north_axis, east_axis))
+    forward = tuple(math.cos(p) * l + math.sin(p) * u for l, u in zip(level, up))
+    cam_up = _cross(right, forward)
+    right, cam_up = (tuple(math.cos(q) * r_ + math.sin(q) * u_ for r_, u_ in zip(right, cam_up)),
+                     tuple(-math.sin(q) * r_ + math.cos(q) * u_ for r_, u_ in zip(right, cam_up)))
+    z = tuple(-c for c in forward)
+    return ((right[0], cam_up[0], z[0], location[0]),
+            (right[1], cam_up[1], z[1], location[1]),
+            (right[2], cam_up[2], z[2], location[2]),
+            (0.0, 0.0, 0.0, 1.0))
+
+
 # ---- CSV and contact sheet ----------------------------------------------------
 
 CSV_FIELDS = ("frame", "sectors_total", "sectors_after_backface", "sectors_after_frustum",

@@ -21,13 +21,13 @@ calls the frame_change handlers from the render job's thread.  So:
     handlers that write data from the render thread.
 """
 import hashlib
+import math
 import threading
 import time
 from array import array
 
 import bpy
 from bpy.app.handlers import persistent
-from mathutils import Matrix
 
 from . import core, materials
 
@@ -110,13 +110,61 @@ def _evaluated(obj, depsgraph):
         return obj
 
 
+# ---- floating origin ------------------------------------------------------------
+# The planet object's local space is planet space shifted by the *anchor*, a
+# float64 planet-space point kept as an ID property (ID properties are double;
+# Blender's transforms, vertices and float properties are float32).  The
+# add-on moves the anchor to the render camera (flyby, geo-placed cameras), so
+# the camera sits at the world origin and the surface around it is written
+# with small float32 coordinates: millimetres stay millimetres in the space
+# Cycles and EEVEE render.  Without an anchor (0, 0, 0) local space is planet
+# space.
+
+ANCHOR_KEY = "planet_lod_anchor"
+
+
+def anchor(obj):
+    """The planet-space point at the planet object's local origin (float64)."""
+    value = obj.get(ANCHOR_KEY)
+    try:
+        point = tuple(float(v) for v in value)
+    except (TypeError, ValueError):
+        return (0.0, 0.0, 0.0)
+    if len(point) != 3 or not all(math.isfinite(v) for v in point):
+        return (0.0, 0.0, 0.0)
+    return point
+
+
+def set_anchor(obj, point):
+    """Moves the anchor; True when it changed (the mesh must then be rewritten)."""
+    point = [float(v) for v in point]
+    if list(anchor(obj)) == point:
+        return False
+    obj[ANCHOR_KEY] = point
+    return True
+
+
+def to_planet_space(obj, matrix_world):
+    """Row-major 4x4 (lists of float64) of a world matrix in planet space: the
+    float32 product stays small near the anchor, the anchor is added in float64."""
+    local = obj.matrix_world.inverted_safe() @ matrix_world
+    rows = [list(row) for row in local]
+    for i, a in enumerate(anchor(obj)):
+        rows[i][3] += a
+    return rows
+
+
 def camera_params_from_object(obj, cam, scene, depsgraph=None):
     """planetlod.Camera keyword arguments for a camera object at render resolution."""
     cam = _evaluated(cam, depsgraph)
     data = cam.data
     res_x, res_y, asp_x, asp_y = _render_resolution(scene)
-    matrix = _evaluated(obj, depsgraph).matrix_world.inverted_safe() @ cam.matrix_world
-    return dict(matrix_world=[list(row) for row in matrix],
+    evaluated = _evaluated(obj, depsgraph)
+    local = evaluated.matrix_world.inverted_safe() @ cam.matrix_world
+    matrix = [list(row) for row in local]
+    for i, a in enumerate(anchor(obj)):
+        matrix[i][3] += a
+    return dict(matrix_world=matrix,
                 type='ORTHO' if data.type == 'ORTHO' else 'PERSP', lens=data.lens,
                 sensor_width=data.sensor_width, sensor_height=data.sensor_height,
                 sensor_fit=data.sensor_fit, ortho_scale=data.ortho_scale,
@@ -142,9 +190,9 @@ def viewport():
 
 def camera_params_from_view(obj, view):
     space, region, r3d = view
-    matrix = obj.matrix_world.inverted_safe() @ r3d.view_matrix.inverted()
+    matrix = to_planet_space(obj, r3d.view_matrix.inverted())
     ortho = r3d.view_perspective == 'ORTHO'
-    return dict(matrix_world=[list(row) for row in matrix], type='ORTHO' if ortho else 'PERSP',
+    return dict(matrix_world=matrix, type='ORTHO' if ortho else 'PERSP',
                 lens=space.lens, sensor_width=72.0, sensor_height=72.0, sensor_fit='AUTO',
                 ortho_scale=max(r3d.view_distance * 72.0 / space.lens, 1e-6),
                 clip_start=space.clip_start, clip_end=space.clip_end,
@@ -258,7 +306,13 @@ def write_mesh(obj, mesh):
     """Replaces obj's mesh geometry from planetlod buffers via foreach_set.  The
     topology is kept (only coordinates and attributes rewritten) when the vertex
     and triangle counts did not change: emission uses one template, so equal
-    counts mean equal triangle lists."""
+    counts mean equal triangle lists.
+
+    Vertices are written relative to the anchor (floating origin), with the
+    core's normals as custom split normals (both sides of a sector border get
+    the same normal), below-sea ground lifted to the sea surface, and the
+    per-vertex attributes the materials shade with (surface.py)."""
+    from . import surface
     me = obj.data
     nv, nt = mesh.vertex_count, mesh.triangle_count
     if len(me.vertices) != nv or len(me.polygons) != nt:
@@ -270,13 +324,19 @@ def write_mesh(obj, mesh):
         me.polygons.foreach_set("loop_start", array("i", range(0, 3 * nt, 3)))
         me.polygons.foreach_set("loop_total", array("i", [3]) * nt)
         me.polygons.foreach_set("use_smooth", array("i", [1]) * nt)
-    me.vertices.foreach_set("co", mesh.positions)
-    origin = tuple(mesh.origin)
-    if any(origin):
-        me.transform(Matrix.Translation(origin))
+    s = obj.planet_lod
+    sea_level = s.sea_level if s.use_sea_level else None
+    data = surface.vertex_data(mesh, anchor(obj), s.radius, sea_level)
+    me.vertices.foreach_set("co", data.positions)
     _set_attribute(me, "planet_uv", 'FLOAT2', 'POINT', "vector", mesh.uv)
     _set_attribute(me, "sector_level", 'INT', 'FACE', "value", mesh.sector_level)
+    for name, values in data.attributes.items():
+        _set_attribute(me, name, 'FLOAT', 'POINT', "value", values)
     me.update()
+    if nv:
+        me.use_auto_smooth = True
+        me.auto_smooth_angle = math.pi
+        me.normals_split_custom_set_from_vertices(data.normals)
 
 
 def _set_attribute(me, name, data_type, domain, field, values):
@@ -310,13 +370,60 @@ def refresh_for_render(scene, depsgraph=None):
     return results
 
 
+# ---- objects placed by longitude / latitude ------------------------------------
+
+def _geo_objects(scene):
+    return [o for o in scene.objects if o.planet_lod_geo.enabled and o.planet_lod_geo.planet
+            and o.planet_lod_geo.planet.planet_lod.enabled]
+
+
+def place_geo_objects(scene, depsgraph=None):
+    """Places every geo-placed object of `scene` (floating-origin ones first, so
+    the others land relative to the moved anchor).  Property values come from
+    the evaluated object: during `-a` renders animation is evaluated there."""
+    objects = sorted(_geo_objects(scene), key=lambda o: not o.planet_lod_geo.floating_origin)
+    for obj in objects:
+        place_geo_object(obj, scene, depsgraph)
+
+
+def place_geo_object(obj, scene=None, depsgraph=None):
+    from . import render
+    geo = _evaluated(obj, depsgraph).planet_lod_geo
+    planet_obj = obj.planet_lod_geo.planet
+    if not geo.enabled or planet_obj is None or not planet_obj.planet_lod.enabled:
+        return
+    s = planet_obj.planet_lod
+    base = None
+    try:
+        if geo.altitude_reference == 'GROUND':
+            planet = core.build_planet(s.as_dict())
+            sea = s.sea_level if s.use_sea_level else None
+            base = ((lambda d: max(planet.height(*d), sea)) if sea is not None
+                    else (lambda d: planet.height(*d)))
+        elif geo.altitude_reference == 'SEA' and s.use_sea_level:
+            base = (lambda d: s.sea_level)
+    except core.native_errors() as exc:
+        state(planet_obj).error = str(exc)
+        return
+    pose = core.geo_pose(s.radius, geo.longitude, geo.latitude, east=geo.east,
+                         north=geo.north, altitude=geo.altitude, heading=geo.heading,
+                         pitch=geo.pitch, roll=geo.roll, base_height=base)
+    render.place_in_planet_space(obj, planet_obj, pose, floating_origin=geo.floating_origin)
+    if geo.floating_origin:
+        for other in _geo_objects(scene) if scene is not None else ():
+            if other is not obj and other.planet_lod_geo.planet == planet_obj \
+                    and not other.planet_lod_geo.floating_origin:
+                place_geo_object(other, None, depsgraph)
+
+
 # ---- live update (viewport) -------------------------------------------------------
 
 def _render_key(obj, params):
     if params is None:
         return None
     return (repr(params), repr(sorted(obj.planet_lod.as_dict().items())), obj.planet_lod.morph,
-            obj.planet_lod.show_levels, len(obj.data.polygons), tuple(obj.matrix_world.col[3]))
+            obj.planet_lod.show_levels, len(obj.data.polygons), tuple(obj.matrix_world.col[3]),
+            anchor(obj))
 
 
 def _signature(obj, scene):
@@ -394,6 +501,7 @@ def on_frame_change_pre(scene, depsgraph=None):
 @persistent
 def on_frame_change_post(scene, depsgraph=None):
     if not _in_refresh() and core.native is not None:
+        place_geo_objects(scene, depsgraph)
         refresh_for_render(scene, depsgraph)
 
 

@@ -242,3 +242,5 @@ def ensure_ocean(obj):
             bsdf.inputs["Roughness"].default_value = 0.2
         mesh.materials.append(water)
     ocean.scale = (radius, radius, radius)
+    from . import live
+    ocean.location = tuple(-c for c in live.anchor(obj))  # the planet's centre

@@ -121,6 +121,52 @@ class PLOD_PG_settings(bpy.types.PropertyGroup):
             setattr(self, key, value)
 
 
+def _geo_changed(self, context):
+    from . import live
+    live.place_geo_object(self.id_data, context.scene if context else None)
+
+
+def _planet_poll(self, obj):
+    return obj.type == 'MESH' and obj.planet_lod.enabled
+
+
+class PLOD_PG_geo(bpy.types.PropertyGroup):
+    """object.planet_lod_geo: places any object (a camera above all) on a planet by
+    longitude, latitude, altitude, heading, pitch and roll, in float64, with the
+    floating origin following it.  Animate east/north (metres) for smooth
+    motion: float32 degrees step by about a metre on Earth."""
+    enabled: BoolProperty(name="Place on planet", default=False, update=_geo_changed,
+                          description="Place this object on a planet by longitude, "
+                                      "latitude and altitude")
+    planet: PointerProperty(name="Planet", type=bpy.types.Object, poll=_planet_poll,
+                            update=_geo_changed)
+    longitude: FloatProperty(name="Longitude", description="Degrees east", default=0.0,
+                             min=-360.0, max=360.0, precision=6, update=_geo_changed)
+    latitude: FloatProperty(name="Latitude", description="Degrees north", default=0.0,
+                            min=-90.0, max=90.0, precision=6, update=_geo_changed)
+    east: FloatProperty(name="East", description="Metres east of longitude/latitude, along "
+                        "the surface (animate this, not the degrees, for smooth motion)",
+                        default=0.0, unit='LENGTH', update=_geo_changed)
+    north: FloatProperty(name="North", description="Metres north of longitude/latitude",
+                         default=0.0, unit='LENGTH', update=_geo_changed)
+    altitude: FloatProperty(name="Altitude", default=2.0, unit='LENGTH', update=_geo_changed,
+                            description="Metres above the reference")
+    altitude_reference: EnumProperty(name="Above", default="GROUND", update=_geo_changed, items=[
+        ("GROUND", "Ground", "Altitude above the terrain under the object"),
+        ("SEA", "Sea level", "Altitude above sea level (the radius without a sea)"),
+        ("RADIUS", "Radius", "Altitude above the planet's radius")])
+    heading: FloatProperty(name="Heading", description="Degrees from north towards east",
+                           default=0.0, update=_geo_changed)
+    pitch: FloatProperty(name="Pitch", description="Degrees above the horizon (-90: down)",
+                         default=0.0, min=-90.0, max=90.0, update=_geo_changed)
+    roll: FloatProperty(name="Roll", description="Degrees about the view direction",
+                        default=0.0, update=_geo_changed)
+    floating_origin: BoolProperty(name="Floating origin", default=True, update=_geo_changed,
+                                  description="Move the planet so this object sits at the "
+                                              "planet object's origin (full precision around "
+                                              "it; use it on the render camera)")
+
+
 def template_level(settings):
     from . import core
     return core.template_level_from_density(int(settings.template_density))
@@ -128,16 +174,18 @@ def template_level(settings):
 
 SETTING_NAMES = [name for name in PLOD_PG_settings.__annotations__]
 
-classes = (PLOD_PG_settings,)
+classes = (PLOD_PG_settings, PLOD_PG_geo)
 
 
 def register():
     for cls in classes:
         bpy.utils.register_class(cls)
     bpy.types.Object.planet_lod = PointerProperty(type=PLOD_PG_settings)
+    bpy.types.Object.planet_lod_geo = PointerProperty(type=PLOD_PG_geo)
 
 
 def unregister():
+    del bpy.types.Object.planet_lod_geo
     del bpy.types.Object.planet_lod
     for cls in reversed(classes):
         bpy.utils.unregister_class(cls)

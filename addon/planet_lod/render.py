@@ -5,6 +5,7 @@ height); the frame_change_pre handler places it with core.flyby_pose(), a pure
 function of the frame number, so any sub-range renders exactly the frames of
 the full path (render-farm splits).
 """
+import math
 import os
 import sys
 import time
@@ -52,15 +53,30 @@ def place_camera(cam, scene, frame):
     pose = core.flyby_pose(frame, cam["planet_lod_path_frames"], s.radius,
                            skim_height=cam["planet_lod_skim_height"],
                            ground_height=ground_height)
-    cam.matrix_world = planet_obj.matrix_world @ Matrix(pose)
-    location = Matrix(pose).translation
-    ground = ground_height(tuple(location.normalized())) if ground_height else 0.0
+    place_in_planet_space(cam, planet_obj, pose)
+    location = [row[3] for row in pose[:3]]
+    distance = math.sqrt(sum(c * c for c in location))
+    ground = ground_height(tuple(c / distance for c in location)) if ground_height else 0.0
     # clip start from the height above the *terrain* (not the radius; the
     # ocean sphere covers ground below sea level): the lowest ray of the frame
     # meets the ground about 1.5 heights away
-    above_ground = max(location.length - s.radius - max(ground, 0.0), 0.0)
+    above_ground = max(distance - s.radius - max(ground, 0.0), 0.0)
     cam.data.clip_start = max(0.05, min(above_ground * 0.1, s.radius * 0.01))
     cam.data.clip_end = s.radius * 6.0
+
+
+def place_in_planet_space(obj, planet_obj, pose, floating_origin=True):
+    """Puts `obj` at `pose` (row-major 4x4, planet space, float64).  With
+    floating_origin the planet's anchor moves to the pose's location first, so
+    the object lands at the planet object's origin (the world origin for a
+    planet at the origin) and everything near it keeps float32 precision."""
+    location = [row[3] for row in pose[:3]]
+    if floating_origin and live.set_anchor(planet_obj, location):
+        live.mark_dirty(planet_obj)
+    a = live.anchor(planet_obj)
+    local = Matrix([list(row[:3]) + [row[3] - a[i]] for i, row in enumerate(pose[:3])]
+                   + [[0.0, 0.0, 0.0, 1.0]])
+    obj.matrix_world = planet_obj.matrix_world @ local
 
 
 def place_flyby_cameras(scene):
@@ -142,9 +158,9 @@ def _render_frames(scene, planet_obj, first, last, out_dir, path_frames, report)
                 row["frame"] = frame
                 row["render_s"] = round(time.perf_counter() - t0, 3)
                 cam = scene.camera
-                local = planet_obj.matrix_world.inverted_safe() @ cam.matrix_world
-                row["camera_altitude_m"] = round(local.translation.length
-                                                 - planet_obj.planet_lod.radius, 3)
+                local = live.to_planet_space(planet_obj, cam.matrix_world)
+                distance = math.sqrt(sum(local[i][3] ** 2 for i in range(3)))
+                row["camera_altitude_m"] = round(distance - planet_obj.planet_lod.radius, 3)
                 rows.append(row)
                 csv.write(core.csv_row(row) + "\n")
                 csv.flush()

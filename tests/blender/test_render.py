@@ -9,9 +9,11 @@ import bpy
 import plod_testlib as lib
 
 
-def analytic_disk(scene, cam, radius):
+def analytic_disk(scene, cam, planet):
     """(cx, cy, r_px) of the sphere's image for a camera looking at its centre."""
-    d = cam.matrix_world.translation.length
+    from planet_lod import live
+    radius = planet.planet_lod.radius
+    d = math.sqrt(sum(row[3] ** 2 for row in live.to_planet_space(planet, cam.matrix_world)[:3]))
     res_x, res_y = scene.render.resolution_x, scene.render.resolution_y
     assert cam.data.sensor_fit == 'AUTO' and res_x >= res_y
     f_px = cam.data.lens / cam.data.sensor_width * res_x
@@ -43,10 +45,9 @@ def main():
     with open(os.path.join(out, "stats.csv")) as f:
         lines = f.read().splitlines()
     assert len(lines) == 5 and lines[0].startswith("frame,")
-    radius = planet.planet_lod.radius
     for frame in range(1, 5):
         scene.frame_set(frame)
-        cx, cy, r_px = analytic_disk(scene, scene.camera, radius)
+        cx, cy, r_px = analytic_disk(scene, scene.camera, planet)
         image = bpy.data.images.load(os.path.join(out, f"frame_{frame:04d}.png"))
         w, h = image.size
         px = list(image.pixels)
