@@ -115,6 +115,9 @@ class _SceneState:
         self.frame = scene.frame_current
         self.filepath = scene.render.filepath
         self.file_format = scene.render.image_settings.file_format
+        self.planet_name = planet_obj.name
+        anchor = planet_obj.get(live.ANCHOR_KEY)
+        self.anchor = None if anchor is None else list(live.anchor(planet_obj))
 
     def restore(self):
         scene = self.scene
@@ -128,6 +131,13 @@ class _SceneState:
         scene.camera = bpy.data.objects.get(self.camera_name) if self.camera_name else None
         scene.render.filepath = self.filepath
         scene.render.image_settings.file_format = self.file_format
+        planet_obj = bpy.data.objects.get(self.planet_name)
+        if planet_obj is not None:  # the floating origin where it was
+            if self.anchor is None:
+                planet_obj.pop(live.ANCHOR_KEY, None)
+            else:
+                live.set_anchor(planet_obj, self.anchor)
+            live.mark_dirty(planet_obj)
         scene.frame_set(self.frame)  # handlers rebuild the LOD for the restored camera
 
 

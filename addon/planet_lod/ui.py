@@ -141,7 +141,44 @@ class PLOD_PT_stats(PLOD_PT_base, bpy.types.Panel):
             row.label(text=f"{s['mesh_ms']:.1f} ms")
 
 
-classes = (PLOD_PT_planet, PLOD_PT_lod, PLOD_PT_stats)
+class PLOD_PT_geo(bpy.types.Panel):
+    """Properties editor > Object > Planet Placement: an object by longitude/latitude."""
+    bl_label = "Planet Placement"
+    bl_space_type = 'PROPERTIES'
+    bl_region_type = 'WINDOW'
+    bl_context = "object"
+    bl_options = {'DEFAULT_CLOSED'}
+
+    @classmethod
+    def poll(cls, context):
+        return context.object is not None and not context.object.planet_lod.enabled
+
+    def draw_header(self, context):
+        self.layout.prop(context.object.planet_lod_geo, "enabled", text="")
+
+    def draw(self, context):
+        geo = context.object.planet_lod_geo
+        layout = self.layout
+        layout.use_property_split = True
+        layout.active = geo.enabled
+        layout.prop(geo, "planet")
+        col = layout.column(align=True)
+        col.prop(geo, "longitude")
+        col.prop(geo, "latitude")
+        col = layout.column(align=True)
+        col.prop(geo, "east")
+        col.prop(geo, "north")
+        col = layout.column(align=True)
+        col.prop(geo, "altitude")
+        col.prop(geo, "altitude_reference")
+        col = layout.column(align=True)
+        col.prop(geo, "heading")
+        col.prop(geo, "pitch")
+        col.prop(geo, "roll")
+        layout.prop(geo, "floating_origin")
+
+
+classes = (PLOD_PT_planet, PLOD_PT_lod, PLOD_PT_stats, PLOD_PT_geo)
 
 
 def register():
