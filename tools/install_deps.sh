@@ -22,7 +22,7 @@ set -euo pipefail
 declare -A GROUP=(
     [build]="build-essential pkg-config python3 python3-dev python3-setuptools
              libopenimageio-dev wcslib-dev"
-    [test]="python3-pytest python3-numpy python3-matplotlib"
+    [test]="python3-pytest python3-numpy python3-matplotlib nodejs"
     [blender]="blender libegl1 libgl1 libegl-mesa0 libglx-mesa0 libgl1-mesa-dri
                xvfb xauth python3-openimageio"
     [fuzz]="clang llvm libclang-rt-14-dev"
