@@ -171,7 +171,8 @@ def test_blendfile_job_chunks_give_identical_frames(tmp_path):
     """A saved .blend with a planet and its flyby camera, submitted as Flamenco's
     add-on would (its `eval` settings evaluated in that Blender scene), renders
     frames 1-2 and 4 as one task (two runs in one Blender) and as three tasks:
-    the same pictures, and each frame shows its own LOD."""
+    the same pictures, and each frame shows its own LOD.  A .blend whose height
+    map is not on the worker fails its task."""
     env = worker_env(tmp_path)
     job_type = tmp_path / "job_type.json"
     proc = subprocess.run([NODE, os.path.join(FARM, "harness", "compile.js"), "--job-type", JOB_TYPE],
@@ -179,9 +180,10 @@ def test_blendfile_job_chunks_give_identical_frames(tmp_path):
     assert proc.returncode == 0, proc.stderr
     job_type.write_text(proc.stdout)
     blend, evaluated = tmp_path / "shot.blend", tmp_path / "evaluated.json"
+    moved_map = tmp_path / "moved_map.blend"
     proc = subprocess.run([BLENDER, "-b", "--factory-startup", "--python-exit-code", "1", "--python",
                            os.path.join(ROOT, "tests", "blender", "farm_planet_blend.py"), "--",
-                           str(blend), str(job_type), str(evaluated)],
+                           str(blend), str(job_type), str(evaluated), str(moved_map)],
                           env=env, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, (proc.stdout + proc.stderr)[-6000:]
     values = json.loads(evaluated.read_text())
@@ -203,6 +205,15 @@ def test_blendfile_job_chunks_give_identical_frames(tmp_path):
         pictures[chunk_size] = {f: png_picture(os.path.join(out, f)) for f in os.listdir(out)}
     assert pictures[3] == pictures[1]
     assert len(set(pictures[3].values())) == 3
+
+    # A planet whose height map the worker cannot read fails its task with the
+    # reason, instead of rendering the mesh saved in the .blend.
+    job = compile_job(tmp_path, "moved", {
+        "source": "blendfile", "frames": "1", "render_output_root": str(tmp_path / "moved"),
+        "blendfile": str(moved_map), "format": "PNG", "scene": "Scene"})
+    with pytest.raises(AssertionError, match=r"planet_lod: Earth: height map not found: .*gone"):
+        run_job(job, env)
+    assert not (tmp_path / "moved").exists()
 
 
 def _chunk(folder, header, rows, frames_with_pictures):

@@ -73,6 +73,10 @@ const JOB_TYPE = {
           description: "Flyby: the Planet LOD checkout as workers see it (tools/flyby.py, " +
               "farm/flamenco/merge_chunks.py); {planet_lod} is a Manager variable" },
 
+        { key: "addon_module", type: "string", default: "planet_lod", visible: "submission",
+          description: "Blendfile: the add-on's module on the workers (planet_lod; an extension " +
+              "installed in Blender 4.2+ is bl_ext.<repository>.planet_lod)" },
+
         // source = blendfile: filled in by the Flamenco add-on when it submits.
         { key: "blendfile", type: "string", description: "Path of the .blend to render",
           visible: "web" },
@@ -137,6 +141,9 @@ function validateSettings(settings) {
             throw `setting "planet_lod_root" is required for a flyby`;
         }
     } else {
+        if (!/^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*$/.test(String(settings.addon_module))) {
+            throw `setting "addon_module" is "${settings.addon_module}"; expected a Python module name`;
+        }
         if (!settings.blendfile) {
             throw `setting "blendfile" is required to render a .blend`;
         }
@@ -194,8 +201,7 @@ function runDirName(run) {
     return `frames-${pad4(run[0])}-${pad4(run[1])}`;
 }
 
-// Blender as the Manager configures it; the add-on must be enabled before a
-// .blend with planets loads, so that its load handler builds their meshes.
+// Blender as the Manager configures it.
 function blenderCommand(blendfile, argsBefore, args, steps) {
     return author.Command("blender-render", {
         exe: "{blender}",
@@ -252,12 +258,28 @@ function authorFlybyTasks(job, settings, chunks, outputDir) {
     job.addTask(merge);
 }
 
+// Python run after the .blend loaded: fails the task when a planet could not
+// be built (a height map the .blend names is not on this worker, the add-on
+// is missing), instead of rendering the mesh saved in the file.
+function planetCheck(module) {
+    return [
+        "import bpy, importlib",
+        `live = importlib.import_module('${module}.live')`,
+        "bad = ['%s: %s' % (o.name, live.state(o).error) for o in live.planets(bpy.context.scene)" +
+            " if live.state(o).error]",
+        "assert not bad, 'planet_lod: ' + '; '.join(bad)",
+    ].join("; ");
+}
+
 function authorBlendfileTasks(job, settings, chunks, outputDir) {
-    const before = ["--addons", "planet_lod"];
+    // Enabled before the .blend loads, so that the add-on's load handler
+    // builds the planets from their maps.
+    const before = ["--addons", settings.addon_module];
+    const check = ["--python-exit-code", "1", "--python-expr", planetCheck(settings.addon_module)];
     const sceneArgs = settings.scene ? ["--scene", settings.scene] : [];
     for (const chunk of chunks) {
         const task = author.Task(`render-${chunk}`, "blender");
-        const args = sceneArgs.concat(["--render-output", path.join(outputDir, "frame_######")]);
+        const args = sceneArgs.concat(check, ["--render-output", path.join(outputDir, "frame_######")]);
         // Blender runs its arguments in order: one process renders every run.
         let steps = 0;
         for (const run of consecutiveRuns(chunk)) {

@@ -1,15 +1,18 @@
 """Run inside Blender by tests/test_farm.py (not a test of its own):
 
     blender -b --factory-startup --python tests/blender/farm_planet_blend.py -- \\
-        OUT.blend JOB_TYPE.json EVALUATED.json
+        OUT.blend JOB_TYPE.json EVALUATED.json MOVED_MAP.blend
 
 Saves a small .blend with a planet and its flyby camera (the camera path is
 placed by the add-on's frame-change handler, so the .blend animates without
-keyframes), then evaluates the job type's `eval` expressions in that scene the
+keyframes) and MOVED_MAP.blend, the same with its height map at a path that
+no longer exists (as on a worker that cannot see the artist's map); then evaluates the job type's `eval` expressions in that scene the
 way the Flamenco add-on does when it submits (names C, bpy, jobname, Path,
 abspath, last_n_dir_parts, settings) and writes {key: value} as JSON.
 """
 import json
+import os
+import shutil
 import sys
 import types
 from pathlib import Path
@@ -17,7 +20,7 @@ from pathlib import Path
 import addon_utils
 import bpy
 
-blend_path, job_type_path, evaluated_path = sys.argv[sys.argv.index("--") + 1:]
+blend_path, job_type_path, evaluated_path, moved_map_path = sys.argv[sys.argv.index("--") + 1:]
 addon_utils.enable("planet_lod", default_set=True, handle_error=None)
 from planet_lod import render  # noqa: E402  (needs the add-on enabled)
 
@@ -53,3 +56,10 @@ names = {
 evaluated = {s["key"]: eval(s["eval"], {}, names) for s in job_type["settings"] if "eval" in s}
 json.dump(evaluated, open(evaluated_path, "w"))
 print("PLOD-FARM evaluated", evaluated)
+
+gone = os.path.join(os.path.dirname(moved_map_path), "gone", "earth-height.png")
+os.makedirs(os.path.dirname(gone))
+shutil.copy(bpy.path.abspath(planet.planet_lod.heightmap), gone)
+planet.planet_lod.heightmap = gone
+bpy.ops.wm.save_as_mainfile(filepath=moved_map_path)
+shutil.rmtree(os.path.dirname(gone))

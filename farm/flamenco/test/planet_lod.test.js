@@ -143,6 +143,11 @@ test("flyby: a chunk across a gap in the frames runs one flyby per run of frames
     assert.deepEqual(renderedFrames(job, "flyby"), [[1, 2, 3, 7], [8, 9]]);
 });
 
+// Fails the task when a planet could not be built from its maps.
+const CHECK = "import bpy, importlib; live = importlib.import_module('planet_lod.live'); " +
+    "bad = ['%s: %s' % (o.name, live.state(o).error) for o in live.planets(bpy.context.scene) " +
+    "if live.state(o).error]; assert not bad, 'planet_lod: ' + '; '.join(bad)";
+
 test("blendfile: -s A -e B -a over each chunk, the add-on enabled before the file loads", () => {
     const job = blendJob({ frames: "1-12", chunk_size: 5 });
     assert.deepEqual(job.tasks.map((t) => t.name), ["render-1-5", "render-6-10", "render-11,12"]);
@@ -151,15 +156,16 @@ test("blendfile: -s A -e B -a over each chunk, the add-on enabled before the fil
         parameters: {
             exe: "{blender}", exeArgs: "{blenderArgs}", argsBefore: ["--addons", "planet_lod"],
             blendfile: "/jobs/shot.blend",
-            args: ["--scene", "Scene", "--render-output", `/render/shot/${STAMP}/frame_######`,
-                   "-s", "6", "-e", "10", "-a"],
+            args: ["--scene", "Scene", "--python-exit-code", "1", "--python-expr", CHECK,
+                   "--render-output", `/render/shot/${STAMP}/frame_######`, "-s", "6", "-e", "10", "-a"],
         },
         totalStepCount: 5,
     }]);
     const line = flamenco.blenderCommandLine(flamenco.expandVariables(job, {
         blender: "/usr/bin/blender", blenderArgs: "-b -y" }).tasks[2].commands[0].parameters);
     assert.deepEqual(line, ["/usr/bin/blender", "-b", "-y", "--addons", "planet_lod", "/jobs/shot.blend",
-                            "--scene", "Scene", "--render-output", `/render/shot/${STAMP}/frame_######`,
+                            "--scene", "Scene", "--python-exit-code", "1", "--python-expr", CHECK,
+                            "--render-output", `/render/shot/${STAMP}/frame_######`,
                             "-s", "11", "-e", "12", "-a"]);
     for (const task of job.tasks) {
         assert.deepEqual(task.dependencies, []);
@@ -170,8 +176,17 @@ test("blendfile: a chunk across a gap renders each run in the same Blender", () 
     const job = blendJob({ frames: "1-2,4", chunk_size: 3, scene: "" });
     assert.equal(job.tasks.length, 1);
     const args = job.tasks[0].commands[0].parameters.args;
-    assert.deepEqual(args.slice(2), ["-s", "1", "-e", "2", "-a", "-s", "4", "-e", "4", "-a"]);
-    assert.equal(args[0], "--render-output");
+    assert.deepEqual(args.slice(6), ["-s", "1", "-e", "2", "-a", "-s", "4", "-e", "4", "-a"]);
+    assert.equal(args[0], "--python-exit-code");
+    assert.equal(args[4], "--render-output");
+});
+
+test("blendfile: an add-on installed as a Blender 4.2+ extension has its own module name", () => {
+    const job = blendJob({ frames: "1", addon_module: "bl_ext.user_default.planet_lod" });
+    const parameters = job.tasks[0].commands[0].parameters;
+    assert.deepEqual(parameters.argsBefore, ["--addons", "bl_ext.user_default.planet_lod"]);
+    assert.ok(argValue(parameters.args, "--python-expr").includes(
+        "importlib.import_module('bl_ext.user_default.planet_lod.live')"));
 });
 
 test("every frame exactly once, in chunks of the chosen size, for many ranges and sizes", () => {
@@ -258,6 +273,8 @@ test("bad settings are refused with the setting's name", () => {
     const blendCases = [
         [{ blendfile: "" }, /"blendfile" is required/],
         [{ format: "FFMPEG" }, /movie \(FFMPEG\)/],
+        [{ addon_module: "planet_lod'); import os; ('" }, /"addon_module"/],
+        [{ addon_module: "" }, /"addon_module"/],
     ];
     for (const [settings, pattern] of blendCases) {
         assert.throws(() => blendJob(settings),
