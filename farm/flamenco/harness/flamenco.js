@@ -12,9 +12,11 @@
 //   eval, evalInfo, visible, required, editable);
 // * compileJob(job) gets an authored job { jobID, name, jobType, priority,
 //   status, created, settings, metadata, storage, workerTagUUID, tasks,
-//   addTask() }; author.Task(name, type) and author.Command(name, parameters,
-//   totalStepCount) make tasks and commands; task.addCommand() and
-//   task.addDependency() fill them.  Values cross into the Manager as copies:
+//   addTask() }; author.Task(name, type) makes a task { uUID, name, type,
+//   priority, commands, dependencies, addCommand(), addDependency() } and
+//   author.Command(name, parameters, totalStepCount) a command; field names
+//   are the Manager's Go names with the first letter lower-cased (UUID ->
+//   uUID).  Values cross into the Manager as copies:
 //   a command's parameters when author.Command() is called, a task when
 //   job.addTask() is called (its later changes are lost);
 // * an error of a built-in (a bad frame range, an unnamed task) and anything
@@ -233,9 +235,11 @@ function snapshot(value) {
     return value === undefined ? null : JSON.parse(JSON.stringify(value));
 }
 
+// Field names as a script sees them: the Manager's engine lower-cases the
+// first letter of its Go field names (UUID -> uUID, JobID -> jobID).
 class AuthoredTask {
     constructor(name, type) {
-        this.uuid = crypto.randomUUID();
+        this.uUID = crypto.randomUUID();
         this.name = name;
         this.type = type;
         this.priority = 50;
@@ -433,14 +437,14 @@ function compile(jobTypeName, compileJob, submitted) {
                 throw new Error("job.addTask() takes a task made by author.Task()");
             }
             tasks.push({
-                uuid: task.uuid,
+                uuid: task.uUID,
                 name: task.name,
                 type: task.type,
                 priority: task.priority,
                 commands: task.commands.map((c) => ({
                     name: c.name, parameters: c.parameters, totalStepCount: c.totalStepCount,
                 })),
-                dependencies: task.dependencies.map((dep) => dep.uuid),
+                dependencies: task.dependencies.map((dep) => dep.uUID),
             });
         },
     };

@@ -104,6 +104,9 @@ function compileJob(job) {
     job.addTask(second);
     second.addDependency(first);  // too late: the job holds a copy already
     job.settings.message = job.settings.message + "!";
+    if (typeof first.uUID !== "string" || first.uuid !== undefined || typeof job.jobID !== "string") {
+        throw "field names are not the Manager's";
+    }
 }`);
     const job = flamenco.loadJobType(file).compile({ name: "j", settings: { message: "hello" } });
     assert.deepEqual(job.tasks.map((task) => task.name), ["first", "second"]);
