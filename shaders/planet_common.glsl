@@ -73,7 +73,9 @@ vec2 plod_dir_to_face(int projection, vec3 d, out int face)
 {
   if (projection == 4) {
     face = 0;
-    return vec2(atan(d.y, d.x) / PLOD_PI, asin(clamp(d.z, -1.0, 1.0)) / (0.5 * PLOD_PI));
+    /* latitude by atan, not asin: GLSL's asin may be off by 1e-4 rad
+       towards the poles (llvmpipe), atan stays within float rounding */
+    return vec2(atan(d.y, d.x) / PLOD_PI, atan(d.z, length(d.xy)) / (0.5 * PLOD_PI));
   }
   face = plod_select_face(d);
   vec3 l = plod_to_local(face, d);
