@@ -16,7 +16,9 @@
 #
 # Debian's Blender is installed without its recommends, and then lacks what
 # it loads at run time: libepoxy opens libEGL.so.1 (Blender aborts without
-# it, even in background mode) and the viewport under Xvfb needs Mesa's GL.
+# it, even in background mode) and the viewport under Xvfb needs Mesa's GL;
+# the add-on's per-vertex work uses NumPy, which official Blenders bundle and
+# Debian's does not depend on.
 set -euo pipefail
 
 declare -A GROUP=(
@@ -24,7 +26,7 @@ declare -A GROUP=(
              libopenimageio-dev wcslib-dev"
     [test]="python3-pytest python3-numpy python3-matplotlib nodejs"
     [blender]="blender libegl1 libgl1 libegl-mesa0 libglx-mesa0 libgl1-mesa-dri
-               xvfb xauth python3-openimageio"
+               xvfb xauth python3-openimageio python3-numpy"
     [fuzz]="clang llvm libclang-rt-14-dev"
 )
 declare -A COMMAND=(
