@@ -74,11 +74,6 @@ def build_scene(args):
         if args.threads:
             scene.render.threads_mode = 'FIXED'
             scene.render.threads = args.threads
-    world = scene.world or bpy.data.worlds.new("World")
-    scene.world = world
-    world.use_nodes = True
-    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.004, 0.006, 0.012, 1)
-    world.node_tree.nodes["Background"].inputs["Strength"].default_value = 1.0
     sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", 'SUN'))
     sun.data.energy = 4.0
     sun.rotation_euler = (0.9, 0.0, 2.2)

@@ -29,7 +29,7 @@ from array import array
 import bpy
 from bpy.app.handlers import persistent
 
-from . import core, materials
+from . import atmosphere, core, materials
 
 RUNTIME = {}
 DEBOUNCE_S = 0.15
@@ -279,6 +279,7 @@ def _refresh_locked(obj, scene, params, build_mesh, for_render):
         if st.material_dirty or build_mesh:
             materials.ensure(obj)
             st.material_dirty = False
+        atmosphere.update(obj, scene, params["matrix_world"])  # sky and haze from this camera
         st.dirty = st.geometry_dirty = False
         st.error = ""
         return st.stats

@@ -118,48 +118,147 @@ def color_image(settings, create=True):
     return converted
 
 
+DETAIL_PERIOD = 20000.0  # metres: detail texture coordinates wrap here (float32-safe)
+
+
+def detail_offset(anchor):
+    """The anchor modulo DETAIL_PERIOD: object coordinates plus this are planet
+    coordinates shifted by a whole number of periods, small and precise near
+    the camera, so the ground's detail texture stays put as the anchor moves."""
+    return tuple(a - DETAIL_PERIOD * math.floor(a / DETAIL_PERIOD) for a in anchor)
+
+
+def _attribute(b, name):
+    node = b.node("ShaderNodeAttribute")
+    node.attribute_type = 'GEOMETRY'
+    node.attribute_name = name
+    return node
+
+
+def _noise(b, coords, scale, detail=4.0):
+    node = b.node("ShaderNodeTexNoise")
+    node.noise_dimensions = '3D'
+    b.link(coords, node.inputs["Vector"])
+    node.inputs["Scale"].default_value = scale
+    node.inputs["Detail"].default_value = detail
+    node.inputs["Roughness"].default_value = 0.55
+    return b.socket(node.outputs["Fac"], vector=False)
+
+
+def _ground_types(b, s, base, airless):
+    """Ground colour below the colour map's resolution: rock on steep slopes, snow
+    above a latitude-dependent snow line, sand at the shore, vegetation tinted
+    by the colour map, regolith on airless bodies; by per-vertex height, slope
+    and latitude, textured by noise in planet-anchored coordinates and faded in
+    within a few kilometres of the camera (the colour map rules beyond)."""
+    height = b.socket(_attribute(b, "planet_height").outputs["Fac"], vector=False)
+    slope = b.socket(_attribute(b, "planet_slope").outputs["Fac"], vector=False)
+    latitude = b.socket(_attribute(b, "planet_latitude").outputs["Fac"], vector=False)
+    coords = b.node("ShaderNodeTexCoord")
+    detail = b.socket(coords.outputs["Object"]) + b.input_vector("plod_detail_offset")
+    fine = _noise(b, detail, 1.3)          # ~1 m grain
+    mid = _noise(b, detail, 0.09)          # ~10 m patches
+    coarse = _noise(b, detail, 0.004)      # ~250 m fields
+    camera_data = b.node("ShaderNodeCameraData")
+    distance = b.socket(camera_data.outputs["View Distance"], vector=False)
+    near = 1.0 - b.smoothstep(1500.0, 12000.0, distance)
+    grain = (fine - 0.5) * 0.5 + (mid - 0.5) * 0.6 + (coarse - 0.5) * 0.5 + 1.0
+    rock = (0.30, 0.28, 0.26)
+    if airless:
+        ground = base * (grain * near + (1.0 - near))
+        ground = b.mix(ground, b.const(rock) * grain, b.smoothstep(30.0, 45.0, slope) * near * 0.5)
+        return ground, fine, near
+    vegetation = base * (grain * 0.9 + 0.1)
+    steep = b.smoothstep(28.0, 42.0, slope)
+    rock_colour = b.const(rock) * (grain * 0.8 + 0.2)
+    lat_abs = b.math("ABSOLUTE", latitude)
+    snow_line = 5200.0 - b.power(lat_abs * (1.0 / 90.0), 1.4) * 5400.0 + (mid - 0.5) * 400.0
+    snow = b.smoothstep(-150.0, 150.0, height - snow_line) * (1.0 - steep * 0.75)
+    shore = (1.0 - b.smoothstep(2.0, 12.0 + coarse * 10.0, height)) * (1.0 - steep)
+    sand = b.const((0.76, 0.70, 0.52)) * (fine * 0.25 + 0.85)
+    ground = b.mix(vegetation, rock_colour, steep)
+    ground = b.mix(ground, sand, shore)
+    ground = b.mix(ground, b.const((0.93, 0.95, 0.98)) * (fine * 0.1 + 0.9), snow)
+    # the colour map's own colour from afar; the ground types close up
+    return b.mix(base, ground, near * 0.85 + 0.15 * steep), fine, near
+
+
+def _water(b, s):
+    """Principled water: low roughness (sun glint), tinted by depth where the
+    height map has bathymetry, ripples near the camera."""
+    depth = b.socket(_attribute(b, "planet_sea_depth").outputs["Fac"], vector=False)
+    deep = 1.0 - b.exp(depth * (-1.0 / 40.0))
+    colour = b.mix(b.const((0.02, 0.10, 0.14)), b.const((0.004, 0.02, 0.06)), deep * 0.8 + 0.2)
+    water = b.node("ShaderNodeBsdfPrincipled")
+    b.link(colour, water.inputs["Base Color"])
+    water.inputs["Roughness"].default_value = 0.07
+    water.inputs["IOR"].default_value = 1.33
+    return water
+
+
 def planet_material(obj):
+    from . import atmosphere
+    from . import nodes as node_maths
     s = obj.planet_lod
     name = PLANET_PREFIX + obj.name
     material = bpy.data.materials.get(name) or bpy.data.materials.new(name)
     color_map = bpy.path.abspath(s.color_map) if s.color_map else ""
-    key = (color_map, s.projection, round(s.radius, 3), round(s.height_scale, 3))
+    atm = atmosphere.params(s)
+    key = (color_map, s.projection, round(s.radius, 3), round(s.height_scale, 3),
+           s.use_sea_level, repr(atm), 2)
     if material.get("planet_lod_key") == repr(key):
         return material
-    nodes, links, bsdf = _new_tree(material)
+    material.use_nodes = True
+    tree = material.node_tree
+    tree.nodes.clear()
+    out = tree.nodes.new("ShaderNodeOutputMaterial")
+    out.location = (600, 0)
+    b = node_maths.Builder(tree)
     image = color_image(s)
     if image is not None:
-        uv = nodes.new("ShaderNodeAttribute")
-        uv.attribute_type = 'GEOMETRY'
-        uv.attribute_name = "planet_uv"
-        uv.location = (-400, 0)
-        tex = nodes.new("ShaderNodeTexImage")
-        tex.location = (-150, 0)
+        uv = _attribute(b, "planet_uv")
+        tex = b.node("ShaderNodeTexImage")
         tex.image = image
         tex.extension = 'REPEAT'
-        links.new(uv.outputs["Vector"], tex.inputs["Vector"])
-        links.new(tex.outputs["Color"], bsdf.inputs["Base Color"])
-    else:  # elevation ramp: distance from the centre, radius .. radius + height_scale
-        coords = nodes.new("ShaderNodeTexCoord")
-        coords.location = (-800, 0)
-        length = nodes.new("ShaderNodeVectorMath")
-        length.operation = 'LENGTH'
-        length.location = (-600, 0)
-        remap = nodes.new("ShaderNodeMapRange")
-        remap.location = (-400, 0)
-        remap.inputs["From Min"].default_value = s.radius
-        remap.inputs["From Max"].default_value = s.radius + max(s.height_scale, 1.0)
-        ramp = nodes.new("ShaderNodeValToRGB")
-        ramp.location = (-150, 0)
+        tex.interpolation = 'Cubic'
+        b.links.new(uv.outputs["Vector"], tex.inputs["Vector"])
+        base = b.socket(tex.outputs["Color"])
+    else:  # elevation ramp over the height above the radius / sea level
+        height = _attribute(b, "planet_height")
+        remap = b.node("ShaderNodeMapRange")
+        remap.inputs["From Min"].default_value = 0.0
+        remap.inputs["From Max"].default_value = max(s.height_scale, 1.0)
+        ramp = b.node("ShaderNodeValToRGB")
         elements = ramp.color_ramp.elements
         elements[0].color = (0.18, 0.16, 0.14, 1.0)
         elements[1].color = (0.92, 0.9, 0.88, 1.0)
         mid = elements.new(0.45)
         mid.color = (0.55, 0.42, 0.3, 1.0)
-        links.new(coords.outputs["Object"], length.inputs[0])
-        links.new(length.outputs["Value"], remap.inputs["Value"])
-        links.new(remap.outputs["Result"], ramp.inputs["Fac"])
-        links.new(ramp.outputs["Color"], bsdf.inputs["Base Color"])
+        b.links.new(height.outputs["Fac"], remap.inputs["Value"])
+        b.links.new(remap.outputs["Result"], ramp.inputs["Fac"])
+        base = b.socket(ramp.outputs["Color"])
+    ground_colour, grain, near = _ground_types(b, s, base, airless=atm is None)
+    ground = b.node("ShaderNodeBsdfPrincipled")
+    b.link(ground_colour, ground.inputs["Base Color"])
+    ground.inputs["Roughness"].default_value = 0.9
+    bump = b.node("ShaderNodeBump")
+    bump.inputs["Strength"].default_value = 0.35
+    bump.inputs["Distance"].default_value = 0.05
+    b.link(grain * near, bump.inputs["Height"])
+    b.links.new(bump.outputs["Normal"], ground.inputs["Normal"])
+    surface = ground.outputs[0]
+    if s.use_sea_level:
+        water = _water(b, s)
+        height = b.socket(_attribute(b, "planet_height").outputs["Fac"], vector=False)
+        sea = 1.0 - b.smoothstep(0.0, 1.5, height)
+        mix = b.node("ShaderNodeMixShader")
+        b.link(sea, mix.inputs["Fac"])
+        b.links.new(surface, mix.inputs[1])
+        b.links.new(water.outputs[0], mix.inputs[2])
+        surface = mix.outputs[0]
+    if atm is not None:
+        surface = atmosphere.aerial_perspective(b, atm, surface)
+    tree.links.new(surface, out.inputs["Surface"])
     material["planet_lod_key"] = repr(key)
     return material
 
@@ -203,6 +302,8 @@ def ensure(obj):
         mats.append(material)
     elif mats[0] != material:
         mats[0] = material
+    from . import atmosphere
+    atmosphere.ensure_world(obj, None)
     ensure_ocean(obj)
 
 

@@ -71,6 +71,8 @@ class PLOD_OT_planet_add(bpy.types.Operator):
             else:
                 from . import materials
                 materials.ensure(obj)
+            from . import atmosphere  # the planet's sky becomes the scene's world
+            atmosphere.ensure_world(obj, context.scene, assign=True)
         except core.native_errors() as exc:
             if obj is not None:
                 bpy.data.objects.remove(obj)
@@ -266,7 +268,7 @@ class PLOD_OT_preset_add(AddPresetBase, bpy.types.Operator):
         "projection", "radius", "heightmap", "height_scale", "use_sea_level", "sea_level",
         "ocean_sphere", "color_map", "criterion", "max_pixel_error", "split_border",
         "merge_border", "template_density", "budget", "max_level", "backface", "frustum",
-        "morph")]
+        "morph", "atmosphere", "atmosphere_density")]
 
 
 class PLOD_OT_quality_preset_add(AddPresetBase, bpy.types.Operator):

@@ -7,18 +7,19 @@ PLANETS = {
     "EARTH": dict(label="Earth", radius=6371000.0, heightmap="earth-topology.png",
                   color_map="earth-blue-marble.jpg", height_scale=8848.0,
                   use_sea_level=True, sea_level=0.0, ocean_sphere=False,
-                  projection="QSC"),
+                  projection="QSC", atmosphere="EARTH"),
     "MOON": dict(label="Moon", radius=1737400.0, heightmap="lunar_bumpmap.jpg",
                  color_map="lunar_surface_2k.jpg", height_scale=19000.0,
-                 use_sea_level=False, sea_level=0.0, ocean_sphere=False, projection="QSC"),
+                 use_sea_level=False, sea_level=0.0, ocean_sphere=False, projection="QSC",
+                 atmosphere="NONE"),
     "MARS": dict(label="Mars-like (procedural)", radius=3389500.0,
                  heightmap="mars-like-height.png", color_map="mars-like-color.png",
                  height_scale=25000.0, use_sea_level=False, sea_level=0.0,
-                 ocean_sphere=False, projection="QSC"),
+                 ocean_sphere=False, projection="QSC", atmosphere="MARS"),
     "ASTEROID": dict(label="Asteroid (procedural)", radius=20000.0,
                      heightmap="asteroid-height.png", color_map="", height_scale=6000.0,
                      use_sea_level=False, sea_level=0.0, ocean_sphere=False,
-                     projection="QSC"),
+                     projection="QSC", atmosphere="NONE"),
 }
 
 PLANET_ITEMS = [(key, value["label"], f"{value['label']} planet preset")

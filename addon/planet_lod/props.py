@@ -39,6 +39,11 @@ def _preview_changed(self, context):
     _changed(self, context)
 
 
+def _atmosphere_items():
+    from .atmosphere import ATMOSPHERE_ITEMS
+    return ATMOSPHERE_ITEMS
+
+
 def _camera_poll(self, obj):
     return obj.type == 'CAMERA'
 
@@ -102,6 +107,12 @@ class PLOD_PG_settings(bpy.types.PropertyGroup):
                                     update=_changed,
                                     description="Set the LOD camera's clip range before renders")
     quality: EnumProperty(name="Quality", items=presets.QUALITY_ITEMS, default="PREVIEW")
+    atmosphere: EnumProperty(name="Atmosphere", default="NONE", update=_material_changed,
+                             items=_atmosphere_items(),
+                             description="Sky and aerial perspective (the planet's world)")
+    atmosphere_density: FloatProperty(name="Air density", default=1.0, min=0.0, max=100.0,
+                                      soft_max=10.0, update=_material_changed,
+                                      description="Scales the atmosphere's scattering")
 
     def as_dict(self):
         """The plain settings dict core.py works with (absolute file paths)."""

@@ -63,6 +63,11 @@ class PLOD_PT_planet(PLOD_PT_base, bpy.types.Panel):
         sub.active = s.use_sea_level
         sub.prop(s, "ocean_sphere")
         sub.prop(s, "skip_sea")
+        row = col.row(align=True)
+        row.prop(s, "atmosphere")
+        sub = row.row(align=True)
+        sub.active = s.atmosphere != 'NONE'
+        sub.prop(s, "atmosphere_density", text="Density")
         st = live.RUNTIME.get(obj.name_full)
         if st is not None and st.error:
             box = layout.box()
