@@ -120,7 +120,7 @@ void plod_mesh_params_init(plod_mesh_params *params, const plod_planet *planet,
 static double plod__height(const plod_planet *planet, const double dir[3])
 {
     /* Without a map the planet is a perfect sphere: skip the call. */
-    return planet->heightmap ? plod_planet_height(planet, dir) : 0.0;
+    return planet->heightmap || planet->detail ? plod_planet_height(planet, dir) : 0.0;
 }
 
 void plod_mesh_origin(const plod_planet *planet, const double eye[3],
@@ -423,6 +423,8 @@ struct plod_mesh_cache {
     const plod_planet *planet;
     double radius, height_scale;
     const void *heightmap, *normalmap;
+    const void *detail;
+    uint64_t detail_stamp;
     int template_level;
     size_t entry_bytes;
     plod__cache_entry *entries;
@@ -555,13 +557,17 @@ static void plod__cache_bind(plod_mesh_cache *c, const plod_mesh_params *params,
     const plod_planet *p = params->planet;
     if (c->planet != p || c->template_level != params->template_level ||
         c->radius != p->radius || c->height_scale != p->height_scale ||
-        c->heightmap != (const void *)p->heightmap || c->normalmap != (const void *)p->normalmap)
+        c->heightmap != (const void *)p->heightmap || c->normalmap != (const void *)p->normalmap ||
+        c->detail != (const void *)p->detail ||
+        (p->detail && c->detail_stamp != plod_detail_stamp(p->detail)))
         plod_mesh_cache_clear(c);
     c->planet = p;
     c->radius = p->radius;
     c->height_scale = p->height_scale;
     c->heightmap = p->heightmap;
     c->normalmap = p->normalmap;
+    c->detail = p->detail;
+    c->detail_stamp = p->detail ? plod_detail_stamp(p->detail) : 0;
     c->template_level = params->template_level;
     c->entry_bytes = vertices_per_sector * PLOD__VERTEX_CACHE_BYTES;
 }
@@ -574,6 +580,45 @@ typedef struct plod__slot_cache {
     unsigned char *fresh; /* new entry data to fill (a miss that fits), or NULL */
     uint64_t key;
 } plod__slot_cache;
+
+/* Detail octaves per vertex.  A shared vertex must get the same octaves
+ * from every sector holding it, so the band is a function of what the
+ * vertex lies on: inside the sector, the octaves its template cells
+ * resolve (cell = longest corner chord / n, as the refiner's error
+ * counts); on an edge, those of the edge's own cells (the chord of its two
+ * corners: the same bits from both sides); at a corner, shared by sectors
+ * of several sizes, every octave (the refiner keeps the octaves a sector
+ * drops under the pixel error, so a corner stands out by less).
+ * band[0..2]: edge opposite corner k (weight k zero); band[3]: inside. */
+static double plod__chord2(const double a[3], const double b[3])
+{
+    double d[3] = {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
+    return d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+}
+
+static void plod__detail_bands(const plod_planet *planet, const double corners[3][3], int n,
+                               int band[4])
+{
+    double longest = 0.0;
+    for (int k = 0; k < 3; k++) {
+        double c2 = plod__chord2(corners[(k + 1) % 3], corners[(k + 2) % 3]);
+        double cell = sqrt(c2) * planet->radius / (double)n;
+        band[k] = plod_detail_octaves_for_cell(planet->detail, cell);
+        longest = c2 > longest ? c2 : longest;
+    }
+    band[3] = plod_detail_octaves_for_cell(planet->detail,
+                                           sqrt(longest) * planet->radius / (double)n);
+}
+
+static int plod__vertex_band(const int k[3], const int band[4])
+{
+    int zeros = (k[0] == 0) + (k[1] == 0) + (k[2] == 0);
+    if (zeros == 2)
+        return PLOD_DETAIL_MAX_OCTAVES; /* a corner: all */
+    if (zeros == 1)
+        return band[k[0] == 0 ? 0 : (k[1] == 0 ? 1 : 2)];
+    return band[3];
+}
 
 /* Computes the sector's vertices into the outputs and, when `block` is not
  * NULL, into it (every field). */
@@ -598,6 +643,9 @@ static void plod__compute_vertices(const plod__emitter *e, const plod_mesh_secto
 
     enum { ROW = (1 << PLOD_MAX_TEMPLATE_LEVEL) + 1 };
     double dirs[3 * ROW], heights[ROW], normals[3 * ROW];
+    int octaves[ROW], band[4];
+    if (planet->detail)
+        plod__detail_bands(planet, corners, n, band);
     size_t v = vbase, b = 0;
     for (int i = 0; i <= n; i++) {
         /* a row at a time: directions, then the planet's batched sampling */
@@ -605,9 +653,11 @@ static void plod__compute_vertices(const plod__emitter *e, const plod_mesh_secto
         for (int j = 0; j < row; j++) {
             int k[3] = {n - i - j, j, i};
             plod__vertex_direction(corners, k, inv_n, dirs + 3 * j);
+            if (planet->detail)
+                octaves[j] = plod__vertex_band(k, band);
         }
-        plod_planet_surface_n(planet, (size_t)row, dirs, heights,
-                              want_normal ? normals : NULL);
+        plod_planet_surface_band_n(planet, (size_t)row, dirs, planet->detail ? octaves : NULL,
+                                   heights, want_normal ? normals : NULL);
         for (int j = 0; j < row; j++, v++, b++) {
             const double *dir = dirs + 3 * j, *normal = normals + 3 * j;
             double r = planet->radius + heights[j];

@@ -3,8 +3,11 @@
  * Heights are the height map's channel 0 (normalised as the cube map
  * samples it) times height_scale, in metres above `radius`.  A negative
  * scale swaps the bounds.  Without a map the planet is a perfect sphere.
+ * A detail field (plod_detail.h) adds m(d) N(d): m sampled from its
+ * modulation map at the height map's location (1 without a map).
  */
 #include "plod_planet.h"
+#include "plod_detail.h"
 
 #include <math.h>
 #include <string.h>
@@ -43,6 +46,8 @@ plod_status plod_planet_check(const plod_planet *planet)
             plod_cubemap_channels(n) != 3)
             return PLOD_ERR_BAD_PARAM;
     }
+    if (planet->detail && !plod_detail_matches(planet->detail, planet))
+        return PLOD_ERR_BAD_PARAM;
     return PLOD_OK;
 }
 
@@ -91,7 +96,7 @@ static void plod__difference_normal(const plod_planet *planet, const double dir[
                            dir[2] + sign * frame[f][2]};
             double inv_lp = 1.0 / sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
             p[0] *= inv_lp, p[1] *= inv_lp, p[2] *= inv_lp;
-            h[s] = plod_planet_height(planet, p);
+            h[s] = plod_planet_map_height(planet, p);
         }
         slope[f] = (h[0] - h[1]) * inv_2angle;
     }
@@ -103,17 +108,62 @@ static void plod__difference_normal(const plod_planet *planet, const double dir[
         normal[c] = v[c] * inv_len;
 }
 
-double plod_planet_surface(const plod_planet *planet, const double dir[3], double normal[3])
+/* The detail field on top of the map's height and normal at dir: height
+ * += m N (first `octaves` octaves); the normal, if wanted, is rebuilt from
+ * the map normal's slope plus N's analytic slope:
+ * n ~ (R + h) d - grad_t h_map - m grad_t N. */
+static void plod__add_detail(const plod_planet *planet, const double dir[3], double m,
+                             int octaves, double *height, double *normal)
 {
+    if (!(m != 0.0) || octaves <= 0)
+        return; /* sea (m = 0) or NaN map: unchanged */
+    /* the field lives on the unit sphere: callers' directions (unit by
+     * contract, any length from Python) are renormalised, one rounding */
+    double len2 = dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2];
+    double inv = 1.0 / sqrt(len2);
+    double unit[3] = {dir[0] * inv, dir[1] * inv, dir[2] * inv};
+    dir = unit;
+    double g[3];
+    double noise = plod_detail_noise(planet->detail, dir, octaves, normal ? g : NULL);
+    double h_map = *height;
+    *height = h_map + m * noise;
+    if (!normal)
+        return;
+    double nd = normal[0] * dir[0] + normal[1] * dir[1] + normal[2] * dir[2];
+    double k = nd > 1e-3 ? (planet->radius + h_map) / nd : 0.0; /* map slope, per radian */
+    double gd = g[0] * dir[0] + g[1] * dir[1] + g[2] * dir[2];
+    double r = planet->radius + *height, v[3];
+    for (int c = 0; c < 3; c++)
+        v[c] = r * dir[c] + k * (normal[c] - nd * dir[c]) - m * (g[c] - gd * dir[c]);
+    double vlen2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+    if (!(vlen2 > 0.0) || !isfinite(vlen2))
+        return;
+    double inv_len = 1.0 / sqrt(vlen2);
+    for (int c = 0; c < 3; c++)
+        normal[c] = v[c] * inv_len;
+}
+
+static int plod__all_octaves(const plod_planet *planet)
+{
+    return planet->detail ? plod_detail_octave_count(planet->detail) : 0;
+}
+
+/* The map's height and normal at dir (no detail); *face, *u, *v: where it
+ * sampled (face -1 without a map). */
+static double plod__map_surface(const plod_planet *planet, const double dir[3], double normal[3],
+                                int *face, double *u, double *v)
+{
+    *face = -1;
     if (normal)
         normal[0] = dir[0], normal[1] = dir[1], normal[2] = dir[2];
     if (!planet->heightmap)
         return 0.0;
-    int face;
-    double u, v, sample[4] = {0.0, 0.0, 0.0, 0.0};
-    if (!plod_cubemap_locate(planet->heightmap, dir, &face, &u, &v) ||
-        !plod_cubemap_sample_face_d(planet->heightmap, face, u, v, sample))
+    double sample[4] = {0.0, 0.0, 0.0, 0.0};
+    if (!plod_cubemap_locate(planet->heightmap, dir, face, u, v) ||
+        !plod_cubemap_sample_face_d(planet->heightmap, *face, *u, *v, sample)) {
+        *face = -1;
         return NAN;
+    }
     double height = sample[0] * planet->height_scale;
     if (!normal)
         return height;
@@ -121,7 +171,7 @@ double plod_planet_surface(const plod_planet *planet, const double dir[3], doubl
         plod__difference_normal(planet, dir, planet->radius + height, normal);
         return height;
     }
-    if (plod_cubemap_sample_face_d(planet->normalmap, face, u, v, sample)) {
+    if (plod_cubemap_sample_face_d(planet->normalmap, *face, *u, *v, sample)) {
         double m[3] = {2.0 * sample[0] - 1.0, 2.0 * sample[1] - 1.0, 2.0 * sample[2] - 1.0};
         double len2 = m[0] * m[0] + m[1] * m[1] + m[2] * m[2];
         if (len2 > 0.25) { /* else interpolated across a fold: keep radial */
@@ -132,27 +182,69 @@ double plod_planet_surface(const plod_planet *planet, const double dir[3], doubl
     return height;
 }
 
+/* modulation at a located map point (1 without a map, NaN if unlocated) */
+static double plod__modulation_at(const plod_planet *planet, int face, double u, double v)
+{
+    const plod_cubemap *mod = plod_detail_modulation(planet->detail);
+    if (!planet->heightmap || !mod)
+        return 1.0;
+    double sample[4];
+    if (face < 0 || !plod_cubemap_sample_face_d(mod, face, u, v, sample))
+        return NAN;
+    return sample[0];
+}
+
+double plod_planet_map_height(const plod_planet *planet, const double dir[3])
+{
+    int face;
+    double u, v;
+    return plod__map_surface(planet, dir, NULL, &face, &u, &v);
+}
+
+double plod_planet_surface(const plod_planet *planet, const double dir[3], double normal[3])
+{
+    int face;
+    double u, v;
+    double height = plod__map_surface(planet, dir, normal, &face, &u, &v);
+    if (planet->detail)
+        plod__add_detail(planet, dir, plod__modulation_at(planet, face, u, v),
+                         plod__all_octaves(planet), &height, normal);
+    return height;
+}
+
 /* plod_planet_surface over a row of directions: one projection loop and
  * one bilinear loop per map instead of two calls per point, so the per-point
  * kernels pipeline; bit for bit the single-point results. */
-void plod_planet_surface_n(const plod_planet *planet, size_t n, const double *dirs,
-                           double *heights, double *normals)
+void plod_planet_surface_band_n(const plod_planet *planet, size_t n, const double *dirs,
+                                const int *octaves, double *heights, double *normals)
 {
     enum { CHUNK = 64 };
     if (normals)
         memcpy(normals, dirs, 3 * n * sizeof *normals);
+    int all = plod__all_octaves(planet);
     if (!planet->heightmap) {
-        for (size_t i = 0; i < n; i++)
+        for (size_t i = 0; i < n; i++) {
             heights[i] = 0.0;
+            if (planet->detail)
+                plod__add_detail(planet, dirs + 3 * i, 1.0, octaves ? octaves[i] : all,
+                                 heights + i, normals ? normals + 3 * i : NULL);
+        }
         return;
     }
     if (normals && (!planet->normalmap || plod_cubemap_channels(planet->normalmap) != 3)) {
-        for (size_t i = 0; i < n; i++) /* rare (C callers only): point by point */
-            heights[i] = plod_planet_surface(planet, dirs + 3 * i, normals + 3 * i);
+        for (size_t i = 0; i < n; i++) { /* rare (C callers only): point by point */
+            int face;
+            double u, v;
+            heights[i] = plod__map_surface(planet, dirs + 3 * i, normals + 3 * i, &face, &u, &v);
+            if (planet->detail)
+                plod__add_detail(planet, dirs + 3 * i, plod__modulation_at(planet, face, u, v),
+                                 octaves ? octaves[i] : all, heights + i, normals + 3 * i);
+        }
         return;
     }
+    const plod_cubemap *mod = planet->detail ? plod_detail_modulation(planet->detail) : NULL;
     int faces[CHUNK];
-    double u[CHUNK], v[CHUNK];
+    double u[CHUNK], v[CHUNK], modulation[CHUNK];
     double sample[4 * CHUNK], normal_sample[3 * CHUNK]; /* maps have 1..4 channels */
     size_t height_channels = (size_t)plod_cubemap_channels(planet->heightmap);
     for (size_t first = 0; first < n; first += CHUNK) {
@@ -166,21 +258,38 @@ void plod_planet_surface_n(const plod_planet *planet, size_t n, const double *di
         for (size_t i = 0; i < count; i++)
             heights[first + i] =
                 faces[i] < 0 ? NAN : sample[i * height_channels] * planet->height_scale;
-        if (!normals)
-            continue;
-        for (size_t i = 0; i < count; i++) {
-            if (faces[i] < 0)
-                continue;
-            const double *s = normal_sample + 3 * i;
-            double m[3] = {2.0 * s[0] - 1.0, 2.0 * s[1] - 1.0, 2.0 * s[2] - 1.0};
-            double len2 = m[0] * m[0] + m[1] * m[1] + m[2] * m[2];
-            if (len2 > 0.25) { /* as plod_planet_surface */
-                double inv_len = 1.0 / sqrt(len2);
-                double *normal = normals + 3 * (first + i);
-                normal[0] = m[0] * inv_len, normal[1] = m[1] * inv_len, normal[2] = m[2] * inv_len;
+        if (normals) {
+            for (size_t i = 0; i < count; i++) {
+                if (faces[i] < 0)
+                    continue;
+                const double *s = normal_sample + 3 * i;
+                double m[3] = {2.0 * s[0] - 1.0, 2.0 * s[1] - 1.0, 2.0 * s[2] - 1.0};
+                double len2 = m[0] * m[0] + m[1] * m[1] + m[2] * m[2];
+                if (len2 > 0.25) { /* as plod_planet_surface */
+                    double inv_len = 1.0 / sqrt(len2);
+                    double *normal = normals + 3 * (first + i);
+                    normal[0] = m[0] * inv_len, normal[1] = m[1] * inv_len,
+                    normal[2] = m[2] * inv_len;
+                }
             }
         }
+        if (!planet->detail)
+            continue;
+        if (mod)
+            plod_cubemap_sample_face_n(mod, count, faces, u, v, modulation);
+        for (size_t i = 0; i < count; i++) {
+            size_t at = first + i;
+            double m = !mod ? 1.0 : (faces[i] < 0 ? NAN : modulation[i]);
+            plod__add_detail(planet, dirs + 3 * at, m, octaves ? octaves[at] : all,
+                             heights + at, normals ? normals + 3 * at : NULL);
+        }
     }
+}
+
+void plod_planet_surface_n(const plod_planet *planet, size_t n, const double *dirs,
+                           double *heights, double *normals)
+{
+    plod_planet_surface_band_n(planet, n, dirs, NULL, heights, normals);
 }
 
 /* One sampling path for heights, so that mesh vertices (through
@@ -200,44 +309,16 @@ static void plod__scaled(const plod_planet *planet, double lo, double hi,
     *max_m = a < b ? b : a;
 }
 
-void plod_planet_height_range(const plod_planet *planet, double *min_m,
-                              double *max_m)
-{
-    if (!planet->heightmap) {
-        *min_m = *max_m = 0.0;
-        return;
-    }
-    double lo, hi;
-    plod_cubemap_global_range(planet->heightmap, &lo, &hi);
-    plod__scaled(planet, lo, hi, min_m, max_m);
-}
-
-void plod_planet_height_range_uv(const plod_planet *planet, int face, double u0,
-                                 double v0, double u1, double v1, double *min_m,
-                                 double *max_m)
-{
-    if (!planet->heightmap) {
-        *min_m = *max_m = 0.0;
-        return;
-    }
-    if (!plod_projection_is_cube(planet->projection)) {
-        /* the CAR map is addressed by lon/lat, not by the octahedral square */
-        plod_planet_height_range(planet, min_m, max_m);
-        return;
-    }
-    double lo, hi;
-    plod_cubemap_range(planet->heightmap, face, u0, v0, u1, v1, &lo, &hi);
-    plod__scaled(planet, lo, hi, min_m, max_m);
-}
-
-void plod_planet_height_range_cap(const plod_planet *planet, const double axis[3],
-                                  double angle, double *min_m, double *max_m,
-                                  double *texels)
+/* Bounds of map channel 0 (raw, as sampled) over the spherical cap
+ * (axis, angle) through its lon/lat box, for a CAR map (face count 1);
+ * else, or for a cap not inside a hemisphere, the global range.  *texels:
+ * the box's larger side in map texels (INFINITY for the global range). */
+static void plod__cap_range(const plod_cubemap *map, const double axis[3], double angle,
+                            double *lo_out, double *hi_out, double *texels)
 {
     *texels = INFINITY;
-    plod_planet_height_range(planet, min_m, max_m);
-    if (!planet->heightmap || plod_cubemap_face_count(planet->heightmap) != 1 ||
-        !(angle >= 0.0) || angle >= 0.5 * PLOD__PLANET_PI)
+    plod_cubemap_global_range(map, lo_out, hi_out);
+    if (plod_cubemap_face_count(map) != 1 || !(angle >= 0.0) || angle >= 0.5 * PLOD__PLANET_PI)
         return;
     const double deg = 180.0 / PLOD__PLANET_PI;
     double lat = asin(fmax(-1.0, fmin(1.0, axis[2])));
@@ -254,24 +335,149 @@ void plod_planet_height_range_cap(const plod_planet *planet, const double axis[3
     double v0 = lat0 * deg / 90.0, v1 = lat1 * deg / 90.0;
     double lo, hi, lo2, hi2;
     if (half_lon >= PLOD__PLANET_PI) {
-        plod_cubemap_range(planet->heightmap, 0, -1.0, v0, 1.0, v1, &lo, &hi);
+        plod_cubemap_range(map, 0, -1.0, v0, 1.0, v1, &lo, &hi);
     } else {
         double u0 = (lon - half_lon) * deg / 180.0, u1 = (lon + half_lon) * deg / 180.0;
         if (u0 < -1.0) { /* across the +-180 deg seam: two boxes */
-            plod_cubemap_range(planet->heightmap, 0, -1.0, v0, u1, v1, &lo, &hi);
-            plod_cubemap_range(planet->heightmap, 0, u0 + 2.0, v0, 1.0, v1, &lo2, &hi2);
+            plod_cubemap_range(map, 0, -1.0, v0, u1, v1, &lo, &hi);
+            plod_cubemap_range(map, 0, u0 + 2.0, v0, 1.0, v1, &lo2, &hi2);
             lo = fmin(lo, lo2);
             hi = fmax(hi, hi2);
         } else if (u1 > 1.0) {
-            plod_cubemap_range(planet->heightmap, 0, u0, v0, 1.0, v1, &lo, &hi);
-            plod_cubemap_range(planet->heightmap, 0, -1.0, v0, u1 - 2.0, v1, &lo2, &hi2);
+            plod_cubemap_range(map, 0, u0, v0, 1.0, v1, &lo, &hi);
+            plod_cubemap_range(map, 0, -1.0, v0, u1 - 2.0, v1, &lo2, &hi2);
             lo = fmin(lo, lo2);
             hi = fmax(hi, hi2);
         } else {
-            plod_cubemap_range(planet->heightmap, 0, u0, v0, u1, v1, &lo, &hi);
+            plod_cubemap_range(map, 0, u0, v0, u1, v1, &lo, &hi);
         }
     }
-    plod__scaled(planet, lo, hi, min_m, max_m);
-    int size = plod_cubemap_size(planet->heightmap); /* rows; 2 * size columns */
+    *lo_out = lo;
+    *hi_out = hi;
+    int size = plod_cubemap_size(map); /* rows; 2 * size columns */
     *texels = fmax(2.0 * half_lon * deg / 360.0 * 2.0 * size, (lat1 - lat0) * deg / 180.0 * size);
+}
+
+/* detail bounds given the modulation maximum m */
+static void plod__detail_scaled(const plod_planet *planet, double mlo, double m,
+                                double *min_m, double *max_m, double *modulation)
+{
+    double lo, hi;
+    plod_detail_noise_range(planet->detail, &lo, &hi);
+    m = m > 1.0 ? 1.0 : (m > 0.0 ? m : 0.0); /* NaN-free maps: m in [0, 1] */
+    mlo = mlo > m ? m : (mlo > 0.0 ? mlo : 0.0);
+    *min_m = lo * m;
+    *max_m = hi * m;
+    if (modulation)
+        modulation[0] = mlo, modulation[1] = m;
+}
+
+double plod_planet_modulation(const plod_planet *planet, const double dir[3])
+{
+    if (!planet->detail)
+        return 0.0;
+    const plod_cubemap *mod = plod_detail_modulation(planet->detail);
+    if (!planet->heightmap || !mod)
+        return 1.0;
+    int face;
+    double u, v;
+    if (!plod_cubemap_locate(planet->heightmap, dir, &face, &u, &v))
+        return NAN;
+    return plod__modulation_at(planet, face, u, v);
+}
+
+static void plod__map_height_range(const plod_planet *planet, double *min_m, double *max_m)
+{
+    if (!planet->heightmap) {
+        *min_m = *max_m = 0.0;
+        return;
+    }
+    double lo, hi;
+    plod_cubemap_global_range(planet->heightmap, &lo, &hi);
+    plod__scaled(planet, lo, hi, min_m, max_m);
+}
+
+void plod_planet_height_range(const plod_planet *planet, double *min_m,
+                              double *max_m)
+{
+    plod__map_height_range(planet, min_m, max_m);
+    if (planet->detail) {
+        double lo, hi, mlo = 0.0, mhi = 1.0;
+        const plod_cubemap *mod = plod_detail_modulation(planet->detail);
+        if (planet->heightmap && mod)
+            plod_cubemap_global_range(mod, &mlo, &mhi);
+        plod__detail_scaled(planet, mlo, mhi, &lo, &hi, NULL);
+        *min_m += lo;
+        *max_m += hi;
+    }
+}
+
+void plod_planet_height_range_uv(const plod_planet *planet, int face, double u0,
+                                 double v0, double u1, double v1, double *min_m,
+                                 double *max_m)
+{
+    if (!planet->heightmap) {
+        *min_m = *max_m = 0.0;
+        return;
+    }
+    if (!plod_projection_is_cube(planet->projection)) {
+        /* the CAR map is addressed by lon/lat, not by the octahedral square */
+        plod__map_height_range(planet, min_m, max_m);
+        return;
+    }
+    double lo, hi;
+    plod_cubemap_range(planet->heightmap, face, u0, v0, u1, v1, &lo, &hi);
+    plod__scaled(planet, lo, hi, min_m, max_m);
+}
+
+void plod_planet_height_range_cap(const plod_planet *planet, const double axis[3],
+                                  double angle, double *min_m, double *max_m,
+                                  double *texels)
+{
+    *texels = INFINITY;
+    if (!planet->heightmap) {
+        *min_m = *max_m = 0.0;
+        return;
+    }
+    double lo, hi;
+    plod__cap_range(planet->heightmap, axis, angle, &lo, &hi, texels);
+    plod__scaled(planet, lo, hi, min_m, max_m);
+}
+
+void plod_planet_detail_range_uv(const plod_planet *planet, int face, double u0, double v0,
+                                 double u1, double v1, double *min_m, double *max_m,
+                                 double modulation[2])
+{
+    if (!planet->detail) {
+        *min_m = *max_m = 0.0;
+        if (modulation)
+            modulation[0] = modulation[1] = 0.0;
+        return;
+    }
+    const plod_cubemap *mod = plod_detail_modulation(planet->detail);
+    double mlo = 0.0, mhi = 1.0;
+    if (planet->heightmap && mod) {
+        if (plod_projection_is_cube(planet->projection))
+            plod_cubemap_range(mod, face, u0, v0, u1, v1, &mlo, &mhi);
+        else
+            plod_cubemap_global_range(mod, &mlo, &mhi);
+    }
+    plod__detail_scaled(planet, mlo, mhi, min_m, max_m, modulation);
+}
+
+void plod_planet_detail_range_cap(const plod_planet *planet, const double axis[3],
+                                  double angle, double *min_m, double *max_m,
+                                  double modulation[2])
+{
+    if (!planet->detail) {
+        *min_m = *max_m = 0.0;
+        if (modulation)
+            modulation[0] = modulation[1] = 0.0;
+        return;
+    }
+    const plod_cubemap *mod = plod_detail_modulation(planet->detail);
+    double mlo = 0.0, mhi = 1.0, texels;
+    if (planet->heightmap && mod)
+        plod__cap_range(mod, axis, angle, &mlo, &mhi, &texels);
+    plod__detail_scaled(planet, mlo, mhi, min_m, max_m, modulation);
 }

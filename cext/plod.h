@@ -5,6 +5,7 @@
  *   plod_image.h       images and OpenImageIO file I/O
  *   plod_resample.h    the CubeResampler (CAR -> cube)
  *   plod_planet.h      planet description and heights
+ *   plod_detail.h      procedural detail field below the map's resolution
  *   plod_cull.h        camera and visibility tests
  *   plod_refine.h      HRTMR split/merge refinement
  *   plod_mesh.h        sector templates and buffer emission
@@ -17,6 +18,7 @@
 #include "plod_image.h"
 #include "plod_resample.h"
 #include "plod_planet.h"
+#include "plod_detail.h"
 #include "plod_cull.h"
 #include "plod_refine.h"
 #include "plod_mesh.h"

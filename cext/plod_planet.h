@@ -10,6 +10,8 @@
 extern "C" {
 #endif
 
+typedef struct plod_detail plod_detail; /* plod_detail.h */
+
 typedef struct plod_planet {
     double radius;              /* metres, [1, 1e8] */
     plod_projection projection; /* mapping used for sectors */
@@ -25,6 +27,9 @@ typedef struct plod_planet {
     int has_sea_level;          /* non-zero: sea_level is set */
     double sea_level;           /* metres; sectors whose heights are all
                                    <= sea_level may be skipped */
+    const plod_detail *detail;  /* borrowed, optional: the detail field added
+                                   to the map (plod_detail_create for this
+                                   planet); NULL: the map alone */
 } plod_planet;
 
 /* Validates fields (finite, radius range, pyramid built).  */
@@ -32,8 +37,11 @@ plod_status plod_planet_check(const plod_planet *planet);
 /* The normal map of planet's height map (plod_cubemap_build_normals with
  * its radius and height_scale), for planet->normalmap; caller owns *out. */
 plod_status plod_planet_build_normals(const plod_planet *planet, plod_cubemap **out);
-/* Height in metres above `radius` at a unit direction. */
+/* Height in metres above `radius` at a unit direction: the map's plus the
+ * detail field's (every octave). */
 double plod_planet_height(const plod_planet *planet, const double dir[3]);
+/* The height map's part alone (0 without a map). */
+double plod_planet_map_height(const plod_planet *planet, const double dir[3]);
 /* Height as plod_planet_height (bit for bit) and, if `normal` is not NULL,
  * the unit outward surface normal at a unit direction: sampled from
  * normalmap at the same map location (one projection for both); without a
@@ -45,17 +53,27 @@ double plod_planet_surface(const plod_planet *planet, const double dir[3],
  * bit: heights[i], and normals[3 i..] when `normals` is not NULL. */
 void plod_planet_surface_n(const plod_planet *planet, size_t n, const double *dirs,
                            double *heights, double *normals);
-/* Global height bounds in metres (0, 0 without a map). */
+/* plod_planet_surface_n with the detail field band-limited per point to
+ * its first octaves[i] octaves (octaves NULL: all, = plod_planet_surface_n
+ * bit for bit).  Normals: the map's normal tilted by the kept octaves'
+ * analytic slope (the modulation's own slope is left out: it varies over
+ * map texels, ~1e-3 of the octaves' slopes). */
+void plod_planet_surface_band_n(const plod_planet *planet, size_t n, const double *dirs,
+                                const int *octaves, double *heights, double *normals);
+/* Global height bounds in metres, the detail field's included (0, 0
+ * without a map or detail). */
 void plod_planet_height_range(const plod_planet *planet, double *min_m,
                               double *max_m);
-/* Conservative height bounds in metres over the face rectangle
- * [u0,u1]x[v0,v1] (clamped to the face; CAR: the octahedral square is
- * bounded through the global range).  Without a map: 0, 0. */
+/* Conservative bounds of the height MAP's part in metres over the face
+ * rectangle [u0,u1]x[v0,v1] (clamped to the face; CAR: the octahedral
+ * square is bounded through the map's global range).  Without a map: 0,
+ * 0.  The detail field's part: plod_planet_detail_range_uv. */
 void plod_planet_height_range_uv(const plod_planet *planet, int face, double u0,
                                  double v0, double u1, double v1, double *min_m,
                                  double *max_m);
-/* Conservative height bounds in metres over the spherical cap of unit
- * centre `axis` and angular radius `angle` (radians), for a CAR map:
+/* Conservative bounds of the height MAP's part in metres over the
+ * spherical cap of unit centre `axis` and angular radius `angle`
+ * (radians), for a CAR map:
  * through the cap's longitude/latitude box (the whole longitude range
  * when the cap holds a pole).  *texels: the box's larger side in map
  * texels (for sub-texel refinements).  Cube maps and no map: as
@@ -63,6 +81,19 @@ void plod_planet_height_range_uv(const plod_planet *planet, int face, double u0,
 void plod_planet_height_range_cap(const plod_planet *planet, const double axis[3],
                                   double angle, double *min_m, double *max_m,
                                   double *texels);
+/* Conservative bounds of the detail field (any band limit) in metres over
+ * the same regions as plod_planet_height_range_uv / _cap: the noise's
+ * bounds times the modulation map's maximum there.  0, 0 without detail.
+ * modulation (may be NULL) gets the modulation map's bounds there. */
+void plod_planet_detail_range_uv(const plod_planet *planet, int face, double u0, double v0,
+                                 double u1, double v1, double *min_m, double *max_m,
+                                 double modulation[2]);
+void plod_planet_detail_range_cap(const plod_planet *planet, const double axis[3],
+                                  double angle, double *min_m, double *max_m,
+                                  double modulation[2]);
+/* The detail field's modulation at a unit direction (sampled where the
+ * height map samples; 1 without a map, 0 without detail). */
+double plod_planet_modulation(const plod_planet *planet, const double dir[3]);
 
 #ifdef __cplusplus
 }

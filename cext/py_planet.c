@@ -231,6 +231,7 @@ typedef struct {
     plod_planet planet;
     PyObject *heightmap;  /* the CubeMap keeping planet.heightmap alive */
     plod_cubemap *normalmap; /* owned; built by the first mesh() with a map */
+    plod_detail *detail;  /* owned; NULL when detail is off */
     plod_mesh_cache *mesh_cache; /* owned; created by the first cached mesh() */
     size_t mesh_cache_max_bytes;
     plod_refiner *refiner;
@@ -259,12 +260,101 @@ static void plod__planet_unlock(plod_py_planet *self)
     PyThread_release_lock(self->lock);
 }
 
+static const char *const plod__detail_styles[PLOD_DETAIL_STYLE_COUNT] = {"hills", "mountains",
+                                                                         "craters"};
+
+/* A number from the detail dict, if the key is there. */
+static int plod__detail_number(PyObject *dict, const char *key, double *out, int *used)
+{
+    PyObject *v = PyDict_GetItemString(dict, key); /* borrowed */
+    if (!v)
+        return 0;
+    (*used)++;
+    double x = PyFloat_AsDouble(v);
+    if (x == -1.0 && PyErr_Occurred()) {
+        PyErr_Clear();
+        char msg[96];
+        snprintf(msg, sizeof msg, "detail['%s'] must be a number", key);
+        plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "Planet", msg);
+        return -1;
+    }
+    *out = x;
+    return 0;
+}
+
+/* Planet(detail=...): None or a dict (see API.md); *enabled 0 when None or
+ * enabled=False. */
+static int plod__detail_arg(PyObject *obj, plod_detail_params *p, int *enabled)
+{
+    plod_detail_params_init(p);
+    *enabled = 0;
+    if (obj == Py_None)
+        return 0;
+    if (!PyDict_Check(obj)) {
+        plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "Planet", "detail must be a dict or None");
+        return -1;
+    }
+    int used = 0;
+    *enabled = 1;
+    PyObject *v = PyDict_GetItemString(obj, "enabled");
+    if (v) {
+        used++;
+        int t = PyObject_IsTrue(v);
+        if (t < 0)
+            return -1;
+        *enabled = t;
+    }
+    v = PyDict_GetItemString(obj, "style");
+    if (v) {
+        used++;
+        const char *name = PyUnicode_Check(v) ? PyUnicode_AsUTF8(v) : NULL;
+        int found = -1;
+        for (int i = 0; name && i < PLOD_DETAIL_STYLE_COUNT; i++)
+            if (!strcmp(name, plod__detail_styles[i]))
+                found = i;
+        if (found < 0) {
+            PyErr_Clear();
+            plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "Planet",
+                                 "detail['style'] must be 'hills', 'mountains' or 'craters'");
+            return -1;
+        }
+        p->style = (plod_detail_style)found;
+    }
+    v = PyDict_GetItemString(obj, "seed");
+    if (v) {
+        used++;
+        unsigned long long seed = PyLong_Check(v) ? PyLong_AsUnsignedLongLongMask(v) : 0;
+        if (!PyLong_Check(v) || PyErr_Occurred()) {
+            PyErr_Clear();
+            plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "Planet", "detail['seed'] must be an int");
+            return -1;
+        }
+        p->seed = (uint64_t)seed;
+    }
+    if (plod__detail_number(obj, "amplitude", &p->amplitude, &used) < 0 ||
+        plod__detail_number(obj, "roughness", &p->roughness, &used) < 0 ||
+        plod__detail_number(obj, "largest", &p->largest, &used) < 0 ||
+        plod__detail_number(obj, "smallest", &p->smallest, &used) < 0 ||
+        plod__detail_number(obj, "craters", &p->craters, &used) < 0 ||
+        plod__detail_number(obj, "crater_density", &p->crater_density, &used) < 0 ||
+        plod__detail_number(obj, "plains", &p->plains, &used) < 0 ||
+        plod__detail_number(obj, "relief", &p->relief, &used) < 0)
+        return -1;
+    if (used != (int)PyDict_Size(obj)) {
+        plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "Planet",
+                             "detail keys: enabled, style, amplitude, roughness, largest, "
+                             "smallest, seed, craters, crater_density, plains, relief");
+        return -1;
+    }
+    return 0;
+}
+
 static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwds)
 {
     static char *kwlist[] = {"radius", "projection", "heightmap", "height_scale",
-                             "sea_level", "heightmap_size", NULL};
+                             "sea_level", "heightmap_size", "detail", NULL};
     double radius;
-    PyObject *proj = NULL, *heightmap = Py_None, *sea = Py_None;
+    PyObject *proj = NULL, *heightmap = Py_None, *sea = Py_None, *detail = Py_None;
     double scale = 1.0;
     int size = 0;
     if (self->refiner) {
@@ -282,8 +372,12 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
         PyErr_SetString(PyExc_RuntimeError, "Planet is already initialised");
         return -1;
     }
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "d|OOdOi", kwlist, &radius, &proj,
-                                     &heightmap, &scale, &sea, &size))
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "d|OOdOiO", kwlist, &radius, &proj,
+                                     &heightmap, &scale, &sea, &size, &detail))
+        return -1;
+    plod_detail_params detail_params;
+    int detail_on = 0;
+    if (plod__detail_arg(detail, &detail_params, &detail_on) < 0)
         return -1;
     memset(&self->planet, 0, sizeof self->planet);
     self->planet.projection = PLOD_PROJ_QSC;
@@ -360,8 +454,33 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
         self->planet.heightmap = cm;
     }
     self->heightmap = map;
-    plod_status st = plod_refiner_create(&self->refiner, &self->planet);
+    plod_status st = PLOD_OK;
+    if (detail_on) {
+        st = plod_planet_check(&self->planet);
+        if (st == PLOD_OK) {
+            Py_BEGIN_ALLOW_THREADS
+            st = plod_detail_create(&self->detail, &detail_params, &self->planet);
+            Py_END_ALLOW_THREADS
+        }
+        if (st != PLOD_OK) {
+            Py_CLEAR(self->heightmap);
+            self->planet.heightmap = NULL;
+            plod_py_raise_detail(st, "Planet",
+                                 st == PLOD_ERR_BAD_PARAM
+                                     ? "invalid detail (amplitude in [0, 1e6], roughness in "
+                                       "[0, 1), largest >= 0, smallest > 0, craters in [0, 4], "
+                                       "crater_density and plains in [0, 1], relief >= 0) or "
+                                       "planet"
+                                     : "detail field");
+            return -1;
+        }
+        self->planet.detail = self->detail;
+    }
+    st = plod_refiner_create(&self->refiner, &self->planet);
     if (st != PLOD_OK) {
+        self->planet.detail = NULL;
+        plod_detail_destroy(self->detail);
+        self->detail = NULL;
         Py_CLEAR(self->heightmap);
         self->planet.heightmap = NULL;
         plod_py_raise_detail(st, "Planet", "invalid planet (radius, height_scale, sea_level "
@@ -381,6 +500,9 @@ static void plod__planet_dealloc(plod_py_planet *self)
     self->planet.normalmap = NULL;
     plod_cubemap_destroy(self->normalmap);
     self->normalmap = NULL;
+    self->planet.detail = NULL;
+    plod_detail_destroy(self->detail);
+    self->detail = NULL;
     Py_CLEAR(self->heightmap);
     if (self->lock)
         PyThread_free_lock(self->lock);
@@ -776,6 +898,20 @@ static PyObject *plod__planet_get(plod_py_planet *self, void *closure)
         if (!self->planet.has_sea_level)
             Py_RETURN_NONE;
         return PyFloat_FromDouble(self->planet.sea_level);
+    case 9: {
+        if (!self->detail)
+            Py_RETURN_NONE;
+        const plod_detail_params *p = plod_detail_get_params(self->detail);
+        int octaves = plod_detail_octave_count(self->detail);
+        return Py_BuildValue("{s:O,s:s,s:d,s:d,s:d,s:d,s:K,s:d,s:d,s:d,s:d,s:i,s:d}",
+                             "enabled", Py_True, "style", plod__detail_styles[p->style],
+                             "amplitude", p->amplitude, "roughness", p->roughness, "largest",
+                             p->largest, "smallest", p->smallest, "seed",
+                             (unsigned long long)p->seed, "craters", p->craters,
+                             "crater_density", p->crater_density, "plains", p->plains,
+                             "relief", p->relief, "octaves", octaves, "finest_wavelength",
+                             octaves ? plod_detail_wavelength(self->detail, octaves - 1) : 0.0);
+    }
     case 6:
     default:
         if (!self->heightmap)
@@ -890,6 +1026,9 @@ static PyGetSetDef plod__planet_getset[] = {
     {"height_scale", (getter)plod__planet_get_locked, NULL, "metres per height unit", (void *)4},
     {"sea_level", (getter)plod__planet_get_locked, NULL, "metres or None", (void *)5},
     {"heightmap", (getter)plod__planet_get_locked, NULL, "CubeMap or None", (void *)6},
+    {"detail", (getter)plod__planet_get_locked, NULL,
+     "the detail field's parameters (dict, with its octave count and finest wavelength) "
+     "or None", (void *)9},
     {"memory_bytes", (getter)plod__planet_get_locked, NULL,
      "bytes held by the refiner (sectors, bounds, adjacency, internal nodes)", (void *)7},
     {"mesh_cache_info", (getter)plod__planet_get_locked, NULL,

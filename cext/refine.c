@@ -45,6 +45,7 @@
  * directions, heights and canonical points) and two bounds.
  */
 #include "plod_refine.h"
+#include "plod_detail.h"
 
 #include <assert.h>
 #include <math.h>
@@ -75,6 +76,8 @@ typedef struct plod__bound {
     double relief0;       /* (hmax - hmin) * min(1, extent / texel) */
     double twist0;        /* inside one bilinear cell: 3 (hmax - hmin) *
                              (extent / texel)^2; else infinity */
+    double detail0;       /* the detail field's modulation maximum over the
+                             sector (0: no detail there) */
     int horizon;          /* 0: r_max below the occluder, never hidden */
     double horizon_cos, horizon_sin; /* of the cap angle + the angle at
                              which r_max peeks over the occluder ball */
@@ -562,7 +565,7 @@ typedef struct plod__corner_memo {
 static double plod__memo_height(const plod_planet *planet, plod__corner_memo *memo, int k)
 {
     if (!(memo->known & (1u << k))) {
-        memo->height[k] = plod_planet_height(planet, memo->dir[k]);
+        memo->height[k] = plod_planet_map_height(planet, memo->dir[k]);
         memo->known |= 1u << k;
     }
     return memo->height[k];
@@ -616,6 +619,58 @@ static void plod__tighten_subtexel(const plod_planet *planet, plod__corner_memo 
     *hmax = tight_max < *hmax ? tight_max : *hmax;
     if (*hmin > *hmax)
         *hmin = *hmax;
+}
+
+/* Bounds of the detail field m N over a sector (plod_detail.h): the
+ * region's modulation bounds [mlo, mhi] times N's bounds.  Small sectors
+ * tighten both around corner 0: m as the map heights are (bilinear, below
+ * half a texel), N by plod_detail_local_range over the cap's diameter
+ * chord 2 sin(angle) (every point of the sector is within it of corner
+ * 0), with the octaves a mesh of the sector drops counted by range.
+ * *mod_max: the modulation bound (the error's scale). */
+static void plod__detail_bound(const plod_planet *planet, const plod_sector *s,
+                               plod__corner_memo *memo, const int idx[3], const plod__bound *b,
+                               double u0, double v0, double u1, double v1, double texels,
+                               double *dmin, double *dmax, double *mod_max)
+{
+    double m[2];
+    if (plod_projection_is_cube(planet->projection))
+        plod_planet_detail_range_uv(planet, s->face, u0, v0, u1, v1, dmin, dmax, m);
+    else
+        plod_planet_detail_range_cap(planet, b->axis, atan2(b->sin_angle, b->cos_angle), dmin,
+                                     dmax, m);
+    *mod_max = m[1];
+    if (!(m[1] > 0.0))
+        return; /* sea: no detail */
+    const double *corner = memo->dir[idx[0]];
+    if (planet->heightmap && texels < 0.5 && m[1] > m[0]) {
+        double mc = plod_planet_modulation(planet, corner);
+        double reach = 1.4142135623730951 * (1.0 + 2.0 * PLOD__RANGE_MARGIN) * texels;
+        double deviation = 1.01 * 1.4142135623730951 * (m[1] - m[0]) * reach + 2e-6;
+        if (mc - deviation > m[0])
+            m[0] = mc - deviation;
+        if (mc + deviation < m[1])
+            m[1] = mc + deviation;
+        if (!(m[0] <= m[1])) /* NaN: keep the region's */
+            return;
+    }
+    double chord = 2.0 * b->sin_angle * (b->cos_angle > 0.0 ? 1.0 : 0.0);
+    if (!(chord > 0.0))
+        return; /* a cap past a hemisphere: the region's bounds */
+    double nlo, nhi;
+    plod_detail_local_range(planet->detail, corner, chord, b->size, &nlo, &nhi);
+    /* m in [m0, m1] >= 0 times N in [nlo, nhi] */
+    double p[4] = {m[0] * nlo, m[0] * nhi, m[1] * nlo, m[1] * nhi};
+    double lo = p[0], hi = p[0];
+    for (int k = 1; k < 4; k++) {
+        lo = p[k] < lo ? p[k] : lo;
+        hi = p[k] > hi ? p[k] : hi;
+    }
+    *dmin = lo > *dmin ? lo : *dmin;
+    *dmax = hi < *dmax ? hi : *dmax;
+    if (*dmin > *dmax)
+        *dmin = *dmax;
+    *mod_max = m[1];
 }
 
 /* cos and sin of a cap angle (given by its cosine and sine) grown by the
@@ -716,6 +771,14 @@ static void plod__compute_bound_at(const plod_refiner *r, const plod_sector *s,
     }
     double relief_range = hmax - hmin;
     plod__tighten_subtexel(planet, memo, idx, texels, &hmin, &hmax);
+    b->detail0 = 0.0;
+    if (planet->detail) { /* the map's bounds (tightened on map heights) + the field's */
+        double dmin, dmax;
+        plod__detail_bound(planet, s, memo, idx, b, u0, v0, u1, v1, texels, &dmin, &dmax,
+                           &b->detail0);
+        hmin += dmin;
+        hmax += dmax;
+    }
     float fmin_ = (float)hmin, fmax_ = (float)hmax;
     if ((double)fmin_ > hmin)
         fmin_ = nextafterf(fmin_, -INFINITY);
@@ -857,7 +920,11 @@ static double plod__prism_distance(const plod_refiner *r, const plod__bound *b)
 static double plod__error_m(const plod_refiner *r, const plod__bound *b)
 {
     double relief = b->relief0 * r->error_scale, twist = b->twist0 * r->error_scale2;
-    return b->sag0 * r->error_scale2 + (twist < relief ? twist : relief);
+    double error = b->sag0 * r->error_scale2 + (twist < relief ? twist : relief);
+    if (b->detail0 > 0.0) /* the detail a template cell does not resolve */
+        error += b->detail0 *
+                 plod_detail_cell_error(r->planet->detail, b->size * r->error_scale);
+    return error;
 }
 
 static double plod__score(const plod_refiner *r, const plod__bound *b, double distance)
@@ -2002,7 +2069,7 @@ plod_status plod_refiner_check(const plod_refiner *r)
                 return PLOD_ERR_BAD_PARAM;
         }
         for (int k = 0; k < 3; k++) {
-            double h = plod_planet_height(r->planet, cc->dir[k]);
+            double h = plod_planet_map_height(r->planet, cc->dir[k]);
             if ((cc->known & (1u << k)) && memcmp(&h, &cc->height[k], sizeof h) != 0)
                 return PLOD_ERR_BAD_PARAM;
         }

@@ -81,6 +81,27 @@ void plod_planet_surface_n(const plod_planet *planet, size_t n, const double *di
         heights[i] = plod_planet_surface(planet, dirs + 3 * i, normals ? normals + 3 * i : NULL);
 }
 
+/* band-limited form: the analytic field has no octaves to drop */
+void plod_planet_surface_band_n(const plod_planet *planet, size_t n, const double *dirs,
+                                const int *octaves, double *heights, double *normals)
+{
+    (void)octaves;
+    plod_planet_surface_n(planet, n, dirs, heights, normals);
+}
+
+/* the stub planets never carry a detail field */
+int plod_detail_octaves_for_cell(const plod_detail *detail, double cell)
+{
+    (void)detail, (void)cell;
+    return 0;
+}
+
+uint64_t plod_detail_stamp(const plod_detail *detail)
+{
+    (void)detail;
+    return 0;
+}
+
 static int g_failures = 0;
 #define CHECK(cond, ...)                                                     \
     do {                                                                     \

@@ -1,0 +1,126 @@
+/* plod_detail.h -- procedural detail below the height map's resolution.
+ *
+ * The planet's surface is the height map plus a deterministic detail field
+ * D(d) = m(d) * N(d) of the unit direction d:
+ *   - N is a sum of band-limited octaves i = 0..count-1 of wavelength
+ *     largest * 2^-i (down to `smallest`) and amplitude amplitude *
+ *     roughness^i, each a 3-D lattice function of the direction (gradient
+ *     noise, ridged noise, impact craters) evaluated on the unit sphere in
+ *     double precision: no seams at cube faces, poles or the date line.
+ *     Lattice points are hashed with the seed (64-bit integer hash); only
+ *     + - * / floor sqrt are used, so the field is the same bits on every
+ *     machine and thread count (with -ffp-contract=off).
+ *   - m in [0, 1] is the modulation map, built once from the height map: 0
+ *     on texels at or below sea level, `plains` on flat land rising to 1
+ *     where the map's local relief (largest height step to the 8
+ *     neighbouring texels) reaches `relief` metres; sampled bilinearly at
+ *     the height map's location, bounded over regions by its min/max
+ *     pyramid.  Without a height map m = 1.
+ * Styles (the octaves' shape):
+ *   HILLS      gradient-noise fBm (K. Perlin, "Improving Noise", SIGGRAPH
+ *              2002): rolling relief.
+ *   MOUNTAINS  ridged multifractal (F. K. Musgrave, "Texturing and
+ *              Modeling: A Procedural Approach", 1994/2003): each octave
+ *              (1 - |n|)^2 weighted by the previous octave's signal, so
+ *              ridges carry fine detail and valleys stay smooth, as on
+ *              eroded ranges.
+ *   CRATERS    low hills plus impact craters: one lattice cell per octave
+ *              holds at most one crater (bowl, raised rim, ejecta blanket
+ *              falling off to zero inside the cell, so cells join
+ *              seamlessly); a fixed chance per cell at every octave gives
+ *              the power-law size-frequency distribution N(>D) ~ D^-2
+ *              of crater populations in equilibrium.
+ * `craters` adds the crater layer (weight) to any style.
+ *
+ * Every octave's unit range holds 0, so partial sums (the meshes'
+ * band-limited octaves) stay inside the bounds of the full sum.
+ */
+#ifndef PLOD_DETAIL_H
+#define PLOD_DETAIL_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "plod_planet.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef enum plod_detail_style {
+    PLOD_DETAIL_HILLS = 0,
+    PLOD_DETAIL_MOUNTAINS,
+    PLOD_DETAIL_CRATERS,
+    PLOD_DETAIL_STYLE_COUNT
+} plod_detail_style;
+
+#define PLOD_DETAIL_MAX_OCTAVES 40
+
+typedef struct plod_detail_params {
+    plod_detail_style style;
+    double amplitude;  /* metres: the first octave's amplitude at m = 1, >= 0 */
+    double roughness;  /* amplitude ratio from one octave to the next, [0, 1) */
+    double largest;    /* metres: first octave's wavelength; 0 = two height
+                          map texels (or radius / 50 without a map) */
+    double smallest;   /* metres: no octave finer than this, > 0 */
+    uint64_t seed;
+    double craters;    /* crater layer weight, [0, 4] (CRATERS: >= 1 applies) */
+    double crater_density; /* chance of a crater per lattice cell, [0, 1] */
+    double plains;     /* modulation on flat land, [0, 1] */
+    double relief;     /* metres of local map relief for modulation 1; 0 =
+                          the 90th percentile over land texels */
+} plod_detail_params;
+
+/* Defaults: MOUNTAINS, amplitude 0 (set it), roughness 0.5, largest 0,
+ * smallest 0.1 m, seed 0, craters 0, density 0.5, plains 0.15, relief 0. */
+void plod_detail_params_init(plod_detail_params *params);
+
+/* Builds the field for `planet` (radius, projection, height map, height
+ * scale and sea level are read now; the planet's own `detail` is ignored):
+ * octave tables and the modulation map.  Bad parameters:
+ * PLOD_ERR_BAD_PARAM.  Release with plod_detail_destroy. */
+plod_status plod_detail_create(plod_detail **out, const plod_detail_params *params,
+                               const plod_planet *planet);
+void plod_detail_destroy(plod_detail *detail);
+
+const plod_detail_params *plod_detail_get_params(const plod_detail *detail);
+int plod_detail_octave_count(const plod_detail *detail);
+double plod_detail_wavelength(const plod_detail *detail, int octave); /* metres */
+/* The modulation map (NULL without a height map); same projection and
+ * size as the height map, 1 channel u8. */
+const plod_cubemap *plod_detail_modulation(const plod_detail *detail);
+/* Non-zero when detail was built for this radius and height map. */
+int plod_detail_matches(const plod_detail *detail, const plod_planet *planet);
+/* A hash of everything the field depends on (for caches). */
+uint64_t plod_detail_stamp(const plod_detail *detail);
+
+/* N(d) summed over the first `octaves` octaves (clamped to the count) at
+ * a unit direction, in metres before modulation; `gradient` (may be NULL)
+ * gets its gradient in metres per unit of direction (3-D; project onto
+ * the tangent plane for the slope per radian). */
+double plod_detail_noise(const plod_detail *detail, const double dir[3], int octaves,
+                         double gradient[3]);
+/* Octaves a mesh with cells of `cell` metres resolves: those of
+ * wavelength >= PLOD_DETAIL_CELLS_PER_WAVE * cell. */
+#define PLOD_DETAIL_CELLS_PER_WAVE 3.0
+int plod_detail_octaves_for_cell(const plod_detail *detail, double cell);
+/* Bounds of N over all octaves (any partial sum lies inside): lo <= 0 <= hi. */
+void plod_detail_noise_range(const plod_detail *detail, double *lo, double *hi);
+/* Bounds of N_k (any band limit k >= the octaves a cell of `cell` metres
+ * keeps, the full field included) over the points within unit chord
+ * `reach` of the unit direction `dir`: N of the coarse octaves at dir, +-
+ * their largest change over the reach (per-octave slope bounds, each
+ * capped by its range), plus the finer octaves' range; clamped to
+ * plod_detail_noise_range.  Evaluates the coarse octaves at dir only when
+ * that can beat the global range. */
+void plod_detail_local_range(const plod_detail *detail, const double dir[3], double reach,
+                             double cell, double *lo, double *hi);
+/* Expected height error, per unit of modulation, of a mesh with cells of
+ * `cell` metres against the field: the octaves it drops, and the
+ * interpolation error of the ones it keeps.  Monotone in cell. */
+double plod_detail_cell_error(const plod_detail *detail, double cell);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* PLOD_DETAIL_H */

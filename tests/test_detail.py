@@ -1,0 +1,295 @@
+"""The detail field (cext/detail.c): Planet(detail=...) heights and normals,
+seams, determinism, sector bounds, refinement and meshes with detail on,
+and detail off giving the map's surface bit for bit."""
+import math
+
+import numpy as np
+import pytest
+
+from conftest import data_path
+from test_mesh import arrays, edge_report
+from test_refine import check_conforming, corners, surface_camera, worst_pixel_gap
+
+EARTH_R = 6371000.0
+MOON_R = 1737400.0
+WEIGHTS = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [.5, .5, 0], [0, .5, .5], [.5, 0, .5],
+                    [1 / 3, 1 / 3, 1 / 3], [.7, .2, .1], [.1, .2, .7], [.05, .9, .05]])
+ALPS = (46.5, 8.0)
+
+
+def unit(lat_deg, lon_deg):
+    la, lo = math.radians(lat_deg), math.radians(lon_deg)
+    return np.array([math.cos(la) * math.cos(lo), math.cos(la) * math.sin(lo), math.sin(la)])
+
+
+def earth_planet(planetlod, detail=None, **kw):
+    kw.setdefault("heightmap_size", 256)
+    return planetlod.Planet(EARTH_R, heightmap=data_path("earth-topology.png"),
+                            height_scale=8848.0, sea_level=0.0, detail=detail, **kw)
+
+
+MOUNTAINS = dict(style="mountains", amplitude=400.0, seed=3)
+
+
+@pytest.fixture(scope="module")
+def earth_detail(planetlod):
+    return earth_planet(planetlod, MOUNTAINS)
+
+
+@pytest.fixture(scope="module")
+def earth_plain(planetlod):
+    return earth_planet(planetlod)
+
+
+def ground_camera(planetlod, planet, lat, lon, altitude, pitch=-0.25, radius=EARTH_R):
+    d = unit(lat, lon)
+    ground = planet.height(*d)
+    return surface_camera(planetlod, radius + ground, altitude, lat=math.radians(lat),
+                          lon=math.radians(lon), pitch=pitch)
+
+
+def check_bounds(planet, sample_limit=3000, rng=None):
+    """Every sampled point of every (or a spread of) sector(s) lies inside
+    its height bounds; returns the number of points checked."""
+    c = corners(planet)
+    h = np.array(planet.sector_heights(visible_only=False).tolist()).reshape(-1, 2)
+    pick = np.arange(len(c))
+    if len(pick) > sample_limit:
+        rng = rng or np.random.default_rng(0)
+        pick = rng.choice(len(c), size=sample_limit, replace=False)
+    checked = 0
+    for k in pick:
+        lo, hi = h[k]
+        for w in WEIGHTS:
+            p = w @ c[k]
+            z = planet.height(*(p / np.linalg.norm(p)))
+            assert lo <= z <= hi, (k, lo, z, hi)
+            checked += 1
+    return checked
+
+
+def test_detail_off_is_the_map_bit_for_bit(planetlod, earth_plain):
+    """detail=None, detail=dict(enabled=False) and no detail argument give
+    the same heights, sectors and mesh, bit for bit."""
+    off = earth_planet(planetlod, dict(MOUNTAINS, enabled=False))
+    assert off.detail is None and earth_plain.detail is None
+    cam = ground_camera(planetlod, earth_plain, *ALPS, 3000.0)
+    meshes = []
+    for planet in (earth_plain, off):
+        planet.refine(cam)
+        meshes.append(planet.mesh(template_level=3))
+    assert bytes(earth_plain.sector_ids()) == bytes(off.sector_ids())
+    for name in ("positions", "normals", "uv", "triangles"):
+        assert bytes(getattr(meshes[0], name)) == bytes(getattr(meshes[1], name)), name
+    rng = np.random.default_rng(1)
+    for d in rng.normal(size=(200, 3)):
+        assert earth_plain.height(*d) == off.height(*d)
+    assert earth_plain.height_range() == off.height_range()
+
+
+def test_relief_follows_the_map(planetlod, earth_detail, earth_plain):
+    """Detail is flat on the sea, gentle on plains, rugged in mountains:
+    the spread of (height - map height) over a 5 km patch."""
+    rng = np.random.default_rng(2)
+
+    def spread(lat, lon):
+        base = unit(lat, lon)
+        east = np.cross([0, 0, 1.0], base)
+        east /= np.linalg.norm(east)
+        north = np.cross(base, east)
+        diffs = []
+        for a, b in rng.uniform(-0.5, 0.5, size=(300, 2)) * (5000.0 / EARTH_R):
+            d = base + a * east + b * north
+            d /= np.linalg.norm(d)
+            diffs.append(earth_detail.height(*d) - earth_plain.height(*d))
+        return np.std(diffs)
+
+    sea = spread(-30.0, -140.0)     # South Pacific
+    plains = spread(52.0, 30.0)     # Eastern European plain
+    mountains = spread(*ALPS)
+    assert sea == 0.0
+    assert 0.0 < plains < 0.6 * mountains, (plains, mountains)
+    assert mountains > 10.0, mountains
+
+
+def test_detail_is_deterministic_and_seeded(planetlod, earth_detail):
+    again = earth_planet(planetlod, MOUNTAINS)
+    other = earth_planet(planetlod, dict(MOUNTAINS, seed=4))
+    rng = np.random.default_rng(5)
+    same = differ = 0
+    for d in rng.normal(size=(300, 3)):
+        h = earth_detail.height(*d)
+        assert h == again.height(*d)
+        same += 1
+        differ += h != other.height(*d)
+    assert differ > 60  # land points (~30 %) move with the seed, sea ones stay
+    info = earth_detail.detail
+    assert info["style"] == "mountains" and info["octaves"] >= 15
+    assert 0.05 <= info["finest_wavelength"] <= 0.1 * 2 + 1e-9
+
+
+@pytest.mark.parametrize("where", ["date_line", "pole", "cube_edge", "cube_corner"])
+def test_detail_is_seamless(planetlod, earth_detail, where):
+    """Across the date line, at the poles and across cube face edges and
+    corners the surface is continuous: heights 1 mm apart differ by no
+    more than the field's slope allows there."""
+    if where == "date_line":
+        a, b = unit(45.3, 179.99999999), unit(45.3, -179.99999999)
+        planet = earth_detail
+    elif where == "pole":
+        a, b = unit(89.99999999, 10.0), unit(89.99999999, -170.0)
+        planet = earth_detail
+    else:  # a map-free planet: the field alone, no map seams
+        planet = planetlod.Planet(1000e3, detail=dict(MOUNTAINS, amplitude=300.0))
+        base = np.array([1.0, 1.0, 0.3]) if where == "cube_edge" else np.array([1.0, 1.0, 1.0])
+        base /= np.linalg.norm(base)
+        a = base + np.array([1e-9, -1e-9, 0.0])
+        b = base - np.array([1e-9, -1e-9, 0.0])
+    gap = np.linalg.norm(a - b) * planet.radius
+    assert gap < 0.01
+    dh = abs(planet.height(*a) - planet.height(*b))
+    assert dh < 5.0 * gap + 1e-6, (where, dh, gap)
+
+
+def test_surface_normals_follow_the_heights(planetlod):
+    """planet.surface() normals match central differences of planet.height
+    in the tangent plane (no map: the field alone, hills style)."""
+    planet = planetlod.Planet(50e3, detail=dict(style="hills", amplitude=200.0, seed=9,
+                                                smallest=5.0))
+    rng = np.random.default_rng(4)
+    dirs = rng.normal(size=(60, 3))
+    dirs /= np.linalg.norm(dirs, axis=1)[:, None]
+    heights, normals = planet.surface(dirs.reshape(-1).tolist())
+    normals = np.array(normals.tolist()).reshape(-1, 3)
+    worst = 0.0
+    tilt = 0.0
+    step = 1e-6
+    for d, n in zip(dirs, normals):
+        t1 = np.cross(d, [0.3, 0.5, 0.8])
+        t1 /= np.linalg.norm(t1)
+        t2 = np.cross(d, t1)
+        slope = []
+        for t in (t1, t2):
+            p, q = d + step * t, d - step * t
+            slope.append((planet.height(*(p / np.linalg.norm(p))) -
+                          planet.height(*(q / np.linalg.norm(q)))) / (2 * step))
+        r = planet.radius + planet.height(*d)
+        exact = r * d - slope[0] * t1 - slope[1] * t2
+        exact /= np.linalg.norm(exact)
+        worst = max(worst, math.degrees(math.acos(min(1.0, float(exact @ n)))))
+        tilt = max(tilt, math.degrees(math.acos(min(1.0, float(d @ n)))))
+    assert tilt > 5.0, tilt
+    assert worst < 0.05, worst
+
+
+@pytest.mark.parametrize("lat,lon,altitude", [(46.5, 8.0, 2000.0), (46.5, 8.0, 100.0),
+                                              (27.9, 86.9, 10.0), (52.0, 30.0, 1500.0),
+                                              (89.9, 0.0, 3000.0)])
+def test_sector_bounds_hold_with_detail(planetlod, earth_detail, lat, lon, altitude):
+    """Sector height bounds hold the detailed surface at points spread over
+    each sector, from 2 km down to 10 m above the ground, and stay useful:
+    the refinement does not run to max_level."""
+    cam = ground_camera(planetlod, earth_detail, lat, lon, altitude)
+    stats = earth_detail.refine(cam, max_level=48)
+    assert stats["max_level"] < 48, stats
+    assert check_bounds(earth_detail) > 1000
+    check_conforming(earth_detail)
+
+
+def test_mesh_vertices_inside_their_sector_bounds(planetlod, earth_detail):
+    """Band-limited mesh vertices (fewer octaves than planet.height) lie in
+    their sectors' bounds too."""
+    cam = ground_camera(planetlod, earth_detail, *ALPS, 500.0)
+    earth_detail.refine(cam)
+    mesh = earth_detail.mesh(template_level=3)
+    pos = np.frombuffer(mesh.positions, np.float32).reshape(-1, 3).astype(np.float64)
+    pos += np.array(mesh.origin)
+    h = np.linalg.norm(pos, axis=1) - EARTH_R
+    per = len(h) // mesh.sector_count
+    bounds = np.array(earth_detail.sector_heights(visible_only=True).tolist()).reshape(-1, 2)
+    lo = np.repeat(bounds[:, 0], per)
+    hi = np.repeat(bounds[:, 1], per)
+    dist = np.linalg.norm(pos - np.array(mesh.origin), axis=1)
+    tol = 2e-7 * dist + 1e-3
+    assert np.all(h >= lo - tol) and np.all(h <= hi + tol)
+
+
+def test_refinement_splits_where_detail_shows(planetlod, earth_detail, earth_plain):
+    """Over mountains detail adds sectors; over the sea it adds none."""
+    counts = {}
+    for name, lat, lon in (("sea", -30.0, -140.0), ("mountains", 46.5, 8.0)):
+        cam = ground_camera(planetlod, earth_plain, lat, lon, 1500.0, pitch=-0.4)
+        counts[name] = [p.refine(cam)["sectors_total"] for p in (earth_plain, earth_detail)]
+    assert counts["sea"][1] == counts["sea"][0], counts
+    assert counts["mountains"][1] > 1.3 * counts["mountains"][0], counts
+
+
+@pytest.mark.parametrize("altitude", [2000.0, 30.0])
+def test_mesh_within_a_pixel_of_the_detailed_surface(planetlod, earth_detail, altitude):
+    cam = ground_camera(planetlod, earth_detail, *ALPS, altitude)
+    earth_detail.refine(cam, max_pixel_error=1.0, template_level=4)
+    worst = worst_pixel_gap(earth_detail, cam, EARTH_R, np.random.default_rng(8),
+                            sampled=1000, nearest=600)
+    assert worst <= 1.0, worst
+
+
+def test_detail_mesh_watertight_threads_cache_morph(planetlod, earth_detail):
+    """Shared edge vertices are bit-identical (welded mesh has no open
+    edges), output is the same for 1 and 2 threads, cached or not, with
+    and without morph, frame after frame along a descent."""
+    hits = 0
+    for k, altitude in enumerate((20000.0, 6000.0, 2000.0, 700.0)):
+        cam = ground_camera(planetlod, earth_detail, 46.5, 8.0 + 0.002 * k, altitude)
+        earth_detail.refine(cam, backface=False, frustum=False, max_sectors=60000)
+        base = earth_detail.mesh(template_level=3, threads=1, cache=False)
+        assert edge_report(*arrays(base)) == (0, 0, 0, 2), k  # a closed sphere
+        for morph, threads in ((False, 2), (True, 2), (True, 1)):
+            ref = earth_detail.mesh(template_level=3, threads=1, cache=False, morph=morph)
+            got = earth_detail.mesh(template_level=3, threads=threads, cache=True, morph=morph)
+            for name in ("positions", "normals", "uv", "morph", "triangles"):
+                assert bytes(getattr(ref, name)) == bytes(getattr(got, name)), (k, name, morph)
+        hits += earth_detail.mesh_cache_info["hits"]
+    assert hits > 0
+
+
+def test_detail_refinement_is_history_free_and_thread_identical(planetlod, earth_detail):
+    cams = [ground_camera(planetlod, earth_detail, 46.5, 8.0 + 0.05 * k, a)
+            for k, a in enumerate((50000.0, 800.0, 3000.0, 40.0))]
+    for cam in cams:
+        earth_detail.refine(cam)
+    history = bytes(earth_detail.sector_ids())
+    fresh = earth_planet(planetlod, MOUNTAINS)
+    fresh.refine(cams[-1], threads=2)
+    assert bytes(fresh.sector_ids()) == history
+
+
+@pytest.mark.parametrize("style", ["hills", "mountains", "craters"])
+def test_styles_on_a_map_free_body(planetlod, style):
+    """Without a map the field alone makes the relief (modulation 1); the
+    crater style digs bowls: its lowest points sit deeper below the mean
+    than its highest rise above it."""
+    planet = planetlod.Planet(20e3, detail=dict(style=style, amplitude=300.0, seed=1,
+                                                largest=8000.0, smallest=2.0))
+    rng = np.random.default_rng(6)
+    dirs = rng.normal(size=(4000, 3))
+    h = np.array([planet.height(*d) for d in dirs])
+    lo, hi = planet.height_range()
+    assert lo <= h.min() and h.max() <= hi
+    assert h.std() > 10.0
+    if style == "craters":
+        assert np.mean(h) - h.min() > 1.5 * (h.max() - np.mean(h)), (h.min(), h.mean(), h.max())
+    ground = planet.height(*unit(math.degrees(0.3), math.degrees(0.2)))
+    cam = surface_camera(planetlod, 20e3 + ground, 300.0, lat=0.3, lon=0.2)
+    planet.refine(cam)
+    assert check_bounds(planet, sample_limit=1500) > 1000
+
+
+def test_bad_detail_arguments(planetlod):
+    bad = [dict(style="blobs"), dict(amplitude=-1.0), dict(roughness=1.0), dict(smallest=0.0),
+           dict(plains=2.0), dict(amplitude="tall"), dict(colour=1), dict(seed=1.5),
+           dict(craters=9.0)]
+    for detail in bad:
+        with pytest.raises(planetlod.InvalidArgument):
+            planetlod.Planet(1000.0, detail=detail)
+    with pytest.raises(planetlod.InvalidArgument):
+        planetlod.Planet(1000.0, detail=[("amplitude", 1.0)])
