@@ -429,7 +429,8 @@ static plod_status plod__build_modulation(plod_detail *d, const plod_planet *pla
         const void *data = plod_cubemap_face_data_const(map, f);
         for (int y = 0; y < hgt; y++)
             for (int x = 0; x < w; x++) {
-                double h = plod__texel(data, type, channels, (size_t)y * w + x) * scale;
+                double h = plod__texel(data, type, channels, (size_t)y * w + x) * scale +
+                           planet->height_offset; /* for the sea test; steps cancel it */
                 double r = 0.0;
                 for (int dy = -1; dy <= 1; dy++)
                     for (int dx = -1; dx <= 1; dx++) {

@@ -345,6 +345,13 @@ plod_status plod_image_read(plod_image *image, const char *path, size_t max_pixe
     if (!image || !path)
         return PLOD_ERR_NULL;
     image->pixels = nullptr;
+    if (plod_raw_is_raw_path(path)) {
+        plod_raw_format format;
+        plod_status status = plod_raw_guess(path, &format, message, message_size);
+        if (status != PLOD_OK)
+            return status;
+        return plod_image_read_raw(image, path, &format, max_pixels, message, message_size);
+    }
     try {
         return plod__read(image, path, max_pixels, message, message_size);
     } catch (const std::bad_alloc &) {

@@ -421,7 +421,7 @@ struct plod_mesh_cache {
     size_t max_bytes, bytes;
     /* what the entries were computed for */
     const plod_planet *planet;
-    double radius, height_scale;
+    double radius, height_scale, height_offset;
     const void *heightmap, *normalmap;
     const void *detail;
     uint64_t detail_stamp;
@@ -557,6 +557,7 @@ static void plod__cache_bind(plod_mesh_cache *c, const plod_mesh_params *params,
     const plod_planet *p = params->planet;
     if (c->planet != p || c->template_level != params->template_level ||
         c->radius != p->radius || c->height_scale != p->height_scale ||
+        c->height_offset != p->height_offset ||
         c->heightmap != (const void *)p->heightmap || c->normalmap != (const void *)p->normalmap ||
         c->detail != (const void *)p->detail ||
         (p->detail && c->detail_stamp != plod_detail_stamp(p->detail)))
@@ -564,6 +565,7 @@ static void plod__cache_bind(plod_mesh_cache *c, const plod_mesh_params *params,
     c->planet = p;
     c->radius = p->radius;
     c->height_scale = p->height_scale;
+    c->height_offset = p->height_offset;
     c->heightmap = p->heightmap;
     c->normalmap = p->normalmap;
     c->detail = p->detail;

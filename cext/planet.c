@@ -1,8 +1,9 @@
 /* planet.c -- planet description: validation, heights and height bounds.
  *
  * Heights are the height map's channel 0 (normalised as the cube map
- * samples it) times height_scale, in metres above `radius`.  A negative
- * scale swaps the bounds.  Without a map the planet is a perfect sphere.
+ * samples it) times height_scale plus height_offset, in metres above
+ * `radius`.  A negative scale swaps the bounds.  Without a map the planet
+ * is a perfect sphere.
  * A detail field (plod_detail.h) adds m(d) N(d): m sampled from its
  * modulation map at the height map's location (1 without a map).
  */
@@ -20,7 +21,7 @@ plod_status plod_planet_check(const plod_planet *planet)
         return PLOD_ERR_BAD_PARAM;
     if ((unsigned)planet->projection >= PLOD_PROJ_COUNT)
         return PLOD_ERR_BAD_PROJECTION;
-    if (!isfinite(planet->height_scale))
+    if (!isfinite(planet->height_scale) || !isfinite(planet->height_offset))
         return PLOD_ERR_BAD_PARAM;
     if (planet->has_sea_level && !isfinite(planet->sea_level))
         return PLOD_ERR_BAD_PARAM;
@@ -34,7 +35,8 @@ plod_status plod_planet_check(const plod_planet *planet)
         if (!isfinite(lo) || !isfinite(hi) || lo > hi)
             return PLOD_ERR_BAD_PARAM;
         /* the terrain must stay outside the centre and within sane bounds */
-        double a = lo * planet->height_scale, b = hi * planet->height_scale;
+        double a = lo * planet->height_scale + planet->height_offset,
+               b = hi * planet->height_scale + planet->height_offset;
         double low = a < b ? a : b, high = a < b ? b : a;
         if (low <= -0.5 * planet->radius || high > 10.0 * planet->radius)
             return PLOD_ERR_BAD_PARAM;
@@ -58,10 +60,20 @@ plod_status plod_planet_build_normals(const plod_planet *planet, plod_cubemap **
     *out = NULL;
     if (!planet || !planet->heightmap)
         return PLOD_ERR_NULL;
-    return plod_cubemap_build_normals(out, planet->heightmap, planet->radius,
+    /* the offset moves the whole surface: a sphere of radius + offset */
+    return plod_cubemap_build_normals(out, planet->heightmap,
+                                      planet->radius + planet->height_offset,
                                       planet->height_scale);
 }
 
+
+/* Metres for a sampled map value.  Without an offset exactly value * scale
+ * (no "+ 0.0", which would turn a -0.0 height into +0.0). */
+static inline double plod__metres(const plod_planet *planet, double value)
+{
+    double height = value * planet->height_scale;
+    return planet->height_offset != 0.0 ? height + planet->height_offset : height;
+}
 
 /* Unit normal of the displaced surface d*(R+h(d)) from central differences
  * of h along a tangent frame chosen from d alone, one texel apart:
@@ -164,7 +176,7 @@ static double plod__map_surface(const plod_planet *planet, const double dir[3], 
         *face = -1;
         return NAN;
     }
-    double height = sample[0] * planet->height_scale;
+    double height = plod__metres(planet, sample[0]);
     if (!normal)
         return height;
     if (!planet->normalmap) {
@@ -257,7 +269,7 @@ void plod_planet_surface_band_n(const plod_planet *planet, size_t n, const doubl
             plod_cubemap_sample_face_n(planet->heightmap, count, faces, u, v, sample);
         for (size_t i = 0; i < count; i++)
             heights[first + i] =
-                faces[i] < 0 ? NAN : sample[i * height_channels] * planet->height_scale;
+                faces[i] < 0 ? NAN : plod__metres(planet, sample[i * height_channels]);
         if (normals) {
             for (size_t i = 0; i < count; i++) {
                 if (faces[i] < 0)
@@ -304,7 +316,7 @@ double plod_planet_height(const plod_planet *planet, const double dir[3])
 static void plod__scaled(const plod_planet *planet, double lo, double hi,
                          double *min_m, double *max_m)
 {
-    double a = lo * planet->height_scale, b = hi * planet->height_scale;
+    double a = plod__metres(planet, lo), b = plod__metres(planet, hi);
     *min_m = a < b ? a : b;
     *max_m = a < b ? b : a;
 }

@@ -31,7 +31,9 @@ plod_status plod_image_alloc(plod_image *image, int width, int height,
 void plod_image_free(plod_image *image);
 size_t plod_image_texel_bytes(plod_texel_type type);
 
-/* Reads any format OpenImageIO can (PNG 8/16, JPEG, TIFF incl. float, EXR).
+/* Reads any format OpenImageIO can (PNG 8/16, JPEG, TIFF incl. float, EXR),
+ * and the headerless height grids below by extension: .hgt (SRTM), .r16 and
+ * .raw (16-bit little-endian, square or 2:1, as plod_raw_guess finds).
  * Pixel type kept as u8/u16/f32 (other types converted to f32).
  * Errors: PLOD_ERR_IO (missing/unreadable), PLOD_ERR_BAD_IMAGE (corrupt,
  * zero size, > max_pixels; max_pixels 0 = PLOD_IMAGE_DEFAULT_MAX_PIXELS),
@@ -46,6 +48,48 @@ plod_status plod_image_read(plod_image *image, const char *path,
  * u8; .exr/.hdr/.pfm: f32; .tif: all). */
 plod_status plod_image_write(const plod_image *image, const char *path,
                              char *message, size_t message_size);
+
+/* ---- headerless height grids (image_raw.c) ------------------------------ */
+typedef enum plod_raw_type {
+    PLOD_RAW_U8 = 0,
+    PLOD_RAW_U16,
+    PLOD_RAW_I16,
+    PLOD_RAW_F32,
+    PLOD_RAW_TYPE_COUNT
+} plod_raw_type;
+
+/* A headerless grid: rows top to bottom, one sample per texel. */
+typedef struct plod_raw_format {
+    int width;
+    int height;
+    plod_raw_type type;
+    int big_endian; /* non-zero: most significant byte first */
+} plod_raw_format;
+
+size_t plod_raw_sample_bytes(plod_raw_type type);
+/* Reads a headerless grid as a 1-channel image: u8 and u16 keep their type
+ * (normalised on sampling as other maps), i16 becomes f32 holding the
+ * integer values (in a .hgt file -32768 is a void: NaN), f32 stays.  The
+ * file size must be exactly width * height * sample bytes
+ * (PLOD_ERR_BAD_IMAGE otherwise); other errors as plod_image_read. */
+plod_status plod_image_read_raw(plod_image *image, const char *path,
+                                const plod_raw_format *format, size_t max_pixels,
+                                char *message, size_t message_size);
+/* The format of a .hgt (big-endian i16, 1201 or 3601 a side, from the file
+ * size), .r16 or .raw file (u16 little-endian, square or 2:1 from the file
+ * size).  PLOD_ERR_BAD_IMAGE when the size fits none; PLOD_ERR_BAD_PARAM
+ * for another extension; PLOD_ERR_IO for a missing file. */
+plod_status plod_raw_guess(const char *path, plod_raw_format *format, char *message,
+                           size_t message_size);
+/* Non-zero for a path ending in .hgt, .r16 or .raw (any case). */
+int plod_raw_is_raw_path(const char *path);
+/* South-west corner of an SRTM tile from its file name (N45E006.hgt: lat 45,
+ * lon 6; S and W negative); 0 when the name does not follow the scheme. */
+int plod_hgt_origin(const char *path, int *lon, int *lat);
+/* Reinterprets u8/u16 texels as two's complement (int8/int16 data stored
+ * in an unsigned file): the image becomes f32 holding the signed integer
+ * values.  f32 images are left as they are. */
+plod_status plod_image_reinterpret_signed(plod_image *image);
 
 #ifdef __cplusplus
 }

@@ -19,6 +19,10 @@ typedef struct plod_planet {
                                       projection equals `projection` (CAR:
                                       an equirectangular map). */
     double height_scale;        /* metres per unit of sampled height */
+    double height_offset;       /* metres added to every height (a datum:
+                                   terrain below the radius, sea floor);
+                                   height = sample * height_scale +
+                                   height_offset */
     const plod_cubemap *normalmap; /* borrowed, optional: the normals of
                                       heightmap for this radius and
                                       height_scale (plod_planet_build_normals);

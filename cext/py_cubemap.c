@@ -205,12 +205,76 @@ static PyObject *plod__wrap(plod_cubemap *map)
     return (PyObject *)self;
 }
 
-static int plod__read_image(const char *path, plod_image *image, const char *context)
+int plod_py_read_options_arg(PyObject *raw, int is_signed, plod_py_read_options *out,
+                             const char *context)
+{
+    memset(out, 0, sizeof *out);
+    out->is_signed = is_signed != 0;
+    if (!raw || raw == Py_None)
+        return 0;
+    static const char *const types[] = {"u8", "u16", "i16", "f32"};
+    const char *problem = NULL;
+    if (!PyMapping_Check(raw) || !PyObject_HasAttrString(raw, "keys")) {
+        problem = "raw must be a mapping: width, height, dtype, byteorder";
+        goto fail;
+    }
+    static const char *const keys[] = {"width", "height", "dtype", "byteorder"};
+    PyObject *items[4] = {NULL, NULL, NULL, NULL};
+    for (int k = 0; k < 4; k++) {
+        items[k] = PyMapping_HasKeyString(raw, keys[k]) ? PyMapping_GetItemString(raw, keys[k])
+                                                        : NULL;
+        PyErr_Clear();
+    }
+    out->has_raw = 1;
+    out->raw.type = PLOD_RAW_U16;
+    long width = items[0] ? PyLong_AsLong(items[0]) : -1;
+    long height = items[1] ? PyLong_AsLong(items[1]) : -1;
+    PyErr_Clear();
+    const char *dtype = items[2] && PyUnicode_Check(items[2]) ? PyUnicode_AsUTF8(items[2]) : "u16";
+    const char *order =
+        items[3] && PyUnicode_Check(items[3]) ? PyUnicode_AsUTF8(items[3]) : "little";
+    int type = -1;
+    for (int t = 0; dtype && t < PLOD_RAW_TYPE_COUNT; t++)
+        if (strcmp(dtype, types[t]) == 0)
+            type = t;
+    if (width < 1 || width > (1L << 30) || height < 1 || height > (1L << 30))
+        problem = "raw width and height must be integers >= 1";
+    else if (type < 0 || (items[2] && !PyUnicode_Check(items[2])))
+        problem = "raw dtype must be 'u8', 'u16', 'i16' or 'f32'";
+    else if (!order || (strcmp(order, "little") != 0 && strcmp(order, "big") != 0) ||
+             (items[3] && !PyUnicode_Check(items[3])))
+        problem = "raw byteorder must be 'little' or 'big'";
+    for (int k = 0; k < 4; k++)
+        Py_XDECREF(items[k]);
+    PyErr_Clear();
+    if (problem)
+        goto fail;
+    out->raw.width = (int)width;
+    out->raw.height = (int)height;
+    out->raw.type = (plod_raw_type)type;
+    out->raw.big_endian = strcmp(order, "big") == 0;
+    return 0;
+fail:
+    plod_py_raise_detail(PLOD_ERR_BAD_PARAM, context, problem);
+    return -1;
+}
+
+static int plod__read_image(const char *path, plod_image *image, const char *context,
+                            const plod_py_read_options *options)
 {
     char message[PLOD__MESSAGE_SIZE];
     plod_status s;
     Py_BEGIN_ALLOW_THREADS
-    s = plod_image_read(image, path, 0, message, sizeof message);
+    if (options && options->has_raw)
+        s = plod_image_read_raw(image, path, &options->raw, 0, message, sizeof message);
+    else
+        s = plod_image_read(image, path, 0, message, sizeof message);
+    if (s == PLOD_OK && options && options->is_signed) {
+        s = plod_image_reinterpret_signed(image);
+        if (s != PLOD_OK)
+            plod_image_free(image);
+        snprintf(message, sizeof message, "reinterpreting '%s' as signed", path);
+    }
     Py_END_ALLOW_THREADS
     if (s != PLOD_OK) {
         plod_py_raise_detail(s, context, message);
@@ -265,7 +329,8 @@ static int plod__is_cross(const plod_image *image)
 
 /* The shared loader of CubeMap.from_image and plod_py_cubemap_from_image. */
 static PyObject *plod__cubemap_from_image(const char *path, plod_projection projection, int size,
-                                          int channels, plod_filter filter, PyObject *progress)
+                                          int channels, plod_filter filter, PyObject *progress,
+                                          const plod_py_read_options *options)
 {
     const char *context = "planetlod.CubeMap.from_image";
     if (size < 0 || size > PLOD__MAX_SIZE) {
@@ -275,7 +340,7 @@ static PyObject *plod__cubemap_from_image(const char *path, plod_projection proj
     if (channels < 0 || channels > 4)
         return plod_py_raise_detail(PLOD_ERR_BAD_PARAM, context, "channels must be 1..4 (or None)");
     plod_image image = {0};
-    if (plod__read_image(path, &image, context) < 0)
+    if (plod__read_image(path, &image, context, options) < 0)
         return NULL;
     if (channels == 0)
         channels = image.channels;
@@ -325,10 +390,10 @@ plod_cubemap *plod_py_cubemap_get(PyObject *obj)
 }
 
 PyObject *plod_py_cubemap_from_image(const char *path, plod_projection projection, int size,
-                                     int channels)
+                                     int channels, const plod_py_read_options *options)
 {
     return plod__cubemap_from_image(path, projection, size, channels, PLOD_FILTER_BILINEAR,
-                                    Py_None);
+                                    Py_None, options);
 }
 
 /* ======================================================================== */
@@ -383,13 +448,15 @@ static PyObject *plod__cubemap_from_image_method(PyObject *cls, PyObject *args, 
 {
     (void)cls;
     static char *keywords[] = {"path", "projection", "size", "filter", "channels", "progress",
-                               NULL};
+                               "raw", "signed", NULL};
     PyObject *path_obj, *projection_obj = NULL, *size_obj = Py_None, *filter_obj = NULL;
-    PyObject *channels_obj = Py_None, *progress = Py_None;
-    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "O&|OOOOO:from_image", keywords,
+    PyObject *channels_obj = Py_None, *progress = Py_None, *raw = Py_None;
+    int is_signed = 0;
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "O&|OOOOOOp:from_image", keywords,
                                      PyUnicode_FSConverter, &path_obj, &projection_obj, &size_obj,
-                                     &filter_obj, &channels_obj, &progress))
+                                     &filter_obj, &channels_obj, &progress, &raw, &is_signed))
         return NULL;
+    plod_py_read_options options;
     const char *context = "planetlod.CubeMap.from_image";
     plod_projection projection = PLOD_PROJ_QSC;
     plod_filter filter = PLOD_FILTER_BILINEAR;
@@ -421,8 +488,10 @@ static PyObject *plod__cubemap_from_image_method(PyObject *cls, PyObject *args, 
         plod_py_raise_detail(PLOD_ERR_BAD_PARAM, context, "progress must be callable or None");
         goto done;
     }
+    if (plod_py_read_options_arg(raw, is_signed, &options, context) < 0)
+        goto done;
     result = plod__cubemap_from_image(PyBytes_AS_STRING(path_obj), projection, (int)size,
-                                      (int)channels, filter, progress);
+                                      (int)channels, filter, progress, &options);
 done:
     Py_DECREF(path_obj);
     return result;
@@ -683,8 +752,11 @@ static PyMethodDef plod__cubemap_methods[] = {
     {"from_image", (PyCFunction)(void (*)(void))plod__cubemap_from_image_method,
      METH_VARARGS | METH_KEYWORDS | METH_CLASS,
      "from_image(path, projection='qsc', size=1024, filter='bilinear', channels=None, "
-     "progress=None) -> CubeMap\n\nAn equirectangular image is resampled (size None: width/4); "
-     "a 4:3 cross-layout image is loaded as a cube map in `projection` as is."},
+     "progress=None, raw=None, signed=False) -> CubeMap\n\nAn equirectangular image is "
+     "resampled (size None: width/4); a 4:3 cross-layout image is loaded as a cube map in "
+     "`projection` as is.  raw: dict(width, height, dtype='u8'|'u16'|'i16'|'f32', "
+     "byteorder='little'|'big') for a headerless grid; signed: 8/16-bit samples are two's "
+     "complement (read as float32 integer values)."},
     {"sample", (PyCFunction)plod__cubemap_sample, METH_VARARGS,
      "sample(x, y, z) -> tuple\n\nSeamless bilinear sample at a direction (normalised values)."},
     {"sample_face", (PyCFunction)plod__cubemap_sample_face, METH_VARARGS,
@@ -798,7 +870,7 @@ static PyObject *plod__resample(PyObject *module, PyObject *args, PyObject *kwar
     if (plod__progress_call(&p, -p.offset / p.scale)) /* 0.0 */
         goto cancelled;
     double t0 = plod__seconds();
-    if (plod__read_image(input, &image, context) < 0)
+    if (plod__read_image(input, &image, context, NULL) < 0)
         goto done;
     double t1 = plod__seconds();
     int channels = plod__format_channels(format, image.channels, context);

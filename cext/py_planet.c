@@ -352,11 +352,13 @@ static int plod__detail_arg(PyObject *obj, plod_detail_params *p, int *enabled)
 static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwds)
 {
     static char *kwlist[] = {"radius", "projection", "heightmap", "height_scale",
-                             "sea_level", "heightmap_size", "detail", NULL};
+                             "sea_level", "heightmap_size", "detail", "height_offset",
+                             "height_signed", "heightmap_raw", NULL};
     double radius;
     PyObject *proj = NULL, *heightmap = Py_None, *sea = Py_None, *detail = Py_None;
-    double scale = 1.0;
-    int size = 0;
+    PyObject *raw = Py_None;
+    double scale = 1.0, offset = 0.0;
+    int size = 0, is_signed = 0;
     if (self->refiner) {
         PyErr_SetString(PyExc_RuntimeError, "Planet already initialised");
         return -1;
@@ -372,13 +374,21 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
         PyErr_SetString(PyExc_RuntimeError, "Planet is already initialised");
         return -1;
     }
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "d|OOdOiO", kwlist, &radius, &proj,
-                                     &heightmap, &scale, &sea, &size, &detail))
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "d|OOdOiOdpO", kwlist, &radius, &proj,
+                                     &heightmap, &scale, &sea, &size, &detail, &offset,
+                                     &is_signed, &raw))
         return -1;
     plod_detail_params detail_params;
     int detail_on = 0;
     if (plod__detail_arg(detail, &detail_params, &detail_on) < 0)
         return -1;
+    plod_py_read_options read_options;
+    if (plod_py_read_options_arg(raw, is_signed, &read_options, "Planet") < 0)
+        return -1;
+    if (!isfinite(offset)) {
+        plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "Planet", "height_offset must be finite");
+        return -1;
+    }
     memset(&self->planet, 0, sizeof self->planet);
     self->planet.projection = PLOD_PROJ_QSC;
     if (proj && proj != Py_None && plod_py_projection_arg(proj, &self->planet.projection) < 0)
@@ -390,6 +400,7 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
     }
     self->planet.radius = radius;
     self->planet.height_scale = scale;
+    self->planet.height_offset = offset;
     if (sea != Py_None) {
         double s = PyFloat_AsDouble(sea);
         if (s == -1.0 && PyErr_Occurred())
@@ -413,11 +424,17 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
             if (!PyUnicode_FSConverter(heightmap, &path))
                 return -1;
             map = plod_py_cubemap_from_image(PyBytes_AS_STRING(path),
-                                             self->planet.projection, size, 1);
+                                             self->planet.projection, size, 1, &read_options);
             Py_DECREF(path);
             if (!map)
                 return -1;
         } else {
+            if (read_options.is_signed || read_options.has_raw) {
+                plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "Planet",
+                                     "height_signed and heightmap_raw apply to a height map "
+                                     "read from a file, not to a CubeMap");
+                return -1;
+            }
             Py_INCREF(heightmap);
             map = heightmap;
         }
@@ -483,8 +500,8 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
         self->detail = NULL;
         Py_CLEAR(self->heightmap);
         self->planet.heightmap = NULL;
-        plod_py_raise_detail(st, "Planet", "invalid planet (radius, height_scale, sea_level "
-                                           "or height range)");
+        plod_py_raise_detail(st, "Planet", "invalid planet (radius, height_scale, height_offset, "
+                                           "sea_level or height range)");
         return -1;
     }
     plod_refine_params_default(&self->params);
@@ -894,6 +911,7 @@ static PyObject *plod__planet_get(plod_py_planet *self, void *closure)
     case 2: return PyFloat_FromDouble(self->planet.radius);
     case 3: return PyUnicode_FromString(plod_projection_name(self->planet.projection));
     case 4: return PyFloat_FromDouble(self->planet.height_scale);
+    case 10: return PyFloat_FromDouble(self->planet.height_offset);
     case 5:
         if (!self->planet.has_sea_level)
             Py_RETURN_NONE;
@@ -1025,6 +1043,8 @@ static PyGetSetDef plod__planet_getset[] = {
     {"projection", (getter)plod__planet_get_locked, NULL, "projection name", (void *)3},
     {"height_scale", (getter)plod__planet_get_locked, NULL, "metres per height unit", (void *)4},
     {"sea_level", (getter)plod__planet_get_locked, NULL, "metres or None", (void *)5},
+    {"height_offset", (getter)plod__planet_get_locked, NULL,
+     "metres added to every map height (datum)", (void *)10},
     {"heightmap", (getter)plod__planet_get_locked, NULL, "CubeMap or None", (void *)6},
     {"detail", (getter)plod__planet_get_locked, NULL,
      "the detail field's parameters (dict, with its octave count and finest wavelength) "
@@ -1089,7 +1109,9 @@ static PyMethodDef plod__planet_methods[] = {
 
 static PyType_Slot plod__planet_slots[] = {
     {Py_tp_doc, "Planet(radius, projection='qsc', heightmap=None, height_scale=1.0, "
-                "sea_level=None, heightmap_size=0): a planet refined with HRTMR."},
+                "sea_level=None, heightmap_size=0, height_offset=0.0, height_signed=False, "
+                "heightmap_raw=None): a planet refined with HRTMR; heights = map value * "
+                "height_scale + height_offset."},
     {Py_tp_init, plod__planet_init},
     {Py_tp_new, PyType_GenericNew},
     {Py_tp_dealloc, plod__planet_dealloc},

@@ -39,6 +39,19 @@ int plod_py_projection_arg(PyObject *name, plod_projection *out);
 /* Reads a float64 sequence or buffer into a new malloc'ed array. */
 double *plod_py_doubles(PyObject *obj, size_t *count, const char *what);
 
+/* ---- reading height data (py_cubemap.c) ----------------------------------
+ * How an image file is read: `raw` (a mapping width, height, dtype 'u8' |
+ * 'u16' | 'i16' | 'f32', byteorder 'little' | 'big'; None = by the file's
+ * extension) and `signed` (u8/u16 samples are two's complement). */
+typedef struct plod_py_read_options {
+    int is_signed;
+    int has_raw;
+    plod_raw_format raw;
+} plod_py_read_options;
+/* Fills *out from the Python arguments; -1 with InvalidArgument. */
+int plod_py_read_options_arg(PyObject *raw, int is_signed, plod_py_read_options *out,
+                             const char *context);
+
 /* ---- cube map glue (py_cubemap.c; used by Planet) ----------------------
  * planetlod.CubeMap wraps an owned plod_cubemap with its pyramid built. */
 /* Borrowed pointer to the cube map inside a planetlod.CubeMap, or NULL with
@@ -49,7 +62,8 @@ plod_cubemap *plod_py_cubemap_get(PyObject *obj);
  * cross-layout (4:3) image is taken as a cube map already.  channels 0 =
  * keep the image's.  Raises FileError/ImageError/InvalidArgument. */
 PyObject *plod_py_cubemap_from_image(const char *path, plod_projection projection,
-                                     int size, int channels);
+                                     int size, int channels,
+                                     const plod_py_read_options *options);
 
 /* ---- mesh glue (py_mesh.c; called by Planet.mesh / Planet.instances) ----
  * `sectors` are the refiner's leaves; only those with PLOD_SECTOR_VISIBLE are

@@ -1,5 +1,6 @@
 /* fuzz_image.c -- libFuzzer harness for image decoding (cext/image_io.cpp,
- * the OpenImageIO bridge) and the CubeResampler (cext/resample.c).
+ * the OpenImageIO bridge; cext/image_raw.c, headerless grids) and the
+ * CubeResampler (cext/resample.c).
  *
  * Input layout: [format][projection/filter][cube size][flags] file-bytes...
  * The file bytes are written to a private file in /dev/shm whose extension
@@ -28,6 +29,7 @@
 static const char *const fuzz_extensions[] = {
     "png", "jpg", "tif", "exr", "hdr", "bmp", "tga", "pnm", "pfm", "gif",
     "psd", "ico", "rla", "dds", "webp", "fits", "dat", /* unknown ext: OIIO probes */
+    "hgt", "r16", "raw", /* headerless height grids (image_raw.c) */
 };
 #define FUZZ_EXTENSIONS (sizeof fuzz_extensions / sizeof fuzz_extensions[0])
 
@@ -151,10 +153,35 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     /* A small pixel cap keeps each execution cheap; absurd headers must be
      * refused by the cap before any allocation. */
     size_t max_pixels = (flags & 1) ? 4096 : 1u << 18;
-    plod_status s = plod_image_read(&image, path, max_pixels, message, sizeof message);
+    plod_status s;
+    if (flags & 0x80) {
+        /* an explicit headerless format, usually not matching the size */
+        plod_raw_format raw = {fuzz_range(&tail, -2, 70), fuzz_range(&tail, -2, 70),
+                               (plod_raw_type)fuzz_range(&tail, 0, PLOD_RAW_TYPE_COUNT),
+                               fuzz_range(&tail, 0, 1)};
+        s = plod_image_read_raw(&image, path, &raw, max_pixels, message, sizeof message);
+        FUZZ_CHECK(s != PLOD_OK || (image.width == raw.width && image.height == raw.height &&
+                                    (size_t)raw.width * (size_t)raw.height *
+                                            plod_raw_sample_bytes(raw.type) == in.size),
+                   "raw %dx%d type %d read from %zu bytes", raw.width, raw.height, raw.type,
+                   in.size);
+    } else {
+        s = plod_image_read(&image, path, max_pixels, message, sizeof message);
+    }
+    if (s == PLOD_OK && (flags & 0x20) && image.type != PLOD_TEXEL_F32) {
+        int was_u16 = image.type == PLOD_TEXEL_U16;
+        uint16_t first = was_u16 ? ((const uint16_t *)image.pixels)[0]
+                                 : ((const uint8_t *)image.pixels)[0];
+        FUZZ_CHECK(plod_image_reinterpret_signed(&image) == PLOD_OK, "reinterpret failed");
+        float value = ((const float *)image.pixels)[0];
+        FUZZ_CHECK(image.type == PLOD_TEXEL_F32 &&
+                       value == (was_u16 ? (float)(int16_t)first : (float)(int8_t)first),
+                   "signed %u read as %g", first, value);
+    }
     FUZZ_CHECK(memchr(message, '\0', sizeof message) != NULL, "message not terminated");
     if (s != PLOD_OK) {
-        FUZZ_CHECK(s == PLOD_ERR_IO || s == PLOD_ERR_BAD_IMAGE || s == PLOD_ERR_NO_MEMORY,
+        FUZZ_CHECK(s == PLOD_ERR_IO || s == PLOD_ERR_BAD_IMAGE || s == PLOD_ERR_NO_MEMORY ||
+                       ((flags & 0x80) && s == PLOD_ERR_BAD_PARAM), /* a bad raw format */
                    "read status %d (%s)", s, message);
         FUZZ_CHECK(image.pixels == NULL, "failed read left pixels");
         return 0;

@@ -435,9 +435,15 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                 planet.heightmap = map;
         }
     }
-    if (!isfinite(planet.height_scale))
+    if (head & 0x20) { /* a datum: terrain below the radius, or absurd */
+        static const double offsets[] = {-11000.0, 2500.0, -3.2e6, 1e9, -0.0, INFINITY, NAN};
+        planet.height_offset = fuzz__pick(&in, offsets, sizeof offsets / sizeof offsets[0]);
+    }
+    if (!isfinite(planet.height_scale) || !isfinite(planet.height_offset))
         finite_heights = 0;
     plod_status s = plod_planet_check(&planet);
+    if (!isfinite(planet.height_offset))
+        FUZZ_CHECK(s != PLOD_OK, "non-finite height offset accepted");
     if (!(planet.radius >= 1.0 && planet.radius <= 1e8) ||
         (unsigned)planet.projection >= PLOD_PROJ_COUNT)
         FUZZ_CHECK(s != PLOD_OK, "planet radius %g projection %d accepted", planet.radius,
