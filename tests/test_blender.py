@@ -50,11 +50,11 @@ def test_blender_script(script, user_scripts, tmp_path):
     assert proc.returncode == 0 and "PLOD-TEST PASS" in output, output[-6000:]
 
 
-def _flyby(frames, out, env):
+def _flyby(frames, out, env, resolution="64x36", samples=1):
     proc, output = run_blender(
         ["--python", os.path.join(ROOT, "tools", "flyby.py"), "--", "--preset", "earth",
          "--quality", "draft", "--frames", frames, "--path-frames", "12",
-         "--resolution", "64x36", "--samples", "1", "--out", str(out)], env)
+         "--resolution", resolution, "--samples", str(samples), "--out", str(out)], env)
     assert proc.returncode == 0, output[-6000:]
     first, last = (int(v) for v in frames.split("-"))
     for index, frame in enumerate(range(first, last + 1)):  # one progress line per frame
@@ -90,3 +90,45 @@ def test_viewport_gpu_preview(user_scripts, tmp_path):
     proc = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=300)
     output = proc.stdout + proc.stderr
     assert proc.returncode == 0 and "PLOD-TEST PASS" in output, output[-6000:]
+
+
+def _rgb(path):
+    import matplotlib.image
+    image = matplotlib.image.imread(str(path))  # rows top first, floats 0..1
+    return image[:, :, :3]
+
+
+def test_flyby_frames_show_surface_sky_and_sea(user_scripts, tmp_path):
+    """Every frame of the README's flyby (orbit, descent, skim at 5 m) shows a lit
+    surface; the orbit shows the planet against black space, the skim a blue sky
+    above the horizon and the sea where the camera flies over the sea (the
+    descent looks down, below the horizon); checked by per-frame image
+    statistics of the rendered PNGs."""
+    import numpy
+    env = blender_env(user_scripts, tmp_path)
+    rows = _flyby("1-12", tmp_path / "flyby", env, resolution="96x54", samples=4)
+    seen_sea = False
+    for frame, row in sorted(rows.items()):
+        rgb = _rgb(tmp_path / "flyby" / f"frame_{frame:04d}.png")
+        luminance = rgb @ numpy.array([0.2126, 0.7152, 0.0722])
+        altitude, ground = float(row["camera_altitude_m"]), float(row["camera_ground_m"])
+        h = rgb.shape[0]
+        top, bottom = rgb[: h // 6].reshape(-1, 3).mean(0), rgb[-h // 3:].reshape(-1, 3)
+        space = (luminance < 0.03).mean()
+        lit = (luminance > 0.12).mean()
+        print(f"frame {frame}: altitude {altitude:.0f} m, ground {ground:.0f} m, space "
+              f"{space:.2f}, lit {lit:.2f}, top RGB {numpy.round(top, 3)}, bottom RGB "
+              f"{numpy.round(bottom.mean(0), 3)}")
+        assert lit > 0.1, f"frame {frame}: no lit surface"
+        assert luminance.std() > 0.01, f"frame {frame}: a flat frame"
+        if altitude > 1.0e6:  # orbit: the planet against black space
+            assert 0.05 < space < 0.95, f"frame {frame}: no planet against space"
+        elif altitude - ground < 100.0:  # the skim: a few metres up, the horizon in view
+            assert top[2] > top[0] and top.mean() > 0.15, f"frame {frame}: no blue sky"
+            assert space < 0.01, f"frame {frame}: black sky near the ground"
+            if ground <= 0.0:  # over the sea: water below the horizon
+                seen_sea = True
+                water = bottom.mean(0)
+                assert water[2] > 1.2 * water[0] and water[2] > water[1], \
+                    f"frame {frame}: no sea under a camera over the sea"
+    assert seen_sea, "the flyby never flew over the sea"

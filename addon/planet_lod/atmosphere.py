@@ -70,10 +70,11 @@ def _up_term(b, r, mu, radius, height):
     return c / (c * mu + 1.0) * b.exp(b.minimum(altitude, 0.0))
 
 
-def _grazing(b, r0, radius, height):
-    """2 sqrt(pi/2 x0) exp((R - r0)/H): a whole ray through its closest approach."""
+def _grazing(b, r0, radius, height, limit=30.0):
+    """2 sqrt(pi/2 x0) exp((R - r0)/H): a whole ray through its closest approach
+    (exponent capped at `limit`: a ray that meets the planet is opaque anyway)."""
     return b.sqrt(r0 * (math.pi / 2.0 / height)) * 2.0 * \
-        b.exp(b.minimum((r0 - radius) * (-1.0 / height), 30.0))
+        b.exp(b.minimum((r0 - radius) * (-1.0 / height), limit))
 
 
 def _to_space(b, r, mu, r0, radius, height):
@@ -189,13 +190,16 @@ def aerial_perspective(b, atm, surface):
         up_c = _up_term(b, r_c, b.math("ABSOLUTE", mu_c), radius, height) * (1.0 - down_c * 2.0)
         up_p = _up_term(b, r_p, b.math("ABSOLUTE", mu_p), radius, height) * (1.0 - down_p * 2.0)
         crossing = b.math("ABSOLUTE", down_c - down_p)
-        segment = up_c - up_p + crossing * _grazing(b, r0, radius, height)
+        # (a ray that reaches the ground past its closest approach passed above
+        # the radius there, except on the flat triangles of a coarse LOD, which
+        # sag below it: count those as at the radius)
+        segment = up_c - up_p + crossing * _grazing(b, r0, radius, height, limit=0.0)
         depths.append(b.maximum(segment, 0.0))
     sun_r, sun_m, sun = _sun_depths(b, atm, point)
     energy = b.input_value("plod_sun_strength", 1.0)
     radiance, transmittance = _scatter(b, atm, depths[0], depths[1], b.dot(d, sun), sun_r, sun_m,
                                        energy)
-    haze = b.math("DIVIDE", b.dot(transmittance, (1.0, 1.0, 1.0)), 3.0)
+    haze = b.dot(transmittance, (0.3, 0.6, 0.1))  # luminance-weighted
     fog = 1.0 - haze
     emission = b.node("ShaderNodeEmission")
     b.link(radiance / b.maximum(fog, 1e-4), emission.inputs["Color"])

@@ -352,7 +352,8 @@ def geo_pose(radius, longitude, latitude, east=0.0, north=0.0, altitude=0.0, hea
 
 CSV_FIELDS = ("frame", "sectors_total", "sectors_after_backface", "sectors_after_frustum",
               "sectors_after_budget", "triangles", "vertices", "splits", "merges", "max_level",
-              "refine_us", "mesh_ms", "render_s", "camera_altitude_m", "mesh_hash")
+              "refine_us", "mesh_ms", "render_s", "camera_altitude_m", "camera_ground_m",
+              "mesh_hash")
 
 
 def csv_row(values):

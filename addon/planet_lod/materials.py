@@ -118,7 +118,7 @@ def color_image(settings, create=True):
     return converted
 
 
-DETAIL_PERIOD = 20000.0  # metres: detail texture coordinates wrap here (float32-safe)
+DETAIL_PERIOD = 50000.0  # metres: detail texture coordinates wrap here (4 mm float32 steps)
 
 
 def detail_offset(anchor):
@@ -149,26 +149,39 @@ def _ground_types(b, s, base, airless):
     """Ground colour below the colour map's resolution: rock on steep slopes, snow
     above a latitude-dependent snow line, sand at the shore, vegetation tinted
     by the colour map, regolith on airless bodies; by per-vertex height, slope
-    and latitude, textured by noise in planet-anchored coordinates and faded in
-    within a few kilometres of the camera (the colour map rules beyond)."""
+    and latitude, textured by noise in planet-anchored coordinates; the types
+    fade in within 30 km of the camera (the colour map rules beyond).  Returns
+    (colour, relief for the bump)."""
     height = b.socket(_attribute(b, "planet_height").outputs["Fac"], vector=False)
     slope = b.socket(_attribute(b, "planet_slope").outputs["Fac"], vector=False)
     latitude = b.socket(_attribute(b, "planet_latitude").outputs["Fac"], vector=False)
     coords = b.node("ShaderNodeTexCoord")
     detail = b.socket(coords.outputs["Object"]) + b.input_vector("plod_detail_offset")
-    fine = _noise(b, detail, 1.3)          # ~1 m grain
-    mid = _noise(b, detail, 0.09)          # ~10 m patches
-    coarse = _noise(b, detail, 0.004)      # ~250 m fields
     camera_data = b.node("ShaderNodeCameraData")
     distance = b.socket(camera_data.outputs["View Distance"], vector=False)
-    near = 1.0 - b.smoothstep(1500.0, 12000.0, distance)
-    grain = (fine - 0.5) * 0.5 + (mid - 0.5) * 0.6 + (coarse - 0.5) * 0.5 + 1.0
+    # four octaves of ground texture, each faded in where the colour map's
+    # 10 km texels are magnified enough for it to show (about 0.8 m, 11 m,
+    # 250 m and 3.3 km features, seen within 0.2, 3, 30 and 200 km)
+    fine = _noise(b, detail, 1.3)
+    mid = _noise(b, detail, 0.09)
+    coarse = _noise(b, detail, 0.004)
+    broad = _noise(b, detail, 0.0003)
+    grain = 1.0
+    for noise, amount, reach in ((fine, 1.2, 200.0), (mid, 1.4, 3000.0), (coarse, 1.2, 3.0e4),
+                                 (broad, 1.0, 2.0e5)):
+        grain = (noise - 0.5) * ((1.0 - b.smoothstep(0.1 * reach, reach, distance)) * amount) \
+            + grain
+    near = 1.0 - b.smoothstep(3000.0, 3.0e4, distance)
+    bump = fine * (1.0 - b.smoothstep(20.0, 200.0, distance))  # relief for the Bump node
     rock = (0.30, 0.28, 0.26)
+    textured = base * grain
     if airless:
-        ground = base * (grain * near + (1.0 - near))
-        ground = b.mix(ground, b.const(rock) * grain, b.smoothstep(30.0, 45.0, slope) * near * 0.5)
-        return ground, fine, near
-    vegetation = base * (grain * 0.9 + 0.1)
+        ground = b.mix(textured, b.const(rock) * grain,
+                       b.smoothstep(30.0, 45.0, slope) * near * 0.5)
+        return ground, bump
+    # grass and darker forest patches under the colour map's green
+    forest = b.smoothstep(0.45, 0.6, mid) * near
+    vegetation = b.mix(textured, textured * (0.55, 0.62, 0.5), forest)
     steep = b.smoothstep(28.0, 42.0, slope)
     rock_colour = b.const(rock) * (grain * 0.8 + 0.2)
     lat_abs = b.math("ABSOLUTE", latitude)
@@ -180,12 +193,39 @@ def _ground_types(b, s, base, airless):
     ground = b.mix(ground, sand, shore)
     ground = b.mix(ground, b.const((0.93, 0.95, 0.98)) * (fine * 0.1 + 0.9), snow)
     # the colour map's own colour from afar; the ground types close up
-    return b.mix(base, ground, near * 0.85 + 0.15 * steep), fine, near
+    return b.mix(textured, ground, near * 0.85 + 0.15 * steep), bump
+
+
+def _sea_mask(b, s):
+    """1 on the sea, 0 on land.  From the height map itself where it is an
+    equirectangular image (the coast per pixel: a coarse LOD's triangles span
+    coast and sea, and their interpolated vertex heights would draw the coast
+    as triangles), else from the vertex heights."""
+    path = bpy.path.abspath(s.heightmap) if s.heightmap else ""
+    image = None
+    if path and os.path.isfile(path):
+        image = _find_image(path) or bpy.data.images.load(path, check_existing=True)
+        if is_cross_layout(*image.size):
+            image = None
+    if image is None:
+        height = b.socket(_attribute(b, "planet_height").outputs["Fac"], vector=False)
+        return 1.0 - b.smoothstep(0.0, 1.5, height)
+    image.colorspace_settings.name = 'Non-Color'
+    uv = _attribute(b, "planet_uv")
+    tex = b.node("ShaderNodeTexImage")
+    tex.image = image
+    tex.extension = 'REPEAT'
+    tex.interpolation = 'Cubic'
+    b.links.new(uv.outputs["Vector"], tex.inputs["Vector"])
+    metres = b.math("MULTIPLY", b.split(b.socket(tex.outputs["Color"]))[0], s.height_scale)
+    # the coast halfway up the map's first step above the sea (8-bit Earth: 35 m)
+    step = max(s.height_scale / 255.0, 1.0)
+    return 1.0 - b.smoothstep(s.sea_level + 0.25 * step, s.sea_level + 0.6 * step, metres)
 
 
 def _water(b, s):
     """Principled water: low roughness (sun glint), tinted by depth where the
-    height map has bathymetry, ripples near the camera."""
+    height map has bathymetry."""
     depth = b.socket(_attribute(b, "planet_sea_depth").outputs["Fac"], vector=False)
     deep = 1.0 - b.exp(depth * (-1.0 / 40.0))
     colour = b.mix(b.const((0.02, 0.10, 0.14)), b.const((0.004, 0.02, 0.06)), deep * 0.8 + 0.2)
@@ -205,7 +245,7 @@ def planet_material(obj):
     color_map = bpy.path.abspath(s.color_map) if s.color_map else ""
     atm = atmosphere.params(s)
     key = (color_map, s.projection, round(s.radius, 3), round(s.height_scale, 3),
-           s.use_sea_level, repr(atm), 2)
+           s.use_sea_level, round(s.sea_level, 3), s.heightmap, repr(atm), 3)
     if material.get("planet_lod_key") == repr(key):
         return material
     material.use_nodes = True
@@ -237,20 +277,19 @@ def planet_material(obj):
         b.links.new(height.outputs["Fac"], remap.inputs["Value"])
         b.links.new(remap.outputs["Result"], ramp.inputs["Fac"])
         base = b.socket(ramp.outputs["Color"])
-    ground_colour, grain, near = _ground_types(b, s, base, airless=atm is None)
+    ground_colour, relief = _ground_types(b, s, base, airless=atm is None)
     ground = b.node("ShaderNodeBsdfPrincipled")
     b.link(ground_colour, ground.inputs["Base Color"])
     ground.inputs["Roughness"].default_value = 0.9
     bump = b.node("ShaderNodeBump")
     bump.inputs["Strength"].default_value = 0.35
     bump.inputs["Distance"].default_value = 0.05
-    b.link(grain * near, bump.inputs["Height"])
+    b.link(relief, bump.inputs["Height"])
     b.links.new(bump.outputs["Normal"], ground.inputs["Normal"])
     surface = ground.outputs[0]
     if s.use_sea_level:
         water = _water(b, s)
-        height = b.socket(_attribute(b, "planet_height").outputs["Fac"], vector=False)
-        sea = 1.0 - b.smoothstep(0.0, 1.5, height)
+        sea = _sea_mask(b, s)
         mix = b.node("ShaderNodeMixShader")
         b.link(sea, mix.inputs["Fac"])
         b.links.new(surface, mix.inputs[1])

@@ -6,7 +6,8 @@ relative to that origin and its normals:
 
 * positions relative to the planet object's anchor (the floating origin),
   offset in float64 and rounded to float32 once;
-* the sea: ground below sea level is lifted onto the sphere of radius
+* the sea: ground below sea level (within the float32 rounding of the
+  core's positions) is lifted onto the sphere of radius
   radius + sea_level, so the sea comes from the same refined sectors as the
   land, meets the coast in shared triangles and never sags below sea level;
   its normal is the sphere's;
@@ -43,6 +44,9 @@ def vertex_data(mesh, anchor, radius, sea_level=None):
         return _vertex_data_python(mesh, anchor, radius, sea_level)
     origin = numpy.array(tuple(mesh.origin), dtype=numpy.float64)
     pos = numpy.frombuffer(mesh.positions, dtype=numpy.float32).reshape(-1, 3)
+    # float32 rounding of the core's positions, relative to its origin: a sea
+    # vertex far from the camera reads up to this much above the sea
+    tolerance = numpy.abs(pos).max(axis=1).astype(numpy.float64) * 2.0 ** -22 + 1e-3
     pos = pos.astype(numpy.float64) + origin
     normals = numpy.frombuffer(mesh.normals, dtype=numpy.float32).reshape(-1, 3)
     normals = normals.astype(numpy.float64)
@@ -51,7 +55,7 @@ def vertex_data(mesh, anchor, radius, sea_level=None):
     height = distance - radius
     depth = numpy.zeros_like(height)
     if sea_level is not None:
-        below = height <= sea_level
+        below = height <= sea_level + tolerance
         depth[below] = sea_level - height[below]
         pos[below] = up[below] * (radius + sea_level)
         normals[below] = up[below]
@@ -77,13 +81,14 @@ def _vertex_data_python(mesh, anchor, radius, sea_level):
     positions, normals = array("f"), []
     columns = {name: array("f") for name in ATTRIBUTES}
     for i in range(mesh.vertex_count):
+        tolerance = max(abs(p[3 * i]), abs(p[3 * i + 1]), abs(p[3 * i + 2])) * 2.0 ** -22 + 1e-3
         x, y, z = p[3 * i] + ox, p[3 * i + 1] + oy, p[3 * i + 2] + oz
         nx, ny, nz = n[3 * i], n[3 * i + 1], n[3 * i + 2]
         distance = math.sqrt(x * x + y * y + z * z)
         ux, uy, uz = x / distance, y / distance, z / distance
         height, depth = distance - radius, 0.0
         if sea_level is not None:
-            if height <= sea_level:
+            if height <= sea_level + tolerance:
                 depth = sea_level - height
                 x, y, z = (c * (radius + sea_level) for c in (ux, uy, uz))
                 nx, ny, nz = ux, uy, uz
