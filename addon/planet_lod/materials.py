@@ -196,21 +196,40 @@ def _ground_types(b, s, base, airless):
     return b.mix(textured, ground, near * 0.85 + 0.15 * steep), bump
 
 
+HEIGHT_IMAGE_KEY = "planet_lod_sea_mask"
+
+
+def _height_image(path):
+    """The add-on's own image of an equirectangular height map (None for none or
+    a cube cross); images no material uses any more go with forget_height_images."""
+    if not path or not os.path.isfile(path):
+        return None
+    image = next((i for i in bpy.data.images if i.get(HEIGHT_IMAGE_KEY) == path), None)
+    if image is None:
+        image = bpy.data.images.load(path, check_existing=False)
+        image[HEIGHT_IMAGE_KEY] = path
+        image.colorspace_settings.name = 'Non-Color'
+    if is_cross_layout(*image.size):
+        bpy.data.images.remove(image)
+        return None
+    return image
+
+
+def forget_height_images():
+    for image in list(bpy.data.images):
+        if image.get(HEIGHT_IMAGE_KEY) and image.users == 0:
+            bpy.data.images.remove(image)
+
+
 def _sea_mask(b, s):
     """1 on the sea, 0 on land.  From the height map itself where it is an
     equirectangular image (the coast per pixel: a coarse LOD's triangles span
     coast and sea, and their interpolated vertex heights would draw the coast
     as triangles), else from the vertex heights."""
-    path = bpy.path.abspath(s.heightmap) if s.heightmap else ""
-    image = None
-    if path and os.path.isfile(path):
-        image = _find_image(path) or bpy.data.images.load(path, check_existing=True)
-        if is_cross_layout(*image.size):
-            image = None
+    image = _height_image(bpy.path.abspath(s.heightmap) if s.heightmap else "")
     if image is None:
         height = b.socket(_attribute(b, "planet_height").outputs["Fac"], vector=False)
         return 1.0 - b.smoothstep(0.0, 1.5, height)
-    image.colorspace_settings.name = 'Non-Color'
     uv = _attribute(b, "planet_uv")
     tex = b.node("ShaderNodeTexImage")
     tex.image = image
@@ -299,6 +318,7 @@ def planet_material(obj):
         surface = atmosphere.aerial_perspective(b, atm, surface)
     tree.links.new(surface, out.inputs["Surface"])
     material["planet_lod_key"] = repr(key)
+    forget_height_images()
     return material
 
 

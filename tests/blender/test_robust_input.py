@@ -55,6 +55,7 @@ def check_cameras(cam):
     from planet_lod import live
     earth = bpy.context.object
     radius = earth.planet_lod.radius
+    assert bpy.ops.object.planet_refresh() == {'FINISHED'}  # settings changed before
     # inside the planet (1000 km below the surface): works, with a warning
     cam.location = (0.0, -(radius - 1.0e6), 0.0)
     bpy.context.view_layer.update()
