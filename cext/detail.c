@@ -86,6 +86,23 @@ static uint64_t plod__mix(uint64_t h)
 #define PLOD__HY 0xC2B2AE3D27D4EB4FULL
 #define PLOD__HZ 0x165667B19E3779F9ULL
 
+/* corner hash: one multiply (its top bits pick a gradient) */
+static uint64_t plod__mix_fast(uint64_t h)
+{
+    h ^= h >> 31;
+    h *= 0xd6e8feb86659fd93ULL;
+    h ^= h >> 32;
+    return h;
+}
+
+/* floor for |x| < 2^62 without a libm call (exact: the integer part of a
+ * double this size is representable) */
+static double plod__floor(double x)
+{
+    double t = (double)(int64_t)x;
+    return t > x ? t - 1.0 : t;
+}
+
 static double plod__unit(uint64_t h) /* [0, 1) from the top 53 bits */
 {
     return (double)(h >> 11) * (1.0 / 9007199254740992.0);
@@ -103,15 +120,15 @@ static const signed char plod__grad[16][3] = {
  * within ~1 already; the clamp makes the bound exact); g: d n / d p. */
 static double plod__gnoise(const double p[3], uint64_t seed, double g[3])
 {
-    double fx = floor(p[0]), fy = floor(p[1]), fz = floor(p[2]);
+    double fx = plod__floor(p[0]), fy = plod__floor(p[1]), fz = plod__floor(p[2]);
     double x = p[0] - fx, y = p[1] - fy, z = p[2] - fz;
     uint64_t base = (uint64_t)(int64_t)fx * PLOD__HX + (uint64_t)(int64_t)fy * PLOD__HY +
                     (uint64_t)(int64_t)fz * PLOD__HZ + seed;
     double val[8], gr[8][3];
     for (int c = 0; c < 8; c++) {
         int cx = c & 1, cy = (c >> 1) & 1, cz = (c >> 2) & 1;
-        uint64_t h = plod__mix(base + (cx ? PLOD__HX : 0) + (cy ? PLOD__HY : 0) +
-                               (cz ? PLOD__HZ : 0));
+        uint64_t h = plod__mix_fast(base + (cx ? PLOD__HX : 0) + (cy ? PLOD__HY : 0) +
+                                    (cz ? PLOD__HZ : 0));
         const signed char *q = plod__grad[h >> 60];
         gr[c][0] = q[0], gr[c][1] = q[1], gr[c][2] = q[2];
         val[c] = q[0] * (x - cx) + q[1] * (y - cy) + q[2] * (z - cz);
@@ -179,7 +196,7 @@ static double plod__crater(const double p[3], const double centre[3], double rad
                            uint64_t seed, double density, double g[3])
 {
     g[0] = g[1] = g[2] = 0.0;
-    double fx = floor(p[0]), fy = floor(p[1]), fz = floor(p[2]);
+    double fx = plod__floor(p[0]), fy = plod__floor(p[1]), fz = plod__floor(p[2]);
     uint64_t h = plod__mix((uint64_t)(int64_t)fx * PLOD__HX + (uint64_t)(int64_t)fy * PLOD__HY +
                            (uint64_t)(int64_t)fz * PLOD__HZ + seed);
     if (plod__unit(h) >= density)
