@@ -262,6 +262,11 @@ double plod_detail_noise(const plod_detail *detail, const double dir[3], int oct
     double sum = 0.0;
     if (octaves > detail->count)
         octaves = detail->count;
+    if (!(fabs(dir[0]) <= 2.0 && fabs(dir[1]) <= 2.0 && fabs(dir[2]) <= 2.0)) {
+        if (gradient) /* not a unit direction (NaN): no lattice to read */
+            gradient[0] = gradient[1] = gradient[2] = NAN;
+        return NAN;
+    }
     int ridged = detail->params.style == PLOD_DETAIL_MOUNTAINS;
     double weight = 1.0, dweight[3] = {0.0, 0.0, 0.0}; /* ridged: previous signal */
     for (int i = 0; i < octaves; i++) {
@@ -497,7 +502,7 @@ static plod_status plod__build_modulation(plod_detail *d, const plod_planet *pla
             double m = 0.0;
             if (r >= 0.0) {
                 double x = r / reference;
-                x = x > 1.0 ? 1.0 : x;
+                x = x < 1.0 ? x : 1.0; /* inf / inf (NaN) too */
                 m = plains + (1.0 - plains) * x * x * (3.0 - 2.0 * x);
             }
             out[t] = (uint8_t)(m * 255.0 + 0.5);
@@ -563,8 +568,9 @@ plod_status plod_detail_create(plod_detail **out, const plod_detail_params *para
     uint64_t seed = plod__mix(params->seed ^ 0x5eedULL);
     d->lo = d->hi = 0.0;
     int count = 0;
+    /* lattice coordinates stay below 2^50: exact floors and integer casts */
     while (count < PLOD_DETAIL_MAX_OCTAVES && wavelength >= params->smallest &&
-           amplitude > 0.0) {
+           amplitude > 0.0 && planet->radius / wavelength < 1e15) {
         plod__octave *o = &d->octaves[count];
         double freq = planet->radius / wavelength;
         for (int i = 0; i < 3; i++)

@@ -48,8 +48,14 @@ plod_status plod_planet_check(const plod_planet *planet)
             plod_cubemap_channels(n) != 3)
             return PLOD_ERR_BAD_PARAM;
     }
-    if (planet->detail && !plod_detail_matches(planet->detail, planet))
-        return PLOD_ERR_BAD_PARAM;
+    if (planet->detail) {
+        if (!plod_detail_matches(planet->detail, planet))
+            return PLOD_ERR_BAD_PARAM;
+        double low, high; /* with the field too, the terrain stays as above */
+        plod_planet_height_range(planet, &low, &high);
+        if (!(low > -0.5 * planet->radius && high <= 10.0 * planet->radius))
+            return PLOD_ERR_BAD_PARAM;
+    }
     return PLOD_OK;
 }
 

@@ -501,7 +501,7 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
         Py_CLEAR(self->heightmap);
         self->planet.heightmap = NULL;
         plod_py_raise_detail(st, "Planet", "invalid planet (radius, height_scale, height_offset, "
-                                           "sea_level or height range)");
+                                           "sea_level, height range or detail amplitude)");
         return -1;
     }
     plod_refine_params_default(&self->params);

@@ -23,6 +23,7 @@
 #include <stdint.h>
 
 #include "fuzz_input.h"
+#include "plod_detail.h"
 #include "plod_mesh.h"
 #include "plod_refine.h"
 
@@ -395,6 +396,35 @@ static void fuzz__check_history_free(const plod_refiner *incremental, const plod
     plod_refiner_destroy(fresh);
 }
 
+/* Heights at points spread over sectors (corners, edge midpoints, centre)
+ * lie inside the sectors' bounds (detail planets: the field's bounds). */
+static void fuzz__check_bounds(const plod_refiner *refiner, const plod_planet *planet)
+{
+    size_t count = 0;
+    const plod_sector *sectors = plod_refiner_sectors(refiner, &count);
+    static const double w[7][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {.5, .5, 0},
+                                   {0, .5, .5}, {.5, 0, .5}, {1 / 3., 1 / 3., 1 / 3.}};
+    for (size_t i = 0; i < count && i < 24; i++) {
+        const plod_sector *s = &sectors[i * (count / 24 + 1) % count];
+        double c[3][3];
+        plod_sector_corners(planet, s, c);
+        for (int k = 0; k < 7; k++) {
+            double p[3];
+            for (int a = 0; a < 3; a++)
+                p[a] = w[k][0] * c[0][a] + w[k][1] * c[1][a] + w[k][2] * c[2][a];
+            double len = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+            for (int a = 0; a < 3; a++)
+                p[a] /= len;
+            double h = plod_planet_height(planet, p);
+            if (!isfinite(h))
+                continue;
+            FUZZ_CHECK(h >= s->height_min && h <= s->height_max,
+                       "height %.17g outside the sector's bounds [%.9g, %.9g] (level %d)", h,
+                       (double)s->height_min, (double)s->height_max, s->level);
+        }
+    }
+}
+
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
     fuzz_input in = {data, size};
@@ -441,6 +471,46 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     }
     if (!isfinite(planet.height_scale) || !isfinite(planet.height_offset))
         finite_heights = 0;
+    plod_detail *detail = NULL;
+    if (head & 0x20) { /* a detail field with random parameters */
+        static const double amplitude[] = {300.0, 0.0, 1.0, 1e6, -1.0, 2e6};
+        static const double roughness[] = {0.5, 0.0, 0.99, 1.0, -0.1};
+        static const double largest[] = {0.0, 1.0, 1e4, -1.0};
+        static const double smallest[] = {0.1, 1e-3, 10.0, 0.0, 1e9};
+        static const double unit[] = {0.5, 0.0, 1.0, 2.0, -0.5};
+        static const double craters[] = {0.0, 1.0, 4.0, 5.0};
+        plod_detail_params dp;
+        plod_detail_params_init(&dp);
+        uint8_t b = fuzz_u8(&in);
+        dp.style = (plod_detail_style)(b % (PLOD_DETAIL_STYLE_COUNT + 1)); /* one invalid */
+        dp.amplitude = fuzz__pick(&in, amplitude, 6);
+        dp.roughness = fuzz__pick(&in, roughness, 5);
+        dp.largest = fuzz__pick(&in, largest, 4);
+        dp.smallest = fuzz__pick(&in, smallest, 5);
+        dp.seed = fuzz_u8(&in);
+        dp.craters = fuzz__pick(&in, craters, 4);
+        dp.crater_density = fuzz__pick(&in, unit, 5);
+        dp.plains = fuzz__pick(&in, unit, 5);
+        dp.relief = (b & 0x80) ? fuzz__pick(&in, largest, 4) : 0.0;
+        int valid = (unsigned)dp.style < PLOD_DETAIL_STYLE_COUNT && dp.amplitude >= 0.0 &&
+                    dp.amplitude <= 1e6 && dp.roughness >= 0.0 && dp.roughness < 1.0 &&
+                    isfinite(dp.largest) && dp.largest >= 0.0 && isfinite(dp.smallest) &&
+                    dp.smallest > 0.0 && dp.craters >= 0.0 && dp.craters <= 4.0 &&
+                    dp.crater_density >= 0.0 && dp.crater_density <= 1.0 && dp.plains >= 0.0 &&
+                    dp.plains <= 1.0 && isfinite(dp.relief) && dp.relief >= 0.0 &&
+                    planet.radius >= 1.0 && isfinite(planet.radius);
+        plod_status ds = plod_detail_create(&detail, &dp, &planet);
+        FUZZ_CHECK(valid ? (ds == PLOD_OK || ds == PLOD_ERR_NO_MEMORY) : ds != PLOD_OK,
+                   "detail parameters %s (%d): style %d amplitude %g roughness %g largest %g "
+                   "smallest %g craters %g density %g plains %g relief %g radius %g",
+                   valid ? "refused" : "accepted", ds, dp.style, dp.amplitude, dp.roughness,
+                   dp.largest, dp.smallest, dp.craters, dp.crater_density, dp.plains, dp.relief,
+                   planet.radius);
+        if (ds == PLOD_OK) {
+            FUZZ_CHECK(plod_detail_octave_count(detail) <= PLOD_DETAIL_MAX_OCTAVES, "octaves");
+            planet.detail = detail;
+        }
+    }
     plod_status s = plod_planet_check(&planet);
     if (!isfinite(planet.height_offset))
         FUZZ_CHECK(s != PLOD_OK, "non-finite height offset accepted");
@@ -452,10 +522,12 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     plod_status cs = plod_refiner_create(&refiner, &planet);
     if (s != PLOD_OK) {
         FUZZ_CHECK(cs != PLOD_OK, "refiner accepted a planet plod_planet_check refused (%d)", s);
+        plod_detail_destroy(detail);
         plod_cubemap_destroy(map);
         return 0;
     }
     if (cs != PLOD_OK) {
+        plod_detail_destroy(detail);
         plod_cubemap_destroy(map);
         return 0;
     }
@@ -582,6 +654,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             continue;
         fuzz__check_frame(refiner, &planet, &rp, &st);
         fuzz__check_history_free(refiner, &planet, &camera, &rp, &st);
+        if (planet.detail && finite_heights)
+            fuzz__check_bounds(refiner, &planet);
         size_t count = 0;
         const plod_sector *sectors = plod_refiner_sectors(refiner, &count);
         if (f == frames - 1 || (fuzz_u8(&in) & 1))
@@ -600,6 +674,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     plod_mesh_cache_destroy(cache);
     plod_refiner_destroy(refiner);
     plod_cubemap_destroy(normals);
+    plod_detail_destroy(detail);
     plod_cubemap_destroy(map);
     return 0;
 }

@@ -287,7 +287,7 @@ def test_styles_on_a_map_free_body(planetlod, style):
 def test_bad_detail_arguments(planetlod):
     bad = [dict(style="blobs"), dict(amplitude=-1.0), dict(roughness=1.0), dict(smallest=0.0),
            dict(plains=2.0), dict(amplitude="tall"), dict(colour=1), dict(seed=1.5),
-           dict(craters=9.0)]
+           dict(craters=9.0), dict(amplitude=1e5, largest=100.0)]
     for detail in bad:
         with pytest.raises(planetlod.InvalidArgument):
             planetlod.Planet(1000.0, detail=detail)
