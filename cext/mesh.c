@@ -589,8 +589,11 @@ typedef struct plod__slot_cache {
  * resolve (cell = longest corner chord / n, as the refiner's error
  * counts); on an edge, those of the edge's own cells (the chord of its two
  * corners: the same bits from both sides); at a corner, shared by sectors
- * of several sizes, every octave (the refiner keeps the octaves a sector
- * drops under the pixel error, so a corner stands out by less).
+ * of several sizes, every octave for the height (the refiner keeps the
+ * octaves a sector drops under the pixel error, so a corner stands out by
+ * less than that) and, for the normal, the finest band of the sector's
+ * edges (the fine octaves' slopes would speckle the shading; so a corner's
+ * normal may differ slightly between the sectors around it).
  * band[0..2]: edge opposite corner k (weight k zero); band[3]: inside. */
 static double plod__chord2(const double a[3], const double b[3])
 {
@@ -612,14 +615,17 @@ static void plod__detail_bands(const plod_planet *planet, const double corners[3
                                            sqrt(longest) * planet->radius / (double)n);
 }
 
-static int plod__vertex_band(const int k[3], const int band[4])
+static int plod__vertex_band(const int k[3], const int band[4], int *normal_band)
 {
     int zeros = (k[0] == 0) + (k[1] == 0) + (k[2] == 0);
-    if (zeros == 2)
-        return PLOD_DETAIL_MAX_OCTAVES; /* a corner: all */
-    if (zeros == 1)
-        return band[k[0] == 0 ? 0 : (k[1] == 0 ? 1 : 2)];
-    return band[3];
+    if (zeros == 2) { /* a corner */
+        int finest = band[0] > band[1] ? band[0] : band[1];
+        *normal_band = finest > band[2] ? finest : band[2];
+        return PLOD_DETAIL_MAX_OCTAVES;
+    }
+    int b = zeros == 1 ? band[k[0] == 0 ? 0 : (k[1] == 0 ? 1 : 2)] : band[3];
+    *normal_band = b;
+    return b;
 }
 
 /* Computes the sector's vertices into the outputs and, when `block` is not
@@ -645,7 +651,7 @@ static void plod__compute_vertices(const plod__emitter *e, const plod_mesh_secto
 
     enum { ROW = (1 << PLOD_MAX_TEMPLATE_LEVEL) + 1 };
     double dirs[3 * ROW], heights[ROW], normals[3 * ROW];
-    int octaves[ROW], band[4];
+    int octaves[ROW], normal_octaves[ROW], band[4];
     if (planet->detail)
         plod__detail_bands(planet, corners, n, band);
     size_t v = vbase, b = 0;
@@ -656,10 +662,11 @@ static void plod__compute_vertices(const plod__emitter *e, const plod_mesh_secto
             int k[3] = {n - i - j, j, i};
             plod__vertex_direction(corners, k, inv_n, dirs + 3 * j);
             if (planet->detail)
-                octaves[j] = plod__vertex_band(k, band);
+                octaves[j] = plod__vertex_band(k, band, normal_octaves + j);
         }
         plod_planet_surface_band_n(planet, (size_t)row, dirs, planet->detail ? octaves : NULL,
-                                   heights, want_normal ? normals : NULL);
+                                   planet->detail ? normal_octaves : NULL, heights,
+                                   want_normal ? normals : NULL);
         for (int j = 0; j < row; j++, v++, b++) {
             const double *dir = dirs + 3 * j, *normal = normals + 3 * j;
             double r = planet->radius + heights[j];

@@ -131,7 +131,7 @@ static void plod__difference_normal(const plod_planet *planet, const double dir[
  * the map normal's slope plus N's analytic slope:
  * n ~ (R + h) d - grad_t h_map - m grad_t N. */
 static void plod__add_detail(const plod_planet *planet, const double dir[3], double m,
-                             int octaves, double *height, double *normal)
+                             int octaves, int normal_octaves, double *height, double *normal)
 {
     if (!(m != 0.0) || octaves <= 0)
         return; /* sea (m = 0) or NaN map: unchanged */
@@ -142,7 +142,13 @@ static void plod__add_detail(const plod_planet *planet, const double dir[3], dou
     double unit[3] = {dir[0] * inv, dir[1] * inv, dir[2] * inv};
     dir = unit;
     double g[3];
-    double noise = plod_detail_noise(planet->detail, dir, octaves, normal ? g : NULL);
+    double noise;
+    if (normal && normal_octaves != octaves) { /* the slope of fewer octaves */
+        noise = plod_detail_noise(planet->detail, dir, octaves, NULL);
+        (void)plod_detail_noise(planet->detail, dir, normal_octaves, g);
+    } else {
+        noise = plod_detail_noise(planet->detail, dir, octaves, normal ? g : NULL);
+    }
     double h_map = *height;
     *height = h_map + m * noise;
     if (!normal)
@@ -226,7 +232,7 @@ double plod_planet_surface(const plod_planet *planet, const double dir[3], doubl
     double height = plod__map_surface(planet, dir, normal, &face, &u, &v);
     if (planet->detail)
         plod__add_detail(planet, dir, plod__modulation_at(planet, face, u, v),
-                         plod__all_octaves(planet), &height, normal);
+                         plod__all_octaves(planet), plod__all_octaves(planet), &height, normal);
     return height;
 }
 
@@ -234,8 +240,11 @@ double plod_planet_surface(const plod_planet *planet, const double dir[3], doubl
  * one bilinear loop per map instead of two calls per point, so the per-point
  * kernels pipeline; bit for bit the single-point results. */
 void plod_planet_surface_band_n(const plod_planet *planet, size_t n, const double *dirs,
-                                const int *octaves, double *heights, double *normals)
+                                const int *octaves, const int *normal_octaves,
+                                double *heights, double *normals)
 {
+    if (!normal_octaves)
+        normal_octaves = octaves;
     enum { CHUNK = 64 };
     if (normals)
         memcpy(normals, dirs, 3 * n * sizeof *normals);
@@ -245,7 +254,8 @@ void plod_planet_surface_band_n(const plod_planet *planet, size_t n, const doubl
             heights[i] = 0.0;
             if (planet->detail)
                 plod__add_detail(planet, dirs + 3 * i, 1.0, octaves ? octaves[i] : all,
-                                 heights + i, normals ? normals + 3 * i : NULL);
+                                 normal_octaves ? normal_octaves[i] : all, heights + i,
+                                 normals ? normals + 3 * i : NULL);
         }
         return;
     }
@@ -256,7 +266,9 @@ void plod_planet_surface_band_n(const plod_planet *planet, size_t n, const doubl
             heights[i] = plod__map_surface(planet, dirs + 3 * i, normals + 3 * i, &face, &u, &v);
             if (planet->detail)
                 plod__add_detail(planet, dirs + 3 * i, plod__modulation_at(planet, face, u, v),
-                                 octaves ? octaves[i] : all, heights + i, normals + 3 * i);
+                                 octaves ? octaves[i] : all,
+                                 normal_octaves ? normal_octaves[i] : all, heights + i,
+                                 normals + 3 * i);
         }
         return;
     }
@@ -299,7 +311,8 @@ void plod_planet_surface_band_n(const plod_planet *planet, size_t n, const doubl
             size_t at = first + i;
             double m = !mod ? 1.0 : (faces[i] < 0 ? NAN : modulation[i]);
             plod__add_detail(planet, dirs + 3 * at, m, octaves ? octaves[at] : all,
-                             heights + at, normals ? normals + 3 * at : NULL);
+                             normal_octaves ? normal_octaves[at] : all, heights + at,
+                             normals ? normals + 3 * at : NULL);
         }
     }
 }
@@ -307,7 +320,7 @@ void plod_planet_surface_band_n(const plod_planet *planet, size_t n, const doubl
 void plod_planet_surface_n(const plod_planet *planet, size_t n, const double *dirs,
                            double *heights, double *normals)
 {
-    plod_planet_surface_band_n(planet, n, dirs, NULL, heights, normals);
+    plod_planet_surface_band_n(planet, n, dirs, NULL, NULL, heights, normals);
 }
 
 /* One sampling path for heights, so that mesh vertices (through

@@ -57,13 +57,15 @@ double plod_planet_surface(const plod_planet *planet, const double dir[3],
  * bit: heights[i], and normals[3 i..] when `normals` is not NULL. */
 void plod_planet_surface_n(const plod_planet *planet, size_t n, const double *dirs,
                            double *heights, double *normals);
-/* plod_planet_surface_n with the detail field band-limited per point to
- * its first octaves[i] octaves (octaves NULL: all, = plod_planet_surface_n
- * bit for bit).  Normals: the map's normal tilted by the kept octaves'
- * analytic slope (the modulation's own slope is left out: it varies over
- * map texels, ~1e-3 of the octaves' slopes). */
+/* plod_planet_surface_n with the detail field band-limited per point:
+ * heights keep its first octaves[i] octaves, normals the slope of its
+ * first normal_octaves[i] (<= octaves[i]; NULL: the same); octaves NULL:
+ * all, = plod_planet_surface_n bit for bit.  Normals: the map's normal
+ * tilted by those octaves' analytic slope (the modulation's own slope is
+ * left out: it varies over map texels, ~1e-3 of the octaves' slopes). */
 void plod_planet_surface_band_n(const plod_planet *planet, size_t n, const double *dirs,
-                                const int *octaves, double *heights, double *normals);
+                                const int *octaves, const int *normal_octaves,
+                                double *heights, double *normals);
 /* Global height bounds in metres, the detail field's included (0, 0
  * without a map or detail). */
 void plod_planet_height_range(const plod_planet *planet, double *min_m,

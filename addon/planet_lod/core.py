@@ -11,6 +11,7 @@ parameters, refinement, the deterministic flyby path, CSV rows and the
 contact-sheet layout.
 """
 import importlib
+import importlib.util
 import math
 import os
 import sys
@@ -109,6 +110,18 @@ PROJECTION_IDS = {"QSC": "qsc", "TSC": "tsc", "CSC": "csc", "SPHERIFIED": "spher
 _planet_cache = {}
 
 
+def _presets():
+    """presets.py (bpy-free), also when this file is loaded on its own."""
+    if __package__:
+        from . import presets
+        return presets
+    path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "presets.py")
+    spec = importlib.util.spec_from_file_location("plod_presets", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
 def planet_key(settings):
     """The settings that define the planet's geometry (not the LOD)."""
     path = settings.get("heightmap") or ""
@@ -116,9 +129,11 @@ def planet_key(settings):
     if path and os.path.exists(path):
         st = os.stat(path)
         stamp = (st.st_size, st.st_mtime_ns)
+    detail = _presets().detail_kwargs(settings)
     return (settings["projection"], float(settings["radius"]), path, stamp,
             float(settings["height_scale"]),
-            float(settings["sea_level"]) if settings.get("use_sea_level") else None)
+            float(settings["sea_level"]) if settings.get("use_sea_level") else None,
+            tuple(sorted(detail.items())) if detail else None)
 
 
 def check_heightmap(path):
@@ -153,6 +168,9 @@ def build_planet(settings):
         kwargs["heightmap"] = settings["heightmap"]
     if settings.get("use_sea_level"):
         kwargs["sea_level"] = float(settings["sea_level"])
+    detail = _presets().detail_kwargs(settings)
+    if detail:
+        kwargs["detail"] = detail
     planet = module.Planet(float(settings["radius"]), **kwargs)
     planet.reserve(RESERVE_SECTORS)
     if len(_planet_cache) > 8:

@@ -268,7 +268,9 @@ class PLOD_OT_preset_add(AddPresetBase, bpy.types.Operator):
         "projection", "radius", "heightmap", "height_scale", "use_sea_level", "sea_level",
         "ocean_sphere", "color_map", "criterion", "max_pixel_error", "split_border",
         "merge_border", "template_density", "budget", "max_level", "backface", "frustum",
-        "morph", "atmosphere", "atmosphere_density")]
+        "morph", "atmosphere", "atmosphere_density", "use_detail", "detail_style",
+        "detail_amplitude", "detail_roughness", "detail_smallest", "detail_craters",
+        "detail_plains", "detail_seed")]
 
 
 class PLOD_OT_quality_preset_add(AddPresetBase, bpy.types.Operator):

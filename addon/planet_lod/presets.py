@@ -7,19 +7,27 @@ PLANETS = {
     "EARTH": dict(label="Earth", radius=6371000.0, heightmap="earth-topology.png",
                   color_map="earth-blue-marble.jpg", height_scale=8848.0,
                   use_sea_level=True, sea_level=0.0, ocean_sphere=False,
-                  projection="QSC", atmosphere="EARTH"),
+                  projection="QSC", atmosphere="EARTH", use_detail=True,
+                  detail_style="MOUNTAINS", detail_amplitude=1000.0, detail_roughness=0.56,
+                  detail_craters=0.0, detail_plains=0.45),
     "MOON": dict(label="Moon", radius=1737400.0, heightmap="lunar_bumpmap.jpg",
                  color_map="lunar_surface_2k.jpg", height_scale=19000.0,
                  use_sea_level=False, sea_level=0.0, ocean_sphere=False, projection="QSC",
-                 atmosphere="NONE"),
+                 atmosphere="NONE", use_detail=True, detail_style="CRATERS",
+                 detail_amplitude=400.0, detail_roughness=0.5, detail_craters=1.0,
+                 detail_plains=0.8),
     "MARS": dict(label="Mars-like (procedural)", radius=3389500.0,
                  heightmap="mars-like-height.png", color_map="mars-like-color.png",
                  height_scale=25000.0, use_sea_level=False, sea_level=0.0,
-                 ocean_sphere=False, projection="QSC", atmosphere="MARS"),
+                 ocean_sphere=False, projection="QSC", atmosphere="MARS", use_detail=True,
+                 detail_style="MOUNTAINS", detail_amplitude=1200.0, detail_roughness=0.5,
+                 detail_craters=0.6, detail_plains=0.35),
     "ASTEROID": dict(label="Asteroid (procedural)", radius=20000.0,
                      heightmap="asteroid-height.png", color_map="", height_scale=6000.0,
                      use_sea_level=False, sea_level=0.0, ocean_sphere=False,
-                     projection="QSC", atmosphere="NONE"),
+                     projection="QSC", atmosphere="NONE", use_detail=True,
+                     detail_style="CRATERS", detail_amplitude=30.0, detail_roughness=0.5,
+                     detail_craters=1.0, detail_plains=0.9),
 }
 
 PLANET_ITEMS = [(key, value["label"], f"{value['label']} planet preset")
@@ -31,6 +39,36 @@ QUALITY = {
     "PREVIEW": dict(label="Preview", template_density="64", max_pixel_error=3.0, budget=8000),
     "FINAL": dict(label="Final", template_density="256", max_pixel_error=1.0, budget=40000),
 }
+
+# Detail below the map's resolution (planetlod.Planet(detail=...)): styles
+# and the settings each preset uses (above, detail_* keys).
+DETAIL_STYLES = {"HILLS": "hills", "MOUNTAINS": "mountains", "CRATERS": "craters"}
+DETAIL_STYLE_ITEMS = [
+    ("HILLS", "Hills", "Rolling hills: gradient-noise octaves"),
+    ("MOUNTAINS", "Mountains", "Ridged, eroded mountains: fine detail on ridges, smooth valleys"),
+    ("CRATERS", "Craters", "Impact craters (bowl, rim, ejecta) over low hills, for airless "
+                           "bodies"),
+]
+DETAIL_SEED = 1
+
+
+def detail_kwargs(settings):
+    """planetlod.Planet(detail=...) for a settings dict (None when off)."""
+    if not settings.get("use_detail"):
+        return None
+    return dict(style=DETAIL_STYLES[settings.get("detail_style", "MOUNTAINS")],
+                amplitude=float(settings.get("detail_amplitude", 0.0)),
+                roughness=float(settings.get("detail_roughness", 0.5)),
+                smallest=float(settings.get("detail_smallest", 0.1)),
+                craters=float(settings.get("detail_craters", 0.0)),
+                plains=float(settings.get("detail_plains", 0.15)),
+                seed=int(settings.get("detail_seed", DETAIL_SEED)))
+
+
+def detail_settings(key):
+    """planetlod.Planet(detail=...) of planet preset `key`."""
+    return detail_kwargs(PLANETS[key])
+
 
 QUALITY_ITEMS = [(key, value["label"], f"{value['label']} quality")
                  for key, value in QUALITY.items()]

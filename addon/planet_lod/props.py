@@ -69,6 +69,33 @@ class PLOD_PG_settings(bpy.types.PropertyGroup):
     ocean_sphere: BoolProperty(name="Ocean sphere", description="Add a sphere at sea level",
                                default=False, update=_material_changed)
     skip_sea: BoolProperty(name="Skip sea sectors", default=False, update=_changed)
+    use_detail: BoolProperty(name="Detail", default=False, update=_geometry_changed,
+                             description="Procedural relief below the height map's resolution, "
+                                         "down to the smallest feature; its amplitude follows "
+                                         "the map (none on the sea, gentle on plains, rugged "
+                                         "in mountains)")
+    detail_style: EnumProperty(name="Style", items=presets.DETAIL_STYLE_ITEMS,
+                               default="MOUNTAINS", update=_geometry_changed)
+    detail_amplitude: FloatProperty(name="Amplitude", default=500.0, min=0.0, max=1e5,
+                                    soft_max=5000.0, subtype='DISTANCE', unit='LENGTH',
+                                    update=_geometry_changed,
+                                    description="Height of the largest detail octave where "
+                                                "the map's relief is strongest")
+    detail_roughness: FloatProperty(name="Roughness", default=0.5, min=0.0, max=0.95,
+                                    update=_geometry_changed,
+                                    description="Amplitude ratio from one octave to the next "
+                                                "(half the wavelength)")
+    detail_smallest: FloatProperty(name="Smallest feature", default=0.1, min=0.001,
+                                   soft_max=100.0, subtype='DISTANCE', unit='LENGTH',
+                                   update=_geometry_changed,
+                                   description="Wavelength of the finest octave")
+    detail_craters: FloatProperty(name="Craters", default=0.0, min=0.0, max=4.0,
+                                  update=_geometry_changed,
+                                  description="Weight of the impact-crater layer")
+    detail_plains: FloatProperty(name="Plains", default=0.15, min=0.0, max=1.0,
+                                 update=_geometry_changed,
+                                 description="Detail on flat land, relative to mountains")
+    detail_seed: IntProperty(name="Seed", default=1, min=0, update=_geometry_changed)
     color_map: StringProperty(name="Colour map", subtype='FILE_PATH',
                               description="Equirectangular, or cross-layout (4:3) cube map "
                                           "in the planet's projection (empty: elevation ramp)",
@@ -125,6 +152,11 @@ class PLOD_PG_settings(bpy.types.PropertyGroup):
             "split_border": self.split_border, "merge_border": self.merge_border,
             "template_level": template_level(self), "budget": self.budget,
             "max_level": self.max_level, "backface": self.backface, "frustum": self.frustum,
+            "use_detail": self.use_detail, "detail_style": self.detail_style,
+            "detail_amplitude": self.detail_amplitude,
+            "detail_roughness": self.detail_roughness, "detail_smallest": self.detail_smallest,
+            "detail_craters": self.detail_craters, "detail_plains": self.detail_plains,
+            "detail_seed": self.detail_seed,
         }
 
     def assign(self, values):

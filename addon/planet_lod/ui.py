@@ -75,6 +75,30 @@ class PLOD_PT_planet(PLOD_PT_base, bpy.types.Panel):
             box.label(text=st.error[:120], icon='ERROR')
 
 
+class PLOD_PT_detail(PLOD_PT_base, bpy.types.Panel):
+    bl_label = "Detail"
+    bl_parent_id = "PLOD_PT_planet"
+
+    @classmethod
+    def poll(cls, context):
+        return _planet(context) is not None and core.native is not None
+
+    def draw_header(self, context):
+        self.layout.prop(context.object.planet_lod, "use_detail", text="")
+
+    def draw(self, context):
+        s = context.object.planet_lod
+        col = self.layout.column()
+        col.active = s.use_detail
+        col.prop(s, "detail_style")
+        col.prop(s, "detail_amplitude")
+        col.prop(s, "detail_roughness")
+        col.prop(s, "detail_smallest")
+        col.prop(s, "detail_craters")
+        col.prop(s, "detail_plains")
+        col.prop(s, "detail_seed")
+
+
 class PLOD_PT_lod(PLOD_PT_base, bpy.types.Panel):
     bl_label = "Level of Detail"
     bl_parent_id = "PLOD_PT_planet"
@@ -183,7 +207,7 @@ class PLOD_PT_geo(bpy.types.Panel):
         layout.prop(geo, "floating_origin")
 
 
-classes = (PLOD_PT_planet, PLOD_PT_lod, PLOD_PT_stats, PLOD_PT_geo)
+classes = (PLOD_PT_planet, PLOD_PT_detail, PLOD_PT_lod, PLOD_PT_stats, PLOD_PT_geo)
 
 
 def register():

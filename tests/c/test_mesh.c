@@ -83,9 +83,10 @@ void plod_planet_surface_n(const plod_planet *planet, size_t n, const double *di
 
 /* band-limited form: the analytic field has no octaves to drop */
 void plod_planet_surface_band_n(const plod_planet *planet, size_t n, const double *dirs,
-                                const int *octaves, double *heights, double *normals)
+                                const int *octaves, const int *normal_octaves,
+                                double *heights, double *normals)
 {
-    (void)octaves;
+    (void)octaves, (void)normal_octaves;
     plod_planet_surface_n(planet, n, dirs, heights, normals);
 }
 
