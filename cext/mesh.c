@@ -591,10 +591,13 @@ typedef struct plod__slot_cache {
  * corners: the same bits from both sides); at a corner, shared by sectors
  * of several sizes, every octave for the height (the refiner keeps the
  * octaves a sector drops under the pixel error, so a corner stands out by
- * less than that) and, for the normal, the finest band of the sector's
- * edges (the fine octaves' slopes would speckle the shading; so a corner's
- * normal may differ slightly between the sectors around it).
+ * less than that) and, for the normal, the octaves of cells of
+ * PLOD__CORNER_CELL times its distance to the origin (a function of the
+ * corner and the origin: the same from every sector; the fine octaves'
+ * slopes would speckle the shading).  Cached sectors get their corner
+ * normals again for the current origin (plod__corner_normals).
  * band[0..2]: edge opposite corner k (weight k zero); band[3]: inside. */
+#define PLOD__CORNER_CELL 1e-3
 static double plod__chord2(const double a[3], const double b[3])
 {
     double d[3] = {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
@@ -615,12 +618,23 @@ static void plod__detail_bands(const plod_planet *planet, const double corners[3
                                            sqrt(longest) * planet->radius / (double)n);
 }
 
-static int plod__vertex_band(const int k[3], const int band[4], int *normal_band)
+static int plod__corner_band(const plod_mesh_params *params, const double dir[3])
+{
+    const plod_planet *planet = params->planet;
+    double d2 = 0.0;
+    for (int c = 0; c < 3; c++) {
+        double x = dir[c] * planet->radius - params->origin[c];
+        d2 += x * x;
+    }
+    return plod_detail_octaves_for_cell(planet->detail, sqrt(d2) * PLOD__CORNER_CELL);
+}
+
+static int plod__vertex_band(const plod_mesh_params *params, const int k[3], const int band[4],
+                             const double dir[3], int *normal_band)
 {
     int zeros = (k[0] == 0) + (k[1] == 0) + (k[2] == 0);
     if (zeros == 2) { /* a corner */
-        int finest = band[0] > band[1] ? band[0] : band[1];
-        *normal_band = finest > band[2] ? finest : band[2];
+        *normal_band = plod__corner_band(params, dir);
         return PLOD_DETAIL_MAX_OCTAVES;
     }
     int b = zeros == 1 ? band[k[0] == 0 ? 0 : (k[1] == 0 ? 1 : 2)] : band[3];
@@ -662,7 +676,7 @@ static void plod__compute_vertices(const plod__emitter *e, const plod_mesh_secto
             int k[3] = {n - i - j, j, i};
             plod__vertex_direction(corners, k, inv_n, dirs + 3 * j);
             if (planet->detail)
-                octaves[j] = plod__vertex_band(k, band, normal_octaves + j);
+                octaves[j] = plod__vertex_band(params, k, band, dirs + 3 * j, normal_octaves + j);
         }
         plod_planet_surface_band_n(planet, (size_t)row, dirs, planet->detail ? octaves : NULL,
                                    planet->detail ? normal_octaves : NULL, heights,
@@ -705,6 +719,31 @@ static void plod__compute_vertices(const plod__emitter *e, const plod_mesh_secto
     }
 }
 
+/* A cached sector's corner normals for this emission's origin (they
+ * depend on it, plod__vertex_band): as plod__compute_vertices computes
+ * them. */
+static void plod__corner_normals(const plod__emitter *e, const plod_mesh_sector *sector,
+                                 size_t vbase)
+{
+    const plod_mesh_params *params = e->params;
+    int n = e->n;
+    double inv_n = 1.0 / (double)n;
+    const int ks[3][3] = {{n, 0, 0}, {0, n, 0}, {0, 0, n}};
+    const size_t at[3] = {plod__vertex_index(n, 0, 0), plod__vertex_index(n, 0, n),
+                          plod__vertex_index(n, n, 0)};
+    for (int c = 0; c < 3; c++) {
+        double dir[3], height, normal[3];
+        int octaves, normal_octaves;
+        plod__vertex_direction((const double (*)[3])sector->corners, ks[c], inv_n, dir);
+        octaves = PLOD_DETAIL_MAX_OCTAVES;
+        normal_octaves = plod__corner_band(params, dir);
+        plod_planet_surface_band_n(params->planet, 1, dir, &octaves, &normal_octaves, &height,
+                                   normal);
+        for (int k = 0; k < 3; k++)
+            e->out->normals[3 * (vbase + at[c]) + k] = (float)normal[k];
+    }
+}
+
 /* The same outputs from a cache entry: (float)(p - origin) as computed. */
 static void plod__copy_vertices(const plod__emitter *e, size_t vbase, const plod__block *block)
 {
@@ -742,6 +781,8 @@ static plod_status plod__emit_sector(const plod__emitter *e, const plod_mesh_sec
     if (sc && sc->hit >= 0) {
         plod__block_view(cache->entries[sc->hit].data, e->vertices_per_sector, &block);
         plod__copy_vertices(e, vbase, &block);
+        if (params->planet->detail && out->normals)
+            plod__corner_normals(e, sector, vbase);
     } else if (sc && sc->fresh) {
         plod__block_view(sc->fresh, e->vertices_per_sector, &block);
         plod__compute_vertices(e, sector, vbase, &block);

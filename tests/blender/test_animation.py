@@ -65,7 +65,9 @@ def main():
     import math
     from planet_lod import core
     radius = planet.planet_lod.radius
-    top = radius + core.build_planet(planet.planet_lod.as_dict()).height_range()[1]
+    low, high = core.build_planet(planet.planet_lod.as_dict()).height_range()
+    top = radius + high
+    rho = radius + min(low, 0.0)  # the occluder: below the radius with detail
     for frame in (1, 3):
         scene.frame_set(frame)
         cam.data.clip_start, cam.data.clip_end = 1.0, 1.0e9
@@ -76,7 +78,7 @@ def main():
         live.refresh_for_render(scene)
         d = cam.matrix_world.translation.length
         near, far = cam.data.clip_start, cam.data.clip_end
-        horizon = math.sqrt(d * d - radius * radius) + math.sqrt(top * top - radius * radius)
+        horizon = math.sqrt(d * d - rho * rho) + math.sqrt(top * top - rho * rho)
         print(f"frame {frame}: camera {d - radius:.0f} m up, clip {near:.3f} .. {far:.0f} "
               f"(horizon {horizon:.0f})")
         assert 0.0 < near <= max(d - top, 0.0) + 1e-3 or near <= 1.0, near
