@@ -442,9 +442,10 @@ static plod_status plod__build_modulation(plod_detail *d, const plod_planet *pla
     int channels = plod_cubemap_channels(map);
     plod_texel_type type = plod_cubemap_texel_type(map);
     size_t texels = (size_t)w * (size_t)hgt;
-    float *relief = malloc(texels * (size_t)faces * sizeof *relief);
+    float *relief = malloc(2 * texels * (size_t)faces * sizeof *relief);
     if (!relief)
         return PLOD_ERR_NO_MEMORY;
+    float *above = relief + texels * (size_t)faces; /* metres above the sea */
     double scale = planet->height_scale;
     size_t land = 0;
     for (int f = 0; f < faces; f++) {
@@ -459,12 +460,15 @@ static plod_status plod__build_modulation(plod_detail *d, const plod_planet *pla
                         int xx = x + dx, yy = y + dy;
                         xx = xx < 0 ? 0 : (xx >= w ? w - 1 : xx);
                         yy = yy < 0 ? 0 : (yy >= hgt ? hgt - 1 : yy);
-                        double hn = plod__texel(data, type, channels, (size_t)yy * w + xx) * scale;
+                        double hn = plod__texel(data, type, channels, (size_t)yy * w + xx) *
+                                        scale + planet->height_offset;
                         double step = fabs(hn - h);
                         r = step > r ? step : r;
                     }
                 int sea = planet->has_sea_level && h <= planet->sea_level;
                 relief[(size_t)f * texels + (size_t)y * w + x] = sea ? -1.0f : (float)r;
+                above[(size_t)f * texels + (size_t)y * w + x] =
+                    planet->has_sea_level ? (float)(h - planet->sea_level) : INFINITY;
                 land += !sea;
             }
     }
@@ -504,6 +508,11 @@ static plod_status plod__build_modulation(plod_detail *d, const plod_planet *pla
                 double x = r / reference;
                 x = x < 1.0 ? x : 1.0; /* inf / inf (NaN) too */
                 m = plains + (1.0 - plains) * x * x * (3.0 - 2.0 * x);
+                /* low coasts: the field's deepest half-range stays above the sea */
+                if (d->lo < 0.0) {
+                    double limit = 2.0 * above[(size_t)f * texels + t] / -d->lo;
+                    m = limit < m ? (limit > 0.0 ? limit : 0.0) : m;
+                }
             }
             out[t] = (uint8_t)(m * 255.0 + 0.5);
         }

@@ -13,7 +13,9 @@
  *   - m in [0, 1] is the modulation map, built once from the height map: 0
  *     on texels at or below sea level, `plains` on flat land rising to 1
  *     where the map's local relief (largest height step to the 8
- *     neighbouring texels) reaches `relief` metres; sampled bilinearly at
+ *     neighbouring texels) reaches `relief` metres, and on low coasts at
+ *     most twice the height above the sea over the field's lower bound
+ *     (lowlands are not pushed under the sea); sampled bilinearly at
  *     the height map's location, bounded over regions by its min/max
  *     pyramid.  Without a height map m = 1.
  * Styles (the octaves' shape):

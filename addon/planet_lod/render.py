@@ -36,11 +36,16 @@ def ensure_flyby_camera(scene, planet_obj, path_frames, skim_height=5.0):
 
 
 def _ground_height(planet_obj):
-    """Terrain height (m) under a unit direction, from the native planet (no heights: None)."""
+    """Terrain height (m) under a unit direction, from the native planet (no heights: None);
+    over the sea (land below it, e.g. detail on a low coast), the sea surface."""
     try:
         planet = core.build_planet(planet_obj.planet_lod.as_dict())
     except core.native_errors():
         return None
+    s = planet_obj.planet_lod
+    if s.use_sea_level:
+        sea = float(s.sea_level)
+        return lambda d: max(planet.height(*d), sea)
     return lambda d: planet.height(*d)
 
 
