@@ -3,7 +3,10 @@
     python3 setup.py build_ext --inplace
 
 The core is C11 (cext/*.c); the OpenImageIO bridge is the one C++ file
-(cext/*.cpp).  Each language gets its own flags.  PLANETLOD_SANITIZE=1 builds
+(cext/*.cpp).  Each language gets its own flags.  The module is built against
+the stable ABI of Python 3.11 (Py_LIMITED_API 0x030B0000): the one
+planetlod.abi3.so loads in every CPython from 3.11 on, so one build serves
+Debian's Blender 3.4 and Blender 4.2 .. 5.x.  PLANETLOD_SANITIZE=1 builds
 with ASan+UBSan (see the Makefile's `sanitize` target).
 """
 import glob
@@ -16,9 +19,13 @@ from setuptools.command.build_ext import build_ext
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
+# An undeclared function (a CPython macro the limited API lacks) must fail the
+# build, not the import.
 C_FLAGS = ["-std=c11", "-O2", "-Wall", "-Wextra", "-Wno-missing-field-initializers",
+           "-Werror=implicit-function-declaration",
            "-ffp-contract=off", "-fno-math-errno", "-fno-strict-aliasing", "-D_POSIX_C_SOURCE=200809L"]
 CXX_FLAGS = ["-std=c++17", "-O2", "-Wall", "-Wextra", "-ffp-contract=off"]
+LIMITED_API = "0x030B0000"  # Python 3.11
 SANITIZE_FLAGS = ["-fsanitize=address,undefined", "-fno-omit-frame-pointer", "-g", "-O1"]
 
 
@@ -79,6 +86,8 @@ setup(
     version="0.1.0",
     description="Planet LOD core: cube-sphere projections, HRTMR refinement, sector meshes",
     ext_modules=[Extension("planetlod", sources=sources, include_dirs=include_dirs,
-                           libraries=libraries, extra_link_args=extra_link)],
+                           libraries=libraries, extra_link_args=extra_link,
+                           define_macros=[("Py_LIMITED_API", LIMITED_API)],
+                           py_limited_api=True)],
     cmdclass={"build_ext": BuildExt},
 )

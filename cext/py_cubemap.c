@@ -31,7 +31,7 @@ static const char *const plod__dtype_names[PLOD_TEXEL_TYPE_COUNT] = {"u8", "u16"
 
 static int plod__dtype_arg(PyObject *obj, plod_texel_type *out)
 {
-    const char *text = PyUnicode_Check(obj) ? PyUnicode_AsUTF8(obj) : NULL;
+    const char *text = PyUnicode_Check(obj) ? PyUnicode_AsUTF8AndSize(obj, NULL) : NULL;
     if (text) {
         for (int t = 0; t < PLOD_TEXEL_TYPE_COUNT; t++) {
             if (strcmp(text, plod__dtype_names[t]) == 0) {
@@ -48,7 +48,7 @@ static int plod__dtype_arg(PyObject *obj, plod_texel_type *out)
 
 static int plod__filter_arg(PyObject *obj, plod_filter *out, const char *context)
 {
-    const char *text = PyUnicode_Check(obj) ? PyUnicode_AsUTF8(obj) : NULL;
+    const char *text = PyUnicode_Check(obj) ? PyUnicode_AsUTF8AndSize(obj, NULL) : NULL;
     if (text && plod_filter_from_name(text, out) == PLOD_OK)
         return 0;
     PyErr_Clear();
@@ -84,7 +84,7 @@ static const plod__format plod__formats[] = {
 
 static const plod__format *plod__format_arg(PyObject *obj, const char *context)
 {
-    const char *text = PyUnicode_Check(obj) ? PyUnicode_AsUTF8(obj) : NULL;
+    const char *text = PyUnicode_Check(obj) ? PyUnicode_AsUTF8AndSize(obj, NULL) : NULL;
     if (text)
         for (size_t k = 0; k < sizeof plod__formats / sizeof plod__formats[0]; k++)
             if (strcmp(text, plod__formats[k].name) == 0)
@@ -119,7 +119,7 @@ static int plod__format_channels(const plod__format *format, int channels, const
 
 static int plod__layout_arg(PyObject *obj, int *cross, const char *context)
 {
-    const char *text = PyUnicode_Check(obj) ? PyUnicode_AsUTF8(obj) : NULL;
+    const char *text = PyUnicode_Check(obj) ? PyUnicode_AsUTF8AndSize(obj, NULL) : NULL;
     if (text && strcmp(text, "cross") == 0) {
         *cross = 1;
         return 0;
@@ -230,9 +230,10 @@ int plod_py_read_options_arg(PyObject *raw, int is_signed, plod_py_read_options 
     long width = items[0] ? PyLong_AsLong(items[0]) : -1;
     long height = items[1] ? PyLong_AsLong(items[1]) : -1;
     PyErr_Clear();
-    const char *dtype = items[2] && PyUnicode_Check(items[2]) ? PyUnicode_AsUTF8(items[2]) : "u16";
+    const char *dtype =
+        items[2] && PyUnicode_Check(items[2]) ? PyUnicode_AsUTF8AndSize(items[2], NULL) : "u16";
     const char *order =
-        items[3] && PyUnicode_Check(items[3]) ? PyUnicode_AsUTF8(items[3]) : "little";
+        items[3] && PyUnicode_Check(items[3]) ? PyUnicode_AsUTF8AndSize(items[3], NULL) : "little";
     int type = -1;
     for (int t = 0; dtype && t < PLOD_RAW_TYPE_COUNT; t++)
         if (strcmp(dtype, types[t]) == 0)
@@ -427,7 +428,7 @@ static PyObject *plod__cubemap_new(PyTypeObject *type, PyObject *args, PyObject 
         plod_cubemap_destroy(map);
         return plod_py_raise(s, "planetlod.CubeMap");
     }
-    plod_py_cubemap *self = (plod_py_cubemap *)type->tp_alloc(type, 0);
+    plod_py_cubemap *self = (plod_py_cubemap *)plod_py_alloc(type);
     if (!self) {
         plod_cubemap_destroy(map);
         return NULL;
@@ -438,9 +439,9 @@ static PyObject *plod__cubemap_new(PyTypeObject *type, PyObject *args, PyObject 
 
 static void plod__cubemap_dealloc(plod_py_cubemap *self)
 {
-    PyTypeObject *type = Py_TYPE(self);
+    PyTypeObject *type = Py_TYPE((PyObject *)self);
     plod_cubemap_destroy(self->map);
-    type->tp_free((PyObject *)self);
+    plod_py_free((PyObject *)self);
     Py_DECREF(type);
 }
 
@@ -490,7 +491,7 @@ static PyObject *plod__cubemap_from_image_method(PyObject *cls, PyObject *args, 
     }
     if (plod_py_read_options_arg(raw, is_signed, &options, context) < 0)
         goto done;
-    result = plod__cubemap_from_image(PyBytes_AS_STRING(path_obj), projection, (int)size,
+    result = plod__cubemap_from_image(PyBytes_AsString(path_obj), projection, (int)size,
                                       (int)channels, filter, progress, &options);
 done:
     Py_DECREF(path_obj);
@@ -520,7 +521,7 @@ static PyObject *plod__floats_tuple(const float *values, int count)
             Py_DECREF(tuple);
             return NULL;
         }
-        PyTuple_SET_ITEM(tuple, c, item);
+        PyTuple_SetItem(tuple, c, item);
     }
     return tuple;
 }
@@ -696,7 +697,7 @@ static PyObject *plod__cubemap_save(plod_py_cubemap *self, PyObject *args, PyObj
             goto done;
         type = format->type;
     }
-    result = plod__write_cubemap(self->map, PyBytes_AS_STRING(path_obj), cross, channels, type,
+    result = plod__write_cubemap(self->map, PyBytes_AsString(path_obj), cross, channels, type,
                                  context);
 done:
     Py_DECREF(path_obj);
@@ -847,7 +848,7 @@ static PyObject *plod__resample(PyObject *module, PyObject *args, PyObject *kwar
     plod_image image = {0};
     plod_cubemap *map = NULL;
     plod__py_progress p = {progress == Py_None ? NULL : progress, 0.05, 0.85, NULL, NULL, NULL};
-    const char *input = PyBytes_AS_STRING(input_obj);
+    const char *input = PyBytes_AsString(input_obj);
 
     if (projection_obj && plod_py_projection_arg(projection_obj, &projection) < 0)
         goto done;
@@ -897,7 +898,7 @@ static PyObject *plod__resample(PyObject *module, PyObject *args, PyObject *kwar
         plod_py_raise(s, context);
         goto done;
     }
-    PyObject *written = plod__write_cubemap(map, PyBytes_AS_STRING(output_obj), cross, channels,
+    PyObject *written = plod__write_cubemap(map, PyBytes_AsString(output_obj), cross, channels,
                                             format->type, context);
     if (!written)
         goto done;

@@ -31,7 +31,7 @@ static int plod__mesh_traverse(plod_py_mesh *self, visitproc visit, void *arg)
     Py_VISIT(self->sector_level);
     Py_VISIT(self->face);
     Py_VISIT(self->morph);
-    Py_VISIT(Py_TYPE(self));
+    Py_VISIT(Py_TYPE((PyObject *)self));
     return 0;
 }
 
@@ -50,10 +50,10 @@ static int plod__mesh_clear(plod_py_mesh *self)
 
 static void plod__mesh_dealloc(plod_py_mesh *self)
 {
-    PyTypeObject *type = Py_TYPE(self);
+    PyTypeObject *type = Py_TYPE((PyObject *)self);
     PyObject_GC_UnTrack(self);
     plod__mesh_clear(self);
-    type->tp_free((PyObject *)self);
+    plod_py_free((PyObject *)self);
     Py_DECREF(type);
 }
 
@@ -464,7 +464,7 @@ int plod_py_init_mesh(PyObject *module)
         Py_DECREF(plod_py_mesh_type);
         return -1;
     }
-    Py_INCREF(plod_py_mesh_type); /* the module's reference was stolen */
+    Py_INCREF((PyObject *)plod_py_mesh_type); /* the module's reference was stolen */
     if (PyModule_AddFunctions(module, plod__mesh_methods) < 0)
         return -1;
     if (PyModule_AddIntConstant(module, "MAX_TEMPLATE_LEVEL", PLOD_MAX_TEMPLATE_LEVEL) < 0)

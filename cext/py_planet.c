@@ -33,41 +33,50 @@ typedef struct {
 
 static PyTypeObject *plod__camera_type;
 
+/* Item `index` of a sequence as a double; -1 with an exception on failure. */
+static int plod__sequence_double(PyObject *seq, Py_ssize_t index, double *out)
+{
+    PyObject *item = PySequence_GetItem(seq, index);
+    if (!item)
+        return -1;
+    *out = PyFloat_AsDouble(item);
+    Py_DECREF(item);
+    return (*out == -1.0 && PyErr_Occurred()) ? -1 : 0;
+}
+
 static int plod__matrix_arg(PyObject *obj, double out[16])
 {
     PyObject *seq = PySequence_Fast(obj, "matrix_world must be a 4x4 matrix or 16 floats");
     if (!seq)
         return -1;
-    Py_ssize_t n = PySequence_Fast_GET_SIZE(seq);
+    Py_ssize_t n = PySequence_Size(seq);
     int ok = 0;
     if (n == 16) {
         ok = 1;
-        for (Py_ssize_t i = 0; i < 16 && ok; i++) {
-            out[i] = PyFloat_AsDouble(PySequence_Fast_GET_ITEM(seq, i));
-            ok = !(out[i] == -1.0 && PyErr_Occurred());
-        }
+        for (Py_ssize_t i = 0; i < 16 && ok; i++)
+            ok = plod__sequence_double(seq, i, &out[i]) == 0;
     } else if (n == 4) {
         ok = 1;
         for (Py_ssize_t r = 0; r < 4 && ok; r++) {
-            PyObject *row = PySequence_Fast(PySequence_Fast_GET_ITEM(seq, r),
-                                            "matrix_world rows must be sequences");
+            PyObject *item = PySequence_GetItem(seq, r);
+            PyObject *row = item ? PySequence_Fast(item, "matrix_world rows must be sequences")
+                                 : NULL;
+            Py_XDECREF(item);
             if (!row) {
                 ok = 0;
                 break;
             }
-            if (PySequence_Fast_GET_SIZE(row) != 4) {
+            if (PySequence_Size(row) != 4) {
                 Py_DECREF(row);
                 ok = 0;
                 PyErr_SetString(PyExc_ValueError, "matrix_world rows need 4 values");
                 break;
             }
-            for (Py_ssize_t c = 0; c < 4 && ok; c++) {
-                out[r * 4 + c] = PyFloat_AsDouble(PySequence_Fast_GET_ITEM(row, c));
-                ok = !(out[r * 4 + c] == -1.0 && PyErr_Occurred());
-            }
+            for (Py_ssize_t c = 0; c < 4 && ok; c++)
+                ok = plod__sequence_double(row, c, &out[r * 4 + c]) == 0;
             Py_DECREF(row);
         }
-    } else {
+    } else if (n >= 0) {
         PyErr_SetString(PyExc_ValueError, "matrix_world must be 4x4 or 16 floats");
     }
     Py_DECREF(seq);
@@ -76,7 +85,7 @@ static int plod__matrix_arg(PyObject *obj, double out[16])
         PyObject *type, *value, *tb;
         PyErr_Fetch(&type, &value, &tb);
         PyObject *msg = value ? PyObject_Str(value) : NULL;
-        const char *text = msg ? PyUnicode_AsUTF8(msg) : NULL;
+        const char *text = msg ? PyUnicode_AsUTF8AndSize(msg, NULL) : NULL;
         PyErr_Clear();
         plod_py_raise_detail(PLOD_ERR_BAD_CAMERA, "Camera matrix_world",
                              text ? text : "bad matrix");
@@ -157,8 +166,8 @@ static PyObject *plod__camera_get(plod_py_camera *self, void *closure)
     case 6: {
         PyObject *t = PyTuple_New(6);
         for (int i = 0; t && i < 6; i++)
-            PyTuple_SET_ITEM(t, i, Py_BuildValue("(dddd)", c->planes[i][0], c->planes[i][1],
-                                                 c->planes[i][2], c->planes[i][3]));
+            PyTuple_SetItem(t, i, Py_BuildValue("(dddd)", c->planes[i][0], c->planes[i][1],
+                                                c->planes[i][2], c->planes[i][3]));
         return t;
     }
     case 7: return PyBool_FromLong(c->desc.orthographic);
@@ -307,7 +316,7 @@ static int plod__detail_arg(PyObject *obj, plod_detail_params *p, int *enabled)
     v = PyDict_GetItemString(obj, "style");
     if (v) {
         used++;
-        const char *name = PyUnicode_Check(v) ? PyUnicode_AsUTF8(v) : NULL;
+        const char *name = PyUnicode_Check(v) ? PyUnicode_AsUTF8AndSize(v, NULL) : NULL;
         int found = -1;
         for (int i = 0; name && i < PLOD_DETAIL_STYLE_COUNT; i++)
             if (!strcmp(name, plod__detail_styles[i]))
@@ -423,7 +432,7 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
             PyObject *path = NULL;
             if (!PyUnicode_FSConverter(heightmap, &path))
                 return -1;
-            map = plod_py_cubemap_from_image(PyBytes_AS_STRING(path),
+            map = plod_py_cubemap_from_image(PyBytes_AsString(path),
                                              self->planet.projection, size, 1, &read_options);
             Py_DECREF(path);
             if (!map)
@@ -523,8 +532,8 @@ static void plod__planet_dealloc(plod_py_planet *self)
     Py_CLEAR(self->heightmap);
     if (self->lock)
         PyThread_free_lock(self->lock);
-    PyTypeObject *tp = Py_TYPE(self);
-    tp->tp_free((PyObject *)self);
+    PyTypeObject *tp = Py_TYPE((PyObject *)self);
+    plod_py_free((PyObject *)self);
     Py_DECREF(tp);
 }
 

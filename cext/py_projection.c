@@ -392,7 +392,7 @@ int plod_py_init_projection(PyObject *module)
             Py_DECREF(names);
             return -1;
         }
-        PyTuple_SET_ITEM(names, p, name);
+        PyTuple_SetItem(names, p, name);
     }
     if (PyModule_AddObject(module, "PROJECTIONS", names) < 0) {
         Py_DECREF(names);

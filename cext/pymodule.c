@@ -114,7 +114,7 @@ void *plod_py_buffer_data(PyObject *obj, size_t *count, char *format)
 
 static void plod__buffer_dealloc(plod_py_buffer *self)
 {
-    PyTypeObject *type = Py_TYPE(self);
+    PyTypeObject *type = Py_TYPE((PyObject *)self);
     free(self->data);
     PyObject_Free(self);
     Py_DECREF(type);
@@ -184,7 +184,7 @@ static PyObject *plod__buffer_tolist(plod_py_buffer *self, PyObject *unused)
             Py_DECREF(list);
             return NULL;
         }
-        PyList_SET_ITEM(list, i, item);
+        PyList_SetItem(list, i, item);
     }
     return list;
 }
@@ -300,7 +300,7 @@ int plod_py_projection_arg(PyObject *name, plod_projection *out)
                         "projection must be a str: 'tsc', 'csc', 'qsc', 'spherified' or 'car'");
         return -1;
     }
-    const char *text = PyUnicode_AsUTF8(name);
+    const char *text = PyUnicode_AsUTF8AndSize(name, NULL);
     if (!text)
         return -1;
     if (plod_projection_from_name(text, out) != PLOD_OK) {
@@ -348,14 +348,20 @@ double *plod_py_doubles(PyObject *obj, size_t *count, const char *what)
     PyObject *seq = PySequence_Fast(obj, "expected a sequence or buffer of floats");
     if (!seq)
         return NULL;
-    Py_ssize_t n = PySequence_Fast_GET_SIZE(seq);
+    Py_ssize_t n = PySequence_Size(seq);
+    if (n < 0) {
+        Py_DECREF(seq);
+        return NULL;
+    }
     double *values = malloc((size_t)(n ? n : 1) * sizeof(double));
     if (!values) {
         Py_DECREF(seq);
         return (double *)PyErr_NoMemory();
     }
     for (Py_ssize_t i = 0; i < n; i++) {
-        values[i] = PyFloat_AsDouble(PySequence_Fast_GET_ITEM(seq, i));
+        PyObject *item = PySequence_GetItem(seq, i);
+        values[i] = item ? PyFloat_AsDouble(item) : -1.0;
+        Py_XDECREF(item);
         if (values[i] == -1.0 && PyErr_Occurred()) {
             free(values);
             Py_DECREF(seq);

@@ -4,9 +4,36 @@
 #ifndef PYPLANETLOD_H
 #define PYPLANETLOD_H
 
+/* The stable ABI of Python 3.11: one planetlod.abi3.so loads in every
+ * CPython from 3.11 on (Blender 3.4 with Debian's 3.11, 4.2 .. 5.0 with
+ * 3.11, 5.1 with 3.13).  setup.py builds with py_limited_api.  Code here
+ * uses only the limited API: no struct access to type objects (tp_alloc and
+ * tp_free through PyType_GetSlot), no *_GET_ITEM / *_SET_ITEM macros. */
+#ifndef Py_LIMITED_API
+#define Py_LIMITED_API 0x030B0000
+#endif
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
+/* Python.h under the limited API does not bring these in. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
 #include "plod.h"
+
+/* A new instance of heap type `type` through its tp_alloc slot. */
+static inline PyObject *plod_py_alloc(PyTypeObject *type)
+{
+    allocfunc alloc = (allocfunc)PyType_GetSlot(type, Py_tp_alloc);
+    return alloc(type, 0);
+}
+
+/* Frees `self` through its type's tp_free slot (the caller then drops its
+ * reference to the heap type, as every heap type's dealloc must). */
+static inline void plod_py_free(PyObject *self)
+{
+    freefunc free_slot = (freefunc)PyType_GetSlot(Py_TYPE(self), Py_tp_free);
+    free_slot(self);
+}
 
 /* ---- exported buffers ----------------------------------------------------
  * planetlod.Buffer: a 1-D, C-contiguous, read-write buffer that honours

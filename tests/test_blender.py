@@ -1,6 +1,14 @@
-"""Runs every Blender-side test (tests/blender/test_*.py) headless in Blender
-3.4 with --factory-startup --python-exit-code 1, the add-on linked into a
-temporary user-scripts folder.  Blender is required (CI installs it).
+"""Runs every Blender-side test (tests/blender/test_*.py) headless in each
+supported Blender, the add-on linked into a temporary user-scripts folder:
+
+* `blender`: the executable $BLENDER (Debian's 3.4.1), with -b --factory-startup
+  --python-exit-code 1;
+* `bpy-4.2`, `bpy-4.5`, `bpy-5.0`: Blender as a Python module (the bpy wheels
+  that tools/blender_versions.py installs; tools/run_tests.sh installs them),
+  through tools/bpy_run.py.  A version that is not installed is skipped.
+
+$PLANET_LOD_BLENDERS (comma-separated labels, e.g. "blender,bpy-5.0") picks a
+subset.  The GPU-preview test needs a real window and runs in `blender` only.
 
 The native module is the one built in the repository root (setup.py
 build_ext --inplace), or whatever $PLANET_LOD_NATIVE points to.
@@ -10,6 +18,7 @@ import glob
 import os
 import shutil
 import subprocess
+import sys
 
 import pytest
 
@@ -19,11 +28,32 @@ BLENDER = os.environ.get("BLENDER", shutil.which("blender") or "blender")
 SCRIPTS = sorted(os.path.basename(p) for p in glob.glob(os.path.join(BLENDER_TESTS, "test_*.py"))
                  if not p.endswith("test_viewport.py"))
 
+sys.path.insert(0, os.path.join(ROOT, "tools"))
+import blender_versions  # noqa: E402
+
+BLENDERS = ["blender"] + [blender_versions.label(v) for v in blender_versions.BPY_VERSIONS]
+_chosen = os.environ.get("PLANET_LOD_BLENDERS")
+if _chosen:
+    BLENDERS = [b for b in BLENDERS if b in _chosen.split(",")]
+
+
+def blender_command(which, script, args=()):
+    """The command that runs `script` (with `args` after "--") in Blender `which`."""
+    args = ["--"] + list(args) if args else []
+    if which == "blender":
+        return [BLENDER, "-b", "--factory-startup", "--python-exit-code", "1",
+                "--python", script] + args
+    python = dict(blender_versions.installed()).get(which)
+    if python is None:
+        pytest.skip(f"{which} not installed (python3 tools/blender_versions.py install)")
+    return [python, blender_versions.RUNNER, script] + args
+
 
 @pytest.fixture(scope="module")
 def user_scripts(tmp_path_factory):
     base = tmp_path_factory.mktemp("blender_user")
     os.makedirs(base / "addons")
+    os.makedirs(base / "config")
     os.symlink(os.path.join(ROOT, "addon", "planet_lod"), base / "addons" / "planet_lod")
     return base
 
@@ -31,30 +61,33 @@ def user_scripts(tmp_path_factory):
 def blender_env(user_scripts, out):
     env = dict(os.environ)
     env["BLENDER_USER_SCRIPTS"] = str(user_scripts)
+    # the bpy module reads the user's preferences and startup file from here
+    env["BLENDER_USER_CONFIG"] = str(user_scripts / "config")
     env["PYTHONPATH"] = BLENDER_TESTS
     env["PLOD_TEST_OUT"] = str(out)
     env.setdefault("PLANET_LOD_NATIVE", ROOT)
     return env
 
 
-def run_blender(args, env, timeout=300):
-    proc = subprocess.run([BLENDER, "-b", "--factory-startup", "--python-exit-code", "1"] + args,
-                          env=env, capture_output=True, text=True, timeout=timeout)
+def run_blender(which, script, env, args=(), timeout=300):
+    proc = subprocess.run(blender_command(which, script, args), env=env, capture_output=True,
+                          text=True, timeout=timeout)
     return proc, proc.stdout + proc.stderr
 
 
 @pytest.mark.parametrize("script", SCRIPTS)
-def test_blender_script(script, user_scripts, tmp_path):
-    proc, output = run_blender(["--python", os.path.join(BLENDER_TESTS, script)],
+@pytest.mark.parametrize("which", BLENDERS)
+def test_blender_script(which, script, user_scripts, tmp_path):
+    proc, output = run_blender(which, os.path.join(BLENDER_TESTS, script),
                                blender_env(user_scripts, tmp_path))
     assert proc.returncode == 0 and "PLOD-TEST PASS" in output, output[-6000:]
 
 
-def _flyby(frames, out, env, resolution="64x36", samples=1):
+def _flyby(which, frames, out, env, resolution="64x36", samples=1):
     proc, output = run_blender(
-        ["--python", os.path.join(ROOT, "tools", "flyby.py"), "--", "--preset", "earth",
-         "--quality", "draft", "--frames", frames, "--path-frames", "12",
-         "--resolution", resolution, "--samples", str(samples), "--out", str(out)], env)
+        which, os.path.join(ROOT, "tools", "flyby.py"), env,
+        ["--preset", "earth", "--quality", "draft", "--frames", frames, "--path-frames", "12",
+         "--resolution", resolution, "--samples", str(samples), "--out", str(out)])
     assert proc.returncode == 0, output[-6000:]
     first, last = (int(v) for v in frames.split("-"))
     for index, frame in enumerate(range(first, last + 1)):  # one progress line per frame
@@ -63,12 +96,13 @@ def _flyby(frames, out, env, resolution="64x36", samples=1):
         return {int(row["frame"]): row for row in csv.DictReader(f)}
 
 
-def test_farm_split_gives_same_frames(user_scripts, tmp_path):
+@pytest.mark.parametrize("which", BLENDERS)
+def test_farm_split_gives_same_frames(which, user_scripts, tmp_path):
     """Frames 7-10 rendered alone equal frames 7-10 of a 1-10 run (descent and skim):
     same sector counts, same mesh bytes (hash) -- the LOD depends only on the frame."""
     env = blender_env(user_scripts, tmp_path)
-    full = _flyby("1-10", tmp_path / "full", env)
-    part = _flyby("7-10", tmp_path / "part", env)
+    full = _flyby(which, "1-10", tmp_path / "full", env)
+    part = _flyby(which, "7-10", tmp_path / "part", env)
     assert sorted(part) == [7, 8, 9, 10]
     keys = ("sectors_total", "sectors_after_backface", "sectors_after_frustum", "triangles",
             "vertices", "max_level", "camera_altitude_m", "mesh_hash")
@@ -80,8 +114,45 @@ def test_farm_split_gives_same_frames(user_scripts, tmp_path):
     assert os.path.getsize(tmp_path / "part" / "contact_sheet.png") > 0
 
 
+@pytest.fixture(scope="module")
+def packages(tmp_path_factory):
+    """The extension and legacy .zip built by tools/build_extension.py (validated
+    there with Blender's own extension tool from the newest bpy wheel)."""
+    if blender_versions.installed() == []:
+        pytest.skip("no bpy wheel installed: Blender's extension tool ships in it")
+    out = tmp_path_factory.mktemp("dist")
+    proc = subprocess.run([sys.executable, os.path.join(ROOT, "tools", "build_extension.py"),
+                           "--out", str(out)], capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    assert "Success parsing TOML" in proc.stdout  # blender_ext.py validate
+    built = {"extension": glob.glob(str(out / "planet_lod-*-linux_x64.zip")),
+             "legacy": glob.glob(str(out / "planet_lod-*-legacy.zip"))}
+    assert all(len(v) == 1 for v in built.values()), built
+    return {k: v[0] for k, v in built.items()}
+
+
+@pytest.mark.parametrize("which", BLENDERS)
+def test_installed_package(which, packages, tmp_path):
+    """Blender 3.4 installs the legacy .zip, 4.2+ the extension .zip; the installed
+    add-on (its own abi3 module, maps and caches) builds a planet."""
+    mode = "legacy" if which == "blender" else "extension"
+    env = dict(os.environ)
+    env.pop("PLANET_LOD_NATIVE", None)
+    for var, sub in (("BLENDER_USER_SCRIPTS", "scripts"), ("BLENDER_USER_CONFIG", "config"),
+                     ("BLENDER_USER_EXTENSIONS", "extensions")):
+        env[var] = str(tmp_path / sub)
+        os.makedirs(env[var])
+    env["PYTHONPATH"] = BLENDER_TESTS
+    proc, output = run_blender(which, os.path.join(BLENDER_TESTS, "package_check.py"), env,
+                               [packages[mode], mode])
+    assert proc.returncode == 0 and "PLOD-TEST PASS" in output, output[-6000:]
+
+
 def test_viewport_gpu_preview(user_scripts, tmp_path):
-    """Under xvfb-run (a real viewport on llvmpipe) the GPU preview draws the planet."""
+    """Under xvfb-run (a real viewport on llvmpipe) the GPU preview draws the planet
+    (Debian's Blender: the bpy module has no window)."""
+    if "blender" not in BLENDERS:
+        pytest.skip("$PLANET_LOD_BLENDERS leaves out blender")
     xvfb = shutil.which("xvfb-run")
     assert xvfb, "xvfb-run missing (apt install xvfb)"
     env = blender_env(user_scripts, tmp_path)
@@ -98,7 +169,8 @@ def _rgb(path):
     return image[:, :, :3]
 
 
-def test_flyby_frames_show_surface_sky_and_sea(user_scripts, tmp_path):
+@pytest.mark.parametrize("which", BLENDERS)
+def test_flyby_frames_show_surface_sky_and_sea(which, user_scripts, tmp_path):
     """Every frame of the README's flyby (orbit, descent, skim at 5 m) shows a lit
     surface; the orbit shows the planet against black space, the skim a blue sky
     above the horizon and the sea where the camera flies over the sea (the
@@ -106,7 +178,7 @@ def test_flyby_frames_show_surface_sky_and_sea(user_scripts, tmp_path):
     statistics of the rendered PNGs."""
     import numpy
     env = blender_env(user_scripts, tmp_path)
-    rows = _flyby("1-12", tmp_path / "flyby", env, resolution="96x54", samples=4)
+    rows = _flyby(which, "1-12", tmp_path / "flyby", env, resolution="96x54", samples=4)
     seen_sea = False
     for frame, row in sorted(rows.items()):
         rgb = _rgb(tmp_path / "flyby" / f"frame_{frame:04d}.png")

@@ -63,7 +63,8 @@ def build_scene(args):
     width, height = (int(v) for v in args.resolution.lower().split("x"))
     scene.render.resolution_x, scene.render.resolution_y = width, height
     scene.render.resolution_percentage = 100
-    scene.render.engine = args.engine
+    from planet_lod import compat
+    scene.render.engine = compat.render_engine(args.engine)
     scene.render.film_transparent = args.transparent
     if args.engine == "CYCLES":
         scene.cycles.device = 'CPU'
@@ -91,7 +92,8 @@ def main(argv):
     scene, planet = build_scene(args)
     scene.frame_start, scene.frame_end = 1, args.path_frames
     print(f"planet_lod flyby: {planet.name} frames {first}-{last} of {args.path_frames} "
-          f"at {args.resolution}, {args.samples} samples -> {args.out}", flush=True)
+          f"at {args.resolution}, {args.samples} samples, Blender {bpy.app.version_string} "
+          f"-> {args.out}", flush=True)
     rows = render.render_flyby(scene, planet, first, last, os.path.abspath(args.out),
                                args.path_frames)
     print(f"planet_lod flyby: {len(rows)} frames, stats.csv and contact_sheet.png in "

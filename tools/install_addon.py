@@ -1,18 +1,23 @@
 #!/usr/bin/env python3
-"""Builds `planetlod` for the Python of a Blender and installs the add-on into that
-Blender's user add-on folder as module `planet_lod`, then enables it.
+"""Builds `planetlod` and installs the add-on into a Blender's user add-on folder
+as module `planet_lod`, then enables it.
 
     python3 tools/install_addon.py [--blender /path/to/blender] [--no-enable]
+    python3 tools/install_addon.py --bpy VENV/bin/python   # Blender as a module
 
-1. Asks the Blender for its Python (version, include dir, extension suffix) and
-   its user add-on folder (`blender -b --python-expr ...`).
-2. Builds the extension with a Python of the same major.minor (tries
-   /usr/bin/python3.X, Blender's sys.executable, python3.X on PATH) against
-   Blender's include dir, so an official Blender with its bundled Python works
-   as well as Debian's.  No matching Python or headers -> a clear message.
+1. Asks the Blender for its Python version and its user add-on folder
+   (`blender -b --python-expr ...`, or the bpy module's python).
+2. Builds the extension once, against the stable ABI of Python 3.11
+   (planetlod.abi3.so), with a Python 3.11 or later that has setuptools and
+   its headers (/usr/bin/python3 on Debian 12): that one binary loads in every
+   Blender whose Python is 3.11 or later (Debian's 3.4.1, 4.2 LTS .. 5.x).
+   An older Blender Python -> a clear message.
 3. Copies addon/planet_lod plus data/, shaders/, presets/ and the built
-   planetlod*.so into <user addons>/planet_lod, enables the add-on, saves the
-   preferences, and checks from inside Blender that the module imports.
+   planetlod.abi3.so into <user addons>/planet_lod, enables the add-on, saves
+   the preferences, and checks from inside Blender that the module imports.
+
+For Blender 4.2 and later the extension package (tools/build_extension.py)
+is the other way to install it.
 """
 import argparse
 import glob
@@ -26,8 +31,6 @@ import tempfile
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PROBE = ("import sys, sysconfig, json, bpy; print('PLOD-PROBE ' + json.dumps({"
          "'version': list(sys.version_info[:2]), 'executable': sys.executable, "
-         "'include': sysconfig.get_paths()['include'], "
-         "'ext_suffix': sysconfig.get_config_var('EXT_SUFFIX'), "
          "'addons': bpy.utils.user_resource('SCRIPTS', path='addons', create=True), "
          "'blender': bpy.app.version_string}))")
 CHECK = ("import addon_utils, bpy, sys; mod = addon_utils.enable('planet_lod', default_set=True, "
@@ -41,53 +44,62 @@ def die(message):
     sys.exit(1)
 
 
-def ask_blender(blender):
+def blender_python(blender, bpy_python, code, factory=False):
+    """The command running Python `code` in that Blender (binary or bpy module)."""
+    if bpy_python:  # the module's shutdown may hang after saving: end the process
+        return [bpy_python, "-c", "import bpy\n" + code + "\nimport os, sys; "
+                "sys.stdout.flush(); os._exit(0)"]
+    return [blender, "-b"] + (["--factory-startup"] if factory else []) + ["--python-expr", code]
+
+
+def ask_blender(blender, bpy_python=None):
     try:
-        proc = subprocess.run([blender, "-b", "--factory-startup", "--python-expr", PROBE],
+        proc = subprocess.run(blender_python(blender, bpy_python, PROBE, factory=True),
                               capture_output=True, text=True, timeout=120)
     except FileNotFoundError:
-        die(f"Blender not found: {blender} (apt install blender, or pass --blender PATH)")
+        die(f"Blender not found: {bpy_python or blender} (apt install blender, or pass "
+            "--blender PATH / --bpy VENV/bin/python)")
     for line in proc.stdout.splitlines():
         if line.startswith("PLOD-PROBE "):
             return json.loads(line[len("PLOD-PROBE "):])
     die(f"could not query {blender}:\n{proc.stdout[-2000:]}{proc.stderr[-2000:]}")
 
 
+MIN_PYTHON = (3, 11)  # Py_LIMITED_API of the build (setup.py)
+
+
 def python_for(info):
-    major, minor = info["version"]
-    candidates = [f"/usr/bin/python{major}.{minor}", info["executable"],
-                  shutil.which(f"python{major}.{minor}") or "", sys.executable]
+    """A Python >= 3.11 with setuptools and Python.h to build the abi3 module."""
+    if tuple(info["version"]) < MIN_PYTHON:
+        die(f"Blender {info['blender']} runs Python {info['version'][0]}.{info['version'][1]}; "
+            f"planetlod needs Python {MIN_PYTHON[0]}.{MIN_PYTHON[1]} or later (Blender 3.4 from "
+            "Debian 12, or Blender 4.2 and later)")
+    candidates = ["/usr/bin/python3", sys.executable, shutil.which("python3") or ""]
     tried = []
+    check = ("import sys, sysconfig, os, setuptools; "
+             f"assert sys.version_info[:2] >= {MIN_PYTHON!r}; "
+             "assert os.path.isfile(os.path.join(sysconfig.get_paths()['include'], 'Python.h'))")
     for exe in candidates:
         if not exe or not os.path.exists(exe) or exe in tried:
             continue
         tried.append(exe)
-        probe = subprocess.run([exe, "-c", "import sys, setuptools; print(sys.version_info[:2])"],
-                               capture_output=True, text=True)
-        if probe.returncode == 0 and probe.stdout.strip() == f"({major}, {minor})":
+        if subprocess.run([exe, "-c", check], capture_output=True).returncode == 0:
             return exe
-    die(f"Blender {info['blender']} runs Python {major}.{minor}, but no Python {major}.{minor} "
-        f"with setuptools was found (tried: {', '.join(tried) or 'none'}).  Install "
-        f"python{major}.{minor} and python{major}.{minor}-dev (or use a Blender whose Python "
-        f"matches this system's), then rerun.")
+    die(f"no Python {MIN_PYTHON[0]}.{MIN_PYTHON[1]}+ with setuptools and its headers was found "
+        f"(tried: {', '.join(tried) or 'none'}): install python3-dev and python3-setuptools.")
 
 
 def build(info, python):
-    include = info["include"]
-    if not os.path.isfile(os.path.join(include, "Python.h")):
-        die(f"Python.h for Blender's Python {info['version'][0]}.{info['version'][1]} not found "
-            f"in {include}: install the matching python3-dev package (Debian: python3-dev).")
     out = tempfile.mkdtemp(prefix="planetlod-build-")
-    cmd = [python, "setup.py", "-q", "build_ext", "--include-dirs", include,
+    cmd = [python, "setup.py", "-q", "build_ext",
            "--build-lib", out, "--build-temp", os.path.join(out, "tmp")]
     print("install_addon: building:", " ".join(cmd), flush=True)
     if subprocess.run(cmd, cwd=REPO).returncode != 0:
         die("building the planetlod extension failed (see the compiler output above)")
-    built = glob.glob(os.path.join(out, "planetlod*" + info["ext_suffix"]))
+    built = glob.glob(os.path.join(out, "planetlod*.abi3.so"))
     if not built:
-        found = glob.glob(os.path.join(out, "planetlod*"))
-        die(f"built {found or 'nothing'}, but Blender needs planetlod{info['ext_suffix']} "
-            "(Python version mismatch)")
+        die(f"built {glob.glob(os.path.join(out, 'planetlod*')) or 'nothing'}, "
+            "expected planetlod.abi3.so")
     return built[0]
 
 
@@ -111,9 +123,11 @@ def install(info, module_path):
 def main():
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--blender", default=os.environ.get("BLENDER", "blender"))
+    p.add_argument("--bpy", metavar="PYTHON",
+                   help="the python of a venv with the bpy wheel (Blender as a module)")
     p.add_argument("--no-enable", action="store_true", help="install only")
     args = p.parse_args()
-    info = ask_blender(args.blender)
+    info = ask_blender(args.blender, args.bpy)
     print(f"install_addon: Blender {info['blender']}, Python "
           f"{info['version'][0]}.{info['version'][1]}, add-ons in {info['addons']}", flush=True)
     python = python_for(info)
@@ -124,7 +138,7 @@ def main():
         return 0
     env = dict(os.environ)
     env.pop("PLANET_LOD_NATIVE", None)
-    proc = subprocess.run([args.blender, "-b", "--python-expr", "SAVE = True\n" + CHECK],
+    proc = subprocess.run(blender_python(args.blender, args.bpy, "SAVE = True\n" + CHECK),
                           capture_output=True, text=True, env=env, timeout=120)
     lines = [line for line in proc.stdout.splitlines() if line.startswith("PLOD-CHECK")]
     if not lines or "OK" not in lines[0]:

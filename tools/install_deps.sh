@@ -19,6 +19,7 @@
 # it, even in background mode) and the viewport under Xvfb needs Mesa's GL;
 # the add-on's per-vertex work uses NumPy, which official Blenders bundle and
 # Debian's does not depend on.
+# python3-venv: the venvs of the bpy wheels (tools/blender_versions.py).
 set -euo pipefail
 
 declare -A GROUP=(
@@ -26,7 +27,7 @@ declare -A GROUP=(
              libopenimageio-dev wcslib-dev"
     [test]="python3-pytest python3-numpy python3-matplotlib nodejs"
     [blender]="blender libegl1 libgl1 libegl-mesa0 libglx-mesa0 libgl1-mesa-dri
-               xvfb xauth python3-openimageio python3-numpy"
+               xvfb xauth python3-openimageio python3-numpy python3-venv"
     [fuzz]="clang llvm libclang-rt-14-dev"
 )
 declare -A COMMAND=(

@@ -4,13 +4,31 @@
 # Cycles flyby of the default planet (Earth) to out/flyby/: PNG frames,
 # stats.csv (per-frame LOD statistics) and contact_sheet.png.
 # Extra arguments go to tools/flyby.py (e.g. --frames 31-60 --samples 32).
+#
+# The Blender: the newest supported one that installs here, Blender 5.0 as the
+# bpy wheel from PyPI (tools/blender_versions.py, cached in ~/.cache/planetlod),
+# run through tools/bpy_run.py; if that cannot be installed (no network),
+# Debian's Blender 3.4.  BLENDER=/path/to/blender picks a Blender binary.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash tools/install_deps.sh flyby
 bash tools/build.sh
-BLENDER=${BLENDER:-blender}
-/usr/bin/python3 tools/install_addon.py --blender "$BLENDER"
-"$BLENDER" -b --python-exit-code 1 --python tools/flyby.py -- \
-    --preset earth --frames 1-48 --path-frames 48 --resolution 640x360 --samples 16 \
-    --out out/flyby "$@"
+FLYBY_ARGS=(--preset earth --frames 1-48 --path-frames 48 --resolution 640x360 --samples 16
+            --out out/flyby "$@")
+BPY=""
+if [ -z "${BLENDER:-}" ]; then
+    if /usr/bin/python3 tools/blender_versions.py install --newest; then
+        BPY=$(/usr/bin/python3 tools/blender_versions.py newest)
+    else
+        echo "planet_lod: the bpy wheel could not be installed; rendering with Debian's Blender" >&2
+    fi
+fi
+if [ -n "$BPY" ]; then
+    /usr/bin/python3 tools/install_addon.py --bpy "$BPY"
+    "$BPY" tools/bpy_run.py tools/flyby.py -- "${FLYBY_ARGS[@]}"
+else
+    BLENDER=${BLENDER:-blender}
+    /usr/bin/python3 tools/install_addon.py --blender "$BLENDER"
+    "$BLENDER" -b --python-exit-code 1 --python tools/flyby.py -- "${FLYBY_ARGS[@]}"
+fi
 echo "planet_lod: flyby frames, stats.csv and contact_sheet.png are in out/flyby/"

@@ -53,6 +53,10 @@ export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 export LSAN_OPTIONS="suppressions=$ROOT/tools/lsan.supp:print_suppressions=0"
 export PYTHONFAULTHANDLER=1
 
+# Blender subprocesses load the uninstrumented in-place build whatever runs
+# them, so one Blender (Debian's) is enough here; run_tests.sh covers the rest.
+export PLANET_LOD_BLENDERS=${PLANET_LOD_BLENDERS:-blender}
+
 set +e -o pipefail
 (LD_PRELOAD="$LIBASAN $LIBSTDCXX" "$PYTHON" - "$BUILD/lib" "$@" <<'PY'
 import os

@@ -15,7 +15,7 @@ import gpu
 from gpu_extras.batch import batch_for_shader
 from mathutils import Matrix, Vector
 
-from . import core, live, materials
+from . import compat, core, live, materials
 
 DATA_WIDTH = 768          # sector texture width (texels); 3 texels per sector
 HEIGHT_ATLAS_SIZE = 256   # face size of the preview's height cube map
@@ -255,7 +255,7 @@ def draw_frustum(obj, st):
         return
     world = obj.matrix_world
     coords = [tuple(world @ p) for p in frustum_lines(params, obj.planet_lod.radius * 4.0)]
-    shader = gpu.shader.from_builtin('3D_UNIFORM_COLOR')
+    shader = gpu.shader.from_builtin(compat.UNIFORM_COLOR_SHADER)
     batch = batch_for_shader(shader, 'LINES', {"pos": coords})
     shader.bind()
     shader.uniform_float("color", (1.0, 0.8, 0.1, 1.0))

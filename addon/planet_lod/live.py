@@ -29,7 +29,7 @@ from array import array
 import bpy
 from bpy.app.handlers import persistent
 
-from . import atmosphere, core, materials
+from . import atmosphere, compat, core, materials
 
 RUNTIME = {}
 DEBOUNCE_S = 0.15
@@ -319,11 +319,7 @@ def write_mesh(obj, mesh):
     if len(me.vertices) != nv or len(me.polygons) != nt:
         me.clear_geometry()
         me.vertices.add(nv)
-        me.loops.add(3 * nt)
-        me.polygons.add(nt)
-        me.loops.foreach_set("vertex_index", mesh.triangles)
-        me.polygons.foreach_set("loop_start", array("i", range(0, 3 * nt, 3)))
-        me.polygons.foreach_set("loop_total", array("i", [3]) * nt)
+        compat.set_triangle_topology(me, mesh.triangles, nt)
         me.polygons.foreach_set("use_smooth", array("i", [1]) * nt)
     s = obj.planet_lod
     sea_level = s.sea_level if s.use_sea_level else None
@@ -335,9 +331,7 @@ def write_mesh(obj, mesh):
         _set_attribute(me, name, 'FLOAT', 'POINT', "value", values)
     me.update()
     if nv:
-        me.use_auto_smooth = True
-        me.auto_smooth_angle = math.pi
-        me.normals_split_custom_set_from_vertices(data.normals)
+        compat.set_vertex_normals(me, data.normals)
 
 
 def _set_attribute(me, name, data_type, domain, field, values):
@@ -552,6 +546,7 @@ def on_load_post(*_args):
     scene = bpy.context.scene
     if scene is None or core.native is None:
         return
+    compat.update_after_load()
     for obj in planets(scene):  # rebuild geometry for the saved camera
         try:
             refresh(obj, scene, build_mesh=True, for_render=True)

@@ -10,6 +10,8 @@ import os
 
 import bpy
 
+from . import compat
+
 PLANET_PREFIX = "PlanetLOD "
 LEVELS_NAME = "PlanetLOD levels"
 
@@ -23,7 +25,7 @@ def _new_tree(material):
     bsdf = nodes.new("ShaderNodeBsdfPrincipled")
     bsdf.location = (300, 0)
     bsdf.inputs["Roughness"].default_value = 0.9
-    bsdf.inputs["Specular"].default_value = 0.1
+    compat.set_principled_specular(bsdf, 0.1)
     material.node_tree.links.new(bsdf.outputs[0], out.inputs["Surface"])
     return nodes, material.node_tree.links, bsdf
 

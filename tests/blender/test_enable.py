@@ -7,6 +7,10 @@ import plod_testlib as lib
 
 def main():
     lib.enable()
+    from planet_lod import core
+    # the one abi3 build loads in every supported Blender's Python
+    assert core.native_path.endswith(".abi3.so"), core.native_path
+    print(f"planet_lod: Blender {bpy.app.version_string}, {core.native_path}")
     assert hasattr(bpy.types.Object, "planet_lod")
     assert hasattr(bpy.ops.mesh, "planet_add")
     assert "PLOD_PT_planet" in dir(bpy.types)

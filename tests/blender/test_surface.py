@@ -42,7 +42,8 @@ def mesh_arrays(obj):
     nv = len(me.vertices)
     co = numpy.empty(3 * nv, numpy.float32)
     me.vertices.foreach_get("co", co)
-    me.calc_normals_split()
+    from planet_lod import compat
+    compat.calc_loop_normals(me)
     loop_normals = numpy.empty(3 * len(me.loops), numpy.float32)
     me.loops.foreach_get("normal", loop_normals)
     loop_vertex = numpy.empty(len(me.loops), numpy.int32)
@@ -93,7 +94,7 @@ def world_vertices(obj):
 
 def main():
     lib.enable()
-    from planet_lod import core, live
+    from planet_lod import compat, core, live
     lib.clear_scene()
     scene = bpy.context.scene
     scene.render.resolution_x, scene.render.resolution_y = 640, 360
@@ -136,7 +137,7 @@ def main():
     geo.keyframe_insert("east", frame=1)
     geo.east = 0.1
     geo.keyframe_insert("east", frame=11)
-    for fcurve in cam.animation_data.action.fcurves:
+    for fcurve in compat.action_fcurves(cam):
         for key in fcurve.keyframe_points:
             key.interpolation = 'LINEAR'
     tracked = None

@@ -1,0 +1,117 @@
+#!/usr/bin/env python3
+"""The Blenders Planet LOD supports and tests, and their cached installs.
+
+    python3 tools/blender_versions.py install [--newest]  # create what is missing
+    python3 tools/blender_versions.py list                 # LABEL PYTHON per line
+    python3 tools/blender_versions.py newest               # PYTHON of the newest
+
+Debian 12's Blender 3.4.1 is a system package (tools/install_deps.sh).  Blender
+4.2 LTS, 4.5 LTS and 5.0 come as the official `bpy` wheels from PyPI
+(Blender as a Python module, CPython 3.11, Cycles included), each in its own
+virtual environment under $PLANET_LOD_CACHE (default ~/.cache/planetlod):
+bpy-<version>/, made once (about 350 MB of download, 1 GB on disk each) and
+reused by every later test run.  A venv is built under a temporary name and
+renamed when its `import bpy` works, so an interrupted install never leaves a
+half-made one behind; a lock file serialises concurrent installs.
+
+Scripts written for `blender -b --python` run in these with
+tools/bpy_run.py (see there).
+"""
+import argparse
+import fcntl
+import os
+import shutil
+import subprocess
+import sys
+
+# Pinned, oldest first: the tests run in each, the flyby uses the newest.
+BPY_VERSIONS = ("4.2.23", "4.5.15", "5.0.1")
+# The bpy wheels are built for this CPython (cp311 manylinux).
+BASE_PYTHON = os.environ.get("PLANET_LOD_BPY_BASE_PYTHON", "/usr/bin/python3")
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+RUNNER = os.path.join(REPO, "tools", "bpy_run.py")
+
+
+def cache_root():
+    return os.environ.get("PLANET_LOD_CACHE") or os.path.join(
+        os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache"), "planetlod")
+
+
+def label(version):
+    """'4.5.15' -> 'bpy-4.5' (the name tests and messages use)."""
+    return "bpy-" + ".".join(version.split(".")[:2])
+
+
+def venv_dir(version):
+    return os.path.join(cache_root(), f"bpy-{version}")
+
+
+def python_of(version):
+    """The venv's python if this version is installed, else None."""
+    exe = os.path.join(venv_dir(version), "bin", "python")
+    return exe if os.path.exists(os.path.join(venv_dir(version), ".complete")) else None
+
+
+def installed():
+    """[(label, python)] of the installed versions, oldest first."""
+    return [(label(v), python_of(v)) for v in BPY_VERSIONS if python_of(v)]
+
+
+def _run(cmd):
+    print("blender_versions:", " ".join(cmd), flush=True)
+    subprocess.run(cmd, check=True)
+
+
+def install(version):
+    """Creates the venv of `version` unless it exists; returns its python."""
+    root = cache_root()
+    os.makedirs(root, exist_ok=True)
+    with open(os.path.join(root, ".lock"), "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if python_of(version):
+            return python_of(version)
+        final = venv_dir(version)
+        work = final + ".partial"
+        shutil.rmtree(work, ignore_errors=True)
+        shutil.rmtree(final, ignore_errors=True)
+        _run([BASE_PYTHON, "-m", "venv", work])
+        py = os.path.join(work, "bin", "python")
+        _run([py, "-m", "pip", "install", "--quiet", "--disable-pip-version-check",
+              f"bpy=={version}"])
+        probe = subprocess.run([py, "-c", "import bpy; print(bpy.app.version_string)"],
+                               capture_output=True, text=True, timeout=300)
+        if probe.returncode != 0 or not probe.stdout.strip().startswith(version):
+            raise RuntimeError(f"bpy {version} installed but does not import:\n"
+                               f"{probe.stdout[-1500:]}{probe.stderr[-1500:]}")
+        with open(os.path.join(work, ".complete"), "w") as f:
+            f.write(probe.stdout.strip() + "\n")
+        os.rename(work, final)  # the venv's python finds its site-packages relative to itself
+        print(f"blender_versions: bpy {version} ready in {final}", flush=True)
+        return python_of(version)
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    sub = p.add_subparsers(dest="command", required=True)
+    inst = sub.add_parser("install", help="create the missing venvs")
+    inst.add_argument("--newest", action="store_true", help="only the newest version")
+    sub.add_parser("list", help="LABEL PYTHON of each installed version")
+    sub.add_parser("newest", help="PYTHON of the newest installed version (exit 1: none)")
+    args = p.parse_args(argv)
+    if args.command == "install":
+        for version in BPY_VERSIONS[-1:] if args.newest else BPY_VERSIONS:
+            if not python_of(version):
+                install(version)
+        return 0
+    if args.command == "newest":
+        if not installed():
+            return 1
+        print(installed()[-1][1])
+        return 0
+    for name, python in installed():
+        print(name, python)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
