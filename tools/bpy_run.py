@@ -7,15 +7,24 @@ a Python module (the `bpy` wheel), the way Blender would run it:
 on sys.path); the script then runs as __main__ with sys.argv ending in
 "-- ARGS" as under Blender.  Exit status as with --python-exit-code 1: 0, the
 script's SystemExit code, or 1 on an exception.  The process ends with
-os._exit after flushing Python's and C's output: the bpy module's own
-shutdown can hang after a .blend was opened (seen with bpy 4.5), and nothing
-is left to save at that point.
+os._exit after flushing Python's and C's output and removing Blender's
+session temp folder (what the module's own shutdown would do): that shutdown
+can hang after a .blend was opened (seen with bpy 4.5), and nothing is left to
+save at that point.
 """
 import ctypes
 import os
 import runpy
+import shutil
 import sys
 import traceback
+
+
+def remove_session_tempdir():
+    bpy = sys.modules.get("bpy")
+    folder = os.path.normpath(bpy.app.tempdir) if bpy is not None else ""
+    if os.path.basename(folder).startswith("blender_"):
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 def main():
@@ -46,6 +55,7 @@ def main():
 
 if __name__ == "__main__":
     status = main()
+    remove_session_tempdir()
     sys.stdout.flush()
     sys.stderr.flush()
     ctypes.CDLL(None).fflush(None)

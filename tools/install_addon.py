@@ -47,7 +47,8 @@ def die(message):
 def blender_python(blender, bpy_python, code, factory=False):
     """The command running Python `code` in that Blender (binary or bpy module)."""
     if bpy_python:  # the module's shutdown may hang after saving: end the process
-        return [bpy_python, "-c", "import bpy\n" + code + "\nimport os, sys; "
+        return [bpy_python, "-c", "import bpy\n" + code + "\nimport os, shutil, sys; "
+                "shutil.rmtree(bpy.app.tempdir, ignore_errors=True); "
                 "sys.stdout.flush(); os._exit(0)"]
     return [blender, "-b"] + (["--factory-startup"] if factory else []) + ["--python-expr", code]
 
