@@ -63,6 +63,8 @@ def main():
     parser.add_argument("--passes", type=int, default=2)
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--level", type=int, default=4)
+    parser.add_argument("--max-level", type=int, default=48)
+    parser.add_argument("--skip", default="", help="'refine' or 'emission'")
     args = parser.parse_args()
 
     detail = earth_detail()
@@ -80,6 +82,13 @@ def main():
           f"{planets['off'].heightmap.size}^2 per face")
 
     # ---- refine + cull -----------------------------------------------------
+    if args.skip != "refine":
+        refine_figures(args, planets, cams)
+    if args.skip != "emission":
+        emission_figures(args, planets, cams)
+
+
+def refine_figures(args, planets, cams):
     best = {name: [float("inf")] * len(cams) for name in planets}
     sectors = {name: [0] * len(cams) for name in planets}
     for _ in range(args.passes):
@@ -87,11 +96,11 @@ def main():
             p.reset()
         for k, (_alt, cam) in enumerate(cams):
             for name, p in planets.items():
-                s = p.refine(cam, template_level=args.level)
+                s = p.refine(cam, template_level=args.level, max_level=args.max_level)
                 best[name][k] = min(best[name][k], s["refine_us"] + s["cull_us"])
                 sectors[name][k] = s["sectors_total"]
     print(f"\nrefine+cull per frame, µs, best of {args.passes} descents "
-          f"({args.frames} frames, template level {args.level})")
+          f"({args.frames} frames, template level {args.level}, max level {args.max_level})")
     print(f"{'':>12} {'mean':>8} {'median':>8} {'p95':>8} {'max':>8} {'>1 ms':>6}")
     for name in planets:
         print(summary("detail " + name, best[name]))
@@ -103,9 +112,12 @@ def main():
     print(f"mean on/off: {ratio:.2f}x; sectors on/off (mean): "
           f"{statistics.mean(sectors['on']) / statistics.mean(sectors['off']):.2f}x")
 
-    # ---- emission ------------------------------------------------------------
+
+
+def emission_figures(args, planets, cams):
     print(f"\nemission along the descent, {args.threads} threads, template level {args.level}, "
-          "M vertices/s over the path (cached = flyby, uncached = cold)")
+          f"max level {args.max_level}, M vertices/s over the path (cached = flyby, "
+          "uncached = cold)")
     print(f"{'':>12} {'vertices':>10} {'cold':>8} {'flyby':>8} {'hit rate':>8}")
     totals = {name: [0, 0.0, 0.0, 0, 0] for name in planets}
     for p in planets.values():
@@ -113,7 +125,7 @@ def main():
         p.mesh_cache_max_bytes = 1 << 30
     for _alt, cam in cams:
         for name, p in planets.items():
-            p.refine(cam, template_level=args.level)
+            p.refine(cam, template_level=args.level, max_level=args.max_level)
             t0 = time.perf_counter()
             cold = p.mesh(threads=args.threads, cache=False)
             t1 = time.perf_counter()
