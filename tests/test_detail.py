@@ -293,3 +293,27 @@ def test_bad_detail_arguments(planetlod):
             planetlod.Planet(1000.0, detail=detail)
     with pytest.raises(planetlod.InvalidArgument):
         planetlod.Planet(1000.0, detail=[("amplitude", 1.0)])
+
+
+def test_planet_presets_detail_is_valid(planetlod):
+    """Every planet preset turns detail on with parameters the core accepts
+    on its own map, and the style fits the body (craters on airless ones)."""
+    import importlib.util
+    import os
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    spec = importlib.util.spec_from_file_location(
+        "plod_presets_test", os.path.join(root, "addon", "planet_lod", "presets.py"))
+    presets = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(presets)
+    styles = {}
+    for key, values in presets.PLANETS.items():
+        detail = presets.detail_settings(key)
+        assert detail and detail["amplitude"] > 0.0, key
+        styles[key] = detail["style"]
+        planet = planetlod.Planet(values["radius"],
+                                  heightmap=os.path.join(root, "data", values["heightmap"]),
+                                  height_scale=values["height_scale"], heightmap_size=128,
+                                  detail=detail)
+        assert planet.detail["octaves"] >= 8, key
+    assert styles["EARTH"] == "mountains"
+    assert styles["MOON"] == "craters" and styles["ASTEROID"] == "craters"
