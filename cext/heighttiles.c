@@ -24,7 +24,7 @@
 
 #define PLOD__TILES_MAGIC "PLODTIL1"
 #define PLOD__TILES_HEADER 128
-#define PLOD__TILES_ALIGN 4096
+#define PLOD__TILES_ALIGN 512
 #define PLOD__TILES_PI 3.141592653589793
 
 typedef struct plod__tiles_header {
