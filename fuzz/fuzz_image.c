@@ -143,7 +143,8 @@ static void fuzz__use_tiles(plod_tiles *tiles, fuzz_input *in)
     for (int i = 0; i < 4; i++) {
         double u = fuzz_double_in(in, -1.2, 1.2), v = fuzz_double_in(in, -1.2, 1.2);
         double value = plod_tiles_sample_uv(tiles, u, v);
-        if (plod_tiles_nan_count(tiles) == 0 && plod_tiles_read_errors(tiles) == 0 && lo <= hi)
+        if (plod_tiles_nan_count(tiles) == 0 && plod_tiles_read_errors(tiles) == 0 &&
+            isfinite(lo) && isfinite(hi)) /* +-inf texels: NaN lerps, refused by planets */
             FUZZ_CHECK(value >= lo - 1e-9 * fabs(lo) && value <= hi + 1e-9 * fabs(hi),
                        "sample %g outside %g..%g", value, lo, hi);
         double a, b;
