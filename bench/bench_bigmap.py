@@ -17,6 +17,7 @@ reset after the set-up where the kernel allows), the tile cache's bytes and
 refine / mesh milliseconds.  Not a test: figures only.
 """
 import argparse
+import math
 import os
 import sys
 import time
@@ -49,33 +50,57 @@ def reset_peak():
         return False
 
 
+def earth_rows():
+    """The bundled Earth topology (2048 x 1024, 8-bit, north row first) as
+    float metres over 0..8848."""
+    car = planetlod.CubeMap.from_image(os.path.join(ROOT, "data", "earth-topology.png"),
+                                       projection="car", size=1024, filter="nearest")
+    cols, rows = car.face_shape
+    texels = np.frombuffer(bytes(car.face(0)), np.uint8).reshape(rows, cols)[::-1]
+    return texels.astype(np.float64) / 255.0
+
+
 def generate(path, width):
-    """Procedural 16-bit relief written a band of rows at a time (memory: the
-    tiled noise rows and one band): continents as a separable sum of
-    latitude and longitude terms, mountain belts where a longitude profile
-    is high, and a periodic 1024 x 1024 block of smooth noise on top."""
+    """An Earth-like 16-bit global map written a band of rows at a time
+    (memory: one band and the noise rows): the bundled Earth topology
+    resampled bilinearly to width x width/2, plus a periodic 1024 x 1024
+    block of smooth noise (+-2 % of the range, more on high ground) for
+    relief at every texel."""
     height = width // 2
+    source = earth_rows()
+    sh, sw = source.shape
     rng = np.random.default_rng(2026)
     fine = np.kron(rng.random((64, 64)), np.ones((16, 16)))
     for _ in range(3):  # smooth, periodic
         fine = 0.25 * (np.roll(fine, 1, 0) + np.roll(fine, -1, 0) + np.roll(fine, 1, 1) +
                        np.roll(fine, -1, 1))
-    fine = (fine - fine.min()) / (fine.max() - fine.min())
-    lon = np.radians(-180.0 + (np.arange(width) + 0.5) * 360.0 / width)
-    lon_term = (12000 * np.sin(2 * lon) + 6000 * np.sin(5 * lon + 2.0)).astype(np.int32)
-    belt = np.clip(1.0 - np.abs(np.sin(9 * lon + 1.3)) * 3.0, 0.0, 1.0)
+    fine = (fine - fine.min()) / (fine.max() - fine.min()) - 0.5
     reps = -(-width // 1024)
-    # the noise for every row phase, scaled per column: 1024 rows, int32
-    noise = (np.tile(fine, (1, reps))[:, :width] * (4000 + 26000 * belt)[None, :]).astype(np.int32)
-    band = 256
+    noise = np.tile(fine, (1, reps))[:, :width].astype(np.float32)
+    # every source row resampled to the output width once (float32,
+    # wrapping in longitude); an output row is then a blend of two of them
+    x = (np.arange(width) + 0.5) * sw / width - 0.5
+    x0 = np.floor(x).astype(np.int64)
+    wx = (x - x0).astype(np.float32)
+    x1 = (x0 + 1) % sw
+    x0 %= sw
+    wide = np.empty((sh, width), np.float32)
+    for r in range(sh):
+        row = source[r].astype(np.float32)
+        wide[r] = row[x0] + wx * (row[x1] - row[x0])
     tmp = str(path) + ".partial"
+    value = np.empty(width, np.float32)
     with open(tmp, "wb") as out:
-        for y0 in range(0, height, band):
-            rows = np.arange(y0, min(y0 + band, height))
-            lat = np.radians(90.0 - (rows + 0.5) * 180.0 / height)
-            lat_term = (24000 + 8000 * np.cos(3 * lat)).astype(np.int32)
-            value = noise[rows % 1024] + lon_term[None, :] + lat_term[:, None]
-            np.clip(value, 0, 65535, out=value)
+        for y in range(height):
+            t = (y + 0.5) * sh / height - 0.5
+            r0 = min(max(int(math.floor(t)), 0), sh - 1)
+            r1 = min(r0 + 1, sh - 1)
+            wy = np.float32(t - math.floor(t))
+            np.subtract(wide[r1], wide[r0], out=value)
+            value *= wy
+            value += wide[r0]
+            value += noise[y % 1024] * (np.float32(0.01) + np.float32(0.05) * value)
+            np.clip(value * np.float32(65535.0), 0, 65535, out=value)
             out.write(value.astype("<u2").tobytes())
     os.replace(tmp, path)
 
@@ -91,10 +116,14 @@ def main():
     ap.add_argument("--cache-mb", type=int, default=256, help="TiledMap tile cache (MiB)")
     ap.add_argument("--template-level", type=int, default=4)
     ap.add_argument("--threads", type=int, default=2, help="mesh() threads")
+    ap.add_argument("--no-mesh", action="store_true",
+                    help="refine only (the map's own footprint: no mesh buffers)")
+    ap.add_argument("--mesh-cache-mb", type=int, default=256,
+                    help="planet.mesh_cache_max_bytes (MiB; the add-on's default 256)")
     args = ap.parse_args()
     os.makedirs(args.cache, exist_ok=True)
     width, height = args.width, args.width // 2
-    path = os.path.join(args.cache, f"global-{width}x{height}.r16")
+    path = os.path.join(args.cache, f"earthlike-{width}x{height}.r16")
     print(f"planetlod big-map benchmark; python {sys.version.split()[0]}; "
           f"{os.cpu_count()} cpus; map {width}x{height} u16 ({width * height * 2 / 2**30:.2f} GiB)")
     print(f"RSS at start: {status_kb('VmRSS') / 1024:.0f} MiB")
@@ -115,8 +144,9 @@ def main():
           f"{os.path.getsize(tiled.tiles_path) / 2**30:.2f} GiB); RSS "
           f"{status_kb('VmRSS') / 1024:.0f} MiB")
     planet = planetlod.Planet(R, projection="qsc", heightmap=tiled, height_scale=8848.0,
-                              sea_level=0.3 * 8848.0)
+                              sea_level=0.0)
     planet.reserve(16384)
+    planet.mesh_cache_max_bytes = args.mesh_cache_mb << 20
     lo, hi = planet.height_range()
     cams = cameras(planet, args.frames, terrain_top=hi)
     peak_reset = reset_peak()
@@ -124,23 +154,30 @@ def main():
     print(f"heights {lo:.0f}..{hi:.0f} m; texel {planet.texel_size(1, 0, 0):.0f} m; RSS before "
           f"the descent {base / 1024:.0f} MiB (peak reset: {peak_reset})")
     print(f"{'frame':>5} {'altitude':>12} {'sectors':>8} {'vertices':>9} {'refine ms':>9} "
-          f"{'mesh ms':>8} {'RSS MiB':>8} {'tiles MiB':>9}")
+          f"{'mesh ms':>8} {'RSS MiB':>8} {'tiles MiB':>9} {'mesh MiB':>8} {'mcache':>6} "
+          f"{'refiner':>7}")
     worst = 0
     refine_ms, mesh_ms = [], []
     for k, (alt, cam) in enumerate(cams):
         t0 = time.perf_counter()
         stats = planet.refine(cam, max_pixel_error=1.0, template_level=args.template_level)
         t1 = time.perf_counter()
-        mesh = planet.mesh(threads=args.threads)
+        mesh = None if args.no_mesh else planet.mesh(threads=args.threads)
         t2 = time.perf_counter()
+        mesh_bytes = 0 if mesh is None else sum(
+            memoryview(getattr(mesh, name)).nbytes
+            for name in ("positions", "normals", "uv", "triangles", "sector_level", "face",
+                         "morph")) if k % args.every == 0 or k == len(cams) - 1 else 0
         refine_ms.append((t1 - t0) * 1e3)
         mesh_ms.append((t2 - t1) * 1e3)
         rss = status_kb("VmRSS")
         worst = max(worst, rss)
         if k % args.every == 0 or k == len(cams) - 1:
             print(f"{k:5d} {alt:12.1f} {stats['sectors_after_budget']:8d} "
-                  f"{mesh.vertex_count:9d} {refine_ms[-1]:9.2f} {mesh_ms[-1]:8.1f} "
-                  f"{rss / 1024:8.0f} {tiled.cached_bytes / 2**20:9.0f}", flush=True)
+                  f"{stats['vertices']:9d} {refine_ms[-1]:9.2f} {mesh_ms[-1]:8.1f} "
+                  f"{rss / 1024:8.0f} {tiled.cached_bytes / 2**20:9.0f} "
+                  f"{mesh_bytes / 2**20:8.0f} {planet.mesh_cache_info['bytes'] / 2**20:6.0f} "
+                  f"{planet.memory_bytes / 2**20:7.0f}", flush=True)
         del mesh
     print(f"descent: RSS max over frames {worst / 1024:.0f} MiB, peak (VmHWM) "
           f"{status_kb('VmHWM') / 1024:.0f} MiB; tile cache {tiled.cached_bytes / 2**20:.0f} of "
