@@ -99,9 +99,16 @@ static inline double plod__metres(const plod_planet *planet, double value)
 /* Unit normal of the displaced surface d*(R+h(d)) from central differences
  * of h along a tangent frame chosen from d alone, one texel apart:
  * n ~ r d - h1 t1 - h2 t2 with h1, h2 in metres per radian. */
-/* The data's texel as an angle (radians) at dir; 0 without data. */
+/* The data's texel as an angle (radians) at dir; 0 without data.  An
+ * inset's where it counts (finer data). */
 static double plod__texel_angle(const plod_planet *planet, const double dir[3])
 {
+    if (planet->insets) {
+        double angle;
+        plod_insets_blend(planet->insets, dir, 0.0, &angle);
+        if (angle > 0.0)
+            return angle;
+    }
     if (planet->heightmap) {
         int size = plod_cubemap_size(planet->heightmap);
         return 1.5707963267948966 / (double)(size < 1 ? 1 : size);
@@ -216,9 +223,29 @@ static double plod__source_surface(const plod_planet *planet, const double dir[3
     return height;
 }
 
-/* The map's height and normal at dir (no detail); *face, *u, *v: where it
- * sampled (face -1 without a map). */
+static double plod__global_surface(const plod_planet *planet, const double dir[3],
+                                   double normal[3], int *face, double *u, double *v);
+
+/* The map's height and normal at dir (no detail), insets blended in;
+ * *face, *u, *v: where the global map sampled (face -1 without a map). */
 static double plod__map_surface(const plod_planet *planet, const double dir[3], double normal[3],
+                                int *face, double *u, double *v)
+{
+    if (!planet->insets)
+        return plod__global_surface(planet, dir, normal, face, u, v);
+    double base = plod__global_surface(planet, dir, NULL, face, u, v);
+    double texel;
+    double height = plod_insets_blend(planet->insets, dir, base, &texel);
+    if (normal) {
+        normal[0] = dir[0], normal[1] = dir[1], normal[2] = dir[2];
+        if (height == height && (planet->heightmap || planet->source || texel > 0.0))
+            plod__difference_normal(planet, dir, planet->radius + height, normal);
+    }
+    return height;
+}
+
+/* The global data's height and normal at dir (no insets, no detail). */
+static double plod__global_surface(const plod_planet *planet, const double dir[3], double normal[3],
                                 int *face, double *u, double *v)
 {
     *face = -1;
@@ -293,6 +320,19 @@ void plod_planet_surface_band_n(const plod_planet *planet, size_t n, const doubl
     if (normals)
         memcpy(normals, dirs, 3 * n * sizeof *normals);
     int all = plod__all_octaves(planet);
+    if (planet->insets) { /* point by point: blends and difference normals */
+        for (size_t i = 0; i < n; i++) {
+            int face;
+            double u, v;
+            double *normal = normals ? normals + 3 * i : NULL;
+            heights[i] = plod__map_surface(planet, dirs + 3 * i, normal, &face, &u, &v);
+            if (planet->detail)
+                plod__add_detail(planet, dirs + 3 * i, plod__modulation_at(planet, face, u, v),
+                                 octaves ? octaves[i] : all,
+                                 normal_octaves ? normal_octaves[i] : all, heights + i, normal);
+        }
+        return;
+    }
     if (!planet->heightmap) {
         for (size_t i = 0; i < n; i++) {
             heights[i] = planet->source ? plod__source_surface(planet, dirs + 3 * i,
@@ -463,7 +503,29 @@ double plod_planet_modulation(const plod_planet *planet, const double dir[3])
     return plod__modulation_at(planet, face, u, v);
 }
 
+static void plod__global_height_range(const plod_planet *planet, double *min_m,
+                                      double *max_m);
+
 static void plod__map_height_range(const plod_planet *planet, double *min_m, double *max_m)
+{
+    plod__global_height_range(planet, min_m, max_m);
+    if (planet->insets && plod_insets_count(planet->insets)) {
+        double lo, hi;
+        plod_insets_global_range(planet->insets, &lo, &hi);
+        if (lo <= hi) {
+            *min_m = lo < *min_m ? lo : *min_m;
+            *max_m = hi > *max_m ? hi : *max_m;
+        }
+    }
+}
+
+int plod_planet_insets_range_cap(const plod_planet *planet, const double axis[3],
+                                 double angle, double *min_m, double *max_m)
+{
+    return planet->insets && plod_insets_range_cap(planet->insets, axis, angle, min_m, max_m);
+}
+
+static void plod__global_height_range(const plod_planet *planet, double *min_m, double *max_m)
 {
     if (!planet->heightmap && planet->source) {
         double lo, hi;

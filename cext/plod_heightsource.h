@@ -96,6 +96,39 @@ void plod_tiles_global_range(const plod_tiles *tiles, double *lo, double *hi);
 /* The tiles as a height source (valid while `tiles` lives). */
 plod_height_source plod_tiles_source(const plod_tiles *tiles);
 
+/* ---- regional insets (insets.c) ------------------------------------------ */
+/* A regional grid placed by longitude and latitude: samples at the corners
+ * (pixel is point: sample (0, 0) at west/north, (width-1, height-1) at
+ * east/south, as SRTM tiles), in metres, row 0 north, NaN = void. */
+typedef struct plod_inset_desc {
+    double west, south, east, north; /* degrees; west < east, no date-line crossing */
+    int width, height;               /* >= 2 */
+    const float *metres;             /* copied by plod_insets_create */
+} plod_inset_desc;
+
+typedef struct plod_insets plod_insets; /* opaque */
+
+/* Copies the grids.  `feather`: the blend border's width as a fraction of
+ * each inset's smaller side (0..0.5); edges shared with another inset are
+ * not feathered.  Overlapping insets are refused (PLOD_ERR_BAD_PARAM, the
+ * message names both). */
+plod_status plod_insets_create(plod_insets **out, const plod_inset_desc *descs, size_t count,
+                               double feather, char *message, size_t message_size);
+void plod_insets_destroy(plod_insets *insets);
+size_t plod_insets_count(const plod_insets *insets);
+/* The height at a unit direction given the global data's `base_m`: inside
+ * an inset base + w (inset - base), w the smoothstep of the distance to
+ * its feathered edges; base_m outside every inset and over voids.
+ * *texel_angle (may be NULL): the inset's sample spacing (radians) where it
+ * counts, else 0. */
+double plod_insets_blend(const plod_insets *insets, const double dir[3], double base_m,
+                         double *texel_angle);
+/* Metres bounds of the insets' samples under the cap's lon/lat box; 0 when
+ * no inset meets it (the blend lies between the global height and these). */
+int plod_insets_range_cap(const plod_insets *insets, const double axis[3], double angle,
+                          double *lo, double *hi);
+void plod_insets_global_range(const plod_insets *insets, double *lo, double *hi);
+
 #ifdef __cplusplus
 }
 #endif

@@ -272,3 +272,155 @@ int plod_py_init_heightdata(PyObject *module)
     }
     return 0;
 }
+
+/* ======================================================================== */
+/* insets for Planet(insets=[...])                                          */
+/* ======================================================================== */
+
+/* Channel 0 of an image as metres: value * scale + offset (u8/u16
+ * normalised as maps sample; f32 as stored; NaN stays a void). */
+static float *plod__image_metres(const plod_image *image, double scale, double offset)
+{
+    size_t n = (size_t)image->width * (size_t)image->height;
+    float *out = malloc(n * sizeof *out);
+    if (!out)
+        return NULL;
+    for (size_t i = 0; i < n; i++) {
+        size_t at = i * (size_t)image->channels;
+        double v;
+        switch (image->type) {
+        case PLOD_TEXEL_U8: v = ((const uint8_t *)image->pixels)[at] * (1.0 / 255.0); break;
+        case PLOD_TEXEL_U16: v = ((const uint16_t *)image->pixels)[at] * (1.0 / 65535.0); break;
+        default: v = ((const float *)image->pixels)[at];
+        }
+        out[i] = (float)(v * scale + offset);
+    }
+    return out;
+}
+
+static int plod__number_item(PyObject *dict, const char *key, double *out, int required)
+{
+    PyObject *item = PyMapping_HasKeyString(dict, key) ? PyMapping_GetItemString(dict, key) : NULL;
+    PyErr_Clear();
+    if (!item)
+        return required ? -1 : 0;
+    double v = PyFloat_AsDouble(item);
+    Py_DECREF(item);
+    if (v == -1.0 && PyErr_Occurred()) {
+        PyErr_Clear();
+        return -1;
+    }
+    *out = v;
+    return isfinite(v) ? 0 : -1;
+}
+
+int plod_py_insets_arg(PyObject *list, double feather, plod_insets **out)
+{
+    const char *context = "Planet insets";
+    *out = NULL;
+    if (!list || list == Py_None)
+        return 0;
+    PyObject *seq = PySequence_List(list);
+    if (!seq) {
+        PyErr_Clear();
+        plod_py_raise_detail(PLOD_ERR_BAD_PARAM, context,
+                             "insets must be a list of .hgt paths or dicts(path, west, south, "
+                             "east, north[, raw, scale, offset])");
+        return -1;
+    }
+    Py_ssize_t count = PyList_Size(seq);
+    plod_inset_desc *descs = calloc(count ? (size_t)count : 1, sizeof *descs);
+    float **grids = calloc(count ? (size_t)count : 1, sizeof *grids);
+    int result = -1;
+    char message[PLOD__MESSAGE];
+    if (!descs || !grids) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    for (Py_ssize_t i = 0; i < count; i++) {
+        PyObject *item = PyList_GetItem(seq, i); /* borrowed */
+        PyObject *path_obj = item, *raw = Py_None, *owned = NULL;
+        double west = 0, south = 0, east = 0, north = 0, scale = 1.0, offset = 0.0;
+        int is_dict = PyDict_Check(item);
+        if (is_dict) {
+            path_obj = PyDict_GetItemString(item, "path");
+            raw = PyDict_GetItemString(item, "raw");
+            if (!raw)
+                raw = Py_None;
+            if (!path_obj || plod__number_item(item, "west", &west, 1) < 0 ||
+                plod__number_item(item, "south", &south, 1) < 0 ||
+                plod__number_item(item, "east", &east, 1) < 0 ||
+                plod__number_item(item, "north", &north, 1) < 0 ||
+                plod__number_item(item, "scale", &scale, 0) < 0 ||
+                plod__number_item(item, "offset", &offset, 0) < 0) {
+                snprintf(message, sizeof message,
+                         "inset %zd: a dict needs path and finite west, south, east, north "
+                         "(degrees; optional raw, scale, offset)", i);
+                plod_py_raise_detail(PLOD_ERR_BAD_PARAM, context, message);
+                goto done;
+            }
+        }
+        if (!PyUnicode_FSConverter(path_obj, &owned)) {
+            PyErr_Clear();
+            snprintf(message, sizeof message, "inset %zd: not a path or dict", i);
+            plod_py_raise_detail(PLOD_ERR_BAD_PARAM, context, message);
+            goto done;
+        }
+        const char *path = PyBytes_AsString(owned);
+        if (!is_dict) {
+            int lon, lat;
+            if (!plod_hgt_origin(path, &lon, &lat)) {
+                snprintf(message, sizeof message,
+                         "inset %zd ('%.200s'): a bare path must be an SRTM tile named like "
+                         "N45E006.hgt; give other grids as dict(path, west, south, east, north)",
+                         i, path);
+                Py_DECREF(owned);
+                plod_py_raise_detail(PLOD_ERR_BAD_PARAM, context, message);
+                goto done;
+            }
+            west = lon, east = lon + 1.0, south = lat, north = lat + 1.0;
+        }
+        plod_py_read_options options;
+        if (plod_py_read_options_arg(raw, 0, &options, context) < 0) {
+            Py_DECREF(owned);
+            goto done;
+        }
+        plod_image image = {0};
+        plod_status s;
+        Py_BEGIN_ALLOW_THREADS
+        s = options.has_raw ? plod_image_read_raw(&image, path, &options.raw, 0, message,
+                                                  sizeof message)
+                            : plod_image_read(&image, path, 0, message, sizeof message);
+        Py_END_ALLOW_THREADS
+        Py_DECREF(owned);
+        if (s != PLOD_OK) {
+            plod_py_raise_detail(s, context, message);
+            goto done;
+        }
+        grids[i] = plod__image_metres(&image, scale, offset);
+        descs[i].width = image.width;
+        descs[i].height = image.height;
+        plod_image_free(&image);
+        if (!grids[i]) {
+            PyErr_NoMemory();
+            goto done;
+        }
+        descs[i].west = west, descs[i].south = south, descs[i].east = east;
+        descs[i].north = north;
+        descs[i].metres = grids[i];
+    }
+    plod_status s = plod_insets_create(out, descs, (size_t)count, feather, message,
+                                       sizeof message);
+    if (s != PLOD_OK) {
+        plod_py_raise_detail(s, context, message);
+        goto done;
+    }
+    result = 0;
+done:
+    for (Py_ssize_t i = 0; grids && i < count; i++)
+        free(grids[i]);
+    free(grids);
+    free(descs);
+    Py_DECREF(seq);
+    return result;
+}

@@ -240,6 +240,7 @@ typedef struct {
     plod_planet planet;
     PyObject *heightmap;  /* the CubeMap (or TiledMap) keeping the height data alive */
     plod_height_source source; /* planet.source for a TiledMap */
+    plod_insets *insets;       /* owned; planet.insets */
     plod_cubemap *normalmap; /* owned; built by the first mesh() with a map */
     plod_detail *detail;  /* owned; NULL when detail is off */
     plod_mesh_cache *mesh_cache; /* owned; created by the first cached mesh() */
@@ -363,11 +364,12 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
 {
     static char *kwlist[] = {"radius", "projection", "heightmap", "height_scale",
                              "sea_level", "heightmap_size", "detail", "height_offset",
-                             "height_signed", "heightmap_raw", NULL};
+                             "height_signed", "heightmap_raw", "insets", "inset_feather",
+                             NULL};
     double radius;
     PyObject *proj = NULL, *heightmap = Py_None, *sea = Py_None, *detail = Py_None;
-    PyObject *raw = Py_None;
-    double scale = 1.0, offset = 0.0;
+    PyObject *raw = Py_None, *insets = Py_None;
+    double scale = 1.0, offset = 0.0, feather = 0.1;
     int size = 0, is_signed = 0;
     if (self->refiner) {
         PyErr_SetString(PyExc_RuntimeError, "Planet already initialised");
@@ -384,9 +386,9 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
         PyErr_SetString(PyExc_RuntimeError, "Planet is already initialised");
         return -1;
     }
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "d|OOdOiOdpO", kwlist, &radius, &proj,
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "d|OOdOiOdpOOd", kwlist, &radius, &proj,
                                      &heightmap, &scale, &sea, &size, &detail, &offset,
-                                     &is_signed, &raw))
+                                     &is_signed, &raw, &insets, &feather))
         return -1;
     plod_detail_params detail_params;
     int detail_on = 0;
@@ -400,6 +402,11 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
         return -1;
     }
     memset(&self->planet, 0, sizeof self->planet);
+    plod_insets_destroy(self->insets);
+    self->insets = NULL;
+    if (plod_py_insets_arg(insets, feather, &self->insets) < 0)
+        return -1;
+    self->planet.insets = self->insets;
     self->planet.projection = PLOD_PROJ_QSC;
     if (proj && proj != Py_None && plod_py_projection_arg(proj, &self->planet.projection) < 0)
         return -1;
@@ -544,6 +551,8 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
 static void plod__planet_dealloc(plod_py_planet *self)
 {
     plod_refiner_destroy(self->refiner);
+    plod_insets_destroy(self->insets);
+    self->insets = NULL;
     plod_mesh_cache_destroy(self->mesh_cache);
     self->mesh_cache = NULL;
     self->planet.normalmap = NULL;

@@ -770,8 +770,16 @@ static void plod__compute_bound_at(const plod_refiner *r, const plod_sector *s,
         plod_planet_height_range_cap(planet, b->axis, atan2(b->sin_angle, b->cos_angle),
                                      &hmin, &hmax, &texels);
     }
+    double inset_lo, inset_hi;
+    int insets = plod_planet_insets_range_cap(planet, b->axis, atan2(b->sin_angle, b->cos_angle),
+                                              &inset_lo, &inset_hi);
+    if (insets) { /* the blend lies between the global data and the insets */
+        hmin = inset_lo < hmin ? inset_lo : hmin;
+        hmax = inset_hi > hmax ? inset_hi : hmax;
+    }
     double relief_range = hmax - hmin;
-    plod__tighten_subtexel(planet, memo, idx, texels, &hmin, &hmax);
+    if (!insets) /* corner heights are blends there, not the map's bilinear patch */
+        plod__tighten_subtexel(planet, memo, idx, texels, &hmin, &hmax);
     b->detail0 = 0.0;
     if (planet->detail) { /* the map's bounds (tightened on map heights) + the field's */
         double dmin, dmax;
