@@ -113,7 +113,7 @@ def main():
     ap.add_argument("--cache", default=os.environ.get(
         "PLANETLOD_BENCH_CACHE", os.path.join(os.path.expanduser("~"), ".cache",
                                               "planetlod-bench")))
-    ap.add_argument("--cache-mb", type=int, default=256, help="TiledMap tile cache (MiB)")
+    ap.add_argument("--cache-mb", type=int, default=128, help="TiledMap tile cache (MiB)")
     ap.add_argument("--template-level", type=int, default=4)
     ap.add_argument("--threads", type=int, default=2, help="mesh() threads")
     ap.add_argument("--no-mesh", action="store_true",

@@ -48,7 +48,7 @@ typedef struct plod_height_source {
 typedef struct plod_tiles plod_tiles; /* opaque */
 
 #define PLOD_TILES_DEFAULT_TILE 128
-#define PLOD_TILES_DEFAULT_CACHE_BYTES ((size_t)256 << 20)
+#define PLOD_TILES_DEFAULT_CACHE_BYTES ((size_t)128 << 20)
 
 /* Writes the tile file of an equirectangular map.  `raw` (may be NULL)
  * gives a headerless grid's layout; NULL reads `source` as

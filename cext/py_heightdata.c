@@ -78,7 +78,7 @@ static int plod__tiled_map_init(plod_py_tiled_map *self, PyObject *args, PyObjec
     if (plod_py_read_options_arg(raw, is_signed, &options, context) < 0)
         goto done;
     if (cache_bytes < 0) {
-        plod_py_raise_detail(PLOD_ERR_BAD_PARAM, context, "cache_bytes must be >= 0 (0: 256 MiB)");
+        plod_py_raise_detail(PLOD_ERR_BAD_PARAM, context, "cache_bytes must be >= 0 (0: 128 MiB)");
         goto done;
     }
     if (progress != Py_None && !PyCallable_Check(progress)) {
@@ -148,7 +148,7 @@ static void plod__tiled_map_dealloc(plod_py_tiled_map *self)
     self->tiles = NULL;
     Py_CLEAR(self->path);
     Py_CLEAR(self->tiles_path);
-    PyTypeObject *tp = Py_TYPE(self);
+    PyTypeObject *tp = Py_TYPE((PyObject *)self);
     freefunc release = (freefunc)PyType_GetSlot(tp, Py_tp_free);
     release(self);
     Py_DECREF(tp);
@@ -241,7 +241,7 @@ static PyType_Slot plod__tiled_map_slots[] = {
     {Py_tp_doc, "TiledMap(path, raw=None, signed=False, tiles=None, cache_bytes=0, tile=128, "
                 "progress=None): an equirectangular height map of any size, read out of core "
                 "through a tile file written once (default: path + '.plodtiles') and a tile "
-                "cache of at most cache_bytes (0: 256 MiB).  Planet(heightmap=TiledMap(...))."},
+                "cache of at most cache_bytes (0: 128 MiB).  Planet(heightmap=TiledMap(...))."},
     {Py_tp_init, plod__tiled_map_init},
     {Py_tp_new, PyType_GenericNew},
     {Py_tp_dealloc, plod__tiled_map_dealloc},
