@@ -391,4 +391,97 @@ plod_status plod_image_write(const plod_image *image, const char *path, char *me
     }
 }
 
+struct plod_image_rows {
+    std::unique_ptr<OIIO::ImageInput> input;
+    OIIO::TypeDesc format;
+    int width, height;
+};
+
+plod_status plod_image_rows_open(plod_image_rows **out, const char *path, int *width,
+                                 int *height, plod_texel_type *type, char *message,
+                                 size_t message_size)
+{
+    plod__set_message(message, message_size, "");
+    if (!out || !path || !width || !height || !type)
+        return PLOD_ERR_NULL;
+    *out = nullptr;
+    try {
+        struct stat info;
+        if (stat(path, &info) != 0 || !S_ISREG(info.st_mode)) {
+            plod__set_message(message, message_size,
+                              std::string("cannot open '") + path + "'");
+            return PLOD_ERR_IO;
+        }
+        if (!plod__exr_header_plausible(path, (long long)info.st_size)) {
+            plod__set_message(message, message_size,
+                              std::string("'") + path + "' is a corrupt OpenEXR file");
+            return PLOD_ERR_BAD_IMAGE;
+        }
+        auto input = OIIO::ImageInput::open(path);
+        if (!input) {
+            std::string why = OIIO::geterror();
+            plod__set_message(message, message_size,
+                              std::string("'") + path + "' is not a readable image" +
+                                  (why.empty() ? "" : ": " + why));
+            return PLOD_ERR_BAD_IMAGE;
+        }
+        const OIIO::ImageSpec &spec = input->spec();
+        if (std::strcmp(input->format_name(), "sgi") == 0 || spec.width <= 0 ||
+            spec.height <= 0 || spec.depth != 1 || spec.deep || spec.nchannels < 1) {
+            plod__set_message(message, message_size,
+                              std::string("'") + path + "' has an unsupported format or layout");
+            return PLOD_ERR_BAD_IMAGE;
+        }
+        std::unique_ptr<plod_image_rows> rows(new plod_image_rows);
+        *type = spec.format == OIIO::TypeDesc::UINT8    ? PLOD_TEXEL_U8
+                : spec.format == OIIO::TypeDesc::UINT16 ? PLOD_TEXEL_U16
+                                                        : PLOD_TEXEL_F32;
+        rows->format = plod__oiio_type(*type);
+        rows->width = *width = spec.width;
+        rows->height = *height = spec.height;
+        rows->input = std::move(input);
+        *out = rows.release();
+        return PLOD_OK;
+    } catch (const std::bad_alloc &) {
+        return PLOD_ERR_NO_MEMORY;
+    } catch (...) {
+        plod__set_message(message, message_size, std::string("reading '") + path + "' failed");
+        return PLOD_ERR_BAD_IMAGE;
+    }
+}
+
+plod_status plod_image_rows_read(plod_image_rows *rows, int y0, int y1, void *pixels,
+                                 char *message, size_t message_size)
+{
+    plod__set_message(message, message_size, "");
+    if (!rows || !pixels)
+        return PLOD_ERR_NULL;
+    if (y0 < 0 || y1 > rows->height || y0 >= y1)
+        return PLOD_ERR_BAD_PARAM;
+    try {
+        if (!rows->input->read_scanlines(0, 0, y0, y1, 0, 0, 1, rows->format, pixels)) {
+            std::string why = rows->input->geterror();
+            plod__set_message(message, message_size,
+                              std::string("rows ") + std::to_string(y0) + ".." +
+                                  std::to_string(y1) + " are corrupt or truncated" +
+                                  (why.empty() ? "" : ": " + why));
+            return PLOD_ERR_BAD_IMAGE;
+        }
+        return PLOD_OK;
+    } catch (const std::bad_alloc &) {
+        return PLOD_ERR_NO_MEMORY;
+    } catch (...) {
+        plod__set_message(message, message_size, "reading rows failed");
+        return PLOD_ERR_BAD_IMAGE;
+    }
+}
+
+void plod_image_rows_close(plod_image_rows *rows)
+{
+    try {
+        delete rows;
+    } catch (...) {
+    }
+}
+
 } // extern "C"

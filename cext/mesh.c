@@ -120,7 +120,9 @@ void plod_mesh_params_init(plod_mesh_params *params, const plod_planet *planet,
 static double plod__height(const plod_planet *planet, const double dir[3])
 {
     /* Without a map the planet is a perfect sphere: skip the call. */
-    return planet->heightmap || planet->detail ? plod_planet_height(planet, dir) : 0.0;
+    return planet->heightmap || planet->detail || planet->source || planet->insets
+               ? plod_planet_height(planet, dir)
+               : 0.0;
 }
 
 void plod_mesh_origin(const plod_planet *planet, const double eye[3],
@@ -422,7 +424,7 @@ struct plod_mesh_cache {
     /* what the entries were computed for */
     const plod_planet *planet;
     double radius, height_scale, height_offset;
-    const void *heightmap, *normalmap;
+    const void *heightmap, *normalmap, *source, *insets;
     const void *detail;
     uint64_t detail_stamp;
     int template_level;
@@ -559,6 +561,7 @@ static void plod__cache_bind(plod_mesh_cache *c, const plod_mesh_params *params,
         c->radius != p->radius || c->height_scale != p->height_scale ||
         c->height_offset != p->height_offset ||
         c->heightmap != (const void *)p->heightmap || c->normalmap != (const void *)p->normalmap ||
+        c->source != (const void *)p->source || c->insets != (const void *)p->insets ||
         c->detail != (const void *)p->detail ||
         (p->detail && c->detail_stamp != plod_detail_stamp(p->detail)))
         plod_mesh_cache_clear(c);
@@ -567,6 +570,8 @@ static void plod__cache_bind(plod_mesh_cache *c, const plod_mesh_params *params,
     c->height_scale = p->height_scale;
     c->height_offset = p->height_offset;
     c->heightmap = p->heightmap;
+    c->source = p->source;
+    c->insets = p->insets;
     c->normalmap = p->normalmap;
     c->detail = p->detail;
     c->detail_stamp = p->detail ? plod_detail_stamp(p->detail) : 0;

@@ -41,6 +41,21 @@ plod_status plod_planet_check(const plod_planet *planet)
         if (low <= -0.5 * planet->radius || high > 10.0 * planet->radius)
             return PLOD_ERR_BAD_PARAM;
     }
+    if (planet->source) {
+        const plod_height_source *src = planet->source;
+        if (planet->heightmap || !src->ops || !src->ops->sample || !src->ops->range_cap ||
+            !src->ops->global_range || !src->ops->texel_angle)
+            return PLOD_ERR_BAD_PARAM;
+        double lo, hi;
+        src->ops->global_range(src->self, &lo, &hi);
+        if (!isfinite(lo) || !isfinite(hi) || lo > hi)
+            return PLOD_ERR_BAD_IMAGE;
+        double a = lo * planet->height_scale + planet->height_offset,
+               b = hi * planet->height_scale + planet->height_offset;
+        double low = a < b ? a : b, high = a < b ? b : a;
+        if (low <= -0.5 * planet->radius || high > 10.0 * planet->radius)
+            return PLOD_ERR_BAD_PARAM;
+    }
     if (planet->normalmap) {
         const plod_cubemap *n = planet->normalmap;
         if (!planet->heightmap || plod_cubemap_projection(n) != planet->projection ||
@@ -84,11 +99,35 @@ static inline double plod__metres(const plod_planet *planet, double value)
 /* Unit normal of the displaced surface d*(R+h(d)) from central differences
  * of h along a tangent frame chosen from d alone, one texel apart:
  * n ~ r d - h1 t1 - h2 t2 with h1, h2 in metres per radian. */
+/* The data's texel as an angle (radians) at dir; 0 without data.  An
+ * inset's where it counts (finer data). */
+static double plod__texel_angle(const plod_planet *planet, const double dir[3])
+{
+    if (planet->insets) {
+        double angle;
+        plod_insets_blend(planet->insets, dir, 0.0, &angle);
+        if (angle > 0.0)
+            return angle;
+    }
+    if (planet->heightmap) {
+        int size = plod_cubemap_size(planet->heightmap);
+        return 1.5707963267948966 / (double)(size < 1 ? 1 : size);
+    }
+    if (planet->source)
+        return planet->source->ops->texel_angle(planet->source->self, dir);
+    return 0.0;
+}
+
+double plod_planet_texel_size(const plod_planet *planet, const double dir[3])
+{
+    double angle = plod__texel_angle(planet, dir);
+    return angle > 0.0 ? angle * planet->radius : INFINITY;
+}
+
 static void plod__difference_normal(const plod_planet *planet, const double dir[3],
                                     double r, double normal[3])
 {
-    int size = plod_cubemap_size(planet->heightmap);
-    double step = tan(1.5707963267948966 / (double)(size < 1 ? 1 : size));
+    double step = tan(plod__texel_angle(planet, dir));
     double inv_2angle = 0.5 / atan(step);
     double ax = fabs(dir[0]), ay = fabs(dir[1]), az = fabs(dir[2]);
     double axis[3] = {0.0, 0.0, 0.0};
@@ -172,16 +211,48 @@ static int plod__all_octaves(const plod_planet *planet)
     return planet->detail ? plod_detail_octave_count(planet->detail) : 0;
 }
 
-/* The map's height and normal at dir (no detail); *face, *u, *v: where it
- * sampled (face -1 without a map). */
+/* Height (and normal, from differences one texel apart) of a height
+ * source at dir; the caller set normal to dir. */
+static double plod__source_surface(const plod_planet *planet, const double dir[3],
+                                   double normal[3])
+{
+    const plod_height_source *src = planet->source;
+    double height = plod__metres(planet, src->ops->sample(src->self, dir));
+    if (normal && height == height)
+        plod__difference_normal(planet, dir, planet->radius + height, normal);
+    return height;
+}
+
+static double plod__global_surface(const plod_planet *planet, const double dir[3],
+                                   double normal[3], int *face, double *u, double *v);
+
+/* The map's height and normal at dir (no detail), insets blended in;
+ * *face, *u, *v: where the global map sampled (face -1 without a map). */
 static double plod__map_surface(const plod_planet *planet, const double dir[3], double normal[3],
+                                int *face, double *u, double *v)
+{
+    if (!planet->insets)
+        return plod__global_surface(planet, dir, normal, face, u, v);
+    double base = plod__global_surface(planet, dir, NULL, face, u, v);
+    double texel;
+    double height = plod_insets_blend(planet->insets, dir, base, &texel);
+    if (normal) {
+        normal[0] = dir[0], normal[1] = dir[1], normal[2] = dir[2];
+        if (height == height && (planet->heightmap || planet->source || texel > 0.0))
+            plod__difference_normal(planet, dir, planet->radius + height, normal);
+    }
+    return height;
+}
+
+/* The global data's height and normal at dir (no insets, no detail). */
+static double plod__global_surface(const plod_planet *planet, const double dir[3], double normal[3],
                                 int *face, double *u, double *v)
 {
     *face = -1;
     if (normal)
         normal[0] = dir[0], normal[1] = dir[1], normal[2] = dir[2];
     if (!planet->heightmap)
-        return 0.0;
+        return planet->source ? plod__source_surface(planet, dir, normal) : 0.0;
     double sample[4] = {0.0, 0.0, 0.0, 0.0};
     if (!plod_cubemap_locate(planet->heightmap, dir, face, u, v) ||
         !plod_cubemap_sample_face_d(planet->heightmap, *face, *u, *v, sample)) {
@@ -249,9 +320,24 @@ void plod_planet_surface_band_n(const plod_planet *planet, size_t n, const doubl
     if (normals)
         memcpy(normals, dirs, 3 * n * sizeof *normals);
     int all = plod__all_octaves(planet);
+    if (planet->insets) { /* point by point: blends and difference normals */
+        for (size_t i = 0; i < n; i++) {
+            int face;
+            double u, v;
+            double *normal = normals ? normals + 3 * i : NULL;
+            heights[i] = plod__map_surface(planet, dirs + 3 * i, normal, &face, &u, &v);
+            if (planet->detail)
+                plod__add_detail(planet, dirs + 3 * i, plod__modulation_at(planet, face, u, v),
+                                 octaves ? octaves[i] : all,
+                                 normal_octaves ? normal_octaves[i] : all, heights + i, normal);
+        }
+        return;
+    }
     if (!planet->heightmap) {
         for (size_t i = 0; i < n; i++) {
-            heights[i] = 0.0;
+            heights[i] = planet->source ? plod__source_surface(planet, dirs + 3 * i,
+                                                               normals ? normals + 3 * i : NULL)
+                                        : 0.0;
             if (planet->detail)
                 plod__add_detail(planet, dirs + 3 * i, 1.0, octaves ? octaves[i] : all,
                                  normal_octaves ? normal_octaves[i] : all, heights + i,
@@ -417,8 +503,36 @@ double plod_planet_modulation(const plod_planet *planet, const double dir[3])
     return plod__modulation_at(planet, face, u, v);
 }
 
+static void plod__global_height_range(const plod_planet *planet, double *min_m,
+                                      double *max_m);
+
 static void plod__map_height_range(const plod_planet *planet, double *min_m, double *max_m)
 {
+    plod__global_height_range(planet, min_m, max_m);
+    if (planet->insets && plod_insets_count(planet->insets)) {
+        double lo, hi;
+        plod_insets_global_range(planet->insets, &lo, &hi);
+        if (lo <= hi) {
+            *min_m = lo < *min_m ? lo : *min_m;
+            *max_m = hi > *max_m ? hi : *max_m;
+        }
+    }
+}
+
+int plod_planet_insets_range_cap(const plod_planet *planet, const double axis[3],
+                                 double angle, double *min_m, double *max_m)
+{
+    return planet->insets && plod_insets_range_cap(planet->insets, axis, angle, min_m, max_m);
+}
+
+static void plod__global_height_range(const plod_planet *planet, double *min_m, double *max_m)
+{
+    if (!planet->heightmap && planet->source) {
+        double lo, hi;
+        planet->source->ops->global_range(planet->source->self, &lo, &hi);
+        plod__scaled(planet, lo, hi, min_m, max_m);
+        return;
+    }
     if (!planet->heightmap) {
         *min_m = *max_m = 0.0;
         return;
@@ -447,8 +561,8 @@ void plod_planet_height_range_uv(const plod_planet *planet, int face, double u0,
                                  double v0, double u1, double v1, double *min_m,
                                  double *max_m)
 {
-    if (!planet->heightmap) {
-        *min_m = *max_m = 0.0;
+    if (!planet->heightmap) { /* a source's bounds come through caps */
+        plod__map_height_range(planet, min_m, max_m);
         return;
     }
     if (!plod_projection_is_cube(planet->projection)) {
@@ -466,6 +580,12 @@ void plod_planet_height_range_cap(const plod_planet *planet, const double axis[3
                                   double *texels)
 {
     *texels = INFINITY;
+    if (!planet->heightmap && planet->source) {
+        double lo, hi;
+        planet->source->ops->range_cap(planet->source->self, axis, angle, &lo, &hi, texels);
+        plod__scaled(planet, lo, hi, min_m, max_m);
+        return;
+    }
     if (!planet->heightmap) {
         *min_m = *max_m = 0.0;
         return;

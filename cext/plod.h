@@ -4,6 +4,7 @@
  *   plod_cubemap.h     cube maps, seamless sampling, min/max pyramid
  *   plod_image.h       images and OpenImageIO file I/O
  *   plod_resample.h    the CubeResampler (CAR -> cube)
+ *   plod_heightsource.h  height sources; tiled maps read out of core
  *   plod_planet.h      planet description and heights
  *   plod_detail.h      procedural detail field below the map's resolution
  *   plod_cull.h        camera and visibility tests
@@ -17,6 +18,7 @@
 #include "plod_cubemap.h"
 #include "plod_image.h"
 #include "plod_resample.h"
+#include "plod_heightsource.h"
 #include "plod_planet.h"
 #include "plod_detail.h"
 #include "plod_cull.h"

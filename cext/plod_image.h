@@ -49,6 +49,19 @@ plod_status plod_image_read(plod_image *image, const char *path,
 plod_status plod_image_write(const plod_image *image, const char *path,
                              char *message, size_t message_size);
 
+/* ---- reading an image a band of rows at a time (maps over max_pixels) ---- */
+typedef struct plod_image_rows plod_image_rows; /* opaque */
+/* Opens `path` with OpenImageIO for reading rows of channel 0 (u8/u16 kept,
+ * other types as f32); errors as plod_image_read. */
+plod_status plod_image_rows_open(plod_image_rows **out, const char *path, int *width,
+                                 int *height, plod_texel_type *type, char *message,
+                                 size_t message_size);
+/* Rows [y0, y1) (top to bottom) of channel 0 into `pixels` (width * (y1 -
+ * y0) texels of the type open reported).  PLOD_ERR_BAD_IMAGE if corrupt. */
+plod_status plod_image_rows_read(plod_image_rows *rows, int y0, int y1, void *pixels,
+                                 char *message, size_t message_size);
+void plod_image_rows_close(plod_image_rows *rows);
+
 /* ---- headerless height grids (image_raw.c) ------------------------------ */
 typedef enum plod_raw_type {
     PLOD_RAW_U8 = 0,

@@ -5,6 +5,7 @@
 #define PLOD_PLANET_H
 
 #include "plod_cubemap.h"
+#include "plod_heightsource.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -34,7 +35,28 @@ typedef struct plod_planet {
     const plod_detail *detail;  /* borrowed, optional: the detail field added
                                    to the map (plod_detail_create for this
                                    planet); NULL: the map alone */
+    const plod_height_source *source; /* borrowed, optional, only without a
+                                   heightmap: height data sampled out of
+                                   core (plod_heightsource.h; a tiled map).
+                                   Heights = value * height_scale +
+                                   height_offset; normals from differences;
+                                   sector bounds through spherical caps */
+    const plod_insets *insets;  /* borrowed, optional: regional grids in
+                                   metres blended over the global data
+                                   (the map or the source) across feathered
+                                   borders; normals there from differences
+                                   one inset sample apart */
 } plod_planet;
+
+/* Metres per texel of the planet's height data at a unit direction (a
+ * cube map: its texel at the face centre; a height source: its
+ * texel_angle there), INFINITY without data.  Detail starts below it. */
+double plod_planet_texel_size(const plod_planet *planet, const double dir[3]);
+
+/* Metres bounds of the planet's insets under a spherical cap (the blended
+ * heights lie between the global data's and these); 0 when none meets it. */
+int plod_planet_insets_range_cap(const plod_planet *planet, const double axis[3],
+                                 double angle, double *min_m, double *max_m);
 
 /* Validates fields (finite, radius range, pyramid built).  */
 plod_status plod_planet_check(const plod_planet *planet);

@@ -238,7 +238,9 @@ static const plod_camera *plod__camera_arg(PyObject *obj)
 typedef struct {
     PyObject_HEAD
     plod_planet planet;
-    PyObject *heightmap;  /* the CubeMap keeping planet.heightmap alive */
+    PyObject *heightmap;  /* the CubeMap (or TiledMap) keeping the height data alive */
+    plod_height_source source; /* planet.source for a TiledMap */
+    plod_insets *insets;       /* owned; planet.insets */
     plod_cubemap *normalmap; /* owned; built by the first mesh() with a map */
     plod_detail *detail;  /* owned; NULL when detail is off */
     plod_mesh_cache *mesh_cache; /* owned; created by the first cached mesh() */
@@ -362,11 +364,12 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
 {
     static char *kwlist[] = {"radius", "projection", "heightmap", "height_scale",
                              "sea_level", "heightmap_size", "detail", "height_offset",
-                             "height_signed", "heightmap_raw", NULL};
+                             "height_signed", "heightmap_raw", "insets", "inset_feather",
+                             NULL};
     double radius;
     PyObject *proj = NULL, *heightmap = Py_None, *sea = Py_None, *detail = Py_None;
-    PyObject *raw = Py_None;
-    double scale = 1.0, offset = 0.0;
+    PyObject *raw = Py_None, *insets = Py_None;
+    double scale = 1.0, offset = 0.0, feather = 0.1;
     int size = 0, is_signed = 0;
     if (self->refiner) {
         PyErr_SetString(PyExc_RuntimeError, "Planet already initialised");
@@ -383,9 +386,9 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
         PyErr_SetString(PyExc_RuntimeError, "Planet is already initialised");
         return -1;
     }
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "d|OOdOiOdpO", kwlist, &radius, &proj,
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "d|OOdOiOdpOOd", kwlist, &radius, &proj,
                                      &heightmap, &scale, &sea, &size, &detail, &offset,
-                                     &is_signed, &raw))
+                                     &is_signed, &raw, &insets, &feather))
         return -1;
     plod_detail_params detail_params;
     int detail_on = 0;
@@ -399,6 +402,11 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
         return -1;
     }
     memset(&self->planet, 0, sizeof self->planet);
+    plod_insets_destroy(self->insets);
+    self->insets = NULL;
+    if (plod_py_insets_arg(insets, feather, &self->insets) < 0)
+        return -1;
+    self->planet.insets = self->insets;
     self->planet.projection = PLOD_PROJ_QSC;
     if (proj && proj != Py_None && plod_py_projection_arg(proj, &self->planet.projection) < 0)
         return -1;
@@ -422,7 +430,27 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
         return -1;
     }
     PyObject *map = NULL;
-    if (heightmap != Py_None) {
+    const plod_tiles *tiles = heightmap != Py_None ? plod_py_tiled_map_get(heightmap) : NULL;
+    if (tiles) { /* out of core: sampled through the height source interface */
+        if (read_options.is_signed || read_options.has_raw) {
+            plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "Planet",
+                                 "height_signed and heightmap_raw apply to a height map read "
+                                 "from a file; give them to TiledMap");
+            return -1;
+        }
+        if (plod_tiles_nan_count(tiles) != 0) {
+            char detail[160];
+            snprintf(detail, sizeof detail, "height map has %zu NaN samples (no-data "
+                     "texels); fill them before using it as a height map",
+                     plod_tiles_nan_count(tiles));
+            plod_py_raise_detail(PLOD_ERR_BAD_IMAGE, "Planet", detail);
+            return -1;
+        }
+        self->source = plod_tiles_source(tiles);
+        self->planet.source = &self->source;
+        Py_INCREF(heightmap);
+        map = heightmap;
+    } else if (heightmap != Py_None) {
         if (PyUnicode_Check(heightmap) || PyBytes_Check(heightmap) ||
             PyObject_HasAttrString(heightmap, "__fspath__")) {
             if (!plod_py_cubemap_from_image) {
@@ -491,6 +519,7 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
         if (st != PLOD_OK) {
             Py_CLEAR(self->heightmap);
             self->planet.heightmap = NULL;
+            self->planet.source = NULL;
             plod_py_raise_detail(st, "Planet",
                                  st == PLOD_ERR_BAD_PARAM
                                      ? "invalid detail (amplitude in [0, 1e6], roughness in "
@@ -509,6 +538,7 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
         self->detail = NULL;
         Py_CLEAR(self->heightmap);
         self->planet.heightmap = NULL;
+        self->planet.source = NULL;
         plod_py_raise_detail(st, "Planet", "invalid planet (radius, height_scale, height_offset, "
                                            "sea_level, height range or detail amplitude)");
         return -1;
@@ -521,6 +551,8 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
 static void plod__planet_dealloc(plod_py_planet *self)
 {
     plod_refiner_destroy(self->refiner);
+    plod_insets_destroy(self->insets);
+    self->insets = NULL;
     plod_mesh_cache_destroy(self->mesh_cache);
     self->mesh_cache = NULL;
     self->planet.normalmap = NULL;
@@ -752,6 +784,19 @@ static PyObject *plod__planet_height(plod_py_planet *self, PyObject *args)
         return plod_py_raise_detail(PLOD_ERR_BAD_COORD, "height",
                                     "direction must be finite and non-zero");
     return PyFloat_FromDouble(plod_planet_height(&self->planet, d));
+}
+
+static PyObject *plod__planet_texel_size(plod_py_planet *self, PyObject *args)
+{
+    double d[3];
+    if (!plod__planet_ready(self) || !PyArg_ParseTuple(args, "ddd", &d[0], &d[1], &d[2]))
+        return NULL;
+    double len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    if (!isfinite(len) || !(len > 0))
+        return plod_py_raise_detail(PLOD_ERR_BAD_COORD, "texel_size",
+                                    "direction must be finite and non-zero");
+    d[0] /= len, d[1] /= len, d[2] /= len;
+    return PyFloat_FromDouble(plod_planet_texel_size(&self->planet, d));
 }
 
 static PyObject *plod__planet_height_range(plod_py_planet *self, PyObject *unused)
@@ -1097,6 +1142,9 @@ static PyMethodDef plod__planet_methods[] = {
     {"recommended_clip", (PyCFunction)plod__planet_recommended_clip, METH_VARARGS,
      "recommended_clip(camera) -> (clip_start, clip_end)"},
     {"height", (PyCFunction)plod__planet_height, METH_VARARGS, "height(x, y, z) -> metres"},
+    {"texel_size", (PyCFunction)plod__planet_texel_size, METH_VARARGS,
+     "texel_size(x, y, z) -> metres per texel of the height data at a direction (inf "
+     "without data)"},
     {"height_range", (PyCFunction)plod__planet_height_range, METH_NOARGS,
      "height_range() -> (min, max) metres"},
     {"mesh", (PyCFunction)(void (*)(void))plod__planet_mesh_locked, METH_VARARGS | METH_KEYWORDS,

@@ -444,7 +444,8 @@ PyMODINIT_FUNC PyInit_planetlod(void)
     if (PyModule_AddStringConstant(module, "__version__", "0.1.0") < 0)
         goto fail;
     if (plod_py_init_projection(module) < 0 || plod_py_init_cubemap(module) < 0 ||
-        plod_py_init_planet(module) < 0 || plod_py_init_mesh(module) < 0)
+        plod_py_init_planet(module) < 0 || plod_py_init_mesh(module) < 0 ||
+        plod_py_init_heightdata(module) < 0)
         goto fail;
     return module;
 fail:

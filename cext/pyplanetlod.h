@@ -79,6 +79,15 @@ typedef struct plod_py_read_options {
 int plod_py_read_options_arg(PyObject *raw, int is_signed, plod_py_read_options *out,
                              const char *context);
 
+/* ---- tiled maps (py_heightdata.c; used by Planet) ------------------------
+ * The tiles inside a planetlod.TiledMap, or NULL (no exception) for any
+ * other object. */
+const plod_tiles *plod_py_tiled_map_get(PyObject *obj);
+int plod_py_init_heightdata(PyObject *module);
+/* Planet(insets=...): a list of .hgt paths or dicts(path, west, south, east,
+ * north[, raw, scale, offset]); *out NULL for None.  -1 with an exception. */
+int plod_py_insets_arg(PyObject *list, double feather, plod_insets **out);
+
 /* ---- cube map glue (py_cubemap.c; used by Planet) ----------------------
  * planetlod.CubeMap wraps an owned plod_cubemap with its pyramid built. */
 /* Borrowed pointer to the cube map inside a planetlod.CubeMap, or NULL with

@@ -599,7 +599,7 @@ static void plod__tighten_subtexel(const plod_planet *planet, plod__corner_memo 
                                    const int idx[3], double texels, double *hmin,
                                    double *hmax)
 {
-    if (!planet->heightmap || !(texels < 0.5) || !(*hmax > *hmin))
+    if ((!planet->heightmap && !planet->source) || !(texels < 0.5) || !(*hmax > *hmin))
         return;
     double lo = INFINITY, hi = -INFINITY;
     for (int k = 0; k < 3; k++) {
@@ -761,16 +761,25 @@ static void plod__compute_bound_at(const plod_refiner *r, const plod_sector *s,
     v0 = fmax(-1.0, v0 - mv);
     v1 = fmin(1.0, v1 + mv);
     double hmin, hmax, texels;
-    if (plod_projection_is_cube(planet->projection)) {
+    if (plod_projection_is_cube(planet->projection) && !planet->source) {
         plod_planet_height_range_uv(planet, s->face, u0, v0, u1, v1, &hmin, &hmax);
         texels = extent * r->texels_per_unit;
     } else {
-        /* CAR: the octahedral square is not the map's lon/lat grid */
+        /* CAR, or a height source: the octahedral square / the face is
+         * not the data's lon/lat grid */
         plod_planet_height_range_cap(planet, b->axis, atan2(b->sin_angle, b->cos_angle),
                                      &hmin, &hmax, &texels);
     }
+    double inset_lo, inset_hi;
+    int insets = plod_planet_insets_range_cap(planet, b->axis, atan2(b->sin_angle, b->cos_angle),
+                                              &inset_lo, &inset_hi);
+    if (insets) { /* the blend lies between the global data and the insets */
+        hmin = inset_lo < hmin ? inset_lo : hmin;
+        hmax = inset_hi > hmax ? inset_hi : hmax;
+    }
     double relief_range = hmax - hmin;
-    plod__tighten_subtexel(planet, memo, idx, texels, &hmin, &hmax);
+    if (!insets) /* corner heights are blends there, not the map's bilinear patch */
+        plod__tighten_subtexel(planet, memo, idx, texels, &hmin, &hmax);
     b->detail0 = 0.0;
     if (planet->detail) { /* the map's bounds (tightened on map heights) + the field's */
         double dmin, dmax;

@@ -19,6 +19,7 @@
 #include <unistd.h>
 
 #include "fuzz_input.h"
+#include "plod_heightsource.h"
 #include "plod_image.h"
 #include "plod_resample.h"
 
@@ -30,6 +31,7 @@ static const char *const fuzz_extensions[] = {
     "png", "jpg", "tif", "exr", "hdr", "bmp", "tga", "pnm", "pfm", "gif",
     "psd", "ico", "rla", "dds", "webp", "fits", "dat", /* unknown ext: OIIO probes */
     "hgt", "r16", "raw", /* headerless height grids (image_raw.c) */
+    "plodtiles",         /* tile files (heighttiles.c) */
 };
 #define FUZZ_EXTENSIONS (sizeof fuzz_extensions / sizeof fuzz_extensions[0])
 
@@ -42,6 +44,9 @@ static void fuzz__cleanup(void)
         snprintf(path, sizeof path, "%s/in.%s", fuzz_dir, fuzz_extensions[i]);
         unlink(path);
     }
+    char built[128];
+    snprintf(built, sizeof built, "%s/built.plodtiles", fuzz_dir);
+    unlink(built);
     rmdir(fuzz_dir);
 }
 
@@ -129,6 +134,34 @@ static void fuzz__use_cubemap(plod_cubemap *cubemap, fuzz_input *in)
     }
 }
 
+/* Samples and bounds of a tile file: every sample inside the global range
+ * (or NaN where the map has voids), every box's bounds inside it too. */
+static void fuzz__use_tiles(plod_tiles *tiles, fuzz_input *in)
+{
+    double lo, hi;
+    plod_tiles_global_range(tiles, &lo, &hi);
+    for (int i = 0; i < 4; i++) {
+        double u = fuzz_double_in(in, -1.2, 1.2), v = fuzz_double_in(in, -1.2, 1.2);
+        double value = plod_tiles_sample_uv(tiles, u, v);
+        if (plod_tiles_nan_count(tiles) == 0 && plod_tiles_read_errors(tiles) == 0 &&
+            isfinite(lo) && isfinite(hi)) /* +-inf texels: NaN lerps, refused by planets */
+            FUZZ_CHECK(value >= lo - 1e-9 * fabs(lo) && value <= hi + 1e-9 * fabs(hi),
+                       "sample %g outside %g..%g", value, lo, hi);
+        double a, b;
+        plod_tiles_range_uv(tiles, u, v, fuzz_double_in(in, -1.2, 1.2),
+                            fuzz_double_in(in, -1.2, 1.2), &a, &b);
+        if (lo <= hi && a == a)
+            FUZZ_CHECK(a >= lo && b <= hi, "box %g..%g outside %g..%g", a, b, lo, hi);
+    }
+    plod_height_source source = plod_tiles_source(tiles);
+    double axis[3] = {fuzz_double_in(in, -1, 1), fuzz_double_in(in, -1, 1), 1.0};
+    double n = sqrt(axis[0] * axis[0] + axis[1] * axis[1] + 1.0);
+    axis[0] /= n, axis[1] /= n, axis[2] /= n;
+    double texels;
+    source.ops->range_cap(source.self, axis, fuzz_double_in(in, 0, 3.2), &lo, &hi, &texels);
+    (void)source.ops->sample(source.self, axis);
+}
+
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
     fuzz_input in = {data, size};
@@ -147,6 +180,20 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     if (in.size)
         FUZZ_CHECK(fwrite(in.data, 1, in.size, f) == in.size, "short write");
     fclose(f);
+
+    if (strcmp(ext, "plodtiles") == 0) { /* a tile file as it lies on disk */
+        plod_tiles *tiles = NULL;
+        char why[256];
+        plod_status ts = plod_tiles_open(&tiles, path, 1, why, sizeof why);
+        FUZZ_CHECK(memchr(why, '\0', sizeof why) != NULL, "message not terminated");
+        FUZZ_CHECK((ts == PLOD_OK) == (tiles != NULL), "open status %d, tiles %p", ts,
+                   (void *)tiles);
+        if (tiles) {
+            fuzz__use_tiles(tiles, &tail);
+            plod_tiles_destroy(tiles);
+        }
+        return 0;
+    }
 
     plod_image image = {0};
     char message[256];
@@ -187,6 +234,22 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         return 0;
     }
     fuzz__check_image(&image);
+    if ((flags & 0x08) && image.width * image.height <= 4096) {
+        /* the same file tiled out of core (OpenImageIO images a band of
+         * rows at a time) */
+        char built[128];
+        snprintf(built, sizeof built, "%s/built.plodtiles", fuzz_dir);
+        plod_tiles *tiles = NULL;
+        plod_status ts = plod_tiles_build(path, NULL, 0, built, 16, NULL, NULL, message,
+                                          sizeof message);
+        if (ts == PLOD_OK && plod_tiles_open(&tiles, built, 1, message, sizeof message) == PLOD_OK) {
+            FUZZ_CHECK(plod_tiles_width(tiles) >= 1 && plod_tiles_height(tiles) >= 1,
+                       "tiled %dx%d", plod_tiles_width(tiles), plod_tiles_height(tiles));
+            fuzz__use_tiles(tiles, &tail);
+            plod_tiles_destroy(tiles);
+        }
+        unlink(built);
+    }
     FUZZ_CHECK((size_t)image.width * (size_t)image.height <= max_pixels,
                "%dx%d over the cap %zu", image.width, image.height, max_pixels);
 

@@ -27,7 +27,8 @@ void main()
   vec3 dir = normalize(bary.x * c0.xyz + bary.y * c1.xyz + bary.z * c2.xyz);
   float h = 0.0;
   if (has_height != 0) {
-    h = plod_atlas_height(height_atlas, projection, dir, height_norm) * height_scale;
+    h = plod_atlas_height(height_atlas, projection, dir, height_norm) * height_scale +
+        height_offset;
   }
   v_dir = dir;
   v_level = c0.w;

@@ -131,7 +131,8 @@ def planet_key(settings):
         stamp = (st.st_size, st.st_mtime_ns)
     detail = _presets().detail_kwargs(settings)
     return (settings["projection"], float(settings["radius"]), path, stamp,
-            float(settings["height_scale"]),
+            float(settings["height_scale"]), float(settings.get("height_offset", 0.0)),
+            bool(settings.get("height_signed", False)),
             float(settings["sea_level"]) if settings.get("use_sea_level") else None,
             tuple(sorted(detail.items())) if detail else None)
 
@@ -163,9 +164,11 @@ def build_planet(settings):
         return planet
     check_heightmap(settings.get("heightmap"))
     kwargs = {"projection": PROJECTION_IDS[settings["projection"]],
-              "height_scale": float(settings["height_scale"])}
+              "height_scale": float(settings["height_scale"]),
+              "height_offset": float(settings.get("height_offset", 0.0))}
     if settings.get("heightmap"):
         kwargs["heightmap"] = settings["heightmap"]
+        kwargs["height_signed"] = bool(settings.get("height_signed", False))
     if settings.get("use_sea_level"):
         kwargs["sea_level"] = float(settings["sea_level"])
     detail = _presets().detail_kwargs(settings)

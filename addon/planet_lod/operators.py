@@ -265,7 +265,8 @@ class PLOD_OT_preset_add(AddPresetBase, bpy.types.Operator):
     preset_subdir = "planet_lod"
     preset_defines = ["settings = bpy.context.object.planet_lod"]
     preset_values = ["settings." + name for name in (
-        "projection", "radius", "heightmap", "height_scale", "use_sea_level", "sea_level",
+        "projection", "radius", "heightmap", "height_scale", "height_offset", "height_signed",
+        "use_sea_level", "sea_level",
         "ocean_sphere", "color_map", "criterion", "max_pixel_error", "split_border",
         "merge_border", "template_density", "budget", "max_level", "backface", "frustum",
         "morph", "atmosphere", "atmosphere_density", "use_detail", "detail_style",

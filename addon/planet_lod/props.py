@@ -63,6 +63,17 @@ class PLOD_PG_settings(bpy.types.PropertyGroup):
     height_scale: FloatProperty(name="Height scale", description="Metres per unit map height",
                                 default=8848.0, min=0.0, max=1.0e6, soft_max=1.0e5,
                                 update=_geometry_changed)
+    height_offset: FloatProperty(name="Height offset",
+                                 description="Metres added to every map height (a datum: "
+                                             "terrain below the radius, a sea floor)",
+                                 default=0.0, min=-1.0e6, max=1.0e6, soft_min=-2.0e4,
+                                 soft_max=2.0e4, subtype='DISTANCE', unit='LENGTH',
+                                 update=_geometry_changed)
+    height_signed: BoolProperty(name="Signed heights",
+                                description="The map's 8/16-bit samples are signed (two's "
+                                            "complement: sea floor below zero); they are "
+                                            "then read as integer values",
+                                default=False, update=_geometry_changed)
     use_sea_level: BoolProperty(name="Sea level", default=False, update=_geometry_changed)
     sea_level: FloatProperty(name="Sea level", description="Metres above the radius",
                              default=0.0, min=-1.0e5, max=1.0e5, update=_geometry_changed)
@@ -146,7 +157,8 @@ class PLOD_PG_settings(bpy.types.PropertyGroup):
         return {
             "projection": self.projection, "radius": self.radius,
             "heightmap": bpy.path.abspath(self.heightmap) if self.heightmap else "",
-            "height_scale": self.height_scale, "use_sea_level": self.use_sea_level,
+            "height_scale": self.height_scale, "height_offset": self.height_offset,
+            "height_signed": self.height_signed, "use_sea_level": self.use_sea_level,
             "sea_level": self.sea_level, "skip_sea": self.skip_sea,
             "criterion": self.criterion, "max_pixel_error": self.max_pixel_error,
             "split_border": self.split_border, "merge_border": self.merge_border,

@@ -1,0 +1,279 @@
+/* insets.c -- regional high-resolution height grids placed by longitude and
+ * latitude over the planet's global data (plod_heightsource.h): bilinear
+ * samples in metres, blended into the global height across a feathered
+ * border (a smoothstep of the distance to the inset's edge), with voids
+ * (NaN) falling back to the global data.  Edges shared with a neighbouring
+ * inset are not feathered, so a mosaic of tiles (SRTM 1 deg x 1 deg) is one
+ * surface; its outer border blends into the global map.
+ */
+#include "plod_heightsource.h"
+
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define PLOD__INSET_PI 3.141592653589793
+#define PLOD__INSET_BLOCK 32
+
+typedef struct plod__inset {
+    double west, south, east, north; /* degrees: the corner samples */
+    int width, height;
+    float *metres;                   /* row 0 north */
+    int shared[4];                   /* west, east, south, north edge shared */
+    double feather;                  /* degrees */
+    double lo, hi;                   /* metres, NaN-free */
+    int blocks_x, blocks_y;
+    float *block_lo, *block_hi;      /* per PLOD__INSET_BLOCK^2 block */
+} plod__inset;
+
+struct plod_insets {
+    plod__inset *items;
+    size_t count;
+    double lo, hi;
+};
+
+static void plod__inset_message(char *message, size_t size, const char *format, ...)
+{
+    if (!message || !size)
+        return;
+    va_list args;
+    va_start(args, format);
+    vsnprintf(message, size, format, args);
+    va_end(args);
+}
+
+void plod_insets_destroy(plod_insets *insets)
+{
+    if (!insets)
+        return;
+    for (size_t i = 0; i < insets->count; i++) {
+        free(insets->items[i].metres);
+        free(insets->items[i].block_lo);
+        free(insets->items[i].block_hi);
+    }
+    free(insets->items);
+    free(insets);
+}
+
+/* Whether edge `side` of a is covered by b along its whole length. */
+static int plod__edge_shared(const plod__inset *a, const plod__inset *b, int side)
+{
+    const double eps = 1e-9;
+    switch (side) {
+    case 0: return fabs(b->east - a->west) < eps && b->south <= a->south + eps && b->north >= a->north - eps;
+    case 1: return fabs(b->west - a->east) < eps && b->south <= a->south + eps && b->north >= a->north - eps;
+    case 2: return fabs(b->north - a->south) < eps && b->west <= a->west + eps && b->east >= a->east - eps;
+    default: return fabs(b->south - a->north) < eps && b->west <= a->west + eps && b->east >= a->east - eps;
+    }
+}
+
+plod_status plod_insets_create(plod_insets **out, const plod_inset_desc *descs, size_t count,
+                               double feather, char *message, size_t message_size)
+{
+    plod__inset_message(message, message_size, "%s", "");
+    if (!out || (!descs && count))
+        return PLOD_ERR_NULL;
+    *out = NULL;
+    if (!(feather >= 0.0 && feather <= 0.5)) {
+        plod__inset_message(message, message_size, "feather %g outside 0..0.5", feather);
+        return PLOD_ERR_BAD_PARAM;
+    }
+    for (size_t i = 0; i < count; i++) {
+        const plod_inset_desc *d = &descs[i];
+        if (!d->metres || d->width < 2 || d->height < 2 || !(d->west < d->east) ||
+            !(d->south < d->north) || d->west < -180.0 || d->east > 180.0 ||
+            d->south < -90.0 || d->north > 90.0) {
+            plod__inset_message(message, message_size,
+                                "inset %zu: %dx%d samples over lon %g..%g, lat %g..%g: needs 2x2 "
+                                "samples or more, west < east within -180..180 (none across "
+                                "the date line), south < north within -90..90",
+                                i, d->width, d->height, d->west, d->east, d->south, d->north);
+            return PLOD_ERR_BAD_PARAM;
+        }
+        for (size_t j = 0; j < i; j++) {
+            const plod_inset_desc *e = &descs[j];
+            if (d->west < e->east && e->west < d->east && d->south < e->north &&
+                e->south < d->north) {
+                plod__inset_message(message, message_size,
+                                    "insets %zu and %zu overlap (lon %g..%g, lat %g..%g and lon "
+                                    "%g..%g, lat %g..%g); give each area once",
+                                    j, i, e->west, e->east, e->south, e->north, d->west, d->east,
+                                    d->south, d->north);
+                return PLOD_ERR_BAD_PARAM;
+            }
+        }
+    }
+    plod_insets *s = calloc(1, sizeof *s);
+    if (!s || !(s->items = calloc(count ? count : 1, sizeof *s->items))) {
+        free(s);
+        return PLOD_ERR_NO_MEMORY;
+    }
+    s->count = count;
+    s->lo = INFINITY, s->hi = -INFINITY;
+    for (size_t i = 0; i < count; i++) {
+        const plod_inset_desc *d = &descs[i];
+        plod__inset *t = &s->items[i];
+        t->west = d->west, t->south = d->south, t->east = d->east, t->north = d->north;
+        t->width = d->width, t->height = d->height;
+        size_t n = (size_t)d->width * (size_t)d->height;
+        t->blocks_x = (d->width + PLOD__INSET_BLOCK - 1) / PLOD__INSET_BLOCK;
+        t->blocks_y = (d->height + PLOD__INSET_BLOCK - 1) / PLOD__INSET_BLOCK;
+        size_t blocks = (size_t)t->blocks_x * (size_t)t->blocks_y;
+        t->metres = malloc(n * sizeof *t->metres);
+        t->block_lo = malloc(blocks * sizeof(float));
+        t->block_hi = malloc(blocks * sizeof(float));
+        if (!t->metres || !t->block_lo || !t->block_hi) {
+            plod_insets_destroy(s);
+            return PLOD_ERR_NO_MEMORY;
+        }
+        memcpy(t->metres, d->metres, n * sizeof *t->metres);
+        t->lo = INFINITY, t->hi = -INFINITY;
+        for (size_t b = 0; b < blocks; b++)
+            t->block_lo[b] = INFINITY, t->block_hi[b] = -INFINITY;
+        for (int y = 0; y < d->height; y++)
+            for (int x = 0; x < d->width; x++) {
+                float v = t->metres[(size_t)y * (size_t)d->width + (size_t)x];
+                if (!isfinite(v)) {
+                    t->metres[(size_t)y * (size_t)d->width + (size_t)x] = NAN; /* a void */
+                    continue;
+                }
+                size_t b = (size_t)(y / PLOD__INSET_BLOCK) * (size_t)t->blocks_x +
+                           (size_t)(x / PLOD__INSET_BLOCK);
+                t->block_lo[b] = v < t->block_lo[b] ? v : t->block_lo[b];
+                t->block_hi[b] = v > t->block_hi[b] ? v : t->block_hi[b];
+                t->lo = v < t->lo ? v : t->lo;
+                t->hi = v > t->hi ? v : t->hi;
+            }
+        double span = fmin(d->east - d->west, d->north - d->south);
+        t->feather = feather * span;
+        if (t->lo <= t->hi) {
+            s->lo = t->lo < s->lo ? t->lo : s->lo;
+            s->hi = t->hi > s->hi ? t->hi : s->hi;
+        }
+    }
+    for (size_t i = 0; i < count; i++)
+        for (int side = 0; side < 4; side++)
+            for (size_t j = 0; j < count; j++)
+                if (j != i && plod__edge_shared(&s->items[i], &s->items[j], side))
+                    s->items[i].shared[side] = 1;
+    *out = s;
+    return PLOD_OK;
+}
+
+size_t plod_insets_count(const plod_insets *insets) { return insets ? insets->count : 0; }
+
+void plod_insets_global_range(const plod_insets *insets, double *lo, double *hi)
+{
+    *lo = insets->lo;
+    *hi = insets->hi;
+}
+
+static void plod__inset_lonlat(const double dir[3], double *lon, double *lat)
+{
+    const double deg = 180.0 / PLOD__INSET_PI;
+    *lon = atan2(dir[1], dir[0]) * deg;
+    *lat = atan2(dir[2], hypot(dir[0], dir[1])) * deg;
+}
+
+static double plod__smoothstep(double x)
+{
+    x = x < 0.0 ? 0.0 : x > 1.0 ? 1.0 : x;
+    return x * x * (3.0 - 2.0 * x);
+}
+
+double plod_insets_blend(const plod_insets *insets, const double dir[3], double base_m,
+                         double *texel_angle)
+{
+    if (texel_angle)
+        *texel_angle = 0.0;
+    if (!insets || !insets->count)
+        return base_m;
+    double lon, lat;
+    plod__inset_lonlat(dir, &lon, &lat);
+    for (size_t i = 0; i < insets->count; i++) {
+        const plod__inset *t = &insets->items[i];
+        if (lon < t->west || lon > t->east || lat < t->south || lat > t->north)
+            continue;
+        double d = INFINITY;
+        if (!t->shared[0]) d = fmin(d, lon - t->west);
+        if (!t->shared[1]) d = fmin(d, t->east - lon);
+        if (!t->shared[2]) d = fmin(d, lat - t->south);
+        if (!t->shared[3]) d = fmin(d, t->north - lat);
+        double w = t->feather > 0.0 ? plod__smoothstep(d / t->feather) : (d >= 0.0 ? 1.0 : 0.0);
+        if (!(w > 0.0))
+            return base_m;
+        /* corner samples: pixel is point */
+        double s = (lon - t->west) / (t->east - t->west) * (t->width - 1);
+        double r = (t->north - lat) / (t->north - t->south) * (t->height - 1);
+        double fi = floor(s), fj = floor(r);
+        int i0 = (int)fi, j0 = (int)fj;
+        if (i0 >= t->width - 1) i0 = t->width - 2;
+        if (j0 >= t->height - 1) j0 = t->height - 2;
+        if (i0 < 0) i0 = 0;
+        if (j0 < 0) j0 = 0;
+        double wu = s - i0, wv = r - j0;
+        const float *p = t->metres + (size_t)j0 * (size_t)t->width + (size_t)i0;
+        double a = p[0], b = p[1], c = p[t->width], e = p[t->width + 1];
+        double top = a + wu * (b - a), bottom = c + wu * (e - c);
+        double value = top + wv * (bottom - top);
+        if (!(value == value))
+            return base_m; /* a void: the global data */
+        if (texel_angle)
+            *texel_angle = (t->north - t->south) / (t->height - 1) * PLOD__INSET_PI / 180.0;
+        return w >= 1.0 ? value : base_m + w * (value - base_m);
+    }
+    return base_m;
+}
+
+int plod_insets_range_cap(const plod_insets *insets, const double axis[3], double angle,
+                          double *lo_out, double *hi_out)
+{
+    if (!insets || !insets->count)
+        return 0;
+    const double deg = 180.0 / PLOD__INSET_PI;
+    double lat = asin(fmax(-1.0, fmin(1.0, axis[2]))) * deg;
+    double lon = atan2(axis[1], axis[0]) * deg;
+    double a = angle * deg, lat0 = lat - a, lat1 = lat + a, half_lon;
+    if (!(angle >= 0.0) || angle >= 0.5 * PLOD__INSET_PI || lat1 >= 90.0 || lat0 <= -90.0)
+        half_lon = 180.0;
+    else
+        half_lon = asin(fmin(1.0, sin(angle) / cos(lat / deg))) * deg;
+    double lo = INFINITY, hi = -INFINITY;
+    int any = 0;
+    for (size_t i = 0; i < insets->count; i++) {
+        const plod__inset *t = &insets->items[i];
+        if (lat1 < t->south || lat0 > t->north)
+            continue;
+        double w0 = lon - half_lon, w1 = lon + half_lon;
+        int hit = half_lon >= 180.0;
+        for (int k = -1; k <= 1 && !hit; k++) /* the box, also shifted across the date line */
+            hit = w0 + 360.0 * k <= t->east && w1 + 360.0 * k >= t->west;
+        if (!hit)
+            continue;
+        any = 1;
+        /* the blocks under the box (clamped to the inset), whole inset when wide */
+        double x0 = half_lon >= 180.0 ? t->west : fmax(t->west, w0), x1 = half_lon >= 180.0 ? t->east : fmin(t->east, w1);
+        if (!(x0 <= x1)) /* hit through the date line shift: the whole inset */
+            x0 = t->west, x1 = t->east;
+        double y0 = fmax(t->south, lat0), y1 = fmin(t->north, lat1);
+        int c0 = (int)floor((x0 - t->west) / (t->east - t->west) * (t->width - 1)) - 1;
+        int c1 = (int)floor((x1 - t->west) / (t->east - t->west) * (t->width - 1)) + 2;
+        int r0 = (int)floor((t->north - y1) / (t->north - t->south) * (t->height - 1)) - 1;
+        int r1 = (int)floor((t->north - y0) / (t->north - t->south) * (t->height - 1)) + 2;
+        c0 = c0 < 0 ? 0 : c0, r0 = r0 < 0 ? 0 : r0;
+        c1 = c1 >= t->width ? t->width - 1 : c1, r1 = r1 >= t->height ? t->height - 1 : r1;
+        for (int by = r0 / PLOD__INSET_BLOCK; by <= r1 / PLOD__INSET_BLOCK; by++)
+            for (int bx = c0 / PLOD__INSET_BLOCK; bx <= c1 / PLOD__INSET_BLOCK; bx++) {
+                size_t b = (size_t)by * (size_t)t->blocks_x + (size_t)bx;
+                if (t->block_lo[b] < lo) lo = t->block_lo[b];
+                if (t->block_hi[b] > hi) hi = t->block_hi[b];
+            }
+    }
+    if (!any)
+        return 0;
+    *lo_out = lo;
+    *hi_out = hi;
+    return 1;
+}
