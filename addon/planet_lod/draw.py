@@ -15,7 +15,7 @@ import gpu
 from gpu_extras.batch import batch_for_shader
 from mathutils import Matrix, Vector
 
-from . import compat, core, live, materials
+from . import atmosphere, compat, core, live, materials
 
 DATA_WIDTH = 768          # sector texture width (texels); 3 texels per sector
 HEIGHT_ATLAS_SIZE = 256   # face size of the preview's height cube map
@@ -205,10 +205,15 @@ def draw_planet(obj, st, region_data):
     _ensure_height(res, s)
     _ensure_color(res, s)
     dummy = _dummy_texture()
-    eye = obj.matrix_world.inverted_safe() @ region_data.view_matrix.inverted().translation
+    # planet space -> world through the floating origin (the anchor)
+    planet_to_world = obj.matrix_world @ Matrix.Translation(-Vector(live.anchor(obj)))
+    eye = planet_to_world.inverted_safe() @ region_data.view_matrix.inverted().translation
+    sun = atmosphere.sun_of(bpy.context.scene)[0]  # the render's light, else the viewer's
+    light = Vector(sun) if sun is not None else eye.normalized() if eye.length > 0 \
+        else Vector((0, 0, 1))
     shader.bind()
     shader.uniform_float("ModelViewProjectionMatrix",
-                         region_data.perspective_matrix @ obj.matrix_world)
+                         region_data.perspective_matrix @ planet_to_world)
     shader.uniform_float("radius", s.radius)
     shader.uniform_float("height_scale", s.height_scale)
     shader.uniform_float("height_offset", s.height_offset)
@@ -220,7 +225,7 @@ def draw_planet(obj, st, region_data):
     shader.uniform_int("has_height", 1 if res.height_tex is not None else 0)
     shader.uniform_int("has_color", 1 if res.color_tex is not None else 0)
     shader.uniform_int("show_levels", 1 if s.show_levels else 0)
-    shader.uniform_float("light_dir", eye.normalized() if eye.length > 0 else Vector((0, 0, 1)))
+    shader.uniform_float("light_dir", light)
     shader.uniform_sampler("sector_data", res.sector_tex)
     shader.uniform_sampler("height_atlas", res.height_tex or dummy)
     shader.uniform_sampler("color_map", res.color_tex or dummy)
@@ -255,7 +260,7 @@ def draw_frustum(obj, st):
     params = st.frozen_camera
     if not params:
         return
-    world = obj.matrix_world
+    world = obj.matrix_world @ Matrix.Translation(-Vector(live.anchor(obj)))
     coords = [tuple(world @ p) for p in frustum_lines(params, obj.planet_lod.radius * 4.0)]
     shader = gpu.shader.from_builtin(compat.UNIFORM_COLOR_SHADER)
     batch = batch_for_shader(shader, 'LINES', {"pos": coords})

@@ -224,14 +224,18 @@ def forget_height_images():
 
 
 def _sea_mask(b, s):
-    """1 on the sea, 0 on land.  From the height map itself where it is an
-    equirectangular image (the coast per pixel: a coarse LOD's triangles span
-    coast and sea, and their interpolated vertex heights would draw the coast
-    as triangles), else from the vertex heights."""
+    """1 on the sea, 0 on land: where the height map (if equirectangular) is at
+    or below sea level, per pixel (a coarse LOD's triangles span coast and sea,
+    their interpolated vertex heights would draw the coast as triangles), and
+    where the mesh lifted ground below sea level (detail below the map's
+    resolution floods low coasts)."""
+    lifted = b.socket(_attribute(b, "planet_sea").outputs["Fac"], vector=False)
+    # ground the mesh lifted to the sea surface (only close to lifted vertices:
+    # a coarse triangle spanning the coast must not turn to water)
+    flooded = b.smoothstep(0.8, 0.99, lifted)
     image = _height_image(bpy.path.abspath(s.heightmap) if s.heightmap else "")
     if image is None:
-        height = b.socket(_attribute(b, "planet_height").outputs["Fac"], vector=False)
-        return 1.0 - b.smoothstep(0.0, 1.5, height)
+        return flooded
     uv = _attribute(b, "planet_uv")
     tex = b.node("ShaderNodeTexImage")
     tex.image = image
@@ -241,7 +245,8 @@ def _sea_mask(b, s):
     metres = b.math("MULTIPLY", b.split(b.socket(tex.outputs["Color"]))[0], s.height_scale)
     # the coast halfway up the map's first step above the sea (8-bit Earth: 35 m)
     step = max(s.height_scale / 255.0, 1.0)
-    return 1.0 - b.smoothstep(s.sea_level + 0.25 * step, s.sea_level + 0.6 * step, metres)
+    return b.maximum(
+        1.0 - b.smoothstep(s.sea_level + 0.25 * step, s.sea_level + 0.6 * step, metres), flooded)
 
 
 def _water(b, s):

@@ -13,7 +13,8 @@ relative to that origin and its normals:
   its normal is the sphere's;
 * attributes the materials shade with: `planet_height` (metres above sea
   level, or above the radius without a sea), `planet_sea_depth` (metres of
-  water above the ground, 0 on land), `planet_slope` (degrees between the
+  water above the ground, 0 on land), `planet_sea` (1 where the ground was
+  lifted to the sea surface, else 0), `planet_slope` (degrees between the
   surface normal and the local vertical), `planet_latitude` (degrees).
 """
 import math
@@ -24,7 +25,8 @@ try:
 except ImportError:  # pragma: no cover - Blender ships numpy
     numpy = None
 
-ATTRIBUTES = ("planet_height", "planet_sea_depth", "planet_slope", "planet_latitude")
+ATTRIBUTES = ("planet_height", "planet_sea_depth", "planet_sea", "planet_slope",
+              "planet_latitude")
 
 
 class VertexData:
@@ -54,9 +56,11 @@ def vertex_data(mesh, anchor, radius, sea_level=None):
     up = pos / distance[:, None]
     height = distance - radius
     depth = numpy.zeros_like(height)
+    sea = numpy.zeros_like(height)
     if sea_level is not None:
         below = height <= sea_level + tolerance
-        depth[below] = sea_level - height[below]
+        sea[below] = 1.0
+        depth[below] = numpy.maximum(sea_level - height[below], 0.0)
         pos[below] = up[below] * (radius + sea_level)
         normals[below] = up[below]
         height = height - sea_level
@@ -70,6 +74,7 @@ def vertex_data(mesh, anchor, radius, sea_level=None):
                       normals.astype(f32).tolist(),
                       {"planet_height": height.astype(f32),
                        "planet_sea_depth": depth.astype(f32),
+                       "planet_sea": sea.astype(f32),
                        "planet_slope": slope.astype(f32),
                        "planet_latitude": latitude.astype(f32)})
 
@@ -86,10 +91,10 @@ def _vertex_data_python(mesh, anchor, radius, sea_level):
         nx, ny, nz = n[3 * i], n[3 * i + 1], n[3 * i + 2]
         distance = math.sqrt(x * x + y * y + z * z)
         ux, uy, uz = x / distance, y / distance, z / distance
-        height, depth = distance - radius, 0.0
+        height, depth, sea = distance - radius, 0.0, 0.0
         if sea_level is not None:
             if height <= sea_level + tolerance:
-                depth = sea_level - height
+                depth, sea = max(sea_level - height, 0.0), 1.0
                 x, y, z = (c * (radius + sea_level) for c in (ux, uy, uz))
                 nx, ny, nz = ux, uy, uz
                 height = sea_level
@@ -99,6 +104,7 @@ def _vertex_data_python(mesh, anchor, radius, sea_level):
         cos_slope = max(-1.0, min(1.0, nx * ux + ny * uy + nz * uz))
         columns["planet_height"].append(height)
         columns["planet_sea_depth"].append(depth)
+        columns["planet_sea"].append(sea)
         columns["planet_slope"].append(math.degrees(math.acos(cos_slope)))
         columns["planet_latitude"].append(math.degrees(math.asin(max(-1.0, min(1.0, uz)))))
     return VertexData(positions, normals, columns)
