@@ -5,8 +5,10 @@ attribute (written per vertex, unwrapped per sector so no seam), or, without a
 colour map, an elevation ramp on the distance from the planet centre.
 Debug material: hue from the per-face `sector_level` attribute.
 """
+import hashlib
 import math
 import os
+from array import array
 
 import bpy
 
@@ -80,6 +82,54 @@ def cube_to_equirect(path, projection, max_width=2048, progress=None):
     return width, height, pixels
 
 
+def _convert_with_progress(path, projection):
+    wm = bpy.context.window_manager
+    if wm:
+        wm.progress_begin(0, 100)
+    try:
+        return cube_to_equirect(path, projection,
+                                progress=(lambda f: wm.progress_update(int(100 * f)))
+                                if wm else None)
+    finally:
+        if wm:
+            wm.progress_end()
+
+
+def equirect_cache_path(key):
+    """Cache file prefix of the converted image for `key` (map path, stamp, projection):
+    in the add-on's user cache folder (the extension's user folder in 4.2+)."""
+    digest = hashlib.sha1(key.encode("utf-8")).hexdigest()[:24]
+    return os.path.join(compat.user_cache_dir("equirect"), digest)
+
+
+def cached_equirect(key, convert):
+    """(width, height, RGBA floats) for `key`: read from the cache file written by an
+    earlier conversion (another .blend or session), else convert() and write it.
+    The file is raw float32 RGBA named <digest>-<width>x<height>.f32; a missing,
+    short or unwritable cache only costs the conversion."""
+    try:
+        prefix = equirect_cache_path(key)
+        for name in os.listdir(os.path.dirname(prefix)):
+            if name.startswith(os.path.basename(prefix) + "-") and name.endswith(".f32"):
+                w, h = (int(v) for v in name[len(os.path.basename(prefix)) + 1:-4].split("x"))
+                pixels = array("f")
+                with open(os.path.join(os.path.dirname(prefix), name), "rb") as f:
+                    pixels.fromfile(f, w * h * 4)
+                return w, h, pixels
+    except (OSError, ValueError, EOFError):
+        prefix = None
+    w, h, pixels = convert()
+    if prefix is not None:
+        target = f"{prefix}-{w}x{h}.f32"
+        try:
+            with open(target + ".partial", "wb") as f:
+                array("f", pixels).tofile(f)
+            os.replace(target + ".partial", target)
+        except OSError:
+            pass
+    return w, h, pixels
+
+
 def color_image(settings, create=True):
     """The equirectangular bpy image for the planet's colour map, or None.
     A cross-layout cube map (4:3) is converted once to an equirectangular image
@@ -101,16 +151,7 @@ def color_image(settings, create=True):
             return candidate
     if not create:
         return None
-    wm = bpy.context.window_manager
-    if wm:
-        wm.progress_begin(0, 100)
-    try:
-        w, h, pixels = cube_to_equirect(
-            path, settings.projection,
-            progress=(lambda f: wm.progress_update(int(100 * f))) if wm else None)
-    finally:
-        if wm:
-            wm.progress_end()
+    w, h, pixels = cached_equirect(key, lambda: _convert_with_progress(path, settings.projection))
     converted = bpy.data.images.new("PlanetLOD equirect " + os.path.basename(path), w, h)
     converted.pixels.foreach_set(pixels)
     converted.pack()

@@ -78,6 +78,18 @@ def main():
             n += 1
     print(f"colour: mean |converted - original| = {err / n:.3f} over {n} samples")
     assert err / n < 0.06, err / n
+    # the conversion is cached on disk (the add-on's user cache folder): a new
+    # .blend or session reads the same pixels instead of converting again
+    key = image["planet_lod_source"]
+    cached = [n for n in os.listdir(os.path.dirname(materials.equirect_cache_path(key)))
+              if n.startswith(os.path.basename(materials.equirect_cache_path(key)))]
+    assert cached == [os.path.basename(materials.equirect_cache_path(key)) + "-1024x512.f32"], \
+        cached
+    calls = []
+    cw, ch, cpx = materials.cached_equirect(key, lambda: calls.append(1))
+    assert not calls and (cw, ch) == (w, h)
+    # (the image holds 8-bit texels, the cache the floats they were rounded from)
+    assert max(abs(a - b) for a, b in zip(cpx[::997], px[::997])) < 0.5 / 255 + 1e-6
     # a second planet with the same cube colour map reuses the converted image
     def colour_images():  # not counting the sea masks' height-map images
         return [i.name for i in bpy.data.images if not i.get(materials.HEIGHT_IMAGE_KEY)]
