@@ -13,7 +13,7 @@ REFUSED = {
     r"[\"']Specular[\"']": "compat.set_principled_specular (renamed in 4.0)",
     r"3D_UNIFORM_COLOR": "compat.UNIFORM_COLOR_SHADER (an error from 4.0)",
     r"loop_total": "compat.set_triangle_topology (read-only from 3.6)",
-    r"use_auto_smooth|auto_smooth_angle": "compat.set_vertex_normals (gone in 4.1)",
+    r"use_auto_smooth|auto_smooth_angle": "the planet_normal attribute (auto smooth is gone in 4.1)",
     r"calc_normals_split": "compat.calc_loop_normals (gone in 4.1)",
     r"action\.fcurves": "compat.action_fcurves (gone in 5.0)",
     r"BLENDER_EEVEE_NEXT": "compat.render_engine / compat.eevee_engine",

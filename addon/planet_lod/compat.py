@@ -11,8 +11,6 @@ names that changed between versions are looked up here:
   "UNIFORM_COLOR" from 3.5 (the old name is an error from 4.0).
 * `set_triangle_topology(mesh, triangles)`: polygons' `loop_total` is
   read-only from 3.6 (sizes follow from `loop_start`); 3.4 needs both.
-* `set_vertex_normals(mesh, normals)`: custom normals need auto smooth
-  (angle pi) before 4.1; 4.1 removed auto smooth.
 * `calc_loop_normals(mesh)`: loops' `normal` needs calc_normals_split()
   before 4.1 and is always valid (the method is gone) from 4.1.
 * `action_fcurves(id_data)`: actions are layered from 4.4 (F-curves in a
@@ -28,7 +26,6 @@ names that changed between versions are looked up here:
 Add a new version difference here (with the versions it concerns), not as a
 version check where it is used.
 """
-import math
 import os
 
 import bpy
@@ -64,15 +61,6 @@ def set_triangle_topology(mesh, triangles, triangle_count):
     mesh.polygons.foreach_set("loop_start", array("i", range(0, 3 * triangle_count, 3)))
     if _LOOP_TOTAL_WRITABLE:
         mesh.polygons.foreach_set("loop_total", array("i", [3]) * triangle_count)
-
-
-def set_vertex_normals(mesh, normals):
-    """Custom normals from a flat float buffer, 3 per vertex (the mesh must have
-    vertices)."""
-    if VERSION < (4, 1, 0):
-        mesh.use_auto_smooth = True
-        mesh.auto_smooth_angle = math.pi
-    mesh.normals_split_custom_set_from_vertices(normals)
 
 
 def calc_loop_normals(mesh):

@@ -309,15 +309,19 @@ def write_mesh(obj, mesh):
     and triangle counts did not change: emission uses one template, so equal
     counts mean equal triangle lists.
 
-    Vertices are written relative to the anchor (floating origin), with the
-    core's normals as custom split normals (both sides of a sector border get
-    the same normal), below-sea ground lifted to the sea surface, and the
-    per-vertex attributes the materials shade with (surface.py)."""
+    Vertices are written relative to the anchor (floating origin), below-sea
+    ground lifted to the sea surface, with the per-vertex attributes the
+    materials shade with (surface.py), among them the core's normals
+    (`planet_normal`: both sides of a sector border get the same normal).
+    The normals go in as an attribute, not as custom split normals: those
+    cost a Python sequence per vertex and a split-normal evaluation per
+    update, seconds for a quarter of a million triangles; Blender's own
+    face-averaged normals stay for everything but the planet's shading."""
     from . import surface
     me = obj.data
     nv, nt = mesh.vertex_count, mesh.triangle_count
-    if len(me.vertices) != nv or len(me.polygons) != nt:
-        me.clear_geometry()
+    if len(me.vertices) != nv or len(me.polygons) != nt or me.has_custom_normals:
+        me.clear_geometry()  # (custom normals of an older file go with it)
         me.vertices.add(nv)
         compat.set_triangle_topology(me, mesh.triangles, nt)
         me.polygons.foreach_set("use_smooth", array("i", [1]) * nt)
@@ -325,13 +329,15 @@ def write_mesh(obj, mesh):
     sea_level = s.sea_level if s.use_sea_level else None
     data = surface.vertex_data(mesh, anchor(obj), s.radius, sea_level)
     me.vertices.foreach_set("co", data.positions)
+    _set_attribute(me, NORMAL_ATTRIBUTE, 'FLOAT_VECTOR', 'POINT', "vector", data.normals)
     _set_attribute(me, "planet_uv", 'FLOAT2', 'POINT', "vector", mesh.uv)
     _set_attribute(me, "sector_level", 'INT', 'FACE', "value", mesh.sector_level)
     for name, values in data.attributes.items():
         _set_attribute(me, name, 'FLOAT', 'POINT', "value", values)
     me.update()
-    if nv:
-        compat.set_vertex_normals(me, data.normals)
+
+
+NORMAL_ATTRIBUTE = "planet_normal"
 
 
 def _set_attribute(me, name, data_type, domain, field, values):

@@ -4,6 +4,8 @@ Planet material: colour map sampled with the mesh's equirectangular `planet_uv`
 attribute (written per vertex, unwrapped per sector so no seam), or, without a
 colour map, an elevation ramp on the distance from the planet centre.
 Debug material: hue from the per-face `sector_level` attribute.
+Both shade with the core's normals (the `planet_normal` attribute), the same
+on both sides of a sector border, in Cycles and EEVEE.
 """
 import hashlib
 import math
@@ -178,6 +180,19 @@ def _attribute(b, name):
     return node
 
 
+def shading_normal(b):
+    """The core's normal (the mesh's `planet_normal` attribute, object space) in
+    world space, normalised: what every planet BSDF shades with."""
+    from .live import NORMAL_ATTRIBUTE
+    normal = _attribute(b, NORMAL_ATTRIBUTE)
+    transform = b.node("ShaderNodeVectorTransform")
+    transform.vector_type = 'NORMAL'
+    transform.convert_from = 'OBJECT'
+    transform.convert_to = 'WORLD'
+    b.links.new(normal.outputs["Vector"], transform.inputs["Vector"])
+    return b.normalize(b.socket(transform.outputs["Vector"]))
+
+
 def _noise(b, coords, scale, detail=4.0):
     node = b.node("ShaderNodeTexNoise")
     node.noise_dimensions = '3D'
@@ -290,7 +305,7 @@ def _sea_mask(b, s):
         1.0 - b.smoothstep(s.sea_level + 0.25 * step, s.sea_level + 0.6 * step, metres), flooded)
 
 
-def _water(b, s):
+def _water(b, s, normal):
     """Principled water: low roughness (sun glint), tinted by depth where the
     height map has bathymetry."""
     depth = b.socket(_attribute(b, "planet_sea_depth").outputs["Fac"], vector=False)
@@ -300,6 +315,7 @@ def _water(b, s):
     b.link(colour, water.inputs["Base Color"])
     water.inputs["Roughness"].default_value = 0.07
     water.inputs["IOR"].default_value = 1.33
+    b.link(normal, water.inputs["Normal"])
     return water
 
 
@@ -312,7 +328,7 @@ def planet_material(obj):
     color_map = bpy.path.abspath(s.color_map) if s.color_map else ""
     atm = atmosphere.params(s)
     key = (color_map, s.projection, round(s.radius, 3), round(s.height_scale, 3),
-           s.use_sea_level, round(s.sea_level, 3), s.heightmap, repr(atm), 3)
+           s.use_sea_level, round(s.sea_level, 3), s.heightmap, repr(atm), 4)
     if material.get("planet_lod_key") == repr(key):
         return material
     material.use_nodes = True
@@ -352,10 +368,12 @@ def planet_material(obj):
     bump.inputs["Strength"].default_value = 0.35
     bump.inputs["Distance"].default_value = 0.05
     b.link(relief, bump.inputs["Height"])
+    normal = shading_normal(b)
+    b.link(normal, bump.inputs["Normal"])
     b.links.new(bump.outputs["Normal"], ground.inputs["Normal"])
     surface = ground.outputs[0]
     if s.use_sea_level:
-        water = _water(b, s)
+        water = _water(b, s, normal)
         sea = _sea_mask(b, s)
         mix = b.node("ShaderNodeMixShader")
         b.link(sea, mix.inputs["Fac"])
@@ -397,6 +415,9 @@ def levels_material():
     links.new(scale.outputs[0], fract.inputs[0])
     links.new(fract.outputs[0], ramp.inputs["Fac"])
     links.new(ramp.outputs["Color"], bsdf.inputs["Base Color"])
+    from . import nodes as node_maths
+    b = node_maths.Builder(material.node_tree, x0=-700, y0=-300)
+    b.link(shading_normal(b), bsdf.inputs["Normal"])
     return material
 
 

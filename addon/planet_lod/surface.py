@@ -11,6 +11,10 @@ relative to that origin and its normals:
   radius + sea_level, so the sea comes from the same refined sectors as the
   land, meets the coast in shared triangles and never sags below sea level;
   its normal is the sphere's;
+* the shading normal `planet_normal`: the core's normal in planet space
+  (the same on both sides of a sector border; the sphere's on the sea),
+  which the planet material shades with instead of Blender's face-averaged
+  normals;
 * attributes the materials shade with: `planet_height` (metres above sea
   level, or above the radius without a sea), `planet_sea_depth` (metres of
   water above the ground, 0 on land), `planet_sea` (1 where the ground was
@@ -34,14 +38,14 @@ class VertexData:
 
     def __init__(self, positions, normals, attributes):
         self.positions = positions    # float32 flat buffer, 3 per vertex, relative to anchor
-        self.normals = normals        # sequence of (x, y, z) for custom split normals
+        self.normals = normals        # float32 flat buffer, 3 per vertex (planet_normal)
         self.attributes = attributes  # name -> float32 flat buffer, 1 per vertex
 
 
 def vertex_data(mesh, anchor, radius, sea_level=None):
     """VertexData of `mesh` for a planet object anchored at `anchor` (planet space)."""
     if mesh.vertex_count == 0:
-        return VertexData(array("f"), [], {name: array("f") for name in ATTRIBUTES})
+        return VertexData(array("f"), array("f"), {name: array("f") for name in ATTRIBUTES})
     if numpy is None:
         return _vertex_data_python(mesh, anchor, radius, sea_level)
     origin = numpy.array(tuple(mesh.origin), dtype=numpy.float64)
@@ -71,7 +75,7 @@ def vertex_data(mesh, anchor, radius, sea_level=None):
     local = (pos - numpy.array(anchor, dtype=numpy.float64)).astype(numpy.float32)
     f32 = numpy.float32
     return VertexData(numpy.ascontiguousarray(local).ravel(),
-                      normals.astype(f32).tolist(),
+                      numpy.ascontiguousarray(normals.astype(f32)).ravel(),
                       {"planet_height": height.astype(f32),
                        "planet_sea_depth": depth.astype(f32),
                        "planet_sea": sea.astype(f32),
@@ -83,7 +87,7 @@ def _vertex_data_python(mesh, anchor, radius, sea_level):
     ox, oy, oz = (float(v) for v in mesh.origin)
     ax, ay, az = (float(v) for v in anchor)
     p, n = mesh.positions, mesh.normals
-    positions, normals = array("f"), []
+    positions, normals = array("f"), array("f")
     columns = {name: array("f") for name in ATTRIBUTES}
     for i in range(mesh.vertex_count):
         tolerance = max(abs(p[3 * i]), abs(p[3 * i + 1]), abs(p[3 * i + 2])) * 2.0 ** -22 + 1e-3
@@ -100,7 +104,7 @@ def _vertex_data_python(mesh, anchor, radius, sea_level):
                 height = sea_level
             height -= sea_level
         positions.extend((x - ax, y - ay, z - az))
-        normals.append((nx, ny, nz))
+        normals.extend((nx, ny, nz))
         cos_slope = max(-1.0, min(1.0, nx * ux + ny * uy + nz * uz))
         columns["planet_height"].append(height)
         columns["planet_sea_depth"].append(depth)

@@ -3,8 +3,9 @@ precision around the camera (floating origin), smooth camera motion at 2 m,
 and a sea that comes from the same sectors as the land.
 
 * normals: vertices that sit at the same place on both sides of a sector
-  border get normals within 1 degree (a few km above the Alps on Earth and
-  above the Moon's highlands);
+  border get shading normals within 1 degree (a few km above the Alps on
+  Earth and above the Moon's highlands): the `planet_normal` attribute that
+  every BSDF of the planet material shades with;
 * precision: every vertex within 1 km of the camera is within 1 mm of the
   core's float64 surface, in the space Cycles renders (world = object matrix
   times vertex, float32);
@@ -38,21 +39,43 @@ def add_geo_camera(planet, name, lon, lat, altitude, heading=90.0, pitch=-15.0):
 
 
 def mesh_arrays(obj):
+    """Vertices, the normals the planet material shades with (the
+    `planet_normal` attribute) and Blender's own face-averaged vertex normals."""
     me = obj.data
     nv = len(me.vertices)
     co = numpy.empty(3 * nv, numpy.float32)
     me.vertices.foreach_get("co", co)
-    from planet_lod import compat
-    compat.calc_loop_normals(me)
-    loop_normals = numpy.empty(3 * len(me.loops), numpy.float32)
-    me.loops.foreach_get("normal", loop_normals)
-    loop_vertex = numpy.empty(len(me.loops), numpy.int32)
-    me.loops.foreach_get("vertex_index", loop_vertex)
-    normals = numpy.zeros((nv, 3), numpy.float32)
-    normals[loop_vertex] = loop_normals.reshape(-1, 3)
-    own = numpy.empty(3 * nv, numpy.float32)  # Blender's own (face-averaged) vertex normals
+    normals = numpy.empty(3 * nv, numpy.float32)
+    me.attributes["planet_normal"].data.foreach_get("vector", normals)
+    own = numpy.empty(3 * nv, numpy.float32)
     me.vertices.foreach_get("normal", own)
-    return co.reshape(-1, 3), normals, own.reshape(-1, 3)
+    return co.reshape(-1, 3), normals.reshape(-1, 3), own.reshape(-1, 3)
+
+
+def upstream(socket, seen=None):
+    """Every node that feeds `socket` (through any chain of links)."""
+    seen = set() if seen is None else seen
+    for link in socket.links:
+        node = link.from_node
+        if node.name not in seen:
+            seen.add(node.name)
+            for inp in node.inputs:
+                upstream(inp, seen)
+    return seen
+
+
+def check_shading_normals(obj):
+    """Every BSDF of the planet material shades with the planet_normal attribute."""
+    tree = obj.data.materials[0].node_tree
+    bsdfs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeBsdfPrincipled"]
+    assert bsdfs, "no BSDF in the planet material"
+    for bsdf in bsdfs:
+        feeding = [tree.nodes[name] for name in upstream(bsdf.inputs["Normal"])]
+        names = {n.attribute_name for n in feeding if n.bl_idname == "ShaderNodeAttribute"}
+        assert "planet_normal" in names, f"{bsdf.name} does not shade with the core's normals"
+        transforms = [n for n in feeding if n.bl_idname == "ShaderNodeVectorTransform"]
+        assert transforms and all(t.vector_type == 'NORMAL' and t.convert_from == 'OBJECT'
+                                  and t.convert_to == 'WORLD' for t in transforms)
 
 
 def border_angles(co, normals):
@@ -75,6 +98,7 @@ def border_angles(co, normals):
 
 
 def check_borders(planet, label):
+    check_shading_normals(planet)
     co, normals, own = mesh_arrays(planet)
     worst, groups, p95 = border_angles(co, normals)
     own_worst, _, own_p95 = border_angles(co, own)
@@ -83,6 +107,7 @@ def check_borders(planet, label):
           f"{own_worst:.2f} deg (p95 {own_p95:.2f})")
     assert groups > 100, "no sector borders in the mesh"
     assert worst < 1.0, f"{label}: normals differ by {worst} degrees across a border"
+    assert own_worst > worst, "the check would not see a seam"
 
 
 def world_vertices(obj):
