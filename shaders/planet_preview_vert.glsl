@@ -18,7 +18,6 @@ void main()
     v_dir = vec3(0.0, 0.0, 1.0);
     v_level = 0.0;
     v_height = 0.0;
-    v_pos = vec3(0.0);
     return;
   }
   int base = sector * 3;
@@ -34,6 +33,5 @@ void main()
   v_dir = dir;
   v_level = c0.w;
   v_height = h;
-  v_pos = dir * (radius + h);
   gl_Position = ModelViewProjectionMatrix * vec4(dir * (radius + h), 1.0);
 }

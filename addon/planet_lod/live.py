@@ -28,6 +28,7 @@ from array import array
 
 import bpy
 from bpy.app.handlers import persistent
+from mathutils import Matrix
 
 from . import atmosphere, compat, core, materials
 
