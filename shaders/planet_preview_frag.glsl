@@ -1,7 +1,7 @@
 /* Planet LOD preview, fragment stage (thesis 5.4.2): colour from the
  * equirectangular colour map, or an elevation ramp, or the sector level;
- * Lambert light from light_dir (planet space) on the terrain's normal, from
- * the height atlas, so relief shows at any LOD.
+ * Lambert light from light_dir (planet space) on the terrain's normal (from
+ * the height atlas, per vertex), so relief shows at any LOD.
  * The colour map is read at the mip level of the pixel's footprint
  * (textureGrad; the longitude derivative unwrapped across the date line). */
 
@@ -30,21 +30,7 @@ void main()
     float t = clamp(v_height / max(height_scale, 1.0), 0.0, 1.0);
     base = mix(vec3(0.18, 0.16, 0.14), vec3(0.92, 0.9, 0.88), t);
   }
-  vec3 shade = n;
-  if (has_height != 0) {
-    /* the terrain's normal from the height atlas (central differences about a
-     * texel apart), independent of how coarse the LOD's triangles are */
-    vec3 t1 = normalize(cross(abs(n.z) < 0.9 ? vec3(0.0, 0.0, 1.0) : vec3(1.0, 0.0, 0.0), n));
-    vec3 t2 = cross(n, t1);
-    float step_angle = 2.0 / float(textureSize(height_atlas, 0).y);
-    float k = height_norm * height_scale;
-    float h1 = plod_atlas_height(height_atlas, projection, normalize(n + step_angle * t1), k)
-             - plod_atlas_height(height_atlas, projection, normalize(n - step_angle * t1), k);
-    float h2 = plod_atlas_height(height_atlas, projection, normalize(n + step_angle * t2), k)
-             - plod_atlas_height(height_atlas, projection, normalize(n - step_angle * t2), k);
-    float run = 2.0 * step_angle * radius;
-    shade = normalize(n - (h1 / run) * t1 - (h2 / run) * t2);
-  }
+  vec3 shade = has_height != 0 ? normalize(v_normal) : n;
   float light = 0.15 + 0.85 * max(dot(shade, normalize(light_dir)), 0.0);
   FragColor = vec4(base * light, 1.0);
 }

@@ -71,6 +71,7 @@ def preview_shader():
         iface.smooth('VEC3', "v_dir")
         iface.smooth('FLOAT', "v_level")
         iface.smooth('FLOAT', "v_height")
+        iface.smooth('VEC3', "v_normal")
         info.vertex_out(iface)
         info.fragment_out(0, 'VEC4', "FragColor")
         info.vertex_source(vert)
