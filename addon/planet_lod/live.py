@@ -331,7 +331,7 @@ def keyframed_matrix(obj, frame):
     if obj.rotation_mode not in ('XYZ', 'XZY', 'YXZ', 'YZX', 'ZXY', 'ZYX'):
         return None
     targets = {"location": loc, "rotation_euler": rot, "scale": scale}
-    for fcurve in anim.action.fcurves:
+    for fcurve in compat.action_fcurves(obj):
         target = targets.get(fcurve.data_path)
         if target is not None and 0 <= fcurve.array_index < 3 and not fcurve.mute:
             target[fcurve.array_index] = fcurve.evaluate(frame)
