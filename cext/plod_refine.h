@@ -67,7 +67,15 @@ typedef struct plod_refine_params {
                                 else equals the result without hysteresis */
     int template_level;      /* 0..7: 4^level triangles per sector */
     int max_level;           /* <= PLOD_MAX_LEVEL */
-    size_t budget;           /* max visible sectors, 0 = unlimited */
+    size_t budget;           /* max sectors kept (visible or not), 0 =
+                                unlimited: over it the split threshold
+                                rises in steps of sqrt 2 until the whole
+                                refinement fits (the smallest such step:
+                                unique, so without hysteresis still a
+                                function of the camera alone); only if even
+                                the coarsest step does not fit are the
+                                farthest visible sectors flagged
+                                PLOD_SECTOR_OVER_BUDGET */
     int backface_culling;
     int frustum_culling;
     int skip_sea;            /* drop PLOD_SECTOR_SEA sectors from visible */

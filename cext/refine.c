@@ -159,6 +159,13 @@ struct plod_refiner {
     double distance_floor;  /* metres: distances below count as this */
     int split_mode;         /* plod__exceeds: 0 side, 1 pixel, 2 ortho */
     double split_scale;
+    double coarsening;      /* this pass's threshold factor, 2^(step / 2) */
+    int coarsen_step;       /* the budget's step of the last update: where the
+                               next update's search starts (never its result) */
+    int budget_known;       /* coarsen_step is the answer for budget_camera and
+                               budget_params (the same frame again) */
+    plod_camera budget_camera;
+    plod_refine_params budget_params;
     double texels_per_unit; /* height map texels per unit of u or v */
     size_t max_sectors;
     int truncated;
@@ -941,12 +948,12 @@ static double plod__score(const plod_refiner *r, const plod__bound *b, double di
     const plod_refine_params *pr = r->params;
     double d = distance > r->distance_floor ? distance : r->distance_floor;
     if (pr->criterion == PLOD_CRITERION_SIDE_DISTANCE)
-        return b->size / d / pr->split_border;
+        return b->size / d / pr->split_border / r->coarsening;
     double error_m = plod__error_m(r, b);
     double px = r->camera->desc.orthographic
                     ? error_m * r->camera->pixels_per_metre
                     : error_m * r->camera->pixels_per_radian / d;
-    return px / pr->max_pixel_error;
+    return px / pr->max_pixel_error / r->coarsening;
 }
 
 /* score > 1 without divisions (hot path: every node, every frame):
@@ -1838,57 +1845,32 @@ static plod_status plod__check_params(const plod_refine_params *p)
     return PLOD_OK;
 }
 
-plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
-                                const plod_refine_params *params,
-                                plod_refine_stats *stats)
-{
-    if (!r || !camera || !params)
-        return PLOD_ERR_NULL;
-    plod_status st = plod__check_params(params);
-    if (st != PLOD_OK)
-        return st;
-    double eye_dist = sqrt(camera->position[0] * camera->position[0] +
-                           camera->position[1] * camera->position[1] +
-                           camera->position[2] * camera->position[2]);
-    if (!isfinite(eye_dist) || !(eye_dist > 1e-6 * r->planet->radius))
-        return PLOD_ERR_BAD_CAMERA; /* at (or numerically at) the centre */
+/* ---- one refinement pass; the budget ---------------------------------------------- */
 
-    double t0 = plod__now_us();
-    r->frame++;
-    r->camera = camera;
-    r->params = params;
-    memcpy(r->eye, camera->position, sizeof r->eye);
-    r->eye_dist = eye_dist;
-    for (int k = 0; k < 3; k++)
-        r->eye_unit[k] = camera->position[k] / eye_dist;
-    r->horizon_on = params->backface_culling && !camera->desc.orthographic &&
-                    eye_dist > r->occluder;
-    r->eye_horizon_angle =
-        r->horizon_on ? atan2(sqrt((eye_dist - r->occluder) * (eye_dist + r->occluder)),
-                              r->occluder)
-                      : 0.0;
-    r->eye_horizon_cos = cos(r->eye_horizon_angle);
-    r->eye_horizon_sin = sin(r->eye_horizon_angle);
-    r->merge_ratio = params->merge_border / params->split_border;
-    r->error_scale = ldexp(1.0, -params->template_level);
-    r->error_scale2 = r->error_scale * r->error_scale;
-    r->distance_floor = 1e-9 * r->planet->radius;
+/* The split thresholds of coarsening step `step`: the criterion's threshold
+ * times 2^(step / 2) (pixel error, or split border). */
+static void plod__set_threshold(plod_refiner *r, const plod_refine_params *params, int step)
+{
+    r->coarsening = ldexp(step & 1 ? 1.4142135623730951 : 1.0, step >> 1);
     if (params->criterion == PLOD_CRITERION_SIDE_DISTANCE) {
         r->split_mode = 0;
-        r->split_scale = params->split_border;
-    } else if (!camera->desc.orthographic) {
+        r->split_scale = params->split_border * r->coarsening;
+    } else if (!r->camera->desc.orthographic) {
         r->split_mode = 1;
-        r->split_scale = camera->pixels_per_radian / params->max_pixel_error;
+        r->split_scale = r->camera->pixels_per_radian / (params->max_pixel_error * r->coarsening);
     } else {
         r->split_mode = 2;
-        r->split_scale = camera->pixels_per_metre / params->max_pixel_error;
+        r->split_scale = r->camera->pixels_per_metre / (params->max_pixel_error * r->coarsening);
     }
-    r->max_sectors = params->max_sectors;
-    r->truncated = 0;
-    r->splits = r->merges = 0;
+}
 
-    /* P* of every internal node in one sequential, top-down sweep (parents
-     * come first); P is evaluated only where the parent passes P* */
+/* P* of every internal node in one sequential, top-down sweep (parents come
+ * first); P is evaluated only where the parent passes P*.  Then the leaves'
+ * P, on threads when there are many. */
+static void plod__sweep(plod_refiner *r, const plod_refine_params *params, int step)
+{
+    r->frame++;
+    plod__set_threshold(r, params, step);
     plod__node_compact(r);
     for (size_t k = 0; k < r->node_top; k++) {
         if (!r->nodes[k].id) {
@@ -1907,6 +1889,18 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
                                      ((pk & PLOD__P_TRUE) ? PLOD__STAR_TRUE : 0u));
     }
     plod__eval_parallel(r, params->threads);
+}
+
+/* One pass at coarsening step `step`: merges every diamond whose parents fail
+ * P*, then splits every leaf that passes it, stopping (truncated) before the
+ * leaves would exceed `cap`.  Untruncated, the result is the unique minimal
+ * conforming refinement of {P* true} whatever the refinement was before. */
+static void plod__refine_pass(plod_refiner *r, const plod_refine_params *params, int step,
+                              size_t cap)
+{
+    plod__sweep(r, params, step);
+    r->max_sectors = cap;
+    r->truncated = 0;
     /* merge pass: every diamond whose parents fail the split predicate;
      * downwards, so the leaves moved into holes were already visited, and
      * merges cascade upwards as subtrees collapse */
@@ -1943,6 +1937,119 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
             if (r->splits == before)
                 break;
         }
+    }
+}
+
+/* Coarsening steps the budget may take: 2^(64 / 2) times the threshold
+ * leaves nothing but the base mesh split. */
+#define PLOD__MAX_COARSEN_STEP 64
+
+/* Whether step `step`'s refinement keeps at most `budget` sectors (visible
+ * or not); leaves the refiner at it (truncated when it does not fit). */
+static int plod__fits(plod_refiner *r, const plod_refine_params *params, int step)
+{
+    size_t cap = params->budget < params->max_sectors ? params->budget + 1 : params->max_sectors;
+    plod__refine_pass(r, params, step, cap);
+    return !r->truncated && r->count <= params->budget;
+}
+
+/* A lower bound of the sectors step `step` keeps, from the current
+ * refinement of a coarser step (a subset of step's, the thresholds being
+ * monotone): every leaf that step splits adds at least one sector. */
+static size_t plod__sectors_at_least(plod_refiner *r, const plod_refine_params *params,
+                                     int step)
+{
+    plod__sweep(r, params, step);
+    size_t n = r->count;
+    for (size_t i = 0; i < r->count; i++)
+        n += plod__leaf_wants_split(r, i) != 0;
+    return n;
+}
+
+/* The budget coarsens the whole refinement instead of dropping sectors: the
+ * result is the refinement of the smallest coarsening step (threshold times
+ * 2^(step / 2)) that keeps at most `budget` sectors.  The sector count only
+ * falls as the step grows (thresholds only rise, P* sets only shrink), so
+ * that step is unique: a function of the camera and the parameters alone,
+ * not of the step the search starts from (the last update's, for speed).
+ * Visible sectors are a subset, so they fit too; only when even the coarsest
+ * step keeps more sectors than the budget does the nearest-first cut after
+ * culling apply. */
+static void plod__fit_budget(plod_refiner *r, const plod_refine_params *params)
+{
+    int step = r->coarsen_step;
+    if (step < 0 || step > PLOD__MAX_COARSEN_STEP)
+        step = 0;
+    if (r->budget_known && memcmp(&r->budget_camera, r->camera, sizeof *r->camera) == 0 &&
+        memcmp(&r->budget_params, params, sizeof *params) == 0) {
+        /* the same camera and parameters again: the same (unique) step */
+        plod__refine_pass(r, params, step, params->max_sectors);
+        return;
+    }
+    if (plod__fits(r, params, step)) {
+        while (step > 0) {
+            if (plod__sectors_at_least(r, params, step - 1) > params->budget)
+                break; /* the finer step cannot fit: no need to build it */
+            if (!plod__fits(r, params, step - 1)) {
+                plod__fits(r, params, step); /* back to the result */
+                break;
+            }
+            step--;
+        }
+    } else {
+        while (step < PLOD__MAX_COARSEN_STEP && !plod__fits(r, params, ++step))
+            ;
+        if (r->truncated) /* even the coarsest step does not fit: complete it */
+            plod__refine_pass(r, params, step, params->max_sectors);
+    }
+    r->coarsen_step = step;
+    r->budget_camera = *r->camera;
+    r->budget_params = *params;
+    r->budget_known = 1;
+}
+
+plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
+                                const plod_refine_params *params,
+                                plod_refine_stats *stats)
+{
+    if (!r || !camera || !params)
+        return PLOD_ERR_NULL;
+    plod_status st = plod__check_params(params);
+    if (st != PLOD_OK)
+        return st;
+    double eye_dist = sqrt(camera->position[0] * camera->position[0] +
+                           camera->position[1] * camera->position[1] +
+                           camera->position[2] * camera->position[2]);
+    if (!isfinite(eye_dist) || !(eye_dist > 1e-6 * r->planet->radius))
+        return PLOD_ERR_BAD_CAMERA; /* at (or numerically at) the centre */
+
+    double t0 = plod__now_us();
+    r->frame++;
+    r->camera = camera;
+    r->params = params;
+    memcpy(r->eye, camera->position, sizeof r->eye);
+    r->eye_dist = eye_dist;
+    for (int k = 0; k < 3; k++)
+        r->eye_unit[k] = camera->position[k] / eye_dist;
+    r->horizon_on = params->backface_culling && !camera->desc.orthographic &&
+                    eye_dist > r->occluder;
+    r->eye_horizon_angle =
+        r->horizon_on ? atan2(sqrt((eye_dist - r->occluder) * (eye_dist + r->occluder)),
+                              r->occluder)
+                      : 0.0;
+    r->eye_horizon_cos = cos(r->eye_horizon_angle);
+    r->eye_horizon_sin = sin(r->eye_horizon_angle);
+    r->merge_ratio = params->merge_border / params->split_border;
+    r->error_scale = ldexp(1.0, -params->template_level);
+    r->error_scale2 = r->error_scale * r->error_scale;
+    r->distance_floor = 1e-9 * r->planet->radius;
+    r->splits = r->merges = 0;
+    if (params->budget == 0) {
+        plod__refine_pass(r, params, 0, params->max_sectors);
+        r->coarsen_step = 0;
+        r->budget_known = 0;
+    } else {
+        plod__fit_budget(r, params);
     }
     double t1 = plod__now_us();
 

@@ -1,6 +1,9 @@
 /* Planet LOD preview, fragment stage (thesis 5.4.2): colour from the
  * equirectangular colour map, or an elevation ramp, or the sector level;
- * simple Lambert light from light_dir (planet space). */
+ * Lambert light from light_dir (planet space) on the terrain's normal (from
+ * the height atlas, per vertex), so relief shows at any LOD.
+ * The colour map is read at the mip level of the pixel's footprint
+ * (textureGrad; the longitude derivative unwrapped across the date line). */
 
 vec3 level_colour(float level)
 {
@@ -18,12 +21,16 @@ void main()
   }
   else if (has_color != 0) {
     vec2 st = vec2(atan(n.y, n.x) / (2.0 * PLOD_PI) + 0.5, asin(clamp(n.z, -1.0, 1.0)) / PLOD_PI + 0.5);
-    base = textureLod(color_map, st, 0.0).rgb;
+    vec2 dx = dFdx(st), dy = dFdy(st);
+    dx.x -= floor(dx.x + 0.5);
+    dy.x -= floor(dy.x + 0.5);
+    base = textureGrad(color_map, st, dx, dy).rgb;
   }
   else {
     float t = clamp(v_height / max(height_scale, 1.0), 0.0, 1.0);
     base = mix(vec3(0.18, 0.16, 0.14), vec3(0.92, 0.9, 0.88), t);
   }
-  float light = 0.25 + 0.75 * max(dot(n, normalize(light_dir)), 0.0);
+  vec3 shade = has_height != 0 ? normalize(v_normal) : n;
+  float light = 0.15 + 0.85 * max(dot(shade, normalize(light_dir)), 0.0);
   FragColor = vec4(base * light, 1.0);
 }

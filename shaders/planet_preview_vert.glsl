@@ -18,6 +18,7 @@ void main()
     v_dir = vec3(0.0, 0.0, 1.0);
     v_level = 0.0;
     v_height = 0.0;
+    v_normal = vec3(0.0, 0.0, 1.0);
     return;
   }
   int base = sector * 3;
@@ -30,6 +31,23 @@ void main()
     h = plod_atlas_height(height_atlas, projection, dir, height_norm) * height_scale +
         height_offset;
   }
+  /* the terrain's normal: central differences of the atlas about a texel apart
+   * (per vertex, not per pixel: a pixel shader doing this costs a software
+   * renderer seconds per frame) */
+  vec3 normal = dir;
+  if (has_height != 0) {
+    vec3 t1 = normalize(cross(abs(dir.z) < 0.9 ? vec3(0.0, 0.0, 1.0) : vec3(1.0, 0.0, 0.0), dir));
+    vec3 t2 = cross(dir, t1);
+    float step_angle = 2.0 / float(textureSize(height_atlas, 0).y);
+    float k = height_norm * height_scale;
+    float h1 = plod_atlas_height(height_atlas, projection, normalize(dir + step_angle * t1), k)
+             - plod_atlas_height(height_atlas, projection, normalize(dir - step_angle * t1), k);
+    float h2 = plod_atlas_height(height_atlas, projection, normalize(dir + step_angle * t2), k)
+             - plod_atlas_height(height_atlas, projection, normalize(dir - step_angle * t2), k);
+    float run = 2.0 * step_angle * radius;
+    normal = normalize(dir - (h1 / run) * t1 - (h2 / run) * t2);
+  }
+  v_normal = normal;
   v_dir = dir;
   v_level = c0.w;
   v_height = h;

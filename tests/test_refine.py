@@ -312,7 +312,7 @@ def test_threads_identical(planetlod, earth):
     two = planetlod.Planet(EARTH_R, projection="qsc", heightmap=earth.heightmap,
                            height_scale=8848.0, sea_level=0.0)
     parallel = 0
-    for budget in (0, 300):
+    for budget in (0, 3000, 300):  # 3000: coarsened, still threaded (>= 2048 sectors)
         for cam in cams:
             s1 = one.refine(cam, budget=budget, max_pixel_error=0.5)
             s2 = two.refine(cam, budget=budget, max_pixel_error=0.5, threads=2)
@@ -563,23 +563,56 @@ def test_sea_skipping(planetlod, earth):
     assert not np.any(sea & ((flags & 1) != 0))
 
 
-def test_budget_keeps_nearest(planetlod):
+def test_budget_coarsens_instead_of_dropping(planetlod, earth):
+    """Over the budget the whole view gets coarser (the threshold rises in steps
+    of sqrt 2) instead of losing its farther sectors: nothing in view is
+    dropped, all sectors kept fit the budget, and the result depends on the
+    camera alone (not on the frames before, nor on the thread count)."""
+    cam = surface_camera(planetlod, EARTH_R, 2e3, lat=0.8, lon=0.15)
+    p = planetlod.Planet(EARTH_R, heightmap=earth.heightmap, height_scale=8848.0)
+    full = p.refine(cam, max_pixel_error=0.5)
+    budget = full["sectors_total"] // 5
+    s = p.refine(cam, max_pixel_error=0.5, budget=budget)
+    print(f"unlimited: {full['sectors_total']} sectors ({full['sectors_after_budget']} "
+          f"visible, level {full['max_level']}); budget {budget}: {s['sectors_total']} "
+          f"({s['sectors_after_budget']} visible, level {s['max_level']})")
+    assert s["sectors_total"] <= budget and s["sectors_after_budget"] <= budget
+    assert s["sectors_after_budget"] == s["sectors_after_frustum"] > budget // 4
+    flags = np.array(p.sector_flags(visible_only=False).tolist())
+    assert not np.any(flags & 8), "a sector was dropped for the budget"
+    assert s["max_level"] < full["max_level"]
+    check_conforming(p)
+    # history-free and thread-identical: from a fresh planet, after other
+    # cameras, with two threads
+    kept = frame_state(p)
+    fresh = planetlod.Planet(EARTH_R, heightmap=earth.heightmap, height_scale=8848.0)
+    fresh.refine(surface_camera(planetlod, EARTH_R, 50.0, lat=0.1), budget=budget)
+    fresh.refine(surface_camera(planetlod, EARTH_R, 3e6), max_pixel_error=0.5, budget=budget)
+    f = fresh.refine(cam, max_pixel_error=0.5, budget=budget, threads=2)
+    assert frame_state(fresh) == kept
+    assert f["sectors_total"] == s["sectors_total"]
+    again = fresh.refine(cam, max_pixel_error=0.5, budget=budget, threads=2)
+    assert again["splits"] == again["merges"] == 0
+    s = p.refine(cam, max_pixel_error=0.5, budget=0)  # 0 = unlimited
+    assert s["sectors_after_budget"] == full["sectors_after_budget"]
+
+
+def test_budget_below_the_base_mesh_keeps_the_nearest(planetlod):
+    """A budget that even the coarsest refinement exceeds keeps the nearest
+    visible sectors (the only case where sectors in view are left out)."""
     p = planetlod.Planet(EARTH_R)
     cam = surface_camera(planetlod, EARTH_R, 50.0)
     full = p.refine(cam, criterion="side_distance")
-    assert full["sectors_after_budget"] > 20
-    s = p.refine(cam, criterion="side_distance", budget=20)
-    assert s["sectors_after_budget"] == p.visible_count == 20
+    s = p.refine(cam, criterion="side_distance", budget=3)
+    assert s["sectors_after_budget"] == p.visible_count == 3
     flags = np.array(p.sector_flags(visible_only=False).tolist())
-    assert np.sum((flags & 8) != 0) == full["sectors_after_budget"] - 20
-    # the kept sectors are the nearest ones
+    assert np.sum((flags & 8) != 0) == s["sectors_after_frustum"] - 3
     eye = np.array(cam.position)
     c = corners(p)
     dist = np.linalg.norm(c.mean(1) * EARTH_R - eye, axis=1)
     kept, dropped = dist[(flags & 1) != 0], dist[(flags & 8) != 0]
-    assert np.median(kept) < np.median(dropped)
-    s = p.refine(cam, criterion="side_distance", budget=0)  # 0 = unlimited
-    assert s["sectors_after_budget"] == full["sectors_after_budget"]
+    assert np.max(kept) <= np.min(dropped) + 1e-6 * EARTH_R
+    assert full["sectors_after_budget"] > 3
 
 
 def test_max_sectors_caps_memory(planetlod):

@@ -12,13 +12,13 @@ bl_info = {
 if "bpy" in locals():  # script reload (F3 > Reload Scripts)
     import importlib
     for _name in ("compat", "core", "presets", "props", "materials", "live", "operators", "render",
-                  "draw", "ui"):
+                  "draw", "framing", "ui"):
         if _name in locals():
             importlib.reload(locals()[_name])
 
 import bpy  # noqa: E402
 
-from . import compat, core, presets, props, materials, live, operators, render, draw, ui  # noqa: E402
+from . import compat, core, presets, props, materials, live, operators, render, draw, framing, ui  # noqa: E402,E501
 
 _modules = (props, operators, render, ui, draw, live)
 

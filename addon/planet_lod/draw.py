@@ -12,6 +12,7 @@ import os
 
 import bpy
 import gpu
+import numpy as np
 from gpu_extras.batch import batch_for_shader
 from mathutils import Matrix, Vector
 
@@ -23,6 +24,11 @@ _handle = None
 _shader = None
 _shader_error = ""
 _cache = {}
+
+
+def shader_error():
+    """Why the GPU preview cannot draw ("" when it can), for the panel."""
+    return _shader_error
 
 
 def shader_sources():
@@ -65,6 +71,7 @@ def preview_shader():
         iface.smooth('VEC3', "v_dir")
         iface.smooth('FLOAT', "v_level")
         iface.smooth('FLOAT', "v_height")
+        iface.smooth('VEC3', "v_normal")
         info.vertex_out(iface)
         info.fragment_out(0, 'VEC4', "FragColor")
         info.vertex_source(vert)
@@ -100,24 +107,26 @@ def _dummy_texture():
                                 data=gpu.types.Buffer('FLOAT', 4, [0.0, 0.0, 0.0, 1.0]))
 
 
+def _float_buffer(array):
+    array = np.ascontiguousarray(array, dtype=np.float32).ravel()
+    return gpu.types.Buffer('FLOAT', array.size, array)
+
+
 def _ensure_batch(res, shader, inst, count):
-    bary = inst["template_barycentrics"]
-    tris = inst["template_triangles"]
-    vt = len(bary) // 3
+    """One vertex buffer repeating the template for `capacity` sectors (grown by
+    doubling, so a growing LOD rebuilds it a few times only), built with numpy."""
+    bary = np.frombuffer(inst["template_barycentrics"], dtype=np.float32).reshape(-1, 3)
+    tris = np.frombuffer(inst["template_triangles"], dtype=np.int32).reshape(-1, 3)
+    vt = len(bary)
     key = (vt, len(tris))
     if res.batch is not None and res.template_key == key and count <= res.capacity:
         return
     capacity = 64
-    while capacity < count:
+    while capacity < max(count, res.capacity if res.template_key == key else 0):
         capacity *= 2
-    bary_list = list(bary)
-    tri_list = list(tris)
-    coords = [tuple(bary_list[3 * i:3 * i + 3]) for i in range(vt)] * capacity
-    indices = []
-    for s in range(capacity):
-        base = s * vt
-        indices.extend((base + tri_list[k], base + tri_list[k + 1], base + tri_list[k + 2])
-                       for k in range(0, len(tri_list), 3))
+    coords = np.tile(bary, (capacity, 1))
+    offsets = (np.arange(capacity, dtype=np.int32) * vt)[:, None, None]
+    indices = (tris[None, :, :] + offsets).reshape(-1, 3)
     res.batch = batch_for_shader(shader, 'TRIS', {"bary": coords}, indices=indices)
     res.capacity, res.template_vertices, res.template_key = capacity, vt, key
 
@@ -125,19 +134,16 @@ def _ensure_batch(res, shader, inst, count):
 def _ensure_sector_texture(res, st, inst):
     if res.sector_version == st.gpu_version and res.sector_tex is not None:
         return
-    corners = list(inst["corners"])
-    levels = list(inst["levels"])
+    corners = np.frombuffer(inst["corners"], dtype=np.float32).reshape(-1, 3)
+    levels = np.frombuffer(inst["levels"], dtype=np.float32)
     count = len(levels)
     texels = max(3 * count, 1)
     rows = (texels + DATA_WIDTH - 1) // DATA_WIDTH
-    data = [0.0] * (DATA_WIDTH * rows * 4)
-    for s in range(count):
-        for c in range(3):
-            i = (3 * s + c) * 4
-            data[i:i + 3] = corners[9 * s + 3 * c:9 * s + 3 * c + 3]
-            data[i + 3] = levels[s]
+    data = np.zeros((DATA_WIDTH * rows, 4), dtype=np.float32)
+    data[:3 * count, :3] = corners[:3 * count]
+    data[:3 * count, 3] = np.repeat(levels, 3)
     res.sector_tex = gpu.types.GPUTexture((DATA_WIDTH, rows), format='RGBA32F',
-                                          data=gpu.types.Buffer('FLOAT', len(data), data))
+                                          data=_float_buffer(data))
     res.sector_version, res.sector_count = st.gpu_version, count
 
 
@@ -159,17 +165,14 @@ def _ensure_height(res, settings):
     faces = 1 if settings.projection == 'CAR' else 6
     size = cube.size
     face_w = 2 * size if faces == 1 else size
+    # texels of any type (u8, u16, f32) as floats; the shader scales by height_norm
+    dtype = {"u8": np.uint8, "u16": np.uint16}.get(cube.dtype, np.float32)
     norm = {"u8": 1.0 / 255.0, "u16": 1.0 / 65535.0}.get(cube.dtype, 1.0)
-    rows = [[] for _ in range(size)]
-    for f in range(faces):
-        raw = memoryview(cube.face(f))
-        values = list(raw.cast(raw.format)) if raw.format else list(raw)
-        channels = cube.channels
-        for j in range(size):
-            rows[j].extend(values[(j * face_w) * channels:(j + 1) * face_w * channels:channels])
-    data = [float(v) for row in rows for v in row]
+    channels = cube.channels
+    atlas = np.hstack([np.frombuffer(cube.face(f), dtype=dtype)
+                       .reshape(size, face_w, channels)[:, :, 0] for f in range(faces)])
     res.height_tex = gpu.types.GPUTexture((face_w * faces, size), format='R32F',
-                                          data=gpu.types.Buffer('FLOAT', len(data), data))
+                                          data=_float_buffer(atlas))
     res.height_norm = norm
 
 
@@ -277,6 +280,9 @@ def draw_callback():
         return
     gpu.state.depth_test_set('LESS_EQUAL')
     gpu.state.depth_mask_set(True)
+    # the far hemisphere faces away: culled, it cannot show through the near one
+    # where the depth buffer cannot tell them apart
+    gpu.state.face_culling_set('BACK')
     try:
         for obj in live.planets(scene):
             s = obj.planet_lod
@@ -286,8 +292,11 @@ def draw_callback():
             if s.gpu_preview:
                 draw_planet(obj, st, region_data)
             if s.freeze_lod:
+                gpu.state.face_culling_set('NONE')
                 draw_frustum(obj, st)
+                gpu.state.face_culling_set('BACK')
     finally:
+        gpu.state.face_culling_set('NONE')
         gpu.state.depth_mask_set(False)
         gpu.state.depth_test_set('NONE')
 

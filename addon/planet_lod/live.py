@@ -28,12 +28,13 @@ from array import array
 
 import bpy
 from bpy.app.handlers import persistent
+from mathutils import Matrix
 
 from . import atmosphere, compat, core, materials
 
 RUNTIME = {}
-DEBOUNCE_S = 0.15
-TICK_S = 0.1
+REFRESH_INTERVAL_S = 0.1   # during navigation the detail follows at this rate
+TICK_S = 0.05
 _lock = threading.RLock()   # one refresh at a time, across threads
 _local = threading.local()  # .busy: this thread is inside refresh()
 _renders = 0                # renders in progress (render_init .. complete/cancel)
@@ -52,7 +53,9 @@ class PlanetState:
         self.changed_at = 0.0
         self.stats = {}
         self.error = ""
-        self.warning = ""          # last refresh worked but looks wrong (camera inside)
+        self.warning = ""          # the viewport's camera is inside the planet
+        self.render_warning = ""   # the render camera is inside the planet
+        self.refreshed_at = time.monotonic()  # of the last viewport refresh
         self.instances = None      # dict from planet.instances() for the GPU preview
         self.gpu_version = 0       # bumped when instances change
         self.frozen_camera = None  # (matrix_world planet space, params) while frozen
@@ -76,6 +79,20 @@ def mark_dirty(obj, geometry=False, material=False):
     st.material_dirty |= material
 
 
+def check_settings(obj):
+    """Checks what can be checked at once when a setting changes (a height map
+    path that is missing, a folder or empty), so the panel shows the reason
+    right away; the refresh reports everything else."""
+    st = state(obj)
+    try:
+        core.check_heightmap(obj.planet_lod.as_dict().get("heightmap"))
+    except OSError as exc:
+        st.error = str(exc)
+    else:
+        if st.error.startswith("height map"):
+            st.error = ""
+
+
 def planets(scene):
     return [o for o in scene.objects if o.type == 'MESH' and o.planet_lod.enabled]
 
@@ -90,13 +107,19 @@ def _render_resolution(scene):
 
 
 def camera_object(obj, scene):
-    """The camera object the planet refines for (None: viewport or nothing)."""
+    """The camera object the viewport's detail is made for when the planet asks
+    for a camera (Scene Camera, Chosen Camera); None: the viewport itself."""
     s = obj.planet_lod
     if s.lod_camera == 'CAMERA' and s.camera is not None and s.camera.name in scene.objects:
         return s.camera
     if s.lod_camera in ('CAMERA', 'SCENE') and scene.camera is not None:
         return scene.camera
     return None
+
+
+def render_camera(scene):
+    """The camera renders see (F12, animations, flybys): always the scene camera."""
+    return scene.camera
 
 
 def _evaluated(obj, depsgraph):
@@ -154,13 +177,15 @@ def to_planet_space(obj, matrix_world):
     return rows
 
 
-def camera_params_from_object(obj, cam, scene, depsgraph=None):
-    """planetlod.Camera keyword arguments for a camera object at render resolution."""
+def camera_params_from_object(obj, cam, scene, depsgraph=None, cam_matrix=None):
+    """planetlod.Camera keyword arguments for a camera object at render resolution
+    (cam_matrix: its world matrix, when known better than cam.matrix_world)."""
     cam = _evaluated(cam, depsgraph)
     data = cam.data
     res_x, res_y, asp_x, asp_y = _render_resolution(scene)
     evaluated = _evaluated(obj, depsgraph)
-    local = evaluated.matrix_world.inverted_safe() @ cam.matrix_world
+    local = evaluated.matrix_world.inverted_safe() @ (
+        cam_matrix if cam_matrix is not None else cam.matrix_world)
     matrix = [list(row) for row in local]
     for i, a in enumerate(anchor(obj)):
         matrix[i][3] += a
@@ -188,9 +213,16 @@ def viewport():
     return best
 
 
+def view_to_world(r3d):
+    """The view's camera matrix from its location, rotation and distance: current
+    as soon as they are set (view_matrix is only updated when the view redraws)."""
+    return (Matrix.Translation(r3d.view_location) @ r3d.view_rotation.to_matrix().to_4x4()
+            @ Matrix.Translation((0.0, 0.0, r3d.view_distance)))
+
+
 def camera_params_from_view(obj, view):
     space, region, r3d = view
-    matrix = to_planet_space(obj, r3d.view_matrix.inverted())
+    matrix = to_planet_space(obj, view_to_world(r3d))
     ortho = r3d.view_perspective == 'ORTHO'
     return dict(matrix_world=matrix, type='ORTHO' if ortho else 'PERSP',
                 lens=space.lens, sensor_width=72.0, sensor_height=72.0, sensor_fit='AUTO',
@@ -201,24 +233,155 @@ def camera_params_from_view(obj, view):
 
 def lod_camera_params(obj, scene, for_render=False, depsgraph=None):
     """Keyword arguments for planetlod.Camera, or None when there is no camera at all.
-    Falls back cleanly: chosen camera (deleted?) -> scene camera -> viewport."""
+
+    Renders (for_render) always refine for the render camera, whatever the
+    viewport shows, so a render never gets the viewport's detail.  The viewport
+    refines for itself (or, looking through the camera, for that camera), or for
+    the camera the planet names; without a viewport (background) it falls back
+    to the scene camera."""
+    if for_render:
+        cam = render_camera(scene)
+        return None if cam is None else camera_params_from_object(obj, cam, scene, depsgraph)
     s = obj.planet_lod
     cam = camera_object(obj, scene)
-    use_view = (s.lod_camera == 'VIEWPORT' and not for_render) or cam is None
-    if use_view and not bpy.app.background:
+    if (s.lod_camera == 'VIEWPORT' or cam is None) and not bpy.app.background:
         view = viewport()
         if view is not None:
             if view[2].view_perspective == 'CAMERA' and scene.camera is not None:
                 return camera_params_from_object(obj, scene.camera, scene)
             return camera_params_from_view(obj, view)
+    cam = cam or render_camera(scene)
     if cam is None:
         return None
     return camera_params_from_object(obj, cam, scene, depsgraph)
 
 
+# ---- clip ranges ------------------------------------------------------------------
+# The horizon-distance correction (after the source thesis): the nearest
+# terrain cannot be closer than the camera's height above the highest peak and
+# nothing beyond the horizon plus the distance at which the highest peak still
+# rises over it can be seen.  Clipping there keeps depth precision where the
+# terrain is and cuts the far hemisphere away.
+
+def _scale(obj):
+    return max(obj.matrix_world.to_scale()) or 1.0
+
+
+def view_clip(obj, planet, params):
+    """(clip_start, clip_end) in scene units for a viewport camera: the thesis's
+    range, with a clip start of a tenth of the height above the ground below the
+    camera where the camera is lower than the highest peak (the thesis's clip
+    start is then ~0) and at most a million times shorter than the clip end."""
+    near, far = planet.recommended_clip(core.make_camera(params))
+    eye = [row[3] for row in params["matrix_world"][:3]]
+    distance = sum(c * c for c in eye) ** 0.5
+    if distance > 0.0:
+        ground = planet.radius + planet.height(*(c / distance for c in eye))
+        near = max(near, 0.1 * (distance - ground))
+    near = max(near, far * 1e-6, 1e-3)
+    scale = _scale(obj)
+    return near * scale, far * scale
+
+
+def fit_view_clips(scene):
+    """Fits each 3D view's clip range to the planets it shows (those with Viewport
+    Clip to Horizon on); views looking through the camera use its clip range."""
+    targets = []
+    for obj in planets(scene):
+        if obj.planet_lod.view_clip_from_horizon and obj.visible_get():
+            try:
+                targets.append((obj, core.build_planet(obj.planet_lod.as_dict())))
+            except core.native_errors():
+                continue
+    if not targets:
+        return
+    wm = bpy.context.window_manager
+    for window in wm.windows if wm else ():
+        for area in window.screen.areas:
+            if area.type != 'VIEW_3D':
+                continue
+            space = area.spaces.active
+            region = next((r for r in area.regions if r.type == 'WINDOW'), None)
+            r3d = space.region_3d
+            if region is None or r3d is None or r3d.view_perspective == 'CAMERA':
+                continue
+            near = far = None
+            for obj, planet in targets:
+                try:
+                    n, f = view_clip(obj, planet, camera_params_from_view(obj, (space, region, r3d)))
+                except core.native_errors():
+                    continue
+                near = n if near is None else min(near, n)
+                far = f if far is None else max(far, f)
+            if near is None:
+                continue
+            if not (0.97 < space.clip_start / near < 1.03 and 0.97 < space.clip_end / far < 1.03):
+                space.clip_start, space.clip_end = near, far
+                area.tag_redraw()
+
+
+def keyframed_matrix(obj, frame):
+    """obj's world matrix at `frame` from its keyframed location, rotation and
+    scale, before the depsgraph has evaluated that frame (frame_change_pre);
+    None for objects with a parent or constraints (the depsgraph's job)."""
+    anim = obj.animation_data
+    if anim is None or anim.action is None or obj.parent is not None or obj.constraints:
+        return None
+    loc, rot, scale = obj.location.copy(), obj.rotation_euler.copy(), obj.scale.copy()
+    if obj.rotation_mode not in ('XYZ', 'XZY', 'YXZ', 'YZX', 'ZXY', 'ZYX'):
+        return None
+    targets = {"location": loc, "rotation_euler": rot, "scale": scale}
+    for fcurve in compat.action_fcurves(obj):
+        target = targets.get(fcurve.data_path)
+        if target is not None and 0 <= fcurve.array_index < 3 and not fcurve.mute:
+            target[fcurve.array_index] = fcurve.evaluate(frame)
+    return Matrix.LocRotScale(loc, rot, scale)
+
+
+def apply_camera_clip(scene, depsgraph=None, cam_matrix=None):
+    """Sets the render camera's clip range from the horizon of the planets that
+    ask for it (Camera Clip to Horizon): the union of their ranges.  Returns it
+    (None: nothing set)."""
+    cam = render_camera(scene)
+    if cam is None or cam.type != 'CAMERA':
+        return None
+    near = far = None
+    for obj in planets(scene):
+        if not obj.planet_lod.clip_from_horizon:
+            continue
+        try:
+            planet = core.build_planet(obj.planet_lod.as_dict())
+            params = camera_params_from_object(obj, cam, scene, depsgraph, cam_matrix)
+            n, f = planet.recommended_clip(core.make_camera(params))
+        except core.native_errors():
+            continue
+        n, f = n * _scale(obj), f * _scale(obj)
+        near = n if near is None else min(near, n)
+        far = f if far is None else max(far, f)
+    if near is None:
+        return None
+    data = cam.data
+    if abs(data.clip_start - near) > 1e-6 * near or abs(data.clip_end - far) > 1e-6 * far:
+        data.clip_start, data.clip_end = near, far
+        data.update_tag()
+    return near, far
+
+
+def _with_clip(params, clip):
+    """Camera params with the clip range just set on the camera: an evaluated
+    camera (animation renders) still has the old one."""
+    if params is not None and clip is not None:
+        params = dict(params, clip_start=clip[0], clip_end=clip[1])
+    return params
+
+
 # ---- refresh ------------------------------------------------------------------
 
 NO_CAMERA = "no LOD camera: add a camera to the scene or use the viewport"
+INSIDE_VIEW = ("the view is inside the planet (below the terrain): zoom out or press "
+               "Home to see it")
+INSIDE_RENDER = ("the render camera is inside the planet (below the terrain): move it out "
+                 "to render the planet")
 
 
 def forget_removed():
@@ -241,7 +404,9 @@ def _refresh_locked(obj, scene, params, build_mesh, for_render):
     settings = obj.planet_lod.as_dict()
     planet = core.build_planet(settings)
     if params is None:
-        params = lod_camera_params(obj, scene, for_render=for_render)
+        # the render camera's frustum ends at its clip end: fit that first
+        clip = apply_camera_clip(scene) if for_render else None
+        params = _with_clip(lod_camera_params(obj, scene, for_render=for_render), clip)
     if params is None:
         raise RuntimeError(NO_CAMERA)
     was_busy, _local.busy = _in_refresh(), True
@@ -255,13 +420,14 @@ def _refresh_locked(obj, scene, params, build_mesh, for_render):
             if build_mesh:  # refuse before the mesh (or anything in bpy) is touched
                 core.check_mesh_size(stats, settings["template_level"])
             st.stats = stats
-            st.frozen_camera = params
-            st.warning = ("the LOD camera is inside the planet (below the terrain): only "
-                          "the sectors around it are refined"
-                          if core.camera_inside(planet, params["matrix_world"]) else "")
-            if obj.planet_lod.clip_from_horizon and for_render:
-                _apply_clip(obj, scene, planet, camera)
-        if obj.planet_lod.gpu_preview and not bpy.app.background:
+            inside = core.camera_inside(planet, params["matrix_world"])
+            if for_render:
+                st.render_warning = (INSIDE_RENDER if inside else "")
+            else:
+                st.frozen_camera = params
+                st.warning = (INSIDE_VIEW if inside else "")
+        if obj.planet_lod.gpu_preview and not bpy.app.background and not for_render:
+            # the preview draws the viewport's detail only: a render's never leaks in
             st.instances = planet.instances(template_level=settings["template_level"])
             st.gpu_version += 1
         if build_mesh:
@@ -285,14 +451,6 @@ def _refresh_locked(obj, scene, params, build_mesh, for_render):
         return st.stats
     finally:
         _local.busy = was_busy
-
-
-def _apply_clip(obj, scene, planet, camera):
-    cam = camera_object(obj, scene)
-    if cam is None:
-        return
-    near, far = planet.recommended_clip(camera)
-    cam.data.clip_start, cam.data.clip_end = near, far
 
 
 def mesh_digest(mesh):
@@ -350,13 +508,16 @@ def _set_attribute(me, name, data_type, domain, field, values):
     attr.data.foreach_set(field, values)
 
 
-def refresh_for_render(scene, depsgraph=None):
+def refresh_for_render(scene, depsgraph=None, clip=True):
     """Every planet in `scene`: refine for the render camera at render resolution and
     rebuild its mesh.  Returns {name: stats}; errors are printed and kept in state."""
     results = {}
+    if clip is True:  # also when the LOD is cached (a setting was toggled)
+        clip = apply_camera_clip(scene, depsgraph)
     for obj in planets(scene):
         try:
-            params = lod_camera_params(obj, scene, for_render=True, depsgraph=depsgraph)
+            params = _with_clip(lod_camera_params(obj, scene, for_render=True,
+                                                  depsgraph=depsgraph), clip)
             st = state(obj)
             key = _render_key(obj, params)
             if key is not None and key == st.render_key and not st.dirty:
@@ -438,7 +599,8 @@ def _signature(obj, scene):
 
 
 def tick():
-    """bpy.app.timers callback: debounced refresh of planets whose view changed."""
+    """bpy.app.timers callback: refreshes planets whose view changed, at most every
+    REFRESH_INTERVAL_S each, and fits the clip ranges to the horizon."""
     if _in_refresh() or _render_running() or core.native is None:
         return TICK_S
     if not _lock.acquire(blocking=False):  # a render thread is refreshing: retry
@@ -457,6 +619,11 @@ def _tick_locked():
         return
     now = time.monotonic()
     forget_removed()
+    try:  # before the refresh: the viewport's frustum ends at its clip end
+        fit_view_clips(scene)
+        apply_camera_clip(scene)
+    except (ReferenceError, AttributeError):
+        pass
     for obj in planets(scene):
         s = obj.planet_lod
         if not s.live_update:
@@ -472,15 +639,17 @@ def _tick_locked():
             continue
         if sig != st.signature:
             st.signature, st.changed_at, st.dirty = sig, now, True
-        if not st.dirty or now - st.changed_at < DEBOUNCE_S:
+        # a refresh at most every REFRESH_INTERVAL_S, also while the view keeps
+        # moving (navigation), so the detail follows instead of popping at the end
+        if not st.dirty or now - st.refreshed_at < REFRESH_INTERVAL_S:
             continue
+        st.refreshed_at = now
         try:
             refresh(obj, scene, params=params, build_mesh=not s.gpu_preview)
         except core.native_errors() as exc:
             st.error, st.dirty = str(exc), False
         _redraw_views()
         break  # one planet per tick keeps the UI responsive
-    return
 
 
 def _redraw_views():
@@ -497,6 +666,23 @@ def _redraw_views():
 def on_frame_change_pre(scene, depsgraph=None):
     from . import render
     render.place_flyby_cameras(scene)
+    # the clip range before the frame is evaluated: set after (frame_change_post),
+    # an animation render (-a) would render this frame with the previous one's
+    if not _in_refresh() and core.native is not None:
+        fit_render_clip(scene, keyframed_only=True)
+
+
+def fit_render_clip(scene, keyframed_only=False):
+    """Camera Clip to Horizon for the current frame, from the render camera's
+    keyframes where it has them (the original object still holds another
+    frame's transform during animation renders).  Returns the range or None."""
+    cam = render_camera(scene)
+    if cam is None:
+        return None
+    matrix = keyframed_matrix(cam, scene.frame_current + scene.frame_subframe)
+    if matrix is None and keyframed_only:
+        return None
+    return apply_camera_clip(scene, cam_matrix=matrix)
 
 
 @persistent
@@ -515,7 +701,7 @@ def on_render_pre(scene, depsgraph=None):
         return
     if threading.current_thread() is not threading.main_thread():
         return
-    refresh_for_render(scene)
+    refresh_for_render(scene, clip=fit_render_clip(scene))
 
 
 def _render_running():
@@ -574,7 +760,8 @@ def on_depsgraph_update(scene, depsgraph=None):
     for update in depsgraph.updates:
         if isinstance(update.id, bpy.types.Object) and update.is_updated_transform:
             for obj in planets(scene):
-                if update.id.original in (obj, camera_object(obj, scene)):
+                if update.id.original in (obj, camera_object(obj, scene),
+                                          render_camera(scene)):
                     state(obj).dirty = True
 
 

@@ -41,6 +41,12 @@ class PLOD_OT_planet_add(bpy.types.Operator):
                               description="Override the preset's height map")
     color_map: StringProperty(name="Colour map", subtype='FILE_PATH',
                               description="Override the preset's colour map")
+    frame: BoolProperty(name="Frame", default=True,
+                        description="Point the views at the new planet and move a camera "
+                                    "that would be inside it out of it")
+    add_sun: BoolProperty(name="Add Sun", default=True,
+                          description="Add a sun when the scene has none and hide lights "
+                                      "that would be inside the planet")
 
     def execute(self, context):
         if _report_missing(self):
@@ -52,6 +58,7 @@ class PLOD_OT_planet_add(bpy.types.Operator):
         if self.color_map:
             values["color_map"] = bpy.path.abspath(self.color_map)
         mesh = obj = None
+        undo = []  # puts back what framing changed when the planet is not added
         try:
             if values["color_map"] and not os.path.isfile(values["color_map"]):
                 raise FileNotFoundError(f"colour map not found: {values['color_map']}")
@@ -64,8 +71,12 @@ class PLOD_OT_planet_add(bpy.types.Operator):
             settings.preset = self.preset
             settings.quality = self.quality
             _validate(settings.as_dict())
+            planet = core.build_planet(settings.as_dict())
             context.collection.objects.link(obj)
             obj.location = context.scene.cursor.location
+            context.view_layer.update()
+            messages = self._frame(context, obj, planet, undo)
+            context.view_layer.update()  # the camera's new matrix_world
             if live.lod_camera_params(obj, context.scene, for_render=True) is not None:
                 live.refresh(obj, context.scene, build_mesh=True, for_render=True)
             else:
@@ -74,6 +85,8 @@ class PLOD_OT_planet_add(bpy.types.Operator):
             from . import atmosphere  # the planet's sky becomes the scene's world
             atmosphere.ensure_world(obj, context.scene, assign=True)
         except core.native_errors() as exc:
+            for step in reversed(undo):
+                step()
             if obj is not None:
                 bpy.data.objects.remove(obj)
             if mesh is not None:
@@ -87,7 +100,38 @@ class PLOD_OT_planet_add(bpy.types.Operator):
             other.select_set(False)
         obj.select_set(True)
         context.view_layer.objects.active = obj
+        if self.frame:
+            from . import framing
+            framing.frame_views(context.screen, obj, self._top(obj))
+        if not bpy.app.background:  # the clip ranges and the preview at once
+            try:
+                live.fit_view_clips(context.scene)
+                live.refresh(obj, context.scene)
+            except core.native_errors() as exc:
+                live.state(obj).error = str(exc)
+        for message in messages:
+            self.report({'INFO'}, message)
         return {'FINISHED'}
+
+    @staticmethod
+    def _top(obj, planet=None):
+        """Radius of the ball holding the planet's highest peak, in scene units."""
+        planet = planet or core.build_planet(obj.planet_lod.as_dict())
+        return ((obj.planet_lod.radius + max(planet.height_range()[1], 0.0))
+                * max(obj.matrix_world.to_scale()))
+
+    def _frame(self, context, obj, planet, undo):
+        """Camera, views and a sun outside the new planet (see framing.py)."""
+        from . import framing
+        top = self._top(obj, planet)
+        messages = []
+        if self.frame:
+            message = framing.place_camera(context.scene, obj, top, undo)
+            if message:
+                messages.append(message)
+        if self.add_sun:
+            messages += framing.add_sun(context.scene, obj, top, undo)
+        return messages
 
 
 class PLOD_OT_planet_refresh(bpy.types.Operator):
@@ -115,8 +159,10 @@ class PLOD_OT_planet_refresh(bpy.types.Operator):
             live.state(obj).error = str(exc)
             self.report({'ERROR'}, f"{obj.name}: {exc}")
             return {'CANCELLED'}
-        if live.state(obj).warning:
-            self.report({'WARNING'}, f"{obj.name}: {live.state(obj).warning}")
+        st = live.state(obj)
+        warning = st.render_warning if self.for_render else st.warning
+        if warning:
+            self.report({'WARNING'}, f"{obj.name}: {warning}")
         self.report({'INFO'}, f"{obj.name}: {stats.get('visible', 0)} sectors, "
                               f"{stats.get('triangles', 0)} triangles")
         return {'FINISHED'}

@@ -12,7 +12,7 @@ PROJECTION_ITEMS = [
     ("SPHERIFIED", "Spherified cube", "Normalised-cube mapping"),
     ("CAR", "Quad-sphere (CAR)", "Plate carree on an octahedral quad-sphere"),
 ]
-TEMPLATE_ITEMS = [(str(4 ** k), f"{4 ** k}", f"{4 ** k} triangles per sector")
+TEMPLATE_ITEMS = [(str(4 ** k), f"{4 ** k}", f"{4 ** k} triangles per terrain patch")
                   for k in range(8)]
 
 
@@ -23,6 +23,7 @@ def _changed(self, context):
 
 def _geometry_changed(self, context):
     from . import live
+    live.check_settings(self.id_data)  # a bad path shows in the panel at once
     # the material depends on radius/height scale (ramp) and projection (cube colour maps)
     live.mark_dirty(self.id_data, geometry=True, material=True)
 
@@ -44,6 +45,12 @@ def _atmosphere_items():
     return ATMOSPHERE_ITEMS
 
 
+def _camera_clip_changed(self, context):
+    from . import live
+    live.apply_camera_clip(context.scene)
+    _changed(self, context)
+
+
 def _camera_poll(self, obj):
     return obj.type == 'CAMERA'
 
@@ -53,16 +60,21 @@ class PLOD_PG_settings(bpy.types.PropertyGroup):
                           default=False)
     preset: StringProperty(name="Preset", description="Planet preset this was made from")
     projection: EnumProperty(name="Projection", items=PROJECTION_ITEMS, default="QSC",
+                             description="How the sphere is cut into six square faces "
+                                         "(QSC keeps texel areas equal)",
                              update=_geometry_changed)
-    radius: FloatProperty(name="Radius", description="Planet radius in metres",
+    radius: FloatProperty(name="Radius", description="Radius of the planet at height 0",
                           default=6371000.0, min=1.0, max=1.0e8, soft_max=1.0e7,
                           subtype='DISTANCE', unit='LENGTH', update=_geometry_changed)
-    heightmap: StringProperty(name="Height map", subtype='FILE_PATH',
-                              description="Equirectangular or cross-layout cube map of heights",
+    heightmap: StringProperty(name="Height Map", subtype='FILE_PATH',
+                              description="Grey image of the terrain heights: a world map "
+                                          "(2:1) or a cube cross (4:3). Empty: a smooth sphere",
                               update=_geometry_changed)
-    height_scale: FloatProperty(name="Height scale", description="Metres per unit map height",
+    height_scale: FloatProperty(name="Height Scale",
+                                description="Height of the brightest pixel of the height map "
+                                            "above the radius",
                                 default=8848.0, min=0.0, max=1.0e6, soft_max=1.0e5,
-                                update=_geometry_changed)
+                                subtype='DISTANCE', unit='LENGTH', update=_geometry_changed)
     height_offset: FloatProperty(name="Height offset",
                                  description="Metres added to every map height (a datum: "
                                              "terrain below the radius, a sea floor)",
@@ -74,12 +86,16 @@ class PLOD_PG_settings(bpy.types.PropertyGroup):
                                             "complement: sea floor below zero); they are "
                                             "then read as integer values",
                                 default=False, update=_geometry_changed)
-    use_sea_level: BoolProperty(name="Sea level", default=False, update=_geometry_changed)
-    sea_level: FloatProperty(name="Sea level", description="Metres above the radius",
-                             default=0.0, min=-1.0e5, max=1.0e5, update=_geometry_changed)
-    ocean_sphere: BoolProperty(name="Ocean sphere", description="Add a sphere at sea level",
+    use_sea_level: BoolProperty(name="Sea Level", default=False, update=_geometry_changed,
+                                description="Flood the terrain below a sea level")
+    sea_level: FloatProperty(name="Sea Level", description="Height of the sea above the radius",
+                             default=0.0, min=-1.0e5, max=1.0e5, subtype='DISTANCE',
+                             unit='LENGTH', update=_geometry_changed)
+    ocean_sphere: BoolProperty(name="Ocean Sphere", description="Show a water sphere at sea level",
                                default=False, update=_material_changed)
-    skip_sea: BoolProperty(name="Skip sea sectors", default=False, update=_changed)
+    skip_sea: BoolProperty(name="Hide Sea Floor", default=False, update=_changed,
+                           description="Leave out the terrain that lies entirely under the sea "
+                                       "(faster with an ocean sphere)")
     use_detail: BoolProperty(name="Detail", default=False, update=_geometry_changed,
                              description="Procedural relief below the height map's resolution, "
                                          "down to the smallest feature; its amplitude follows "
@@ -107,43 +123,78 @@ class PLOD_PG_settings(bpy.types.PropertyGroup):
                                  update=_geometry_changed,
                                  description="Detail on flat land, relative to mountains")
     detail_seed: IntProperty(name="Seed", default=1, min=0, update=_geometry_changed)
-    color_map: StringProperty(name="Colour map", subtype='FILE_PATH',
-                              description="Equirectangular, or cross-layout (4:3) cube map "
-                                          "in the planet's projection (empty: elevation ramp)",
+    color_map: StringProperty(name="Colour Map", subtype='FILE_PATH',
+                              description="Colour image of the surface: a world map (2:1) or a "
+                                          "cube cross (4:3) in the planet's projection. Empty: "
+                                          "colours by height",
                               update=_material_changed)
-    criterion: EnumProperty(name="Criterion", default="PIXEL", update=_changed, items=[
-        ("PIXEL", "Pixel error", "Split sectors whose screen-space error exceeds a pixel bound"),
-        ("BORDERS", "Split/merge borders", "Thesis criterion: side length over distance")])
-    max_pixel_error: FloatProperty(name="Max pixel error", default=2.0, min=0.1, max=64.0,
+    criterion: EnumProperty(name="Criterion", default="PIXEL", update=_changed,
+                            description="How the add-on decides where the terrain needs detail",
+                            items=[
+        ("PIXEL", "Screen Error", "Add detail until the terrain is within a few pixels of "
+                                  "the real shape on screen"),
+        ("BORDERS", "Distance Ratio", "Add detail where a patch is large compared with its "
+                                      "distance to the camera (split/merge borders)")])
+    max_pixel_error: FloatProperty(name="Screen Error", default=2.0, min=0.1, max=64.0,
+                                   subtype='PIXEL', update=_changed,
+                                   description="Largest visible terrain error in pixels: "
+                                               "lower is sharper and slower")
+    split_border: FloatProperty(name="Split Ratio", default=0.5, min=0.01, max=10.0,
+                                update=_changed,
+                                description="A patch is divided when its size over its "
+                                            "distance exceeds this")
+    merge_border: FloatProperty(name="Merge Ratio", default=0.25, min=0.005, max=10.0,
+                                update=_changed,
+                                description="Divided patches join again when their size over "
+                                            "distance falls below this")
+    template_density: EnumProperty(name="Patch Density", items=TEMPLATE_ITEMS, default="64",
+                                   description="Triangles in each terrain patch: more gives "
+                                               "finer meshes with fewer patches",
                                    update=_changed)
-    split_border: FloatProperty(name="Split border", default=0.5, min=0.01, max=10.0,
-                                update=_changed)
-    merge_border: FloatProperty(name="Merge border", default=0.25, min=0.005, max=10.0,
-                                update=_changed)
-    template_density: EnumProperty(name="Template density", items=TEMPLATE_ITEMS, default="64",
-                                   description="Triangles per sector", update=_changed)
-    budget: IntProperty(name="Sector budget", description="Most sectors drawn (0: unlimited)",
+    budget: IntProperty(name="Patch Budget",
+                        description="Most terrain patches drawn at once (0: no limit); above "
+                                    "it the whole view gets coarser, nothing is left out",
                         default=8000, min=0, max=1000000, update=_changed)
-    max_level: IntProperty(name="Max level", default=24, min=1, max=48, update=_changed)
-    backface: BoolProperty(name="Backface culling", default=True, update=_changed)
-    frustum: BoolProperty(name="Frustum culling", default=True, update=_changed)
-    lod_camera: EnumProperty(name="LOD camera", default="SCENE", update=_changed, items=[
-        ("SCENE", "Scene camera", "Refine for the scene's active camera"),
-        ("CAMERA", "Chosen camera", "Refine for the camera picked below"),
-        ("VIEWPORT", "Viewport", "Refine for the active 3D viewport")])
+    max_level: IntProperty(name="Max Depth", default=24, min=1, max=48, update=_changed,
+                           description="How many times a patch may be halved: limits the "
+                                       "finest detail")
+    backface: BoolProperty(name="Skip Far Side", default=True, update=_changed,
+                           description="Leave out the terrain behind the planet's horizon")
+    frustum: BoolProperty(name="Skip Off-Screen", default=True, update=_changed,
+                          description="Leave out the terrain outside the camera's view")
+    lod_camera: EnumProperty(name="Viewport Detail For", default="VIEWPORT", update=_changed,
+                             description="Whose view the detail in the viewport is made for. "
+                                         "Renders always use the render camera",
+                             items=[
+        ("VIEWPORT", "Viewport", "The detail follows the view you are looking through"),
+        ("SCENE", "Scene Camera", "Show the render camera's detail in the viewport (what F12 "
+                                  "renders)"),
+        ("CAMERA", "Chosen Camera", "Show the detail of the camera picked below")])
     camera: PointerProperty(name="Camera", type=bpy.types.Object, poll=_camera_poll,
-                            update=_changed)
-    freeze_lod: BoolProperty(name="Freeze LOD", default=False, update=_changed,
-                             description="Keep the current LOD while you fly around it")
-    show_levels: BoolProperty(name="Show LOD levels", default=False, update=_material_changed,
-                              description="Colour faces by sector level")
-    morph: BoolProperty(name="Morphing", default=False, update=_changed)
-    live_update: BoolProperty(name="Live update", default=True, update=_changed)
-    gpu_preview: BoolProperty(name="GPU preview", default=True, update=_preview_changed,
-                              description="Draw the sectors with GLSL in the viewport")
-    clip_from_horizon: BoolProperty(name="Camera clip from horizon", default=False,
-                                    update=_changed,
-                                    description="Set the LOD camera's clip range before renders")
+                            update=_changed, description="Camera whose detail the viewport shows")
+    freeze_lod: BoolProperty(name="Freeze Detail", default=False, update=_changed,
+                             description="Keep the current detail while you fly around it; "
+                                         "its camera's view is drawn in yellow")
+    show_levels: BoolProperty(name="Show Levels", default=False, update=_material_changed,
+                              description="Colour the terrain patches by their level of detail")
+    morph: BoolProperty(name="Morphing", default=False, update=_changed,
+                        description="Blend new detail in smoothly instead of popping")
+    live_update: BoolProperty(name="Live Update", default=True, update=_changed,
+                              description="Update the detail while you move the view")
+    gpu_preview: BoolProperty(name="Fast Preview", default=True, update=_preview_changed,
+                              description="Draw the planet on the GPU in the viewport (the "
+                                          "mesh is then built for renders only)")
+    clip_from_horizon: BoolProperty(name="Camera Clip to Horizon", default=True,
+                                    update=_camera_clip_changed,
+                                    description="Set the render camera's clip start and end "
+                                                "from its height and the horizon, so the "
+                                                "whole visible planet renders")
+    view_clip_from_horizon: BoolProperty(name="Viewport Clip to Horizon", default=True,
+                                         update=_changed,
+                                         description="Keep the viewport's clip start and end "
+                                                     "fitted to the planet as you navigate "
+                                                     "(no far side showing through, no "
+                                                     "clipped planet)")
     quality: EnumProperty(name="Quality", items=presets.QUALITY_ITEMS, default="PREVIEW")
     atmosphere: EnumProperty(name="Atmosphere", default="NONE", update=_material_changed,
                              items=_atmosphere_items(),

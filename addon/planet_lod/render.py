@@ -101,16 +101,20 @@ def render_flyby(scene, planet_obj, first, last, out_dir, path_frames, report=_l
     os.makedirs(out_dir, exist_ok=True)
     saved = _SceneState(scene, planet_obj)
     try:
+        saved.add_sun(planet_obj)
         rows = _render_frames(scene, planet_obj, first, last, out_dir, path_frames, report)
     except BaseException:
         # cancelled (Esc, a failed frame, KeyboardInterrupt): put the scene back
         saved.restore()
         raise
+    # done: the scene camera, frame and output settings as they were; the flyby
+    # camera stays (not as the scene camera) to look at or render again
+    saved.restore(keep_camera=True)
     return rows
 
 
 class _SceneState:
-    """What a flyby changes in the scene, to undo it when the flyby is cancelled."""
+    """What a flyby changes in the scene, to put it back afterwards."""
 
     def __init__(self, scene, planet_obj):
         self.scene = scene
@@ -123,10 +127,29 @@ class _SceneState:
         self.planet_name = planet_obj.name
         anchor = planet_obj.get(live.ANCHOR_KEY)
         self.anchor = None if anchor is None else list(live.anchor(planet_obj))
+        self.sun_name = None
 
-    def restore(self):
+    def add_sun(self, planet_obj):
+        """A sun for the flyby's frames when the scene has none (removed after)."""
         scene = self.scene
-        if not self.had_flyby:
+        if any(o.type == 'LIGHT' and o.data.type == 'SUN' and not o.hide_render
+               for o in scene.objects):
+            return
+        sun = bpy.data.objects.new("Flyby Sun", bpy.data.lights.new("Flyby Sun", 'SUN'))
+        sun.data.energy = 4.0
+        sun.rotation_euler = (0.9, 0.0, 2.2)
+        scene.collection.objects.link(sun)
+        self.sun_name = sun.name
+
+    def restore(self, keep_camera=False):
+        scene = self.scene
+        sun = bpy.data.objects.get(self.sun_name) if self.sun_name else None
+        if sun is not None:
+            data = sun.data
+            bpy.data.objects.remove(sun)
+            if data is not None and data.users == 0:
+                bpy.data.lights.remove(data)
+        if not self.had_flyby and not keep_camera:
             cam = bpy.data.objects.get(self.flyby_name)
             if cam is not None:
                 data = cam.data

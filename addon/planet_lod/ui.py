@@ -1,7 +1,10 @@
-"""The "Planet" tab of the 3D viewport sidebar."""
+"""The "Planet" tab of the 3D viewport's sidebar, grouped the way a planet is
+made: the planet itself, its surface, its level of detail, how the viewport
+shows it, and how it renders; problems are shown at the top."""
 import bpy
 
-from . import core, live
+from . import core, draw, live
+from .operators import PLOD_MT_planet_presets, PLOD_MT_quality_presets
 
 
 def _planet(context):
@@ -11,10 +14,50 @@ def _planet(context):
     return None
 
 
+def _wrapped(layout, text, icon, width=40):
+    """A message over several lines (the sidebar is narrow), first line with `icon`."""
+    words, line, lines = text.split(), "", []
+    for word in words:
+        if line and len(line) + 1 + len(word) > width:
+            lines.append(line)
+            line = word
+        else:
+            line = f"{line} {word}" if line else word
+    if line:
+        lines.append(line)
+    col = layout.column(align=True)
+    for i, part in enumerate(lines[:8]):
+        col.label(text=part, icon=icon if i == 0 else 'BLANK1')
+
+
+def problems(obj):
+    """(errors, warnings) the panel shows for a planet: what failed and what looks wrong."""
+    errors, warnings = [], []
+    st = live.RUNTIME.get(obj.name_full)
+    if st is not None:
+        if st.error:
+            errors.append(st.error)
+        if st.warning:
+            warnings.append(st.warning)
+        if st.render_warning:
+            warnings.append(st.render_warning)
+    if obj.planet_lod.gpu_preview and draw.shader_error():
+        errors.append(draw.shader_error())
+    return errors, warnings
+
+
 class PLOD_PT_base:
     bl_space_type = 'VIEW_3D'
     bl_region_type = 'UI'
     bl_category = "Planet"
+
+
+class PLOD_PT_planet_sub(PLOD_PT_base):
+    bl_parent_id = "PLOD_PT_planet"
+
+    @classmethod
+    def poll(cls, context):
+        return _planet(context) is not None and core.native is not None
 
 
 class PLOD_PT_planet(PLOD_PT_base, bpy.types.Panel):
@@ -25,130 +68,160 @@ class PLOD_PT_planet(PLOD_PT_base, bpy.types.Panel):
         if core.load_native() is None:
             box = layout.box()
             box.alert = True
-            box.label(text="Native module missing", icon='ERROR')
-            for chunk in (core.native_error[i:i + 48] for i in range(0, len(core.native_error), 48)):
-                box.label(text=chunk)
+            _wrapped(box, "The add-on's native module is missing: " + core.native_error,
+                     'ERROR')
             return
         obj = _planet(context)
         if obj is None:
-            layout.operator("mesh.planet_add", icon='WORLD')
+            layout.operator("mesh.planet_add", text="Add Planet", icon='WORLD')
+            layout.label(text="or select a planet", icon='INFO')
             return
         s = obj.planet_lod
-        row = layout.row(align=True)
-        row.menu("PLOD_MT_planet_presets", text=bpy.types.PLOD_MT_planet_presets.bl_label)
-        row.operator("object.planet_preset_add", text="", icon='ADD')
-        row.operator("object.planet_preset_add", text="", icon='REMOVE').remove_active = True
-        row = layout.row(align=True)
-        row.menu("PLOD_MT_quality_presets", text=bpy.types.PLOD_MT_quality_presets.bl_label)
-        row.operator("object.planet_quality_preset_add", text="", icon='ADD')
-        row.operator("object.planet_quality_preset_add", text="",
-                     icon='REMOVE').remove_active = True
-        row = layout.row(align=True)
-        for key in ("DRAFT", "PREVIEW", "FINAL"):
-            row.operator("object.planet_apply_preset", text=key.title()).quality = key
-        col = layout.column()
-        col.prop(s, "projection")
-        col.prop(s, "radius")
-        row = col.row(align=True)
-        row.prop(s, "heightmap")
-        row.operator("object.planet_set_heightmap", text="", icon='FILEBROWSER')
-        col.prop(s, "height_scale")
-        row = col.row(align=True)
-        row.prop(s, "height_offset")
-        row.prop(s, "height_signed", text="Signed")
-        col.prop(s, "color_map")
-        row = col.row(align=True)
-        row.prop(s, "use_sea_level", text="")
-        sub = row.row(align=True)
-        sub.active = s.use_sea_level
-        sub.prop(s, "sea_level")
-        sub = col.row(align=True)
-        sub.active = s.use_sea_level
-        sub.prop(s, "ocean_sphere")
-        sub.prop(s, "skip_sea")
-        row = col.row(align=True)
-        row.prop(s, "atmosphere")
-        sub = row.row(align=True)
-        sub.active = s.atmosphere != 'NONE'
-        sub.prop(s, "atmosphere_density", text="Density")
-        st = live.RUNTIME.get(obj.name_full)
-        if st is not None and st.error:
+        errors, warnings = problems(obj)
+        for message in errors:
             box = layout.box()
             box.alert = True
-            box.label(text=st.error[:120], icon='ERROR')
+            _wrapped(box, message[0].upper() + message[1:], 'ERROR')
+        for message in warnings:
+            _wrapped(layout.box(), message[0].upper() + message[1:], 'INFO')
+        row = layout.row(align=True)
+        row.menu("PLOD_MT_planet_presets", text=PLOD_MT_planet_presets.bl_label)
+        row.operator("object.planet_preset_add", text="", icon='ADD')
+        row.operator("object.planet_preset_add", text="", icon='REMOVE').remove_active = True
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        col = layout.column()
+        col.prop(s, "radius")
+        col.prop(s, "projection")
 
 
-class PLOD_PT_detail(PLOD_PT_base, bpy.types.Panel):
+class PLOD_PT_surface(PLOD_PT_planet_sub, bpy.types.Panel):
+    bl_label = "Surface"
+
+    def draw(self, context):
+        s = context.object.planet_lod
+        layout = self.layout
+        col = layout.column()
+        col.label(text="Height Map")
+        row = col.row(align=True)
+        row.prop(s, "heightmap", text="")
+        row.operator("object.planet_set_heightmap", text="", icon='FILEBROWSER')
+        col.label(text="Colour Map")
+        col.prop(s, "color_map", text="")
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        col = layout.column()
+        col.prop(s, "height_scale", text="Height")
+        col.prop(s, "height_offset", text="Offset")
+        col.prop(s, "height_signed", text="Signed")
+        col.prop(s, "use_sea_level", text="Sea")
+        sub = col.column()
+        sub.active = s.use_sea_level
+        sub.prop(s, "sea_level", text="Level")
+        sub.prop(s, "ocean_sphere", text="Water Sphere")
+        sub.prop(s, "skip_sea", text="Hide Floor")
+        col = layout.column()
+        col.prop(s, "atmosphere", text="Sky")
+        sub = col.column()
+        sub.active = s.atmosphere != 'NONE'
+        sub.prop(s, "atmosphere_density", text="Density")
+
+
+class PLOD_PT_detail(PLOD_PT_planet_sub, bpy.types.Panel):
     bl_label = "Detail"
-    bl_parent_id = "PLOD_PT_planet"
-
-    @classmethod
-    def poll(cls, context):
-        return _planet(context) is not None and core.native is not None
 
     def draw_header(self, context):
         self.layout.prop(context.object.planet_lod, "use_detail", text="")
 
     def draw(self, context):
         s = context.object.planet_lod
-        col = self.layout.column()
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        col = layout.column()
         col.active = s.use_detail
         col.prop(s, "detail_style")
         col.prop(s, "detail_amplitude")
         col.prop(s, "detail_roughness")
-        col.prop(s, "detail_smallest")
+        col.prop(s, "detail_smallest", text="Smallest")
         col.prop(s, "detail_craters")
         col.prop(s, "detail_plains")
         col.prop(s, "detail_seed")
 
 
-class PLOD_PT_lod(PLOD_PT_base, bpy.types.Panel):
+class PLOD_PT_lod(PLOD_PT_planet_sub, bpy.types.Panel):
     bl_label = "Level of Detail"
-    bl_parent_id = "PLOD_PT_planet"
-
-    @classmethod
-    def poll(cls, context):
-        return _planet(context) is not None and core.native is not None
 
     def draw(self, context):
         s = context.object.planet_lod
-        col = self.layout.column()
+        layout = self.layout
+        row = layout.row(align=True)
+        row.menu("PLOD_MT_quality_presets", text=PLOD_MT_quality_presets.bl_label)
+        row.operator("object.planet_quality_preset_add", text="", icon='ADD')
+        row.operator("object.planet_quality_preset_add", text="",
+                     icon='REMOVE').remove_active = True
+        row = layout.row(align=True)
+        for key in ("DRAFT", "PREVIEW", "FINAL"):
+            row.operator("object.planet_apply_preset", text=key.title(),
+                         depress=s.quality == key).quality = key
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        col = layout.column()
         col.prop(s, "criterion")
         if s.criterion == 'PIXEL':
-            col.prop(s, "max_pixel_error")
+            col.prop(s, "max_pixel_error", text="Error")
         else:
-            col.prop(s, "split_border")
-            col.prop(s, "merge_border")
-        col.prop(s, "template_density")
-        col.prop(s, "budget")
-        col.prop(s, "max_level")
-        row = col.row(align=True)
-        row.prop(s, "backface", toggle=True)
-        row.prop(s, "frustum", toggle=True)
-        col.prop(s, "lod_camera")
+            col.prop(s, "split_border", text="Split")
+            col.prop(s, "merge_border", text="Merge")
+        col.prop(s, "template_density", text="Density")
+        col.prop(s, "budget", text="Budget")
+        col.prop(s, "max_level", text="Depth")
+        col = layout.column(heading="Skip")
+        col.prop(s, "backface", text="Far Side")
+        col.prop(s, "frustum", text="Off-Screen")
+        col = layout.column()
+        col.prop(s, "lod_camera", text="Detail For")
         if s.lod_camera == 'CAMERA':
             col.prop(s, "camera")
-        row = col.row(align=True)
-        row.prop(s, "freeze_lod", toggle=True, icon='FREEZE')
-        row.prop(s, "show_levels", toggle=True)
-        row.prop(s, "morph", toggle=True)
-        row = col.row(align=True)
-        row.prop(s, "live_update", toggle=True)
-        row.prop(s, "gpu_preview", toggle=True)
-        col.prop(s, "clip_from_horizon")
-        row = col.row(align=True)
-        row.operator("object.planet_refresh", icon='FILE_REFRESH')
-        row.operator("object.planet_apply_mesh", icon='MESH_DATA')
-        col.operator("render.planet_flyby", icon='RENDER_ANIMATION')
 
 
-class PLOD_PT_stats(PLOD_PT_base, bpy.types.Panel):
+class PLOD_PT_display(PLOD_PT_planet_sub, bpy.types.Panel):
+    bl_label = "Display"
+
+    def draw(self, context):
+        s = context.object.planet_lod
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        col = layout.column(heading="Viewport")
+        col.prop(s, "gpu_preview")
+        col.prop(s, "live_update")
+        col.prop(s, "view_clip_from_horizon", text="Horizon Clip")
+        col = layout.column(heading="Inspect")
+        col.prop(s, "show_levels")
+        col.prop(s, "freeze_lod", text="Freeze")
+        col.prop(s, "morph")
+
+
+class PLOD_PT_render(PLOD_PT_planet_sub, bpy.types.Panel):
+    bl_label = "Render"
+
+    def draw(self, context):
+        s = context.object.planet_lod
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        layout.prop(s, "clip_from_horizon", text="Horizon Clip")
+        col = layout.column(align=True)
+        col.use_property_split = False
+        col.operator("object.planet_refresh", text="Update Render Mesh", icon='FILE_REFRESH')
+        col.operator("object.planet_apply_mesh", icon='MESH_DATA')
+        col.operator("render.planet_flyby", text="Render Flyby", icon='RENDER_ANIMATION')
+
+
+class PLOD_PT_stats(PLOD_PT_planet_sub, bpy.types.Panel):
     bl_label = "Statistics"
-    bl_parent_id = "PLOD_PT_planet"
-
-    @classmethod
-    def poll(cls, context):
-        return _planet(context) is not None and core.native is not None
+    bl_options = {'DEFAULT_CLOSED'}
 
     def draw(self, context):
         st = live.RUNTIME.get(context.object.name_full)
@@ -157,19 +230,19 @@ class PLOD_PT_stats(PLOD_PT_base, bpy.types.Panel):
             col.label(text="Not refined yet")
             return
         s = st.stats
-        for label, key in (("Sectors", "sectors_total"), ("After backface", "sectors_after_backface"),
-                           ("After frustum", "sectors_after_frustum"),
-                           ("After budget", "sectors_after_budget"), ("Triangles", "triangles"),
-                           ("Splits", "splits"), ("Merges", "merges"), ("Max level", "max_level")):
+        for label, key in (("Patches", "sectors_total"), ("Near Side", "sectors_after_backface"),
+                           ("On Screen", "sectors_after_frustum"),
+                           ("Drawn", "sectors_after_budget"), ("Triangles", "triangles"),
+                           ("Splits", "splits"), ("Merges", "merges"), ("Depth", "max_level")):
             row = col.row()
             row.label(text=label)
             row.label(text=str(s.get(key, "-")))
         row = col.row()
-        row.label(text="Refine + cull")
+        row.label(text="Update")
         row.label(text=f"{(s.get('refine_us', 0) + s.get('cull_us', 0)) / 1000.0:.2f} ms")
         if "mesh_ms" in s:
             row = col.row()
-            row.label(text="Mesh update")
+            row.label(text="Mesh")
             row.label(text=f"{s['mesh_ms']:.1f} ms")
 
 
@@ -210,7 +283,8 @@ class PLOD_PT_geo(bpy.types.Panel):
         layout.prop(geo, "floating_origin")
 
 
-classes = (PLOD_PT_planet, PLOD_PT_detail, PLOD_PT_lod, PLOD_PT_stats, PLOD_PT_geo)
+classes = (PLOD_PT_planet, PLOD_PT_surface, PLOD_PT_detail, PLOD_PT_lod, PLOD_PT_display,
+           PLOD_PT_render, PLOD_PT_stats, PLOD_PT_geo)
 
 
 def register():

@@ -39,8 +39,12 @@ def main():
     assert bpy.ops.mesh.planet_add(preset='EARTH', quality='DRAFT') == {'FINISHED'}
     planet = bpy.context.object
     out = os.path.join(lib.out_dir(), "render")
+    camera_before, frame_before = scene.camera, scene.frame_current
     assert bpy.ops.render.planet_flyby(frames="1-4", path_frames=120,
                                        directory=out) == {'FINISHED'}
+    # the flyby leaves the scene camera and the frame as they were
+    assert scene.camera == camera_before and scene.frame_current == frame_before
+    scene.camera = bpy.data.objects["Flyby " + planet.name]
     assert os.path.isfile(os.path.join(out, "contact_sheet.png"))
     with open(os.path.join(out, "stats.csv")) as f:
         lines = f.read().splitlines()

@@ -62,7 +62,7 @@ def check_cameras(cam):
     before = rob.snapshot()
     del before["mesh " + earth.name]  # a successful refresh rebuilds the mesh
     assert bpy.ops.object.planet_refresh() == {'FINISHED'}
-    assert "inside the planet" in live.state(earth).warning, live.state(earth).warning
+    assert "inside the planet" in live.state(earth).render_warning, live.state(earth).render_warning
     after = rob.snapshot()
     del after["mesh " + earth.name]
     rob.assert_same(before, after, "camera inside")

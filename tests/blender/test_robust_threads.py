@@ -24,13 +24,13 @@ def main():
     earth = bpy.context.object
     assert scene.render.use_lock_interface
     earth.planet_lod.gpu_preview = False  # the timer rebuilds the mesh itself
-    live.DEBOUNCE_S = 0.0
+    live.REFRESH_INTERVAL_S = 0.0
 
     def move_and_tick():
         cam.location.x += 1.0e5
         bpy.context.view_layer.update()
         live.tick()  # notices the change
-        live.tick()  # runs the refresh (debounce 0) unless it must not
+        live.tick()  # runs the refresh (interval 0) unless it must not
 
     # 1. a render in progress (a render job in the UI): the viewport timer
     # leaves the planet alone

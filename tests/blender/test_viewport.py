@@ -66,7 +66,7 @@ def step():
         planet = bpy.data.objects.get("Earth")
         st = live.RUNTIME.get(planet.name_full) if planet else None
         if STATE["step"] < 40 and (st is None or not st.instances):
-            return 0.1  # wait for the live refresh (debounced timer)
+            return 0.1  # wait for the live refresh (refresh timer)
         assert st is not None and st.instances, "live update never refined the planet"
         if STATE["step"] < 45:
             return 0.1  # let the viewport redraw

@@ -1,0 +1,195 @@
+"""Interactive cost of each preset in Blender's real UI (run under xvfb-run):
+
+    xvfb-run -a -s "-screen 0 1920x1080x24" blender --factory-startup \
+        --python bench/bench_ui.py -- [--out bench/results]
+
+For every planet preset (added with Add > Planet, Preview quality) and two
+views of the 1586x953 viewport -- the whole planet as Add frames it, and 2 km
+above the ground looking 15 degrees below the horizon -- it times the
+viewport's refresh as the add-on's timer runs it (live.refresh: refine with
+hysteresis + planet.instances), cold (planet.reset() first) and warm (the view
+moved by 0.5% of its height above the ground each frame, 10 frames), and the
+GPU preview's upload after the LOD changed (draw._ensure_batch +
+draw._ensure_sector_texture, numpy) side by side with the list-based build it
+replaced (the same buffers from Python lists); for the whole-planet view also
+the viewport region's redraw with the preview, with the planet hidden and with
+the plain mesh of the same LOD.  Prints a table, writes ui_refresh.json.
+"""
+import argparse
+import json
+import math
+import os
+import statistics
+import sys
+import time
+
+import bpy
+from mathutils import Vector
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def view3d():
+    for area in bpy.context.window_manager.windows[0].screen.areas:
+        if area.type == 'VIEW_3D':
+            return area, next(r for r in area.regions if r.type == 'WINDOW')
+
+
+def ground_view(planet, r3d, altitude, pitch):
+    from planet_lod import core
+    native = core.build_planet(planet.planet_lod.as_dict())
+    direction = Vector((0.3, -0.8, 0.5)).normalized()
+    eye = direction * (planet.planet_lod.radius + native.height(*direction) + altitude)
+    east = Vector((0.0, 0.0, 1.0)).cross(direction).normalized()
+    forward = east * math.cos(math.radians(pitch)) - direction * math.sin(math.radians(pitch))
+    r3d.view_rotation = forward.to_track_quat('-Z', 'Y')
+    r3d.view_distance = 1.0
+    r3d.view_location = eye + forward
+    return direction
+
+
+def list_upload(inst, capacity):
+    """The list-based build the numpy one replaced (same buffers)."""
+    import gpu
+    bary = list(inst["template_barycentrics"])
+    tris = list(inst["template_triangles"])
+    vt = len(bary) // 3
+    coords = [tuple(bary[3 * i:3 * i + 3]) for i in range(vt)] * capacity
+    indices = []
+    for s in range(capacity):
+        base = s * vt
+        indices.extend((base + tris[k], base + tris[k + 1], base + tris[k + 2])
+                       for k in range(0, len(tris), 3))
+    corners, levels = list(inst["corners"]), list(inst["levels"])
+    count = len(levels)
+    rows = (max(3 * count, 1) + 767) // 768
+    data = [0.0] * (768 * rows * 4)
+    for s in range(count):
+        for c in range(3):
+            i = (3 * s + c) * 4
+            data[i:i + 3] = corners[9 * s + 3 * c:9 * s + 3 * c + 3]
+            data[i + 3] = levels[s]
+    gpu.types.GPUTexture((768, rows), format='RGBA32F',
+                         data=gpu.types.Buffer('FLOAT', len(data), data))
+    return coords, indices
+
+
+def measure(planet, scene, move):
+    from planet_lod import core, draw, live
+    st = live.state(planet)
+    native = core.build_planet(planet.planet_lod.as_dict())
+    native.reset()
+    t0 = time.perf_counter()
+    live.refresh(planet, scene)
+    cold = (time.perf_counter() - t0) * 1000.0
+    warm = []
+    for _ in range(10):
+        move()
+        t0 = time.perf_counter()
+        live.refresh(planet, scene)
+        warm.append((time.perf_counter() - t0) * 1000.0)
+    shader = draw.preview_shader()
+    inst = st.instances
+    res = draw.PlanetGPU()
+    t0 = time.perf_counter()
+    draw._ensure_batch(res, shader, inst, len(inst["levels"]))
+    draw._ensure_sector_texture(res, st, inst)
+    upload = (time.perf_counter() - t0) * 1000.0
+    t0 = time.perf_counter()
+    list_upload(inst, res.capacity)
+    upload_lists = (time.perf_counter() - t0) * 1000.0
+    return dict(cold_ms=round(cold, 2), warm_ms=round(statistics.median(warm), 2),
+                warm_max_ms=round(max(warm), 2), sectors=st.stats.get("sectors_total"),
+                drawn=st.stats.get("visible"), level=st.stats.get("max_level"),
+                upload_ms=round(upload, 2), upload_lists_ms=round(upload_lists, 2))
+
+
+def redraw_ms(area, region, n=3):
+    """Best of n region redraws (wm.redraw_timer), milliseconds."""
+    best = float("inf")
+    win = bpy.context.window_manager.windows[0]
+    for _ in range(n):
+        t0 = time.perf_counter()
+        with bpy.context.temp_override(window=win, area=area, region=region):
+            bpy.ops.wm.redraw_timer(type='DRAW', iterations=1)
+        best = min(best, time.perf_counter() - t0)
+    return round(best * 1000.0, 1)
+
+
+def draw_costs(planet, scene, area, region):
+    """Region redraw with the GPU preview, with the planet hidden, and with the
+    plain mesh of the same LOD (preview off, Solid shading)."""
+    from planet_lod import live
+    out = {"draw_preview_ms": redraw_ms(area, region)}
+    planet.hide_viewport = True
+    out["draw_hidden_ms"] = redraw_ms(area, region)
+    planet.hide_viewport = False
+    planet.planet_lod.gpu_preview = False
+    live.refresh(planet, scene, build_mesh=True)
+    out["draw_mesh_ms"] = redraw_ms(area, region)
+    planet.planet_lod.gpu_preview = True
+    live.refresh(planet, scene)
+    return out
+
+
+def run(args):
+    import addon_utils
+    addon_utils.enable("planet_lod", default_set=True)
+    scene = bpy.context.scene
+    area, region = view3d()
+    r3d = area.spaces.active.region_3d
+    rows = []
+    for preset in ("EARTH", "MOON", "MARS", "ASTEROID"):
+        for obj in [o for o in bpy.data.objects if o.type == 'MESH']:
+            bpy.data.objects.remove(obj)
+        with bpy.context.temp_override(window=bpy.context.window_manager.windows[0],
+                                       area=area, region=region):
+            bpy.ops.mesh.planet_add(preset=preset, quality='PREVIEW')
+        planet = bpy.context.object
+        radius = planet.planet_lod.radius
+
+        def orbit():
+            r3d.view_rotation = (r3d.view_rotation @ Vector((0.0, 0.0, 1.0))
+                                 .rotation_difference(Vector((0.001, 0.0, 1.0)))).normalized()
+        rows.append(dict(preset=preset, view="whole planet", **measure(planet, scene, orbit),
+                         **draw_costs(planet, scene, area, region)))
+        up = ground_view(planet, r3d, 2000.0, 15.0)
+
+        def fly():
+            r3d.view_location = r3d.view_location + up * 10.0
+        rows.append(dict(preset=preset, view="2 km, towards the horizon",
+                         **measure(planet, scene, fly)))
+        print(rows[-2], flush=True)
+        print(rows[-1], flush=True)
+    os.makedirs(args.out, exist_ok=True)
+    with open(os.path.join(args.out, "ui_refresh.json"), "w") as f:
+        json.dump(rows, f, indent=1)
+    print(f"{'preset':9} {'view':26} {'cold':>7} {'warm':>7} {'max':>7} {'sectors':>8} "
+          f"{'drawn':>6} {'upload':>7} {'lists':>7}")
+    for r in rows:
+        print(f"{r['preset']:9} {r['view']:26} {r['cold_ms']:7.1f} {r['warm_ms']:7.1f} "
+              f"{r['warm_max_ms']:7.1f} {r['sectors']:8} {r['drawn']:6} {r['upload_ms']:7.1f} "
+              f"{r['upload_lists_ms']:7.1f}")
+    print("whole-planet redraw of the viewport region (ms): preview / planet hidden / plain mesh")
+    for r in rows:
+        if "draw_preview_ms" in r:
+            print(f"{r['preset']:9} {r['draw_preview_ms']:7.1f} {r['draw_hidden_ms']:7.1f} "
+                  f"{r['draw_mesh_ms']:7.1f}")
+
+
+def main():
+    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+    p = argparse.ArgumentParser()
+    p.add_argument("--out", default=os.path.join(ROOT, "bench", "results"))
+    args = p.parse_args(argv)
+
+    def step():
+        try:
+            run(args)
+        finally:
+            os._exit(0)
+    bpy.context.preferences.view.show_splash = False
+    bpy.app.timers.register(step, first_interval=1.0)
+
+
+main()

@@ -1,0 +1,70 @@
+"""In the real UI (xvfb): every panel of the add-on's sidebar tab draws without
+error in each state -- no planet, each planet preset, a planet whose height map
+path is wrong -- and the error is shown in the panel (a red box)."""
+import bpy
+import numpy as np
+
+import plod_testlib as lib
+import plod_uilib as ui
+
+ALL = {"PLOD_PT_planet", "PLOD_PT_surface", "PLOD_PT_detail", "PLOD_PT_lod",
+       "PLOD_PT_display", "PLOD_PT_render", "PLOD_PT_stats"}
+
+
+def redraw_and_check(recorder, expected, label):
+    win, area, region, sidebar = ui.view3d()
+    before = recorder.snapshot()
+    area.tag_redraw()
+    yield 0.6
+    drawn = recorder.drawn_since(before)
+    print(f"{label}: drew {sorted(drawn)}", flush=True)
+    assert not recorder.errors, recorder.errors
+    assert expected <= drawn, f"{label}: {sorted(expected - drawn)} not drawn"
+
+
+def red_pixels(name):
+    """Pixels of the sidebar that are the alert box's red."""
+    _, _, _, sidebar = ui.view3d()
+    image = ui.crop_region(ui.screenshot(name, region='WINDOW'), sidebar)
+    r, g, b = image[..., 0], image[..., 1], image[..., 2]
+    return int(np.sum((r > 0.5) & (r > g + 0.25) & (r > b + 0.25)))
+
+
+def test():
+    lib.enable()
+    recorder = ui.PanelRecorder()
+    from planet_lod import ui as panels
+    panels.PLOD_PT_stats.bl_options = set()  # opened, so that its draw runs too
+    bpy.utils.unregister_class(panels.PLOD_PT_stats)
+    bpy.utils.register_class(panels.PLOD_PT_stats)
+    yield from ui.open_sidebar_tab(recorder)
+    # no planet selected: the main panel offers to add one
+    bpy.ops.object.select_all(action='DESELECT')
+    bpy.context.view_layer.objects.active = None
+    yield from redraw_and_check(recorder, {"PLOD_PT_planet"}, "no planet")
+    clean_red = red_pixels("panels_none.png")
+    for preset in ("EARTH", "MOON", "MARS", "ASTEROID"):
+        with ui.override():
+            assert bpy.ops.mesh.planet_add(preset=preset) == {'FINISHED'}
+        yield 0.5
+        yield from redraw_and_check(recorder, ALL, preset)
+        ui.screenshot(f"panels_{preset.lower()}.png", region='WINDOW')
+    planet = bpy.context.object
+    assert red_pixels("panels_ok.png") <= clean_red + 50
+    # a bad path typed into the height map field: the panel says why, in red
+    planet.planet_lod.heightmap = "/nonexistent/heights.png"
+    yield 0.5
+    yield from redraw_and_check(recorder, ALL, "bad height map")
+    red = red_pixels("panels_error.png")
+    print(f"red pixels in the sidebar: {red} with the error, {clean_red} without", flush=True)
+    assert red > clean_red + 200, "the error is not shown in the panel"
+    from planet_lod import live
+    assert "not found" in live.state(planet).error
+    # fixed again: the error goes away
+    planet.planet_lod.heightmap = ""
+    yield 0.8
+    yield from redraw_and_check(recorder, ALL, "height map cleared")
+    assert live.state(planet).error == "", live.state(planet).error
+
+
+ui.run(test)
