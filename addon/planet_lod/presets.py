@@ -8,7 +8,7 @@ PLANETS = {
                   color_map="earth-blue-marble.jpg", height_scale=8848.0,
                   use_sea_level=True, sea_level=0.0, ocean_sphere=False,
                   projection="QSC", atmosphere="EARTH", use_detail=True,
-                  detail_style="MOUNTAINS", detail_amplitude=1000.0, detail_roughness=0.56,
+                  detail_style="MOUNTAINS", detail_amplitude=1000.0, detail_roughness=0.5,
                   detail_craters=0.0, detail_plains=0.45),
     "MOON": dict(label="Moon", radius=1737400.0, heightmap="lunar_bumpmap.jpg",
                  color_map="lunar_surface_2k.jpg", height_scale=19000.0,
