@@ -168,6 +168,37 @@ static double plod__gnoise(const double p[3], uint64_t seed, double g[3])
     return n;
 }
 
+/* plod__gnoise's value alone: the same operations in the same order, so
+ * the same bits (height-only callers: bounds, heights without normals). */
+static double plod__gnoise_value(const double p[3], uint64_t seed)
+{
+    double fx = plod__floor(p[0]), fy = plod__floor(p[1]), fz = plod__floor(p[2]);
+    double x = p[0] - fx, y = p[1] - fy, z = p[2] - fz;
+    uint64_t base = (uint64_t)(int64_t)fx * PLOD__HX + (uint64_t)(int64_t)fy * PLOD__HY +
+                    (uint64_t)(int64_t)fz * PLOD__HZ + seed;
+    double val[8];
+    for (int c = 0; c < 8; c++) {
+        int cx = c & 1, cy = (c >> 1) & 1, cz = (c >> 2) & 1;
+        uint64_t h = plod__mix_fast(base + (cx ? PLOD__HX : 0) + (cy ? PLOD__HY : 0) +
+                                    (cz ? PLOD__HZ : 0));
+        const signed char *q = plod__grad[h >> 60];
+        val[c] = q[0] * (x - cx) + q[1] * (y - cy) + q[2] * (z - cz);
+    }
+    double ux = x * x * x * (x * (x * 6.0 - 15.0) + 10.0);
+    double uy = y * y * y * (y * (y * 6.0 - 15.0) + 10.0);
+    double uz = z * z * z * (z * (z * 6.0 - 15.0) + 10.0);
+    double k0 = val[0], k1 = val[1] - val[0], k2 = val[2] - val[0], k3 = val[4] - val[0];
+    double k4 = val[0] - val[1] - val[2] + val[3];
+    double k5 = val[0] - val[2] - val[4] + val[6];
+    double k6 = val[0] - val[1] - val[4] + val[5];
+    double k7 = -val[0] + val[1] + val[2] - val[3] + val[4] - val[5] - val[6] + val[7];
+    double n = k0 + k1 * ux + k2 * uy + k3 * uz + k4 * ux * uy + k5 * uy * uz + k6 * uz * ux +
+               k7 * ux * uy * uz;
+    if (n > 1.0 || n < -1.0)
+        n = n > 0.0 ? 1.0 : -1.0;
+    return n;
+}
+
 /* ---- craters --------------------------------------------------------------- */
 
 /* Crater profile at x = distance / r, in units of depth; dprof: d/dx. */
@@ -255,6 +286,40 @@ static void plod__add_gradient(const plod__octave *o, const double g[3], double 
         acc[a] += scale * (o->m[0][a] * g[0] + o->m[1][a] * g[1] + o->m[2][a] * g[2]);
 }
 
+/* plod_detail_noise without the gradient: the same sum, bit for bit. */
+static double plod__noise_value(const plod_detail *detail, const double dir[3], int octaves)
+{
+    double sum = 0.0;
+    int ridged = detail->params.style == PLOD_DETAIL_MOUNTAINS;
+    double weight = 1.0;
+    for (int i = 0; i < octaves; i++) {
+        const plod__octave *o = &detail->octaves[i];
+        double p[3], g[3];
+        plod__lattice(o, dir, p);
+        if (o->noise_weight != 0.0) {
+            double n = plod__gnoise_value(p, o->seed);
+            if (!ridged) {
+                sum += o->noise_weight * n;
+            } else {
+                double an = n < 0.0 ? -n : n;
+                double s = (1.0 - an) * (1.0 - an);
+                sum += o->noise_weight * weight * (s - 0.5);
+                double next = PLOD__RIDGE_GAIN * s;
+                weight = next >= 1.0 ? 1.0 : next;
+            }
+        }
+        if (o->crater_weight != 0.0) {
+            double cp[3] = {p[0] + 0.5, p[1] + 0.5, p[2] + 0.5};
+            double centre[3] = {o->offset[0] + 0.5, o->offset[1] + 0.5, o->offset[2] + 0.5};
+            double value = plod__crater(cp, centre, o->frequency, o->crater_seed,
+                                        detail->params.crater_density, g);
+            if (value != 0.0)
+                sum += o->crater_weight * value;
+        }
+    }
+    return sum;
+}
+
 double plod_detail_noise(const plod_detail *detail, const double dir[3], int octaves,
                          double gradient[3])
 {
@@ -267,6 +332,8 @@ double plod_detail_noise(const plod_detail *detail, const double dir[3], int oct
             gradient[0] = gradient[1] = gradient[2] = NAN;
         return NAN;
     }
+    if (!gradient)
+        return plod__noise_value(detail, dir, octaves);
     int ridged = detail->params.style == PLOD_DETAIL_MOUNTAINS;
     double weight = 1.0, dweight[3] = {0.0, 0.0, 0.0}; /* ridged: previous signal */
     for (int i = 0; i < octaves; i++) {

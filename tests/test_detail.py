@@ -264,6 +264,24 @@ def test_detail_refinement_is_history_free_and_thread_identical(planetlod, earth
 
 
 @pytest.mark.parametrize("style", ["hills", "mountains", "craters"])
+def test_heights_are_the_same_with_and_without_normals(planetlod, style):
+    """height() sums the field without its gradient; surface() (normals,
+    as mesh vertices) with it: the same heights bit for bit, at every
+    direction, for every style and the crater layer."""
+    planet = planetlod.Planet(20e3, detail=dict(style=style, amplitude=300.0, seed=5,
+                                                largest=8000.0, smallest=0.5, craters=1.0))
+    rng = np.random.default_rng(12)
+    dirs = rng.normal(size=(3000, 3))
+    heights, _normals = planet.surface(dirs.reshape(-1).tolist())
+    # surface() divides by the length first, as here; height() does not
+    x, y, z = dirs[:, 0], dirs[:, 1], dirs[:, 2]
+    dirs = dirs / np.sqrt(x * x + y * y + z * z)[:, None]
+    alone = [planet.height(*d) for d in dirs]
+    assert list(heights) == alone
+    assert np.std(alone) > 10.0
+
+
+@pytest.mark.parametrize("style", ["hills", "mountains", "craters"])
 def test_styles_on_a_map_free_body(planetlod, style):
     """Without a map the field alone makes the relief (modulation 1); the
     crater style digs bowls: its lowest points sit deeper below the mean
