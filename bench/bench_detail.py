@@ -7,6 +7,11 @@ detail (ridged mountains).
 
     /usr/bin/python3 bench/bench_detail.py [--frames 120] [--passes 2]
                                            [--threads 2] [--level 4]
+                                           [--set roughness=0.56,...]
+                                           [--build DIR]
+
+--set overrides the preset's detail parameters; --build imports planetlod
+from another build's folder (side-by-side runs of two builds).
 
 Refine: the refiner's own timer (refine_us + cull_us) per frame, the best
 of --passes descents after reset() (drops preemption by other tasks);
@@ -25,6 +30,9 @@ import time
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 sys.path.insert(0, os.path.join(ROOT, "bench"))
+
+if "--build" in sys.argv:  # before the import: another build's module
+    sys.path.insert(0, os.path.abspath(sys.argv[sys.argv.index("--build") + 1]))
 
 import planetlod  # noqa: E402
 import bench_refine  # noqa: E402
@@ -65,9 +73,15 @@ def main():
     parser.add_argument("--level", type=int, default=4)
     parser.add_argument("--max-level", type=int, default=48)
     parser.add_argument("--skip", default="", help="'refine' or 'emission'")
+    parser.add_argument("--set", default="", help="detail overrides: key=value,...")
+    parser.add_argument("--build", default="", help="folder of the planetlod build to use")
     args = parser.parse_args()
 
     detail = earth_detail()
+    for item in filter(None, args.set.split(",")):
+        key, value = item.split("=")
+        detail[key] = float(value)
+    print(f"planetlod from {planetlod.__file__}")
     planets = {
         "off": planetlod.Planet(R, heightmap=MAP, height_scale=8848.0, sea_level=0.0),
         "on": planetlod.Planet(R, heightmap=MAP, height_scale=8848.0, sea_level=0.0,
