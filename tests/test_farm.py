@@ -35,7 +35,10 @@ sys.path.insert(0, FARM)
 import merge_chunks  # noqa: E402
 
 # Columns that measure time, not what was rendered.
-TIMING_COLUMNS = {"refine_us", "mesh_ms", "render_s"}
+# How long, and how much incremental work (splits and merges since the frame the
+# process rendered before), a frame took: the rest of a row depends on the
+# frame alone.
+TIMING_COLUMNS = {"refine_us", "mesh_ms", "render_s", "splits", "merges"}
 # How a worker sees a written frame (Flamenco's blender-render output parser).
 FRAME_SAVED = re.compile(r"(?:^|(?:render\s+\|\s+))Saved: '(.*)'", re.MULTILINE)
 
