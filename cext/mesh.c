@@ -436,20 +436,23 @@ struct plod_mesh_cache {
     size_t hits, misses;
 };
 
-/* Per vertex: planet-space position (3 doubles), normal (3 floats), uv (2). */
+/* Per vertex: planet-space position (3 doubles), normal (3 floats), uv (2),
+ * detail (1). */
 typedef struct plod__block {
     double *position;
     float *normal;
     float *uv;
+    float *detail;
 } plod__block;
 
-#define PLOD__VERTEX_CACHE_BYTES (3 * sizeof(double) + 5 * sizeof(float))
+#define PLOD__VERTEX_CACHE_BYTES (3 * sizeof(double) + 6 * sizeof(float))
 
 static void plod__block_view(unsigned char *data, size_t vertices, plod__block *b)
 {
     b->position = (double *)data;
     b->normal = (float *)(data + 3 * sizeof(double) * vertices);
     b->uv = b->normal + 3 * vertices;
+    b->detail = b->uv + 2 * vertices;
 }
 
 static size_t plod__key_hash(uint64_t key)
@@ -659,6 +662,7 @@ static void plod__compute_vertices(const plod__emitter *e, const plod_mesh_secto
     int n = e->n;
     double inv_n = 1.0 / (double)n;
     int want_normal = out->normals || block, want_uv = out->uv || block;
+    int want_detail = out->detail || block;
 
     double lon_ref = 0.0;
     if (want_uv) {
@@ -669,7 +673,7 @@ static void plod__compute_vertices(const plod__emitter *e, const plod_mesh_secto
     }
 
     enum { ROW = (1 << PLOD_MAX_TEMPLATE_LEVEL) + 1 };
-    double dirs[3 * ROW], heights[ROW], normals[3 * ROW];
+    double dirs[3 * ROW], heights[ROW], normals[3 * ROW], detail[ROW];
     int octaves[ROW], normal_octaves[ROW], band[4];
     if (planet->detail)
         plod__detail_bands(planet, corners, n, band);
@@ -683,9 +687,10 @@ static void plod__compute_vertices(const plod__emitter *e, const plod_mesh_secto
             if (planet->detail)
                 octaves[j] = plod__vertex_band(params, k, band, dirs + 3 * j, normal_octaves + j);
         }
-        plod_planet_surface_band_n(planet, (size_t)row, dirs, planet->detail ? octaves : NULL,
-                                   planet->detail ? normal_octaves : NULL, heights,
-                                   want_normal ? normals : NULL);
+        plod_planet_surface_detail_n(planet, (size_t)row, dirs, planet->detail ? octaves : NULL,
+                                     planet->detail ? normal_octaves : NULL, heights,
+                                     want_normal ? normals : NULL,
+                                     want_detail ? detail : NULL);
         for (int j = 0; j < row; j++, v++, b++) {
             const double *dir = dirs + 3 * j, *normal = normals + 3 * j;
             double r = planet->radius + heights[j];
@@ -715,10 +720,14 @@ static void plod__compute_vertices(const plod__emitter *e, const plod_mesh_secto
                 if (out->uv)
                     memcpy(out->uv + 2 * v, uvf, sizeof uvf);
             }
+            float df = want_detail ? (float)detail[j] : 0.0f;
+            if (out->detail)
+                out->detail[v] = df;
             if (block) {
                 memcpy(block->position + 3 * b, p, sizeof p);
                 memcpy(block->normal + 3 * b, nf, sizeof nf);
                 memcpy(block->uv + 2 * b, uvf, sizeof uvf);
+                block->detail[b] = df;
             }
         }
     }
@@ -768,6 +777,8 @@ static void plod__copy_vertices(const plod__emitter *e, size_t vbase, const plod
         memcpy(out->normals + 3 * vbase, block->normal, 3 * count * sizeof(float));
     if (out->uv)
         memcpy(out->uv + 2 * vbase, block->uv, 2 * count * sizeof(float));
+    if (out->detail) /* (corners keep every octave: independent of the origin) */
+        memcpy(out->detail + vbase, block->detail, count * sizeof(float));
 }
 
 static plod_status plod__emit_sector(const plod__emitter *e, const plod_mesh_sector *sector,

@@ -170,10 +170,11 @@ static void plod__difference_normal(const plod_planet *planet, const double dir[
  * the map normal's slope plus N's analytic slope:
  * n ~ (R + h) d - grad_t h_map - m grad_t N. */
 static void plod__add_detail(const plod_planet *planet, const double dir[3], double m,
-                             int octaves, int normal_octaves, double *height, double *normal)
+                             int octaves, int normal_octaves, double *height, double *normal,
+                             double *detail)
 {
     if (!(m != 0.0) || octaves <= 0)
-        return; /* sea (m = 0) or NaN map: unchanged */
+        return; /* sea (m = 0) or NaN map: unchanged (and *detail 0) */
     /* the field lives on the unit sphere: callers' directions (unit by
      * contract, any length from Python) are renormalised, one rounding */
     double len2 = dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2];
@@ -190,6 +191,8 @@ static void plod__add_detail(const plod_planet *planet, const double dir[3], dou
     }
     double h_map = *height;
     *height = h_map + m * noise;
+    if (detail)
+        *detail = m * noise;
     if (!normal)
         return;
     double nd = normal[0] * dir[0] + normal[1] * dir[1] + normal[2] * dir[2];
@@ -303,7 +306,8 @@ double plod_planet_surface(const plod_planet *planet, const double dir[3], doubl
     double height = plod__map_surface(planet, dir, normal, &face, &u, &v);
     if (planet->detail)
         plod__add_detail(planet, dir, plod__modulation_at(planet, face, u, v),
-                         plod__all_octaves(planet), plod__all_octaves(planet), &height, normal);
+                         plod__all_octaves(planet), plod__all_octaves(planet), &height, normal,
+                         NULL);
     return height;
 }
 
@@ -314,11 +318,21 @@ void plod_planet_surface_band_n(const plod_planet *planet, size_t n, const doubl
                                 const int *octaves, const int *normal_octaves,
                                 double *heights, double *normals)
 {
+    plod_planet_surface_detail_n(planet, n, dirs, octaves, normal_octaves, heights, normals,
+                                 NULL);
+}
+
+void plod_planet_surface_detail_n(const plod_planet *planet, size_t n, const double *dirs,
+                                  const int *octaves, const int *normal_octaves,
+                                  double *heights, double *normals, double *detail)
+{
     if (!normal_octaves)
         normal_octaves = octaves;
     enum { CHUNK = 64 };
     if (normals)
         memcpy(normals, dirs, 3 * n * sizeof *normals);
+    if (detail)
+        memset(detail, 0, n * sizeof *detail);
     int all = plod__all_octaves(planet);
     if (planet->insets) { /* point by point: blends and difference normals */
         for (size_t i = 0; i < n; i++) {
@@ -329,7 +343,8 @@ void plod_planet_surface_band_n(const plod_planet *planet, size_t n, const doubl
             if (planet->detail)
                 plod__add_detail(planet, dirs + 3 * i, plod__modulation_at(planet, face, u, v),
                                  octaves ? octaves[i] : all,
-                                 normal_octaves ? normal_octaves[i] : all, heights + i, normal);
+                                 normal_octaves ? normal_octaves[i] : all, heights + i, normal,
+                                 detail ? detail + i : NULL);
         }
         return;
     }
@@ -341,7 +356,7 @@ void plod_planet_surface_band_n(const plod_planet *planet, size_t n, const doubl
             if (planet->detail)
                 plod__add_detail(planet, dirs + 3 * i, 1.0, octaves ? octaves[i] : all,
                                  normal_octaves ? normal_octaves[i] : all, heights + i,
-                                 normals ? normals + 3 * i : NULL);
+                                 normals ? normals + 3 * i : NULL, detail ? detail + i : NULL);
         }
         return;
     }
@@ -354,7 +369,7 @@ void plod_planet_surface_band_n(const plod_planet *planet, size_t n, const doubl
                 plod__add_detail(planet, dirs + 3 * i, plod__modulation_at(planet, face, u, v),
                                  octaves ? octaves[i] : all,
                                  normal_octaves ? normal_octaves[i] : all, heights + i,
-                                 normals + 3 * i);
+                                 normals + 3 * i, detail ? detail + i : NULL);
         }
         return;
     }
@@ -398,7 +413,7 @@ void plod_planet_surface_band_n(const plod_planet *planet, size_t n, const doubl
             double m = !mod ? 1.0 : (faces[i] < 0 ? NAN : modulation[i]);
             plod__add_detail(planet, dirs + 3 * at, m, octaves ? octaves[at] : all,
                              normal_octaves ? normal_octaves[at] : all, heights + at,
-                             normals ? normals + 3 * at : NULL);
+                             normals ? normals + 3 * at : NULL, detail ? detail + at : NULL);
         }
     }
 }

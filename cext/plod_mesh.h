@@ -62,12 +62,12 @@ typedef int (*plod_mesh_sector_fn)(const void *context, size_t index,
  * Sectors persist from frame to frame (a flyby splits or merges a few percent
  * of them per frame), and a persistent sector's vertices differ between
  * frames only by the origin they are written relative to.  A cache keeps, per
- * sector key, the planet-space positions (double), normals and uv of the
+ * sector key, the planet-space positions (double), normals, uv and detail of the
  * sectors emitted by the last plod_mesh_emit that used it; a sector found
  * there is copied (positions re-offset in double, then cast) instead of
  * recomputed, so the output is bit-identical to an uncached emission.
  * Entries not used by an emission are freed at its end: the cache holds one
- * frame's sectors, at most max_bytes (44 bytes per vertex; sectors that do
+ * frame's sectors, at most max_bytes (48 bytes per vertex; sectors that do
  * not fit are emitted uncached).  One cache serves one planet and template
  * level: emitting another planet (pointer, radius, height scale, maps) or
  * level through it empties it first.  Not thread-safe: one emission at a
@@ -150,7 +150,10 @@ double plod_mesh_morph_factor(const plod_mesh_params *params,
  * 2V (equirectangular: u = lon/2pi + 0.5, v = lat/pi + 0.5, lon unwrapped to
  * within pi of the sector centroid's; vertices at a pole take the centroid's
  * longitude), morph V (applied factor, 0 for even vertices), triangles 3T
- * int32 (indices into this output), sector_level T, face T. */
+ * int32 (indices into this output), sector_level T, face T, detail V (the
+ * detail field's part of the vertex's height in metres, over the octaves
+ * the vertex keeps: modulation times noise; 0 without detail and on the
+ * sea). */
 typedef struct plod_mesh_buffers {
     float *positions;
     float *normals;
@@ -159,6 +162,7 @@ typedef struct plod_mesh_buffers {
     int32_t *triangles;
     int32_t *sector_level;
     int32_t *face;
+    float *detail;
 } plod_mesh_buffers;
 
 /* Vertices / triangles for `sector_count` sectors; 0 on a bad level or when

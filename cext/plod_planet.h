@@ -88,6 +88,13 @@ void plod_planet_surface_n(const plod_planet *planet, size_t n, const double *di
 void plod_planet_surface_band_n(const plod_planet *planet, size_t n, const double *dirs,
                                 const int *octaves, const int *normal_octaves,
                                 double *heights, double *normals);
+/* plod_planet_surface_band_n, and when `detail` is not NULL the detail
+ * field's part of each height (metres: modulation times the kept octaves;
+ * 0 without detail, on the sea and where the map has no value).  Same
+ * heights and normals bit for bit. */
+void plod_planet_surface_detail_n(const plod_planet *planet, size_t n, const double *dirs,
+                                  const int *octaves, const int *normal_octaves,
+                                  double *heights, double *normals, double *detail);
 /* Global height bounds in metres, the detail field's included (0, 0
  * without a map or detail). */
 void plod_planet_height_range(const plod_planet *planet, double *min_m,

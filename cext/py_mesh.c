@@ -14,7 +14,7 @@
 typedef struct plod_py_mesh {
     PyObject_HEAD
     PyObject *origin;        /* tuple of 3 floats */
-    PyObject *positions, *normals, *uv, *triangles, *sector_level, *face, *morph;
+    PyObject *positions, *normals, *uv, *triangles, *sector_level, *face, *morph, *detail;
     Py_ssize_t vertex_count, triangle_count, sector_count;
     int template_level;
 } plod_py_mesh;
@@ -31,6 +31,7 @@ static int plod__mesh_traverse(plod_py_mesh *self, visitproc visit, void *arg)
     Py_VISIT(self->sector_level);
     Py_VISIT(self->face);
     Py_VISIT(self->morph);
+    Py_VISIT(self->detail);
     Py_VISIT(Py_TYPE((PyObject *)self));
     return 0;
 }
@@ -45,6 +46,7 @@ static int plod__mesh_clear(plod_py_mesh *self)
     Py_CLEAR(self->sector_level);
     Py_CLEAR(self->face);
     Py_CLEAR(self->morph);
+    Py_CLEAR(self->detail);
     return 0;
 }
 
@@ -82,6 +84,9 @@ static PyMemberDef plod__mesh_members[] = {
      "Buffer('i', T): cube face of each triangle's sector"},
     {"morph", T_OBJECT_EX, offsetof(plod_py_mesh, morph), READONLY,
      "Buffer('f', V): applied geomorph factor (0 when off)"},
+    {"detail", T_OBJECT_EX, offsetof(plod_py_mesh, detail), READONLY,
+     "Buffer('f', V): the detail field's part of each vertex's height (metres; 0 "
+     "without detail and on the sea)"},
     {"vertex_count", T_PYSSIZET, offsetof(plod_py_mesh, vertex_count), READONLY, NULL},
     {"triangle_count", T_PYSSIZET, offsetof(plod_py_mesh, triangle_count), READONLY, NULL},
     {"sector_count", T_PYSSIZET, offsetof(plod_py_mesh, sector_count), READONLY, NULL},
@@ -140,7 +145,7 @@ static PyObject *plod__mesh_build(const plod_mesh_params *params,
     if (!mesh)
         return NULL;
     mesh->origin = mesh->positions = mesh->normals = mesh->uv = NULL;
-    mesh->triangles = mesh->sector_level = mesh->face = mesh->morph = NULL;
+    mesh->triangles = mesh->sector_level = mesh->face = mesh->morph = mesh->detail = NULL;
     mesh->vertex_count = mesh->triangle_count = 0;
     mesh->sector_count = (Py_ssize_t)sectors;
     mesh->template_level = params->template_level;
@@ -155,9 +160,11 @@ static PyObject *plod__mesh_build(const plod_mesh_params *params,
     mesh->triangles = plod__uninit_buffer('i', 3 * tb, (void **)&out.triangles);
     mesh->sector_level = plod__uninit_buffer('i', tb, (void **)&out.sector_level);
     mesh->face = plod__uninit_buffer('i', tb, (void **)&out.face);
+    mesh->detail = plod__uninit_buffer('f', vb, (void **)&out.detail);
     mesh->origin = plod__origin_tuple(params->origin);
     if (!mesh->positions || !mesh->normals || !mesh->uv || !mesh->morph ||
-        !mesh->triangles || !mesh->sector_level || !mesh->face || !mesh->origin) {
+        !mesh->triangles || !mesh->sector_level || !mesh->face || !mesh->detail ||
+        !mesh->origin) {
         Py_DECREF(mesh);
         return NULL;
     }

@@ -169,10 +169,26 @@ def _rgb(path):
     return image[:, :, :3]
 
 
+def _structure(luminance):
+    """Standard deviation of the luminance's band of 1-4 pixel features (a 3x3
+    box blur minus a 9x9 one): ground detail, where a blur of the colour map
+    and haze gives almost none (and 4 samples' noise is mostly finer)."""
+    import numpy
+    from numpy.lib.stride_tricks import sliding_window_view
+
+    def box(a, k):
+        return sliding_window_view(numpy.pad(a, k // 2, mode="edge"), (k, k)).mean(axis=(2, 3))
+    return float((box(luminance, 3) - box(luminance, 9)).std())
+
+
+DESCENT_STRUCTURE = 0.006
+
+
 @pytest.mark.parametrize("which", BLENDERS)
 def test_flyby_frames_show_surface_sky_and_sea(which, user_scripts, tmp_path):
     """Every frame of the README's flyby (orbit, descent, skim at 5 m) shows a lit
-    surface; the orbit shows the planet against black space, the skim a blue sky
+    surface; the descent (1-200 km up) shows ground detail, not a blur of the
+    colour map under haze; the orbit shows the planet against black space, the skim a blue sky
     above the horizon and the sea where the camera flies over the sea (the
     descent looks down, below the horizon); checked by per-frame image
     statistics of the rendered PNGs."""
@@ -188,11 +204,14 @@ def test_flyby_frames_show_surface_sky_and_sea(which, user_scripts, tmp_path):
         top, bottom = rgb[: h // 6].reshape(-1, 3).mean(0), rgb[-h // 3:].reshape(-1, 3)
         space = (luminance < 0.03).mean()
         lit = (luminance > 0.12).mean()
+        structure = _structure(luminance)
         print(f"frame {frame}: altitude {altitude:.0f} m, ground {ground:.0f} m, space "
-              f"{space:.2f}, lit {lit:.2f}, top RGB {numpy.round(top, 3)}, bottom RGB "
-              f"{numpy.round(bottom.mean(0), 3)}")
+              f"{space:.2f}, lit {lit:.2f}, structure {structure:.4f}, top RGB "
+              f"{numpy.round(top, 3)}, bottom RGB {numpy.round(bottom.mean(0), 3)}")
         assert lit > 0.1, f"frame {frame}: no lit surface"
         assert luminance.std() > 0.01, f"frame {frame}: a flat frame"
+        if 1000.0 < altitude - ground < 2.0e5:  # the descent: ground detail, not a haze blur
+            assert structure > DESCENT_STRUCTURE, f"frame {frame}: a blur ({structure:.4f})"
         if altitude > 1.0e6:  # orbit: the planet against black space
             assert 0.05 < space < 0.95, f"frame {frame}: no planet against space"
         elif altitude - ground < 100.0:  # the skim: a few metres up, the horizon in view

@@ -246,10 +246,40 @@ def test_detail_mesh_watertight_threads_cache_morph(planetlod, earth_detail):
         for morph, threads in ((False, 2), (True, 2), (True, 1)):
             ref = earth_detail.mesh(template_level=3, threads=1, cache=False, morph=morph)
             got = earth_detail.mesh(template_level=3, threads=threads, cache=True, morph=morph)
-            for name in ("positions", "normals", "uv", "morph", "triangles"):
+            for name in ("positions", "normals", "uv", "morph", "triangles", "detail"):
                 assert bytes(getattr(ref, name)) == bytes(getattr(got, name)), (k, name, morph)
         hits += earth_detail.mesh_cache_info["hits"]
     assert hits > 0
+
+
+def test_mesh_detail_output_is_the_fields_part_of_the_height(planetlod, earth_detail,
+                                                             earth_plain):
+    """mesh.detail: per vertex, the vertex's height above the radius minus the
+    map's height there (the octaves the vertex keeps, times the modulation);
+    0 on the sea and without detail; the other outputs unchanged by it."""
+    cam = ground_camera(planetlod, earth_detail, *ALPS, 3000.0)
+    earth_detail.refine(cam)
+    mesh = earth_detail.mesh(template_level=3)
+    detail = np.frombuffer(mesh.detail, np.float32).astype(np.float64)
+    assert len(detail) == mesh.vertex_count
+    pos = np.frombuffer(mesh.positions, np.float32).reshape(-1, 3).astype(np.float64)
+    pos += np.array(mesh.origin)
+    distance = np.linalg.norm(pos, axis=1)
+    pick = np.random.default_rng(5).choice(len(pos), size=3000, replace=False)
+    dirs = pos[pick] / distance[pick, None]
+    map_heights, _ = earth_plain.surface(dirs.ravel().tolist())
+    expected = distance[pick] - EARTH_R - np.array(map_heights)
+    tol = 2e-7 * np.linalg.norm(pos[pick] - np.array(mesh.origin), axis=1) + 1e-2
+    assert np.all(np.abs(detail[pick] - expected) <= tol), np.abs(detail[pick] - expected).max()
+    assert np.abs(detail).max() > 10.0 and (detail > 0).any() and (detail < 0).any()
+    # the sea (modulation 0) has none
+    sea_cam = ground_camera(planetlod, earth_detail, -30.0, -140.0, 3000.0)
+    earth_detail.refine(sea_cam)
+    assert not np.frombuffer(earth_detail.mesh(template_level=3).detail, np.float32).any()
+    # without detail: zeros, and the same positions as the detail planet's map part
+    earth_plain.refine(cam)
+    plain = earth_plain.mesh(template_level=3)
+    assert not np.frombuffer(plain.detail, np.float32).any()
 
 
 def test_detail_refinement_is_history_free_and_thread_identical(planetlod, earth_detail):

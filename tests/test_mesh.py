@@ -426,7 +426,7 @@ def test_sector_cache_output_identical_along_a_flight(planetlod, moon):
             assert cached.origin == plain.origin
             assert info["sectors"] == cached.sector_count
             assert info["hits"] + info["misses"] == cached.sector_count
-            assert info["bytes"] == cached.vertex_count * 44
+            assert info["bytes"] == cached.vertex_count * 48
             hits += info["hits"]
     assert hits > 0
 
@@ -444,7 +444,7 @@ def test_sector_cache_budget_and_template_change(planetlod, moon):
     finer = planet.mesh(template_level=3)  # another template: recomputed
     assert planet.mesh_cache_info["hits"] == 0
     assert bytes(finer.positions) == bytes(planet.mesh(template_level=3, cache=False).positions)
-    per_sector = finer.vertex_count // finer.sector_count * 44
+    per_sector = finer.vertex_count // finer.sector_count * 48
     planet.mesh_cache_max_bytes = 4 * per_sector  # below what it holds: emptied
     assert planet.mesh_cache_info["sectors"] == 0
     small = planet.mesh(template_level=3)

@@ -204,54 +204,83 @@ def _noise(b, coords, scale, detail=4.0):
 
 
 def _ground_types(b, s, base, airless):
-    """Ground colour below the colour map's resolution: rock on steep slopes, snow
-    above a latitude-dependent snow line, sand at the shore, vegetation tinted
-    by the colour map, regolith on airless bodies; by per-vertex height, slope
-    and latitude, textured by noise in planet-anchored coordinates; the types
-    fade in within 30 km of the camera (the colour map rules beyond).  Returns
+    """Ground colour below the colour map's resolution: rock on steep slopes and
+    bare crests, snow above a latitude-dependent snow line, sand at the shore,
+    vegetation tinted by the colour map and gathered in hollows, regolith on
+    airless bodies; by per-vertex height, slope, latitude and the core's
+    detail field (`planet_detail`: its ridges and hollows, which the colour map
+    cannot show), textured by noise in planet-anchored coordinates.  The
+    detail field's ridges and hollows show within 300 km of the camera, the
+    ground types within 30 km (the colour map rules beyond).  Returns
     (colour, relief for the bump)."""
     height = b.socket(_attribute(b, "planet_height").outputs["Fac"], vector=False)
     slope = b.socket(_attribute(b, "planet_slope").outputs["Fac"], vector=False)
     latitude = b.socket(_attribute(b, "planet_latitude").outputs["Fac"], vector=False)
+    field = b.socket(_attribute(b, "planet_detail").outputs["Fac"], vector=False)
     coords = b.node("ShaderNodeTexCoord")
     detail = b.socket(coords.outputs["Object"]) + b.input_vector("plod_detail_offset")
     camera_data = b.node("ShaderNodeCameraData")
     distance = b.socket(camera_data.outputs["View Distance"], vector=False)
-    # four octaves of ground texture, each faded in where the colour map's
-    # 10 km texels are magnified enough for it to show (about 0.8 m, 11 m,
-    # 250 m and 3.3 km features, seen within 0.2, 3, 30 and 200 km)
+    # five octaves of ground texture, each faded in where the colour map's
+    # 10 km texels are magnified enough for it to show (about 6 cm, 0.8 m,
+    # 11 m, 250 m and 3.3 km features, seen within 25 m, 0.2, 3, 30 and 200 km)
+    grit = _noise(b, detail, 16.0, detail=3.0)
     fine = _noise(b, detail, 1.3)
     mid = _noise(b, detail, 0.09)
     coarse = _noise(b, detail, 0.004)
     broad = _noise(b, detail, 0.0003)
     grain = 1.0
-    for noise, amount, reach in ((fine, 1.2, 200.0), (mid, 1.4, 3000.0), (coarse, 1.2, 3.0e4),
-                                 (broad, 1.0, 2.0e5)):
+    for noise, amount, reach in ((grit, 1.6, 25.0), (fine, 1.2, 200.0), (mid, 1.4, 3000.0),
+                                 (coarse, 1.6, 3.0e4),
+                                 (broad, 1.4, 2.0e5)):
         grain = (noise - 0.5) * ((1.0 - b.smoothstep(0.1 * reach, reach, distance)) * amount) \
             + grain
     near = 1.0 - b.smoothstep(3000.0, 3.0e4, distance)
-    bump = fine * (1.0 - b.smoothstep(20.0, 200.0, distance))  # relief for the Bump node
+    regional = 1.0 - b.smoothstep(6.0e4, 3.0e5, distance)
+    # the detail field in units of its first octave's amplitude: crests
+    # (up to ~0.8) lit and bare, hollows (below 0) darker
+    amplitude = s.detail_amplitude if s.use_detail and s.detail_amplitude > 0.0 else 1.0
+    ridge = field * (1.0 / amplitude)
+    crest = b.smoothstep(0.05, 0.6, ridge) * regional
+    hollow = (1.0 - b.smoothstep(-0.3, 0.1, ridge)) * regional
+    bump = fine * (1.0 - b.smoothstep(20.0, 200.0, distance)) + \
+        grit * (0.3 - b.smoothstep(2.5, 25.0, distance) * 0.3)  # relief for the Bump node
     rock = (0.30, 0.28, 0.26)
-    textured = base * grain
-    if airless:
+    textured = base * grain * (crest * 0.3 - hollow * 0.25 + 1.0)
+    if airless:  # fresh ejecta on crests, older darker regolith in hollows
         ground = b.mix(textured, b.const(rock) * grain,
                        b.smoothstep(30.0, 45.0, slope) * near * 0.5)
         return ground, bump
-    # grass and darker forest patches under the colour map's green
-    forest = b.smoothstep(0.45, 0.6, mid) * near
-    vegetation = b.mix(textured, textured * (0.55, 0.62, 0.5), forest)
+    # land cover in patches the colour map's texels average out: woods (in
+    # hollows and in patches with edges at 3 km, 250 m and 11 m, each scale
+    # added where it spans a few pixels), dry fields and bare soil between
+    def fade(reach):
+        return 1.0 - b.smoothstep(0.1 * reach, reach, distance)
+    cover = broad + (coarse - 0.5) * fade(4.0e4) + (mid - 0.5) * (fade(3000.0) * 0.7)
+    fields = _noise(b, detail, 0.0019, detail=2.0)
+    forest = b.maximum(b.smoothstep(0.5, 0.54, cover) * (fade(2.5e5) * 0.9), hollow * 0.6)
+    plains = _noise(b, detail, 0.00012, detail=3.0)  # 8 km patches seen from 100 km up
+    dry = b.maximum(b.smoothstep(0.49, 0.53, fields) * fade(1.5e5),
+                    b.smoothstep(0.49, 0.53, plains) * (fade(5.0e5) * 0.8)) * (1.0 - forest)
+    # (woods reflect a third to a half of what grass does, dry fields and bare
+    # soil about twice: the contrast a patchwork of fields shows from the air)
+    vegetation = b.mix(textured, textured * (0.42, 0.52, 0.36), forest)
+    soil = b.mix(textured * (1.4, 1.25, 0.95), b.const((0.30, 0.24, 0.15)) * grain, 0.5)
+    vegetation = b.mix(vegetation, soil, dry * 0.9)
     steep = b.smoothstep(28.0, 42.0, slope)
-    rock_colour = b.const(rock) * (grain * 0.8 + 0.2)
+    bare = b.maximum(steep, b.smoothstep(0.4, 0.8, ridge) * regional * 0.7)
+    rock_colour = b.const(rock) * (grain * 0.8 + 0.2) * (crest * 0.3 + 1.0)
     lat_abs = b.math("ABSOLUTE", latitude)
     snow_line = 5200.0 - b.power(lat_abs * (1.0 / 90.0), 1.4) * 5400.0 + (mid - 0.5) * 400.0
     snow = b.smoothstep(-150.0, 150.0, height - snow_line) * (1.0 - steep * 0.75)
     shore = (1.0 - b.smoothstep(2.0, 12.0 + coarse * 10.0, height)) * (1.0 - steep)
     sand = b.const((0.76, 0.70, 0.52)) * (fine * 0.25 + 0.85)
-    ground = b.mix(vegetation, rock_colour, steep)
+    ground = b.mix(vegetation, rock_colour, bare)
     ground = b.mix(ground, sand, shore)
     ground = b.mix(ground, b.const((0.93, 0.95, 0.98)) * (fine * 0.1 + 0.9), snow)
-    # the colour map's own colour from afar; the ground types close up
-    return b.mix(textured, ground, near * 0.85 + 0.15 * steep), bump
+    # the colour map's own colour from afar; the ground types close up and,
+    # within the detail field's reach, on its crests and in its hollows
+    return b.mix(textured, ground, b.maximum(near * 0.85, regional * 0.8) + 0.15 * steep), bump
 
 
 HEIGHT_IMAGE_KEY = "planet_lod_sea_mask"
@@ -328,7 +357,8 @@ def planet_material(obj):
     color_map = bpy.path.abspath(s.color_map) if s.color_map else ""
     atm = atmosphere.params(s)
     key = (color_map, s.projection, round(s.radius, 3), round(s.height_scale, 3),
-           s.use_sea_level, round(s.sea_level, 3), s.heightmap, repr(atm), 4)
+           s.use_sea_level, round(s.sea_level, 3), s.heightmap, repr(atm), s.use_detail,
+           round(s.detail_amplitude, 3), 5)
     if material.get("planet_lod_key") == repr(key):
         return material
     material.use_nodes = True

@@ -19,7 +19,9 @@ relative to that origin and its normals:
   level, or above the radius without a sea), `planet_sea_depth` (metres of
   water above the ground, 0 on land), `planet_sea` (1 where the ground was
   lifted to the sea surface, else 0), `planet_slope` (degrees between the
-  surface normal and the local vertical), `planet_latitude` (degrees).
+  surface normal and the local vertical), `planet_latitude` (degrees),
+  `planet_detail` (metres of the core's detail field in the vertex's height:
+  ridges and hollows below the height map's resolution; 0 on the sea).
 """
 import math
 from array import array
@@ -30,7 +32,13 @@ except ImportError:  # pragma: no cover - Blender ships numpy
     numpy = None
 
 ATTRIBUTES = ("planet_height", "planet_sea_depth", "planet_sea", "planet_slope",
-              "planet_latitude")
+              "planet_latitude", "planet_detail")
+
+
+def _detail_of(mesh):
+    """The mesh's per-vertex detail buffer (an older native module has none)."""
+    detail = getattr(mesh, "detail", None)
+    return detail if detail is not None else array("f", bytes(4 * mesh.vertex_count))
 
 
 class VertexData:
@@ -72,6 +80,8 @@ def vertex_data(mesh, anchor, radius, sea_level=None):
     cos_slope = numpy.clip(numpy.einsum("ij,ij->i", normals, up), -1.0, 1.0)
     slope = numpy.degrees(numpy.arccos(cos_slope))
     latitude = numpy.degrees(numpy.arcsin(numpy.clip(up[:, 2], -1.0, 1.0)))
+    detail = numpy.frombuffer(_detail_of(mesh), dtype=numpy.float32).copy()
+    detail[sea > 0.0] = 0.0
     local = (pos - numpy.array(anchor, dtype=numpy.float64)).astype(numpy.float32)
     f32 = numpy.float32
     return VertexData(numpy.ascontiguousarray(local).ravel(),
@@ -80,13 +90,14 @@ def vertex_data(mesh, anchor, radius, sea_level=None):
                        "planet_sea_depth": depth.astype(f32),
                        "planet_sea": sea.astype(f32),
                        "planet_slope": slope.astype(f32),
-                       "planet_latitude": latitude.astype(f32)})
+                       "planet_latitude": latitude.astype(f32),
+                       "planet_detail": detail})
 
 
 def _vertex_data_python(mesh, anchor, radius, sea_level):
     ox, oy, oz = (float(v) for v in mesh.origin)
     ax, ay, az = (float(v) for v in anchor)
-    p, n = mesh.positions, mesh.normals
+    p, n, detail = mesh.positions, mesh.normals, _detail_of(mesh)
     positions, normals = array("f"), array("f")
     columns = {name: array("f") for name in ATTRIBUTES}
     for i in range(mesh.vertex_count):
@@ -96,9 +107,11 @@ def _vertex_data_python(mesh, anchor, radius, sea_level):
         distance = math.sqrt(x * x + y * y + z * z)
         ux, uy, uz = x / distance, y / distance, z / distance
         height, depth, sea = distance - radius, 0.0, 0.0
+        columns["planet_detail"].append(detail[i])
         if sea_level is not None:
             if height <= sea_level + tolerance:
                 depth, sea = max(sea_level - height, 0.0), 1.0
+                columns["planet_detail"][-1] = 0.0
                 x, y, z = (c * (radius + sea_level) for c in (ux, uy, uz))
                 nx, ny, nz = ux, uy, uz
                 height = sea_level

@@ -12,6 +12,8 @@ and a sea that comes from the same sectors as the land.
 * motion: a camera placed by longitude/latitude 2 m above the ground and
   animated 1 cm per frame moves 1 cm per frame relative to the ground in
   world space, each step within 1 mm of the others;
+* detail: the core's detail field per vertex (`planet_detail`), the ground
+  material's ridges and hollows, is the vertex's height over the map's;
 * sea: above a coast no vertex lies below sea level and sea triangles near
   the camera do not sag (the UV-sphere ocean sat kilometres below).
 """
@@ -110,6 +112,30 @@ def check_borders(planet, label):
     assert own_worst > worst, "the check would not see a seam"
 
 
+def check_detail(planet):
+    """The core's detail field reaches the ground material per vertex
+    (`planet_detail`, metres): ridges and hollows over the Alps, equal to the
+    vertex's height above the map's surface there."""
+    from planet_lod import core, live
+    me = planet.data
+    detail = numpy.empty(len(me.vertices), numpy.float32)
+    me.attributes["planet_detail"].data.foreach_get("value", detail)
+    print(f"detail field per vertex: {detail.min():.1f} .. {detail.max():.1f} m, "
+          f"{(detail != 0).mean() * 100:.0f} % of the vertices")
+    assert detail.min() < -10.0 and detail.max() > 100.0, (detail.min(), detail.max())
+    settings = dict(planet.planet_lod.as_dict(), use_detail=False)
+    plain = core.build_planet(settings)
+    co, _, _ = mesh_arrays(planet)
+    pick = numpy.arange(0, len(co), max(1, len(co) // 500))
+    points = co[pick].astype(numpy.float64) + numpy.array(live.anchor(planet))
+    distance = numpy.linalg.norm(points, axis=1)
+    heights, _ = plain.surface(points.ravel().tolist())
+    expected = distance - planet.planet_lod.radius - numpy.array(heights)
+    land = detail[pick] != 0.0
+    error = numpy.abs(expected[land] - detail[pick][land])
+    assert land.sum() > 100 and error.max() < 0.5, error.max()
+
+
 def world_vertices(obj):
     """Vertices as Cycles receives them: object matrix times float32 vertex, in float32."""
     co, _, _ = mesh_arrays(obj)
@@ -131,6 +157,7 @@ def main():
     cam = add_geo_camera(earth, "Alps", 7.9, 46.4, 3000.0)
     live.refresh_for_render(scene)
     check_borders(earth, "Earth, 3 km above the Alps")
+    check_detail(earth)
 
     # precision: vertices within 1 km of the camera vs the float64 surface
     # (the map's: with detail, vertices keep the octaves their cells resolve)
