@@ -651,8 +651,28 @@ size_t plod_tiles_read_errors(const plod_tiles *t)
 
 /* ---- the cache (callers hold the lock) -------------------------------------------- */
 
+/* Whether a tile read from disk agrees with the bounds its file declares:
+ * bounds drive culling and refinement, so texels outside them (or NaN in a
+ * file that declares no voids) mean a damaged file, and the tile is refused
+ * as a read error rather than shown with wrong bounds. */
+static int plod__tile_matches_bounds(const plod_tiles *t, size_t index, const unsigned char *data)
+{
+    float lo = t->tile_min[index], hi = t->tile_max[index];
+    size_t count = (size_t)t->tile * (size_t)t->tile;
+    for (size_t k = 0; k < count; k++) {
+        float value = plod__tiles_load(data + k * t->sample_bytes, t->type);
+        if (value != value) {
+            if (t->nan_count == 0)
+                return 0;
+        } else if (!(value >= lo && value <= hi)) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
 /* The cached texels of tile `index`, reading it if needed; NULL if the
- * read failed. */
+ * read failed or the tile contradicts its declared bounds. */
 static const unsigned char *plod__tile(plod_tiles *t, size_t index)
 {
     int32_t slot = t->tile_slot[index];
@@ -677,7 +697,8 @@ static const unsigned char *plod__tile(plod_tiles *t, size_t index)
     t->slot_tile[victim] = -1;
     unsigned char *data = t->slot_data + victim * t->tile_bytes;
     if (!plod__read_all(t->fd, data, t->tile_bytes,
-                        t->data_offset + (off_t)(index * t->tile_bytes))) {
+                        t->data_offset + (off_t)(index * t->tile_bytes)) ||
+        !plod__tile_matches_bounds(t, index, data)) {
         t->read_errors++; /* the slot stays empty (reused first by the clock) */
         t->slot_ref[victim] = 0;
         return NULL;
@@ -854,12 +875,11 @@ static double plod__tiles_source_sample(const void *self, const double dir[3])
     return plod_tiles_sample_uv(self, u, v);
 }
 
-static void plod__tiles_source_range_cap(const void *self, const double axis[3], double angle,
-                                         double *lo_out, double *hi_out, double *texels)
+void plod_lonlat_cap_range(const double axis[3], double angle, int width, int height,
+                           plod_range_uv_fn range_uv, const void *context, double *lo_out,
+                           double *hi_out, double *texels)
 {
-    const plod_tiles *t = self;
     *texels = INFINITY;
-    plod_tiles_global_range(t, lo_out, hi_out);
     if (!(angle >= 0.0) || angle >= 0.5 * PLOD__TILES_PI)
         return;
     const double deg = 180.0 / PLOD__TILES_PI;
@@ -871,31 +891,47 @@ static void plod__tiles_source_range_cap(const void *self, const double axis[3],
         lat0 = fmax(lat0, -0.5 * PLOD__TILES_PI);
         lat1 = fmin(lat1, 0.5 * PLOD__TILES_PI);
     } else {
+        /* longitude half-width of a cap not holding a pole */
         half_lon = asin(fmin(1.0, sin(angle) / cos(lat)));
     }
     double v0 = lat0 * deg / 90.0, v1 = lat1 * deg / 90.0;
     double lo, hi, lo2, hi2;
     if (half_lon >= PLOD__TILES_PI) {
-        plod_tiles_range_uv(t, -1.0, v0, 1.0, v1, &lo, &hi);
+        range_uv(context, -1.0, v0, 1.0, v1, &lo, &hi);
     } else {
         double u0 = (lon - half_lon) * deg / 180.0, u1 = (lon + half_lon) * deg / 180.0;
         if (u0 < -1.0) { /* across the +-180 deg seam: two boxes */
-            plod_tiles_range_uv(t, -1.0, v0, u1, v1, &lo, &hi);
-            plod_tiles_range_uv(t, u0 + 2.0, v0, 1.0, v1, &lo2, &hi2);
+            range_uv(context, -1.0, v0, u1, v1, &lo, &hi);
+            range_uv(context, u0 + 2.0, v0, 1.0, v1, &lo2, &hi2);
             lo = fmin(lo, lo2);
             hi = fmax(hi, hi2);
         } else if (u1 > 1.0) {
-            plod_tiles_range_uv(t, u0, v0, 1.0, v1, &lo, &hi);
-            plod_tiles_range_uv(t, -1.0, v0, u1 - 2.0, v1, &lo2, &hi2);
+            range_uv(context, u0, v0, 1.0, v1, &lo, &hi);
+            range_uv(context, -1.0, v0, u1 - 2.0, v1, &lo2, &hi2);
             lo = fmin(lo, lo2);
             hi = fmax(hi, hi2);
         } else {
-            plod_tiles_range_uv(t, u0, v0, u1, v1, &lo, &hi);
+            range_uv(context, u0, v0, u1, v1, &lo, &hi);
         }
     }
     *lo_out = lo;
     *hi_out = hi;
-    *texels = fmax(2.0 * half_lon * deg / 360.0 * t->width, (lat1 - lat0) * deg / 180.0 * t->height);
+    *texels = fmax(2.0 * half_lon * deg / 360.0 * width, (lat1 - lat0) * deg / 180.0 * height);
+}
+
+static void plod__tiles_range_uv_fn(const void *tiles, double u0, double v0, double u1,
+                                    double v1, double *lo, double *hi)
+{
+    plod_tiles_range_uv(tiles, u0, v0, u1, v1, lo, hi);
+}
+
+static void plod__tiles_source_range_cap(const void *self, const double axis[3], double angle,
+                                         double *lo_out, double *hi_out, double *texels)
+{
+    const plod_tiles *t = self;
+    plod_tiles_global_range(t, lo_out, hi_out);
+    plod_lonlat_cap_range(axis, angle, t->width, t->height, plod__tiles_range_uv_fn, t, lo_out,
+                          hi_out, texels);
 }
 
 static void plod__tiles_source_global(const void *self, double *lo, double *hi)

@@ -431,14 +431,18 @@ double plod_planet_height(const plod_planet *planet, const double dir[3])
     return plod_planet_surface(planet, dir, NULL);
 }
 
-#define PLOD__PLANET_PI 3.141592653589793
-
 static void plod__scaled(const plod_planet *planet, double lo, double hi,
                          double *min_m, double *max_m)
 {
     double a = plod__metres(planet, lo), b = plod__metres(planet, hi);
     *min_m = a < b ? a : b;
     *max_m = a < b ? b : a;
+}
+
+static void plod__cubemap_range_uv(const void *map, double u0, double v0, double u1,
+                                   double v1, double *lo, double *hi)
+{
+    plod_cubemap_range(map, 0, u0, v0, u1, v1, lo, hi);
 }
 
 /* Bounds of map channel 0 (raw, as sampled) over the spherical cap
@@ -450,44 +454,11 @@ static void plod__cap_range(const plod_cubemap *map, const double axis[3], doubl
 {
     *texels = INFINITY;
     plod_cubemap_global_range(map, lo_out, hi_out);
-    if (plod_cubemap_face_count(map) != 1 || !(angle >= 0.0) || angle >= 0.5 * PLOD__PLANET_PI)
+    if (plod_cubemap_face_count(map) != 1)
         return;
-    const double deg = 180.0 / PLOD__PLANET_PI;
-    double lat = asin(fmax(-1.0, fmin(1.0, axis[2])));
-    double lon = atan2(axis[1], axis[0]);
-    double lat0 = lat - angle, lat1 = lat + angle, half_lon;
-    if (lat1 >= 0.5 * PLOD__PLANET_PI || lat0 <= -0.5 * PLOD__PLANET_PI) {
-        half_lon = PLOD__PLANET_PI; /* a pole inside: every longitude */
-        lat0 = fmax(lat0, -0.5 * PLOD__PLANET_PI);
-        lat1 = fmin(lat1, 0.5 * PLOD__PLANET_PI);
-    } else {
-        /* longitude half-width of a cap not holding a pole */
-        half_lon = asin(fmin(1.0, sin(angle) / cos(lat)));
-    }
-    double v0 = lat0 * deg / 90.0, v1 = lat1 * deg / 90.0;
-    double lo, hi, lo2, hi2;
-    if (half_lon >= PLOD__PLANET_PI) {
-        plod_cubemap_range(map, 0, -1.0, v0, 1.0, v1, &lo, &hi);
-    } else {
-        double u0 = (lon - half_lon) * deg / 180.0, u1 = (lon + half_lon) * deg / 180.0;
-        if (u0 < -1.0) { /* across the +-180 deg seam: two boxes */
-            plod_cubemap_range(map, 0, -1.0, v0, u1, v1, &lo, &hi);
-            plod_cubemap_range(map, 0, u0 + 2.0, v0, 1.0, v1, &lo2, &hi2);
-            lo = fmin(lo, lo2);
-            hi = fmax(hi, hi2);
-        } else if (u1 > 1.0) {
-            plod_cubemap_range(map, 0, u0, v0, 1.0, v1, &lo, &hi);
-            plod_cubemap_range(map, 0, -1.0, v0, u1 - 2.0, v1, &lo2, &hi2);
-            lo = fmin(lo, lo2);
-            hi = fmax(hi, hi2);
-        } else {
-            plod_cubemap_range(map, 0, u0, v0, u1, v1, &lo, &hi);
-        }
-    }
-    *lo_out = lo;
-    *hi_out = hi;
     int size = plod_cubemap_size(map); /* rows; 2 * size columns */
-    *texels = fmax(2.0 * half_lon * deg / 360.0 * 2.0 * size, (lat1 - lat0) * deg / 180.0 * size);
+    plod_lonlat_cap_range(axis, angle, 2 * size, size, plod__cubemap_range_uv, map, lo_out,
+                          hi_out, texels);
 }
 
 /* detail bounds given the modulation maximum m */

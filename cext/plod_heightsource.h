@@ -44,6 +44,19 @@ typedef struct plod_height_source {
     const void *self;
 } plod_height_source;
 
+/* Bounds of a width x height equirectangular map (u = lon / 180 deg,
+ * v = lat / 90 deg) over the spherical cap (axis, angle), through the
+ * cap's lon/lat box: one box, two across the +-180 deg seam, the full
+ * width where a pole is inside.  range_uv(context, u0, v0, u1, v1, lo, hi)
+ * gives a box's bounds.  For a cap not inside a hemisphere *lo and *hi are
+ * left as they are (the caller's global range) and *texels is INFINITY;
+ * else *texels is the box's larger side in map texels. */
+typedef void (*plod_range_uv_fn)(const void *context, double u0, double v0, double u1,
+                                 double v1, double *lo, double *hi);
+void plod_lonlat_cap_range(const double axis[3], double angle, int width, int height,
+                           plod_range_uv_fn range_uv, const void *context, double *lo,
+                           double *hi, double *texels);
+
 /* ---- tiled equirectangular maps ----------------------------------------- */
 typedef struct plod_tiles plod_tiles; /* opaque */
 

@@ -169,6 +169,17 @@ def test_bad_and_changed_files(planetlod, tmp_path):
         f.truncate(512 + 512)  # the header, the bounds and the first tile
     values = [third.sample(lon, 0.0) for lon in range(-180, 180, 7)]
     assert any(math.isnan(v) for v in values) and third.read_errors > 0
+    # texels that contradict the bounds the file declares (a damaged file):
+    # the tile is refused as a read error, never sampled outside its bounds
+    fourth = planetlod.TiledMap(str(grid), tiles=str(tmp_path / "damaged.plodtiles"), tile=16,
+                                cache_bytes=1)
+    tile_bytes = 16 * 16 * 2
+    with open(fourth.tiles_path, "r+b") as f:
+        f.seek(-tile_bytes, os.SEEK_END)  # the last tile: south-east corner
+        f.write(b"\xff" * tile_bytes)
+    low, high = fourth.range()
+    assert math.isnan(fourth.sample(170.0, -80.0)) and fourth.read_errors > 0
+    assert low <= fourth.sample(-170.0, 80.0) <= high
 
 
 def test_nan_texels_refused_by_the_planet(planetlod, tmp_path):
