@@ -21,6 +21,7 @@ Per-frame inputs (camera and sun in planet space, the anchor) are named
 nodes that update() writes before every render.
 """
 import math
+import struct
 
 import bpy
 
@@ -221,6 +222,18 @@ def sun_of(scene):
     return None, 1.0
 
 
+def _as_float32(value):
+    return struct.unpack("f", struct.pack("f", value))[0]
+
+
+def _set_socket(socket, value):
+    # each write re-evaluates the node tree (about 1 ms); most refreshes
+    # change only the camera
+    value = _as_float32(value)
+    if socket.default_value != value:
+        socket.default_value = value
+
+
 def _set_inputs(tree, values):
     if tree is None:
         return
@@ -229,10 +242,10 @@ def _set_inputs(tree, values):
         if node is None:
             continue
         if node.type == 'VALUE':
-            node.outputs[0].default_value = value
+            _set_socket(node.outputs[0], value)
         else:
             for i in range(3):
-                node.inputs[i].default_value = value[i]
+                _set_socket(node.inputs[i], value[i])
 
 
 def update(obj, scene, camera_matrix):

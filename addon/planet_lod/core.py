@@ -200,7 +200,7 @@ def refine(planet, camera, settings, hysteresis=False):
                   split_border=float(settings["split_border"]),
                   merge_border=float(settings["merge_border"]),
                   hysteresis=bool(hysteresis),
-                  template_level=template_level, max_level=int(settings["max_level"]),
+                  template_level=template_level, max_level=max_level(settings),
                   budget=int(settings["budget"]), backface=bool(settings["backface"]),
                   frustum=bool(settings["frustum"]),
                   skip_sea=bool(settings.get("use_sea_level") and settings.get("skip_sea")))
@@ -234,6 +234,31 @@ def camera_inside(planet, matrix_world):
         return True
     ground = planet.radius + planet.height(*(c / distance for c in location))
     return not distance >= ground  # NaN-safe
+
+
+# The deepest bisection level a planet's settings may ask for.  On a
+# 6,371 km Earth a level-48 patch is 0.6 m across.
+DEEPEST_LEVEL = 48
+
+
+def max_level(settings):
+    """The refinement's depth limit: the settings' Max Depth, or with Max Depth
+    0 (automatic) the level at which a patch's triangles are half the detail's
+    smallest feature, from the planet's size -- 34 levels on a 20 km asteroid
+    with 10 cm detail, the deepest level on an Earth.  Without detail the
+    pixel error and the height map's texels alone stop the refinement."""
+    chosen = int(settings["max_level"])
+    if chosen > 0:
+        return chosen
+    if not settings.get("use_detail"):
+        return DEEPEST_LEVEL
+    smallest = float(settings.get("detail_smallest", 0.1))
+    # a level-0 patch is half a cube face, legs of a quarter great circle;
+    # every two bisections halve them; a template splits a leg 2^level times
+    leg = 0.5 * math.pi * float(settings["radius"])
+    spacing = 0.5 * smallest * 2 ** int(settings["template_level"])
+    level = 2 * math.ceil(math.log2(max(leg / spacing, 1.0)))
+    return max(1, min(DEEPEST_LEVEL, level))
 
 
 def template_level_from_density(triangles):

@@ -155,9 +155,10 @@ class PLOD_PG_settings(bpy.types.PropertyGroup):
                         description="Most terrain patches drawn at once (0: no limit); above "
                                     "it the whole view gets coarser, nothing is left out",
                         default=8000, min=0, max=1000000, update=_changed)
-    max_level: IntProperty(name="Max Depth", default=24, min=1, max=48, update=_changed,
+    max_level: IntProperty(name="Max Depth", default=0, min=0, max=48, update=_changed,
                            description="How many times a patch may be halved: limits the "
-                                       "finest detail")
+                                       "finest detail (0: automatic, from the planet's size "
+                                       "and its smallest detail feature)")
     backface: BoolProperty(name="Skip Far Side", default=True, update=_changed,
                            description="Leave out the terrain behind the planet's horizon")
     frustum: BoolProperty(name="Skip Off-Screen", default=True, update=_changed,

@@ -176,6 +176,8 @@ class PLOD_PT_lod(PLOD_PT_planet_sub, bpy.types.Panel):
         col.prop(s, "template_density", text="Density")
         col.prop(s, "budget", text="Budget")
         col.prop(s, "max_level", text="Depth")
+        if s.max_level == 0:
+            col.label(text=f"Automatic: {core.max_level(s.as_dict())} levels")
         col = layout.column(heading="Skip")
         col.prop(s, "backface", text="Far Side")
         col.prop(s, "frustum", text="Off-Screen")

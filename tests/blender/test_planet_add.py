@@ -44,6 +44,30 @@ def main():
     assert near["sectors_total"] != far["sectors_total"]
     assert len(earth.data.polygons) != far_polys
 
+    # the depth limit follows the body (Max Depth 0: automatic): on a 20 km
+    # asteroid with 10 cm detail it stops well short of an Earth's; 2 m above
+    # the asteroid's ground the refinement reaches it and goes no deeper; a
+    # Max Depth set by hand is kept
+    from mathutils import Vector
+    from planet_lod import core
+    assert earth.planet_lod.max_level == 0 and core.max_level(earth.planet_lod.as_dict()) == 48
+    assert bpy.ops.mesh.planet_add(preset='ASTEROID', quality='DRAFT') == {'FINISHED'}
+    rock = bpy.context.object
+    settings = rock.planet_lod.as_dict()
+    auto = core.max_level(settings)
+    assert 30 <= auto <= 40, auto
+    up = Vector((0.3, -0.8, 0.5)).normalized()
+    ground = rock.planet_lod.radius + core.build_planet(settings).height(*up)
+    east = Vector((0.0, 0.0, 1.0)).cross(up).normalized()
+    cam.location = up * (ground + 2.0)
+    cam.rotation_euler = (east - 0.3 * up).to_track_quat('-Z', 'Y').to_euler()
+    bpy.context.view_layer.update()
+    assert bpy.ops.object.planet_refresh() == {'FINISHED'}
+    assert live.state(rock).stats["max_level"] == auto, (live.state(rock).stats, auto)
+    rock.planet_lod.max_level = 20
+    assert bpy.ops.object.planet_refresh() == {'FINISHED'}
+    assert live.state(rock).stats["max_level"] == 20
+
     # Blender preset files: planet and quality presets from presets/, user preset add
     import os
     from planet_lod import core
