@@ -104,6 +104,18 @@ def screenshot(name, region='VIEW'):
     return crop_region(image, view3d()[2]) if region == 'VIEW' else image
 
 
+def camera_frame_rect(scene, cam, region, r3d):
+    """(x0, y0, x1, y1) of the camera frame in the region's screenshot (row 0 on top)."""
+    # far along the frame's rays: points a metre from a camera 10^7 m out lose
+    # their depth in the float32 projection
+    far = cam.location.length
+    corners = [cam.matrix_world @ (v * (far / abs(v.z))) for v in cam.data.view_frame(scene=scene)]
+    from bpy_extras.view3d_utils import location_3d_to_region_2d
+    pts = [location_3d_to_region_2d(region, r3d, c) for c in corners]
+    xs, ys = [p.x for p in pts], [region.height - p.y for p in pts]
+    return (int(round(min(xs))), int(round(min(ys))), int(round(max(xs))), int(round(max(ys))))
+
+
 def clean_view():
     """The 3D viewport without overlays, gizmos, toolbar or header: only the scene."""
     _, area, _, _ = view3d()

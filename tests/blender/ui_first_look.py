@@ -7,22 +7,10 @@ import os
 
 import bpy
 import numpy as np
-from bpy_extras.view3d_utils import location_3d_to_region_2d
 from mathutils import Vector
 
 import plod_testlib as lib
 import plod_uilib as ui
-
-
-def camera_frame_rect(scene, cam, region, r3d):
-    """(x0, y0, x1, y1) of the camera frame in the region's screenshot (row 0 on top)."""
-    # far along the frame's rays: points a metre from a camera 10^7 m out lose
-    # their depth in the float32 projection
-    far = cam.location.length
-    corners = [cam.matrix_world @ (v * (far / abs(v.z))) for v in cam.data.view_frame(scene=scene)]
-    pts = [location_3d_to_region_2d(region, r3d, c) for c in corners]
-    xs, ys = [p.x for p in pts], [region.height - p.y for p in pts]
-    return (int(round(min(xs))), int(round(min(ys))), int(round(max(xs))), int(round(max(ys))))
 
 
 def test():
@@ -88,7 +76,7 @@ def test():
         bpy.ops.view3d.view_center_camera()
     yield from ui.redraw(4)
     view = ui.screenshot("framed_view.png")
-    x0, y0, x1, y1 = camera_frame_rect(scene, camera, region, r3d)
+    x0, y0, x1, y1 = ui.camera_frame_rect(scene, camera, region, r3d)
     framed = view[y0:y1, x0:x1]
     preview_before = st.instances
     with ui.override():

@@ -1,0 +1,135 @@
+"""In the real UI (xvfb), a newcomer's path with every planet preset: Add >
+Mesh > Planet shows the planet; the view flies to 2 km above the ground
+looking over the horizon, where terrain fills the lower view; the camera is
+set to that view (View > Align View > Align Active Camera to View) and F12
+renders the same shot, lit: the skyline in the render runs where the viewport
+showed it."""
+import math
+import os
+
+import bpy
+import numpy as np
+from mathutils import Vector
+
+import plod_testlib as lib
+import plod_uilib as ui
+
+ALTITUDE = 2000.0
+HORIZON_ABOVE_CENTRE = 6.0  # degrees: the horizon in the upper half of the shot
+
+
+def fly_to_ground(planet, r3d):
+    """The viewport 2 km above the ground, heading east, pitched so the
+    horizon sits HORIZON_ABOVE_CENTRE degrees above the view's centre."""
+    from planet_lod import core
+    native = core.build_planet(planet.planet_lod.as_dict())
+    up = Vector((0.3, -0.8, 0.5)).normalized()
+    ground = planet.planet_lod.radius + native.height(*up)
+    eye = up * (ground + ALTITUDE)
+    dip = math.degrees(math.acos(ground / (ground + ALTITUDE)))
+    pitch = math.radians(dip + HORIZON_ABOVE_CENTRE)
+    east = Vector((0.0, 0.0, 1.0)).cross(up).normalized()
+    forward = east * math.cos(pitch) - up * math.sin(pitch)
+    rotation = forward.to_track_quat('-Z', 'Y')
+    local_up = rotation @ Vector((0.0, 1.0, 0.0))
+    roll = local_up.rotation_difference(up - up.project(forward))
+    r3d.view_perspective = 'PERSP'
+    r3d.view_rotation = (roll @ rotation).normalized()
+    r3d.view_distance = 1.0
+    r3d.view_location = eye + forward
+
+
+def skyline(image):
+    """Per column, the first row (from the top) that differs from the sky --
+    the median of the top rows -- by more than a threshold; as a fraction of
+    the height (1.0: no ground in that column)."""
+    h = image.shape[0]
+    sky = np.median(image[2:max(4, h // 20)].reshape(-1, 3), axis=0)
+    ground = np.abs(image - sky).sum(axis=2) > 0.1
+    ground[:2] = False
+    rows = np.where(ground.any(axis=0), np.argmax(ground, axis=0), h)
+    return rows / h, ground
+
+
+def refreshed(planet):
+    from planet_lod import live
+    st = live.state(planet)
+    yield from ui.wait_until(lambda: not st.dirty and st.instances is not None,
+                             what="the viewport refresh")
+    yield from ui.redraw(2)
+
+
+def test():
+    lib.enable()
+    from planet_lod import live, presets
+    win, area, region, _ = ui.view3d()
+    space = ui.clean_view()
+    r3d = space.region_3d
+    scene = bpy.context.scene
+    scene.render.resolution_x, scene.render.resolution_y = 640, 360
+    scene.render.resolution_percentage = 100
+    scene.render.engine = 'BLENDER_EEVEE'
+    scene.eevee.taa_render_samples = 4
+    for preset in presets.PLANETS:
+        for obj in [o for o in bpy.data.objects if o.type == 'MESH']:
+            bpy.data.objects.remove(obj)
+        r3d.view_perspective = 'PERSP'
+        with ui.override():
+            assert bpy.ops.mesh.planet_add(preset=preset) == {'FINISHED'}
+        planet = bpy.context.object
+        st = live.state(planet)
+        yield from refreshed(planet)
+        mask = ui.foreground(ui.screenshot(f"{preset.lower()}_added.png"))
+        print(f"{preset}: after Add, the planet covers {mask.mean():.1%} of the view",
+              flush=True)
+        assert 0.1 < mask.mean() < 0.9, f"{preset}: the new planet is not in view"
+
+        fly_to_ground(planet, r3d)
+        yield 0.3
+        yield from refreshed(planet)
+        ui.screenshot(f"{preset.lower()}_2km.png")
+        assert not st.error and not st.warning, (st.error, st.warning)
+
+        # frame the shot: the camera to the view, then look through it; the
+        # render without the sky world so the skyline is the terrain's edge
+        with ui.override():
+            assert bpy.ops.view3d.camera_to_view() == {'FINISHED'}
+        r3d.view_perspective = 'CAMERA'
+        with ui.override():
+            bpy.ops.view3d.view_center_camera()
+        yield 0.3
+        yield from ui.redraw(3)
+        camera = scene.camera
+        view = ui.screenshot(f"{preset.lower()}_2km_camera.png")
+        x0, y0, x1, y1 = ui.camera_frame_rect(scene, camera, region, r3d)
+        framed = view[y0:y1, x0:x1]
+        world, scene.world = scene.world, None
+        preview_before = st.instances
+        with ui.override():
+            bpy.ops.render.render()
+        scene.world = world
+        assert st.instances is preview_before, "the render's LOD leaked into the viewport's"
+        path = os.path.join(lib.out_dir(), f"{preset.lower()}_2km_render.png")
+        bpy.data.images["Render Result"].save_render(filepath=path)
+        render = ui.load_png(path)
+        view_rows, view_ground = skyline(framed)
+        render_rows, render_ground = skyline(render)
+        columns = np.linspace(0.05, 0.95, 37)
+        at_view = view_rows[(columns * framed.shape[1]).astype(int)]
+        at_render = render_rows[(columns * render.shape[1]).astype(int)]
+        error = float(np.median(np.abs(at_view - at_render)))
+        lit = render[render_ground].mean(axis=1) if render_ground.any() else np.zeros(1)
+        print(f"{preset}: 2 km: ground {view_ground.mean():.1%} of the camera frame, "
+              f"{render_ground.mean():.1%} of the render; skyline at "
+              f"{np.median(at_view):.3f} / {np.median(at_render):.3f} of the height, median "
+              f"difference {error:.3f}; lit ground {lit.mean():.3f}, "
+              f"{st.stats.get('visible')} sectors drawn", flush=True)
+        # ground under the skyline across the frame, in the viewport and the render
+        assert (view_rows < 0.9).mean() > 0.9 and render_ground.mean() > 0.3, \
+            f"{preset}: no ground at 2 km"
+        assert error < 0.03, f"{preset}: F12 does not show the skyline the viewport framed"
+        assert lit.mean() > 0.05, f"{preset}: the render is dark"
+        r3d.view_perspective = 'PERSP'
+
+
+ui.run(test)
