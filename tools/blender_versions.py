@@ -82,11 +82,14 @@ def install(version):
               f"bpy=={version}"])
         probe = subprocess.run([py, "-c", "import bpy; print(bpy.app.version_string)"],
                                capture_output=True, text=True, timeout=300)
-        if probe.returncode != 0 or not probe.stdout.strip().startswith(version):
+        # Blender may log to stdout while it starts (a warning about mounted
+        # file systems on a minimal root): the version is the last line
+        lines = probe.stdout.strip().splitlines()
+        if probe.returncode != 0 or not lines or not lines[-1].startswith(version):
             raise RuntimeError(f"bpy {version} installed but does not import:\n"
                                f"{probe.stdout[-1500:]}{probe.stderr[-1500:]}")
         with open(os.path.join(work, ".complete"), "w") as f:
-            f.write(probe.stdout.strip() + "\n")
+            f.write(lines[-1] + "\n")
         os.rename(work, final)  # the venv's python finds its site-packages relative to itself
         print(f"blender_versions: bpy {version} ready in {final}", flush=True)
         return python_of(version)
