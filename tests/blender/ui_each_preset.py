@@ -2,8 +2,8 @@
 Mesh > Planet shows the planet; the view flies to 2 km above the ground
 looking over the horizon, where terrain fills the lower view; the camera is
 set to that view (View > Align View > Align Active Camera to View) and F12
-renders the same shot, lit: the skyline in the render runs where the viewport
-showed it."""
+renders the same shot, lit: the skyline in the render (made without the sky
+world, so the skyline is the terrain's edge) runs where the viewport showed it."""
 import math
 import os
 
@@ -62,7 +62,7 @@ def refreshed(planet):
 def test():
     lib.enable()
     from planet_lod import live, presets
-    win, area, region, _ = ui.view3d()
+    _, _, region, _ = ui.view3d()
     space = ui.clean_view()
     r3d = space.region_3d
     scene = bpy.context.scene
