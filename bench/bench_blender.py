@@ -15,8 +15,8 @@ mesh.planet_add, Earth preset): per frame
          before the clock starts), pushed into a plain object with foreach_set
          (clear + add + vertex_index/loop_start/loop_total/co) and evaluated.
 With --gpu (needs a window: run under xvfb-run without -b) also the GPU
-preview's per-update cost: planet.instances() + draw._ensure_batch +
-draw._ensure_sector_texture (the batch/texture build of addon/planet_lod/draw.py).
+preview's per-update cost: the surface (planet.mesh of every leaf +
+surface.preview_data) and the upload (draw._ensure_batch: the surface texture).
 In background mode the gpu module cannot build batches; that column is then
 reported as not measurable.  Writes blender_handoff.csv and blender_handoff.json.
 """
@@ -84,13 +84,16 @@ def floor_push(me, pre):
     return push_ms, evaluate()
 
 
-def gpu_update(draw, planet, template_level, res, shader, st):
+def gpu_update(draw, planet_obj, planet, template_level, res, st):
+    from planet_lod import live, surface
+    s = planet_obj.planet_lod
     t0 = time.perf_counter()
-    inst = planet.instances(template_level=template_level)
+    leaves = planet.mesh(template_level=template_level, morph=s.morph, visible_only=False)
+    st.preview = surface.preview_data(leaves, live.anchor(planet_obj), s.radius,
+                                      s.sea_level if s.use_sea_level else None)
     t1 = time.perf_counter()
     st.gpu_version += 1
-    draw._ensure_batch(res, shader, inst, len(inst["levels"]))
-    draw._ensure_sector_texture(res, st, inst)
+    draw._ensure_batch(res, st)
     t2 = time.perf_counter()
     return (t1 - t0) * 1e3, (t2 - t1) * 1e3
 
@@ -172,8 +175,9 @@ def main():
                "refresh_ms": round(refresh_ms, 3), "lod_eval_ms": round(eval_ms, 3),
                "lod_total_ms": round(refresh_ms + eval_ms, 3)}
         if draw is not None:
-            inst_ms, build_ms = gpu_update(draw, planet, tl, res, shader, live.state(planet_obj))
-            row["gpu_instances_ms"] = round(inst_ms, 3)
+            surface_ms, build_ms = gpu_update(draw, planet_obj, planet, tl, res,
+                                              live.state(planet_obj))
+            row["gpu_surface_ms"] = round(surface_ms, 3)
             row["gpu_build_ms"] = round(build_ms, 3)
         rows.append(row)
         print(f"bench_blender: frame {k + 1}/{len(poses)} {seg} {nt} tris "
@@ -212,7 +216,7 @@ def main():
         "lod_total_ms_median": med("lod_total_ms"), "floor_total_ms_median": med("floor_total_ms"),
         "floor_push_ms_median": med("floor_push_ms"), "floor_eval_ms_median": med("floor_eval_ms"),
         "lod_over_floor_total": total("lod_total_ms") / max(1e-9, total("floor_total_ms")),
-        "gpu_instances_ms_median": med("gpu_instances_ms"),
+        "gpu_surface_ms_median": med("gpu_surface_ms"),
         "gpu_build_ms_median": med("gpu_build_ms"),
         "gpu_note": gpu_note,
     }

@@ -7,11 +7,10 @@ For every planet preset (added with Add > Planet, Preview quality) and two
 views of the 1586x953 viewport -- the whole planet as Add frames it, and 2 km
 above the ground looking 15 degrees below the horizon -- it times the
 viewport's refresh as the add-on's timer runs it (live.refresh: refine with
-hysteresis + planet.instances), cold (planet.reset() first) and warm (the view
-moved by 0.5% of its height above the ground each frame, 10 frames), and the
-GPU preview's upload after the LOD changed (draw._ensure_batch +
-draw._ensure_sector_texture, numpy) side by side with the list-based build it
-replaced (the same buffers from Python lists); for the whole-planet view also
+hysteresis + the surface's emission for the preview), cold (planet.reset()
+first) and warm (the view moved by 0.5% of its height above the ground each
+frame, 10 frames), and the GPU preview's upload of that surface
+(draw._ensure_batch: the vertex buffer); for the whole-planet view also
 the viewport region's redraw with the preview, with the planet hidden and with
 the plain mesh of the same LOD.  Prints a table, writes ui_refresh.json.
 """
@@ -48,32 +47,6 @@ def ground_view(planet, r3d, altitude, pitch):
     return direction
 
 
-def list_upload(inst, capacity):
-    """The list-based build the numpy one replaced (same buffers)."""
-    import gpu
-    bary = list(inst["template_barycentrics"])
-    tris = list(inst["template_triangles"])
-    vt = len(bary) // 3
-    coords = [tuple(bary[3 * i:3 * i + 3]) for i in range(vt)] * capacity
-    indices = []
-    for s in range(capacity):
-        base = s * vt
-        indices.extend((base + tris[k], base + tris[k + 1], base + tris[k + 2])
-                       for k in range(0, len(tris), 3))
-    corners, levels = list(inst["corners"]), list(inst["levels"])
-    count = len(levels)
-    rows = (max(3 * count, 1) + 767) // 768
-    data = [0.0] * (768 * rows * 4)
-    for s in range(count):
-        for c in range(3):
-            i = (3 * s + c) * 4
-            data[i:i + 3] = corners[9 * s + 3 * c:9 * s + 3 * c + 3]
-            data[i + 3] = levels[s]
-    gpu.types.GPUTexture((768, rows), format='RGBA32F',
-                         data=gpu.types.Buffer('FLOAT', len(data), data))
-    return coords, indices
-
-
 def measure(planet, scene, move):
     from planet_lod import core, draw, live
     st = live.state(planet)
@@ -90,20 +63,14 @@ def measure(planet, scene, move):
     for _ in range(10):
         move()
         warm.append(tick_refresh())
-    shader = draw.preview_shader()
-    inst = st.instances
     res = draw.PlanetGPU()
     t0 = time.perf_counter()
-    draw._ensure_batch(res, shader, inst, len(inst["levels"]))
-    draw._ensure_sector_texture(res, st, inst)
+    draw._ensure_batch(res, st)
     upload = (time.perf_counter() - t0) * 1000.0
-    t0 = time.perf_counter()
-    list_upload(inst, res.capacity)
-    upload_lists = (time.perf_counter() - t0) * 1000.0
     return dict(cold_ms=round(cold, 2), warm_ms=round(statistics.median(warm), 2),
                 warm_max_ms=round(max(warm), 2), sectors=st.stats.get("sectors_total"),
                 drawn=st.stats.get("visible"), level=st.stats.get("max_level"),
-                upload_ms=round(upload, 2), upload_lists_ms=round(upload_lists, 2))
+                vertices=st.stats.get("preview_vertices"), upload_ms=round(upload, 2))
 
 
 def redraw_ms(area, region, n=3):
@@ -167,11 +134,11 @@ def run(args):
     with open(os.path.join(args.out, "ui_refresh.json"), "w") as f:
         json.dump(rows, f, indent=1)
     print(f"{'preset':9} {'view':26} {'cold':>7} {'warm':>7} {'max':>7} {'sectors':>8} "
-          f"{'drawn':>6} {'upload':>7} {'lists':>7}")
+          f"{'drawn':>6} {'vertices':>9} {'upload':>7}")
     for r in rows:
         print(f"{r['preset']:9} {r['view']:26} {r['cold_ms']:7.1f} {r['warm_ms']:7.1f} "
-              f"{r['warm_max_ms']:7.1f} {r['sectors']:8} {r['drawn']:6} {r['upload_ms']:7.1f} "
-              f"{r['upload_lists_ms']:7.1f}")
+              f"{r['warm_max_ms']:7.1f} {r['sectors']:8} {r['drawn']:6} {r['vertices']:9} "
+              f"{r['upload_ms']:7.1f}")
     print("whole-planet redraw of the viewport region (ms): preview / planet hidden / plain mesh")
     for r in rows:
         if "draw_preview_ms" in r:

@@ -13,8 +13,8 @@ addon/planet_lod/presets.py), 1920x1080.
 Per planet and quality: the slowest refresh (ms), the mean, the refreshes
 over 50 ms, and the vertices of the slowest, for the two refreshes the
 add-on's viewport timer runs: with the GPU preview (the default display:
-refine + planet.instances, drawn by the GPU) and with the plain mesh (refine +
-planet.mesh).  Writing the mesh into Blender
+refine + planet.mesh of every leaf + surface.preview_data, uploaded and drawn
+by the GPU) and with the plain mesh (refine + planet.mesh).  Writing the mesh into Blender
 is not included (bench_blender.py measures that hand-off).  Not a test:
 figures only.
 """
@@ -34,12 +34,19 @@ import planetlod  # noqa: E402
 import bench_refine  # noqa: E402
 
 
+def load_module(name):
+    path = os.path.join(ROOT, "addon", "planet_lod", name + ".py")
+    spec = importlib.util.spec_from_file_location("plod_" + name, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+surface = load_module("surface")
+
+
 def load_presets():
-    path = os.path.join(ROOT, "addon", "planet_lod", "presets.py")
-    spec = importlib.util.spec_from_file_location("plod_presets", path)
-    presets = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(presets)
-    return presets
+    return load_module("presets")
 
 
 def data_path(name):
@@ -119,19 +126,24 @@ def main():
                 p.refine(cams[0][1], template_level=level)
                 p.mesh(template_level=level, cache=False)
                 p.reset()
-            for _alt, cam in cams:
-                for name, p in planets.items():
-                    t0 = time.perf_counter()
-                    p.refine(cam, max_pixel_error=q["max_pixel_error"], budget=q["budget"],
-                             template_level=level, hysteresis=True)
-                    t1 = time.perf_counter()
-                    p.instances(template_level=level)
-                    t2 = time.perf_counter()
-                    mesh = p.mesh(template_level=level, threads=2)
-                    t3 = time.perf_counter()
-                    preview_ms[name].append((t2 - t0) * 1e3)
-                    ms[name].append((t1 - t0 + t3 - t2) * 1e3)
-                    verts[name].append(mesh.vertex_count)
+            # each display on its own pass (each keeps its own sectors in
+            # the mesh cache, as the add-on does)
+            for preview in (True, False):
+                for p in planets.values():
+                    p.reset()
+                for _alt, cam in cams:
+                    for name, p in planets.items():
+                        t0 = time.perf_counter()
+                        p.refine(cam, max_pixel_error=q["max_pixel_error"], budget=q["budget"],
+                                 template_level=level, hysteresis=True)
+                        if preview:
+                            leaves = p.mesh(template_level=level, threads=2, visible_only=False)
+                            surface.preview_data(leaves, (0.0, 0.0, 0.0), p.radius)
+                            preview_ms[name].append((time.perf_counter() - t0) * 1e3)
+                        else:
+                            mesh = p.mesh(template_level=level, threads=2)
+                            ms[name].append((time.perf_counter() - t0) * 1e3)
+                            verts[name].append(mesh.vertex_count)
             for name in planets:
                 worst = max(range(len(cams)), key=lambda k: ms[name][k])
                 pv = preview_ms[name]

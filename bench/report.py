@@ -285,8 +285,8 @@ def table(summary, handoff, handoff_gpu, cyc, ctx):
                      f"({fmt(h['floor_push_ms_median'], 2)} / {fmt(h['floor_eval_ms_median'], 2)})"
                      f"; {fmt(h['lod_over_floor_total'], 2)}x | |")
         if h.get("gpu_build_ms_median") is not None:
-            lines.append(f"| 5 | GPU preview per update: instances / batch+texture build ms "
-                         f"(median, llvmpipe) | {fmt(h['gpu_instances_ms_median'], 3)} / "
+            lines.append(f"| 5 | GPU preview per update: surface / texture upload ms "
+                         f"(median, llvmpipe) | {fmt(h.get('gpu_surface_ms_median'), 3)} / "
                          f"{fmt(h['gpu_build_ms_median'], 2)} | |")
         elif h.get("gpu_note") and not handoff_gpu:
             lines.append(f"| 5 | GPU preview per update | {h['gpu_note']} | |")

@@ -437,15 +437,18 @@ struct plod_mesh_cache {
 };
 
 /* Per vertex: planet-space position (3 doubles), normal (3 floats), uv (2),
- * detail (1). */
+ * detail (1); per sector: the detail octaves each corner's normal was
+ * computed with (-1 without detail; they depend on the origin). */
 typedef struct plod__block {
     double *position;
     float *normal;
     float *uv;
     float *detail;
+    int32_t *corner_band;
 } plod__block;
 
 #define PLOD__VERTEX_CACHE_BYTES (3 * sizeof(double) + 6 * sizeof(float))
+#define PLOD__SECTOR_CACHE_BYTES (3 * sizeof(int32_t))
 
 static void plod__block_view(unsigned char *data, size_t vertices, plod__block *b)
 {
@@ -453,6 +456,7 @@ static void plod__block_view(unsigned char *data, size_t vertices, plod__block *
     b->normal = (float *)(data + 3 * sizeof(double) * vertices);
     b->uv = b->normal + 3 * vertices;
     b->detail = b->uv + 2 * vertices;
+    b->corner_band = (int32_t *)(b->detail + vertices);
 }
 
 static size_t plod__key_hash(uint64_t key)
@@ -579,7 +583,7 @@ static void plod__cache_bind(plod_mesh_cache *c, const plod_mesh_params *params,
     c->detail = p->detail;
     c->detail_stamp = p->detail ? plod_detail_stamp(p->detail) : 0;
     c->template_level = params->template_level;
-    c->entry_bytes = vertices_per_sector * PLOD__VERTEX_CACHE_BYTES;
+    c->entry_bytes = vertices_per_sector * PLOD__VERTEX_CACHE_BYTES + PLOD__SECTOR_CACHE_BYTES;
 }
 
 /* ---- one sector ---------------------------------------------------------------- */
@@ -603,7 +607,8 @@ typedef struct plod__slot_cache {
  * PLOD__CORNER_CELL times its distance to the origin (a function of the
  * corner and the origin: the same from every sector; the fine octaves'
  * slopes would speckle the shading).  Cached sectors get their corner
- * normals again for the current origin (plod__corner_normals).
+ * normals again where the current origin changed a corner's band
+ * (plod__corner_normals).
  * band[0..2]: edge opposite corner k (weight k zero); band[3]: inside. */
 #define PLOD__CORNER_CELL 1e-3
 static double plod__chord2(const double a[3], const double b[3])
@@ -677,6 +682,9 @@ static void plod__compute_vertices(const plod__emitter *e, const plod_mesh_secto
     int octaves[ROW], normal_octaves[ROW], band[4];
     if (planet->detail)
         plod__detail_bands(planet, corners, n, band);
+    if (block)
+        for (int c = 0; c < 3; c++)
+            block->corner_band[c] = -1;
     size_t v = vbase, b = 0;
     for (int i = 0; i <= n; i++) {
         /* a row at a time: directions, then the planet's batched sampling */
@@ -684,8 +692,11 @@ static void plod__compute_vertices(const plod__emitter *e, const plod_mesh_secto
         for (int j = 0; j < row; j++) {
             int k[3] = {n - i - j, j, i};
             plod__vertex_direction(corners, k, inv_n, dirs + 3 * j);
-            if (planet->detail)
+            if (planet->detail) {
                 octaves[j] = plod__vertex_band(params, k, band, dirs + 3 * j, normal_octaves + j);
+                if (block && (k[0] == n || k[1] == n || k[2] == n)) /* a corner */
+                    block->corner_band[k[0] == n ? 0 : (k[1] == n ? 1 : 2)] = normal_octaves[j];
+            }
         }
         plod_planet_surface_detail_n(planet, (size_t)row, dirs, planet->detail ? octaves : NULL,
                                      planet->detail ? normal_octaves : NULL, heights,
@@ -735,9 +746,10 @@ static void plod__compute_vertices(const plod__emitter *e, const plod_mesh_secto
 
 /* A cached sector's corner normals for this emission's origin (they
  * depend on it, plod__vertex_band): as plod__compute_vertices computes
- * them. */
+ * them, evaluated again only for corners whose band the origin changed
+ * (the cached normal of an unchanged band is that evaluation's result). */
 static void plod__corner_normals(const plod__emitter *e, const plod_mesh_sector *sector,
-                                 size_t vbase)
+                                 size_t vbase, const plod__block *block)
 {
     const plod_mesh_params *params = e->params;
     int n = e->n;
@@ -751,6 +763,8 @@ static void plod__corner_normals(const plod__emitter *e, const plod_mesh_sector 
         plod__vertex_direction((const double (*)[3])sector->corners, ks[c], inv_n, dir);
         octaves = PLOD_DETAIL_MAX_OCTAVES;
         normal_octaves = plod__corner_band(params, dir);
+        if (normal_octaves == block->corner_band[c])
+            continue;
         plod_planet_surface_band_n(params->planet, 1, dir, &octaves, &normal_octaves, &height,
                                    normal);
         for (int k = 0; k < 3; k++)
@@ -798,7 +812,7 @@ static plod_status plod__emit_sector(const plod__emitter *e, const plod_mesh_sec
         plod__block_view(cache->entries[sc->hit].data, e->vertices_per_sector, &block);
         plod__copy_vertices(e, vbase, &block);
         if (params->planet->detail && out->normals)
-            plod__corner_normals(e, sector, vbase);
+            plod__corner_normals(e, sector, vbase, &block);
     } else if (sc && sc->fresh) {
         plod__block_view(sc->fresh, e->vertices_per_sector, &block);
         plod__compute_vertices(e, sector, vbase, &block);

@@ -67,8 +67,8 @@ typedef int (*plod_mesh_sector_fn)(const void *context, size_t index,
  * there is copied (positions re-offset in double, then cast) instead of
  * recomputed, so the output is bit-identical to an uncached emission.
  * Entries not used by an emission are freed at its end: the cache holds one
- * frame's sectors, at most max_bytes (48 bytes per vertex; sectors that do
- * not fit are emitted uncached).  One cache serves one planet and template
+ * frame's sectors, at most max_bytes (48 bytes per vertex and 12 per
+ * sector; sectors that do not fit are emitted uncached).  One cache serves one planet and template
  * level: emitting another planet (pointer, radius, height scale, maps) or
  * level through it empties it first.  Not thread-safe: one emission at a
  * time per cache (the emission's own threads are handled inside). */

@@ -1,13 +1,22 @@
-"""GPU viewport preview: draws each planet's visible sectors with the GLSL in
-shaders/ (template barycentrics + per-sector corner texture, heights from a
-cube-map face atlas in the vertex shader), and the frozen LOD camera's frustum.
+"""GPU viewport preview: draws each planet's visible surface with the GLSL in
+shaders/, and the frozen LOD camera's frustum.
 
-GPU resources are cached per planet and rebuilt only when needed: the vertex
-and index buffers when the sector count outgrows their capacity (or the
-template changes), the sector texture when the LOD changes, the height atlas
-when the height map changes.
+The preview draws the vertices the core emitted for the viewport's LOD
+(surface.PreviewData): the surface a render gets, heights with the detail,
+morphing, the sea lifted, the core's normals, relative to the planet's anchor
+as the planet's mesh is.  Only the mesh's hand-off to Blender (seconds per
+million triangles) is left out: the vertices go to the GPU in one upload.
+It is lit by the scene's sun as the render is and shown through the scene's
+exposure and view transform.
+
+GPU resources are cached per planet: the batch (the template's triangles
+repeated for `capacity` sectors, grown by doubling, over a vertex index),
+the surface texture the vertex shader reads its vertices from (two texels
+per vertex), rebuilt when the preview changes, and the colour texture when
+the colour map changes.  The surface goes up as a texture because a texture
+is created from a NumPy buffer in one copy, where filling a vertex buffer
+(`GPUVertBuf.attr_fill`) copies vertex by vertex, 4-5x slower.
 """
-import math
 import os
 
 import bpy
@@ -18,8 +27,6 @@ from mathutils import Matrix, Vector
 
 from . import atmosphere, compat, core, live, materials
 
-DATA_WIDTH = 768          # sector texture width (texels); 3 texels per sector
-HEIGHT_ATLAS_SIZE = 256   # face size of the preview's height cube map
 _handle = None
 _shader = None
 _shader_error = ""
@@ -39,8 +46,7 @@ def shader_sources():
     def read(name):
         with open(os.path.join(folder, name)) as f:
             return f.read()
-    common = read("planet_common.glsl")
-    return (common + read("planet_preview_vert.glsl"), common + read("planet_preview_frag.glsl"))
+    return read("planet_preview_vert.glsl"), read("planet_preview_frag.glsl")
 
 
 def preview_shader():
@@ -51,27 +57,23 @@ def preview_shader():
         vert, frag = shader_sources()
         info = gpu.types.GPUShaderCreateInfo()
         info.push_constant('MAT4', "ModelViewProjectionMatrix")
-        info.push_constant('FLOAT', "radius")
+        info.push_constant('VEC3', "anchor")
+        info.push_constant('VEC4', "sun")  # direction (planet space), strength
+        info.push_constant('FLOAT', "exposure")
         info.push_constant('FLOAT', "height_scale")
-        info.push_constant('FLOAT', "height_offset")
-        info.push_constant('FLOAT', "height_norm")
-        info.push_constant('INT', "template_vertices")
-        info.push_constant('INT', "sector_count")
-        info.push_constant('INT', "data_width")
-        info.push_constant('INT', "projection")
-        info.push_constant('INT', "has_height")
+        info.push_constant('INT', "view_transform")
         info.push_constant('INT', "has_color")
         info.push_constant('INT', "show_levels")
-        info.push_constant('VEC3', "light_dir")
-        info.sampler(0, 'FLOAT_2D', "sector_data")
-        info.sampler(1, 'FLOAT_2D', "height_atlas")
-        info.sampler(2, 'FLOAT_2D', "color_map")
-        info.vertex_in(0, 'VEC3', "bary")
+        info.push_constant('INT', "vertex_count")
+        info.sampler(0, 'FLOAT_2D', "color_map")
+        info.sampler(1, 'FLOAT_2D', "surface")
+        info.vertex_in(0, 'INT', "vertex_index")
         iface = gpu.types.GPUStageInterfaceInfo("plod_preview_iface")
         iface.smooth('VEC3', "v_dir")
-        iface.smooth('FLOAT', "v_level")
-        iface.smooth('FLOAT', "v_height")
         iface.smooth('VEC3', "v_normal")
+        iface.smooth('FLOAT', "v_height")
+        iface.smooth('FLOAT', "v_sea")
+        iface.flat('FLOAT', "v_level")
         info.vertex_out(iface)
         info.fragment_out(0, 'VEC4', "FragColor")
         info.vertex_source(vert)
@@ -83,21 +85,13 @@ def preview_shader():
     return _shader
 
 
-PROJECTION_CODES = {"TSC": 0, "CSC": 1, "QSC": 2, "SPHERIFIED": 3, "CAR": 4}
-
-
 class PlanetGPU:
     def __init__(self):
-        self.capacity = 0
-        self.template_vertices = 0
-        self.template_key = None
+        self.capacity = 0          # sectors the batch holds
+        self.template_key = None   # (vertices, triangles) per sector
         self.batch = None
-        self.sector_tex = None
-        self.sector_version = -1
-        self.sector_count = 0
-        self.height_key = None
-        self.height_tex = None
-        self.height_norm = 1.0
+        self.surface_tex = None
+        self.version = -1
         self.color_key = None
         self.color_tex = None
 
@@ -107,73 +101,33 @@ def _dummy_texture():
                                 data=gpu.types.Buffer('FLOAT', 4, [0.0, 0.0, 0.0, 1.0]))
 
 
-def _float_buffer(array):
-    array = np.ascontiguousarray(array, dtype=np.float32).ravel()
-    return gpu.types.Buffer('FLOAT', array.size, array)
-
-
-def _ensure_batch(res, shader, inst, count):
-    """One vertex buffer repeating the template for `capacity` sectors (grown by
-    doubling, so a growing LOD rebuilds it a few times only), built with numpy."""
-    bary = np.frombuffer(inst["template_barycentrics"], dtype=np.float32).reshape(-1, 3)
-    tris = np.frombuffer(inst["template_triangles"], dtype=np.int32).reshape(-1, 3)
-    vt = len(bary)
+def _ensure_batch(res, st):
+    """The batch for `capacity` sectors (grown by doubling, so a growing LOD
+    rebuilds it a few times only) and the surface texture of the planet's
+    current preview.  Slots past the preview's vertices draw nothing."""
+    preview = st.preview
+    tris = preview.template_triangles
+    vt = preview.vertices_per_sector
     key = (vt, len(tris))
-    if res.batch is not None and res.template_key == key and count <= res.capacity:
-        return
-    capacity = 64
-    while capacity < max(count, res.capacity if res.template_key == key else 0):
-        capacity *= 2
-    coords = np.tile(bary, (capacity, 1))
-    offsets = (np.arange(capacity, dtype=np.int32) * vt)[:, None, None]
-    indices = (tris[None, :, :] + offsets).reshape(-1, 3)
-    res.batch = batch_for_shader(shader, 'TRIS', {"bary": coords}, indices=indices)
-    res.capacity, res.template_vertices, res.template_key = capacity, vt, key
-
-
-def _ensure_sector_texture(res, st, inst):
-    if res.sector_version == st.gpu_version and res.sector_tex is not None:
-        return
-    corners = np.frombuffer(inst["corners"], dtype=np.float32).reshape(-1, 3)
-    levels = np.frombuffer(inst["levels"], dtype=np.float32)
-    count = len(levels)
-    texels = max(3 * count, 1)
-    rows = (texels + DATA_WIDTH - 1) // DATA_WIDTH
-    data = np.zeros((DATA_WIDTH * rows, 4), dtype=np.float32)
-    data[:3 * count, :3] = corners[:3 * count]
-    data[:3 * count, 3] = np.repeat(levels, 3)
-    res.sector_tex = gpu.types.GPUTexture((DATA_WIDTH, rows), format='RGBA32F',
-                                          data=_float_buffer(data))
-    res.sector_version, res.sector_count = st.gpu_version, count
-
-
-def _ensure_height(res, settings):
-    path = bpy.path.abspath(settings.heightmap) if settings.heightmap else ""
-    key = (path, settings.projection)
-    if res.height_key == key:
-        return
-    res.height_key, res.height_tex = key, None
-    module = core.native
-    if not path or not os.path.isfile(path) or not hasattr(module, "CubeMap"):
-        return
-    try:
-        cube = module.CubeMap.from_image(path, projection=core.PROJECTION_IDS[settings.projection],
-                                         size=HEIGHT_ATLAS_SIZE, channels=1)
-    except core.native_errors() as exc:
-        print("planet_lod: preview height map:", exc)
-        return
-    faces = 1 if settings.projection == 'CAR' else 6
-    size = cube.size
-    face_w = 2 * size if faces == 1 else size
-    # texels of any type (u8, u16, f32) as floats; the shader scales by height_norm
-    dtype = {"u8": np.uint8, "u16": np.uint16}.get(cube.dtype, np.float32)
-    norm = {"u8": 1.0 / 255.0, "u16": 1.0 / 65535.0}.get(cube.dtype, 1.0)
-    channels = cube.channels
-    atlas = np.hstack([np.frombuffer(cube.face(f), dtype=dtype)
-                       .reshape(size, face_w, channels)[:, :, 0] for f in range(faces)])
-    res.height_tex = gpu.types.GPUTexture((face_w * faces, size), format='R32F',
-                                          data=_float_buffer(atlas))
-    res.height_norm = norm
+    count = preview.sector_count
+    if res.batch is None or res.template_key != key or count > res.capacity:
+        capacity = 64
+        while capacity < max(count, res.capacity if res.template_key == key else 0):
+            capacity *= 2
+        fmt = gpu.types.GPUVertFormat()
+        fmt.attr_add(id="vertex_index", comp_type='I32', len=1, fetch_mode='INT')
+        vbo = gpu.types.GPUVertBuf(fmt, capacity * vt)
+        vbo.attr_fill("vertex_index", np.arange(capacity * vt, dtype=np.int32))
+        offsets = (np.arange(capacity, dtype=np.int32) * vt)[:, None, None]
+        ibo = gpu.types.GPUIndexBuf(type='TRIS', seq=(tris[None, :, :] + offsets).reshape(-1, 3))
+        res.batch = gpu.types.GPUBatch(type='TRIS', buf=vbo, elem=ibo)
+        res.capacity, res.template_key = capacity, key
+    if res.surface_tex is None or res.version != st.gpu_version:
+        texels = preview.texels
+        res.surface_tex = gpu.types.GPUTexture(
+            (preview.row_texels, len(texels) // preview.row_texels), format='RGBA32F',
+            data=gpu.types.Buffer('FLOAT', texels.size, texels))
+        res.version = st.gpu_version
 
 
 def _ensure_color(res, settings):
@@ -193,45 +147,44 @@ def _ensure_color(res, settings):
         print("planet_lod: preview colour map:", exc)
 
 
+# How the preview's colour reaches the screen, after the scene's exposure, as
+# the render is shown: the scene's view transform (the shader's grey-axis
+# curves; others than these three are shown as AgX).
+VIEW_TRANSFORMS = {"Standard": 0, "Filmic": 1, "AgX": 2}
+
+
 def draw_planet(obj, st, region_data):
     shader = preview_shader()
-    inst = st.instances
-    if shader is None or not inst:
+    preview = st.preview
+    if shader is None or preview is None or preview.vertex_count == 0:
         return
     res = _cache.setdefault(obj.name_full, PlanetGPU())
-    count = len(inst["levels"])
-    if count == 0:
-        return
     s = obj.planet_lod
-    _ensure_batch(res, shader, inst, count)
-    _ensure_sector_texture(res, st, inst)
-    _ensure_height(res, s)
+    _ensure_batch(res, st)
     _ensure_color(res, s)
-    dummy = _dummy_texture()
-    # planet space -> world through the floating origin (the anchor)
-    planet_to_world = obj.matrix_world @ Matrix.Translation(-Vector(live.anchor(obj)))
-    eye = planet_to_world.inverted_safe() @ region_data.view_matrix.inverted().translation
-    sun = atmosphere.sun_of(bpy.context.scene)[0]  # the render's light, else the viewer's
-    light = Vector(sun) if sun is not None else eye.normalized() if eye.length > 0 \
-        else Vector((0, 0, 1))
+    to_planet = obj.matrix_world.to_3x3().inverted_safe()
+    sun, strength = atmosphere.sun_of(bpy.context.scene)
+    if sun is not None:
+        light = (to_planet @ Vector(sun)).normalized()
+    else:  # no sun: a light at the viewer
+        eye = obj.matrix_world.inverted_safe() @ region_data.view_matrix.inverted().translation
+        eye = eye + Vector(live.anchor(obj))
+        light = eye.normalized() if eye.length > 0 else Vector((0.0, 0.0, 1.0))
+        strength = 1.0
+    view = bpy.context.scene.view_settings
     shader.bind()
     shader.uniform_float("ModelViewProjectionMatrix",
-                         region_data.perspective_matrix @ planet_to_world)
-    shader.uniform_float("radius", s.radius)
+                         region_data.perspective_matrix @ obj.matrix_world)
+    shader.uniform_float("anchor", Vector(live.anchor(obj)))
+    shader.uniform_float("sun", (light.x, light.y, light.z, strength))
+    shader.uniform_float("exposure", 2.0 ** view.exposure)
     shader.uniform_float("height_scale", s.height_scale)
-    shader.uniform_float("height_offset", s.height_offset)
-    shader.uniform_float("height_norm", res.height_norm)
-    shader.uniform_int("template_vertices", res.template_vertices)
-    shader.uniform_int("sector_count", res.sector_count)
-    shader.uniform_int("data_width", DATA_WIDTH)
-    shader.uniform_int("projection", PROJECTION_CODES[s.projection])
-    shader.uniform_int("has_height", 1 if res.height_tex is not None else 0)
+    shader.uniform_int("view_transform", VIEW_TRANSFORMS.get(view.view_transform, 2))
     shader.uniform_int("has_color", 1 if res.color_tex is not None else 0)
     shader.uniform_int("show_levels", 1 if s.show_levels else 0)
-    shader.uniform_float("light_dir", light)
-    shader.uniform_sampler("sector_data", res.sector_tex)
-    shader.uniform_sampler("height_atlas", res.height_tex or dummy)
-    shader.uniform_sampler("color_map", res.color_tex or dummy)
+    shader.uniform_int("vertex_count", preview.vertex_count)
+    shader.uniform_sampler("color_map", res.color_tex or _dummy_texture())
+    shader.uniform_sampler("surface", res.surface_tex)
     res.batch.draw(shader)
 
 

@@ -27,10 +27,11 @@ import time
 from array import array
 
 import bpy
+import numpy
 from bpy.app.handlers import persistent
 from mathutils import Matrix
 
-from . import atmosphere, compat, core, materials
+from . import atmosphere, compat, core, materials, surface
 
 RUNTIME = {}
 REFRESH_INTERVAL_S = 0.1   # during navigation the detail follows at this rate
@@ -56,8 +57,9 @@ class PlanetState:
         self.warning = ""          # the viewport's camera is inside the planet
         self.render_warning = ""   # the render camera is inside the planet
         self.refreshed_at = time.monotonic()  # of the last viewport refresh
-        self.instances = None      # dict from planet.instances() for the GPU preview
-        self.gpu_version = 0       # bumped when instances change
+        self.preview = None        # surface.PreviewData the GPU preview draws
+        self.preview_key = None    # what it was emitted from
+        self.gpu_version = 0       # bumped when the preview changes
         self.frozen_camera = None  # (matrix_world planet space, params) while frozen
         self.mesh_hash = ""
         self.render_key = None     # camera + settings of the last render refresh
@@ -409,6 +411,10 @@ def _refresh_locked(obj, scene, params, build_mesh, for_render):
         params = _with_clip(lod_camera_params(obj, scene, for_render=for_render), clip)
     if params is None:
         raise RuntimeError(NO_CAMERA)
+    # the preview draws the surface the render gets (heights with the detail,
+    # morphing, the sea, the core's normals, relative to the anchor), of the
+    # viewport's LOD only: a render's never leaks in
+    preview = obj.planet_lod.gpu_preview and not bpy.app.background and not for_render
     was_busy, _local.busy = _in_refresh(), True
     try:
         frozen = obj.planet_lod.freeze_lod and st.frozen_camera is not None and not for_render
@@ -417,7 +423,7 @@ def _refresh_locked(obj, scene, params, build_mesh, for_render):
             # without hysteresis (renders) the sector set and the order meshes
             # are emitted in depend on this camera only, never on earlier frames
             stats = core.refine(planet, camera, settings, hysteresis=not for_render)
-            if build_mesh:  # refuse before the mesh (or anything in bpy) is touched
+            if build_mesh or preview:  # refuse before the mesh (or anything in bpy) is touched
                 core.check_mesh_size(stats, settings["template_level"])
             st.stats = stats
             inside = core.camera_inside(planet, params["matrix_world"])
@@ -426,20 +432,35 @@ def _refresh_locked(obj, scene, params, build_mesh, for_render):
             else:
                 st.frozen_camera = params
                 st.warning = (INSIDE_VIEW if inside else "")
-        if obj.planet_lod.gpu_preview and not bpy.app.background and not for_render:
-            # the preview draws the viewport's detail only: a render's never leaks in
-            st.instances = planet.instances(template_level=settings["template_level"])
-            st.gpu_version += 1
+        s = obj.planet_lod
+        sea_level = s.sea_level if s.use_sea_level else None
+        if preview:
+            # the preview draws every leaf sector, not only those in view: the
+            # GPU clips the rest, so turning the view shows terrain at once
+            # and, the same leaves (without morphing, which follows the eye)
+            # giving the same surface, a view that turns or moves without a
+            # change of LOD keeps its preview
+            ids = numpy.sort(numpy.frombuffer(planet.sector_ids(visible_only=False),
+                                              numpy.uint64))
+            preview_key = (planet, settings["template_level"], anchor(obj), s.radius, sea_level,
+                           ids.tobytes())
+            if s.morph or preview_key != st.preview_key or st.preview is None:
+                st.preview_key = preview_key
+                leaves = planet.mesh(template_level=settings["template_level"], morph=s.morph,
+                                     visible_only=False)
+                st.preview = surface.preview_data(leaves, anchor(obj), s.radius, sea_level)
+                st.gpu_version += 1
+            st.stats["preview_vertices"] = st.preview.vertex_count
+        mesh = None
         if build_mesh:
             t0 = time.perf_counter()
-            mesh = planet.mesh(template_level=settings["template_level"],
-                               morph=obj.planet_lod.morph)
+            mesh = planet.mesh(template_level=settings["template_level"], morph=s.morph)
+            st.stats["vertices"] = mesh.vertex_count
+            st.stats["triangles"] = mesh.triangle_count
             write_mesh(obj, mesh)
             if not for_render:
                 st.render_key = None  # the mesh no longer matches the render camera
             st.stats["mesh_ms"] = round((time.perf_counter() - t0) * 1000.0, 3)
-            st.stats["vertices"] = mesh.vertex_count
-            st.stats["triangles"] = mesh.triangle_count
             st.mesh_hash = mesh_digest(mesh)
             st.stats["mesh_hash"] = st.mesh_hash
         if st.material_dirty or build_mesh:
@@ -475,7 +496,6 @@ def write_mesh(obj, mesh):
     cost a Python sequence per vertex and a split-normal evaluation per
     update, seconds for a quarter of a million triangles; Blender's own
     face-averaged normals stay for everything but the planet's shading."""
-    from . import surface
     me = obj.data
     nv, nt = mesh.vertex_count, mesh.triangle_count
     if len(me.vertices) != nv or len(me.polygons) != nt or me.has_custom_normals:

@@ -50,12 +50,10 @@ class VertexData:
         self.attributes = attributes  # name -> float32 flat buffer, 1 per vertex
 
 
-def vertex_data(mesh, anchor, radius, sea_level=None):
-    """VertexData of `mesh` for a planet object anchored at `anchor` (planet space)."""
-    if mesh.vertex_count == 0:
-        return VertexData(array("f"), array("f"), {name: array("f") for name in ATTRIBUTES})
-    if numpy is None:
-        return _vertex_data_python(mesh, anchor, radius, sea_level)
+def _ground(mesh, anchor, radius, sea_level):
+    """The positions (float64, planet space) and normals of `mesh` with the sea
+    lifted, and per vertex: the unit up, the height (above sea level, or the
+    radius without a sea), the water depth and the sea flag (numpy arrays)."""
     origin = numpy.array(tuple(mesh.origin), dtype=numpy.float64)
     pos = numpy.frombuffer(mesh.positions, dtype=numpy.float32).reshape(-1, 3)
     # float32 rounding of the core's positions, relative to its origin: a sea
@@ -77,14 +75,29 @@ def vertex_data(mesh, anchor, radius, sea_level=None):
         normals[below] = up[below]
         height = height - sea_level
         height[below] = 0.0
+    return pos, normals, up, height, depth, sea
+
+
+def _relative(pos, anchor):
+    """float64 planet-space positions relative to `anchor`, rounded to float32 once."""
+    local = (pos - numpy.array(anchor, dtype=numpy.float64)).astype(numpy.float32)
+    return numpy.ascontiguousarray(local).ravel()
+
+
+def vertex_data(mesh, anchor, radius, sea_level=None):
+    """VertexData of `mesh` for a planet object anchored at `anchor` (planet space)."""
+    if mesh.vertex_count == 0:
+        return VertexData(array("f"), array("f"), {name: array("f") for name in ATTRIBUTES})
+    if numpy is None:
+        return _vertex_data_python(mesh, anchor, radius, sea_level)
+    pos, normals, up, height, depth, sea = _ground(mesh, anchor, radius, sea_level)
     cos_slope = numpy.clip(numpy.einsum("ij,ij->i", normals, up), -1.0, 1.0)
     slope = numpy.degrees(numpy.arccos(cos_slope))
     latitude = numpy.degrees(numpy.arcsin(numpy.clip(up[:, 2], -1.0, 1.0)))
     detail = numpy.frombuffer(_detail_of(mesh), dtype=numpy.float32).copy()
     detail[sea > 0.0] = 0.0
-    local = (pos - numpy.array(anchor, dtype=numpy.float64)).astype(numpy.float32)
     f32 = numpy.float32
-    return VertexData(numpy.ascontiguousarray(local).ravel(),
+    return VertexData(_relative(pos, anchor),
                       numpy.ascontiguousarray(normals.astype(f32)).ravel(),
                       {"planet_height": height.astype(f32),
                        "planet_sea_depth": depth.astype(f32),
@@ -92,6 +105,98 @@ def vertex_data(mesh, anchor, radius, sea_level=None):
                        "planet_slope": slope.astype(f32),
                        "planet_latitude": latitude.astype(f32),
                        "planet_detail": detail})
+
+
+class PreviewData:
+    """What the GPU preview draws of a planetlod.Mesh: the surface the planet's
+    Blender mesh gets (positions relative to the anchor with the sea lifted,
+    the core's normals), as one float32 array of two RGBA texels per vertex
+    for a data texture `row_texels` wide (padded to whole rows):
+    (x, y, z, height above sea level) and (normal x, y, z, 2 * sector level +
+    sea flag).  Every sector is one copy of the template:
+    `template_triangles` index its `vertices_per_sector` vertices."""
+    __slots__ = ("texels", "row_texels", "vertex_count", "sector_count",
+                 "vertices_per_sector", "template_triangles")
+
+    def __init__(self, texels, row_texels, vertex_count, sector_count, template_triangles):
+        self.texels = texels          # (rows * row_texels, 4)
+        self.row_texels = row_texels
+        self.vertex_count = vertex_count
+        self.sector_count = sector_count
+        self.vertices_per_sector = vertex_count // max(sector_count, 1)
+        self.template_triangles = template_triangles  # (t, 3) int32
+
+    @property
+    def positions(self):
+        return self.texels[0:2 * self.vertex_count:2, :3]
+
+    @property
+    def normals(self):
+        return self.texels[1:2 * self.vertex_count:2, :3]
+
+    @property
+    def heights(self):
+        return self.texels[0:2 * self.vertex_count:2, 3]
+
+    @property
+    def sea(self):
+        return numpy.mod(self.texels[1:2 * self.vertex_count:2, 3], 2.0)
+
+    @property
+    def levels(self):
+        return numpy.floor_divide(self.texels[1:2 * self.vertex_count:2, 3], 2.0)
+
+
+PREVIEW_ROW_TEXELS = 4096  # even: a vertex's two texels share a row
+
+
+def preview_data(mesh, anchor, radius, sea_level=None, row_texels=PREVIEW_ROW_TEXELS):
+    """PreviewData of `mesh` (numpy required: the GPU preview runs in Blender).
+    Float32 where that is exact enough for a picture (heights for colours,
+    to a few metres), float64 where vertex_data uses it for a decision: a
+    vertex near or below the sea is lifted exactly as the render mesh's is."""
+    f32 = numpy.float32
+    n = mesh.vertex_count
+    rows = max((2 * n + row_texels - 1) // row_texels, 1)
+    texels = numpy.empty((rows * row_texels, 4), dtype=f32)
+    texels[2 * n:] = 0.0
+    if n == 0:
+        return PreviewData(texels, row_texels, 0, 0, numpy.zeros((0, 3), dtype=numpy.int32))
+    vertex = texels[:2 * n].reshape(n, 2, 4)
+    origin = numpy.array(tuple(mesh.origin), dtype=numpy.float64)
+    anchor = numpy.array(anchor, dtype=numpy.float64)
+    rel = numpy.frombuffer(mesh.positions, dtype=f32).reshape(-1, 3)
+    numpy.add(rel, (origin - anchor).astype(f32), out=vertex[:, 0, :3])
+    vertex[:, 1, :3] = numpy.frombuffer(mesh.normals, dtype=f32).reshape(-1, 3)
+    planet = rel + origin.astype(f32)
+    height = numpy.sqrt(numpy.einsum("ij,ij->i", planet, planet)) - f32(radius)
+    sea = numpy.zeros(n, dtype=f32)
+    if sea_level is not None:
+        # float32 planet-space heights are off by a few float32 steps of the
+        # radius; the vertices within a margin of that are redone in float64
+        margin = radius * 2.0 ** -18 + 1.0
+        near = numpy.flatnonzero(height <= sea_level + margin)
+        if near.size:
+            part = rel[near]
+            tolerance = numpy.abs(part).max(axis=1).astype(numpy.float64) * 2.0 ** -22 + 1e-3
+            pos = part.astype(numpy.float64) + origin
+            distance = numpy.sqrt(numpy.einsum("ij,ij->i", pos, pos))
+            below = (distance - radius) <= sea_level + tolerance
+            lifted = near[below]
+            up = pos[below] / distance[below, None]
+            vertex[lifted, 0, :3] = up * (radius + sea_level) - anchor
+            vertex[lifted, 1, :3] = up
+            sea[lifted] = 1.0
+        height -= f32(sea_level)
+        height[sea > 0.0] = 0.0
+    sectors = mesh.sector_count
+    tris_per_sector = mesh.triangle_count // sectors
+    # the first sector's triangles index vertices 0..vertices_per_sector-1
+    template = numpy.frombuffer(mesh.triangles, dtype=numpy.int32)[:3 * tris_per_sector]
+    levels = numpy.frombuffer(mesh.sector_level, dtype=numpy.int32)[::tris_per_sector]
+    vertex[:, 0, 3] = height
+    vertex[:, 1, 3] = numpy.repeat(levels.astype(f32) * 2.0, n // sectors) + sea
+    return PreviewData(texels, row_texels, n, sectors, template.reshape(-1, 3).copy())
 
 
 def _vertex_data_python(mesh, anchor, radius, sea_level):

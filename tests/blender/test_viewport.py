@@ -65,9 +65,10 @@ def step():
         from planet_lod import live
         planet = bpy.data.objects.get("Earth")
         st = live.RUNTIME.get(planet.name_full) if planet else None
-        if STATE["step"] < 40 and (st is None or not st.instances):
+        drawn = st is not None and st.preview is not None and st.preview.vertex_count > 0
+        if STATE["step"] < 40 and not drawn:
             return 0.1  # wait for the live refresh (refresh timer)
-        assert st is not None and st.instances, "live update never refined the planet"
+        assert drawn, "live update never refined the planet"
         if STATE["step"] < 45:
             return 0.1  # let the viewport redraw
         if "on" not in STATE:

@@ -54,7 +54,7 @@ def skyline(image):
 def refreshed(planet):
     from planet_lod import live
     st = live.state(planet)
-    yield from ui.wait_until(lambda: not st.dirty and st.instances is not None,
+    yield from ui.wait_until(lambda: not st.dirty and st.preview is not None,
                              what="the viewport refresh")
     yield from ui.redraw(2)
 
@@ -104,11 +104,11 @@ def test():
         x0, y0, x1, y1 = ui.camera_frame_rect(scene, camera, region, r3d)
         framed = view[y0:y1, x0:x1]
         world, scene.world = scene.world, None
-        preview_before = st.instances
+        preview_before = st.preview
         with ui.override():
             bpy.ops.render.render()
         scene.world = world
-        assert st.instances is preview_before, "the render's LOD leaked into the viewport's"
+        assert st.preview is preview_before, "the render's LOD leaked into the viewport's"
         path = os.path.join(lib.out_dir(), f"{preset.lower()}_2km_render.png")
         bpy.data.images["Render Result"].save_render(filepath=path)
         render = ui.load_png(path)
@@ -118,16 +118,21 @@ def test():
         at_view = view_rows[(columns * framed.shape[1]).astype(int)]
         at_render = render_rows[(columns * render.shape[1]).astype(int)]
         error = float(np.median(np.abs(at_view - at_render)))
+        # in the render's pixels: the preview draws the render's surface
+        pixels = np.abs(at_view - at_render) * render.shape[0]
+        p95 = float(np.percentile(pixels, 95))
         lit = render[render_ground].mean(axis=1) if render_ground.any() else np.zeros(1)
+        preview_lit = framed[view_ground].mean() if view_ground.any() else 0.0
         print(f"{preset}: 2 km: ground {view_ground.mean():.1%} of the camera frame, "
               f"{render_ground.mean():.1%} of the render; skyline at "
               f"{np.median(at_view):.3f} / {np.median(at_render):.3f} of the height, median "
-              f"difference {error:.3f}; lit ground {lit.mean():.3f}, "
+              f"difference {error:.3f} (95th percentile {p95:.1f} px of {render.shape[0]}); lit ground {lit.mean():.3f} (preview {preview_lit:.3f}), "
               f"{st.stats.get('visible')} sectors drawn", flush=True)
         # ground under the skyline across the frame, in the viewport and the render
         assert (view_rows < 0.9).mean() > 0.9 and render_ground.mean() > 0.3, \
             f"{preset}: no ground at 2 km"
         assert error < 0.03, f"{preset}: F12 does not show the skyline the viewport framed"
+        assert p95 <= 2.0, f"{preset}: the preview's skyline is not the render's"
         assert lit.mean() > 0.05, f"{preset}: the render is dark"
         r3d.view_perspective = 'PERSP'
 

@@ -27,7 +27,7 @@ def refreshed(planet):
     """Generator: waits for the viewport's refresh of `planet` and two redraws."""
     from planet_lod import live
     st = live.state(planet)
-    yield from ui.wait_until(lambda: not st.dirty and st.instances is not None,
+    yield from ui.wait_until(lambda: not st.dirty and st.preview is not None,
                              what="the viewport refresh")
     yield from ui.redraw(2)
 
@@ -54,9 +54,9 @@ def ground_view(planet, altitude, pitch):
 def relief(preset):
     """The preview with the preset's relief against the same view with the
     height scale at 0: the asteroid whole and lit from the side (the
-    terminator across it), Mars-like from 2% of its radius up towards the
-    horizon (its slopes are gentle, 99% below 2%: the relief shows in the
-    skyline, hardly in the shading)."""
+    terminator across it: its relief changes the outline and the shading),
+    Mars-like from 2% of its radius up towards the horizon (its slopes are
+    gentle, 99% below 2%: the relief shows in the skyline)."""
     planet = add(preset)
     _, area, _, _ = ui.view3d()
     r3d = area.spaces.active.region_3d
@@ -86,8 +86,8 @@ def relief(preset):
     assert mask.mean() > 0.2
     if preset == 'MARS':  # ~1500 pixels of skyline moved by the relief
         assert skyline > 0.001, f"{preset}: no relief in the preview"
-    else:
-        assert a > 1.5 * b and change > 0.05, f"{preset}: no relief in the preview"
+    else:  # the asteroid's lumps and hollows change its outline and its shading
+        assert skyline > 0.05 and change > 0.05, f"{preset}: no relief in the preview"
 
 
 def far_side():

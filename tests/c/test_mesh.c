@@ -622,7 +622,7 @@ static void test_cache(void)
         mesh_free(&m);
     }
     size_t vertices = plod_template_vertex_count(3);
-    CHECK(st.bytes == set.count * vertices * 48, "bytes %zu", st.bytes);
+    CHECK(st.bytes == set.count * (vertices * 48 + 12), "bytes %zu", st.bytes);
 
     /* another origin: hits re-offset exactly */
     params.origin[0] = 12345.678;
@@ -655,7 +655,7 @@ static void test_cache(void)
 
     /* budget: room for 10 sectors (split over 2 threads: 5 each) */
     plod_mesh_cache_clear(cache);
-    plod_mesh_cache_set_max_bytes(cache, 10 * plod_template_vertex_count(2) * 48);
+    plod_mesh_cache_set_max_bytes(cache, 10 * (plod_template_vertex_count(2) * 48 + 12));
     params.threads = 2;
     mesh m5;
     CHECK(emit(&params, &set, &m5) == PLOD_OK, "budget");
