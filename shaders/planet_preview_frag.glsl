@@ -1,13 +1,17 @@
 /* Planet LOD preview, fragment stage: the ground's colour from the
  * equirectangular colour map (or an elevation ramp, or the sector level),
- * lit as the render is by the scene's sun (Lambert on the core's normal;
- * a Blender sun of strength 1 lights a white surface facing it to 1) and shown through the scene's
- * exposure and view transform: the callback draws into display space.
+ * lit as the render is by the scene's sun (Lambert on the core's normal; a
+ * Blender sun of strength 1 lights a white surface facing it to 1), seen
+ * through the haze and shown through the scene's exposure and view
+ * transform; written for a framebuffer that encodes to sRGB itself where
+ * Blender says so (srgbTarget, as its own shaders do).
+ * The haze (with PLOD_ATMOSPHERE and its constants defined, draw.py): the
+ * render material's aerial perspective (atmosphere.py: single scattering,
+ * Rayleigh + Mie, optical depths by Schüler's approximation of the Chapman
+ * function), per pixel: a flat sea's triangles span kilometres of haze.
  * The colour map is read at the mip level of the pixel's footprint
  * (textureGrad; the longitude derivative unwrapped across the date line);
- * its sRGB texels arrive encoded and are decoded here. */
-
-#define PLOD_PI 3.14159265358979
+ * an sRGB texture's texels arrive decoded (scene-linear). */
 
 vec3 level_colour(float level)
 {
@@ -38,46 +42,118 @@ float view_curve(float x)
   float k = clamp((log2(max(x, 1e-6)) + 12.0) * 2.0, 0.0, 40.0);
   int i = min(int(k), 39);
   float f = k - float(i);
-  if (view_transform == 1) {
+  if (display / 4 == 1) {
     return mix(FILMIC[i], FILMIC[i + 1], f);
   }
   return mix(AGX[i], AGX[i + 1], f);
 }
 
-/* the scene's view transform: Standard (0, clipped), Filmic (1), AgX (2) */
+/* the scene's view transform (display / 4): Standard (0, clipped), Filmic
+ * (1), AgX (2) */
 vec3 view_transformed(vec3 radiance)
 {
-  if (view_transform == 0) {
+  if (display / 4 == 0) {
     return linear_to_srgb(radiance);
   }
   return vec3(view_curve(radiance.r), view_curve(radiance.g), view_curve(radiance.b));
 }
 
+#ifdef PLOD_ATMOSPHERE
+/* U(r, mu), mu >= 0: optical depth / (beta H) to space; below the radius
+ * counts as on it */
+float up_term(float r, float mu, float height)
+{
+  float c = sqrt(r * (PLOD_PI / 2.0 / height));
+  return c / (c * mu + 1.0) * exp(min((r - ATM_RADIUS) * (-1.0 / height), 0.0));
+}
+
+/* a whole ray through its closest approach r0 */
+float grazing(float r0, float height, float limit)
+{
+  return sqrt(r0 * (PLOD_PI / 2.0 / height)) * 2.0 *
+         exp(min((r0 - ATM_RADIUS) * (-1.0 / height), limit));
+}
+
+float to_space(float r, float mu, float r0, float height)
+{
+  float down = mu < 0.0 ? 1.0 : 0.0;
+  return (1.0 - 2.0 * down) * up_term(r, abs(mu), height) + down * grazing(r0, height, 30.0);
+}
+
+/* depth / (beta H) between the camera and the point, along d */
+float segment_depth(vec3 cam, vec3 point, vec3 d, float height)
+{
+  float r_c = length(cam), r_p = length(point);
+  float mu_c = dot(cam / r_c, d), mu_p = dot(point / r_p, d);
+  float r0 = r_c * sqrt(max(1.0 - mu_c * mu_c, 0.0));
+  float down_c = mu_c < 0.0 ? 1.0 : 0.0, down_p = mu_p < 0.0 ? 1.0 : 0.0;
+  float up_c = up_term(r_c, abs(mu_c), height) * (1.0 - down_c * 2.0);
+  float up_p = up_term(r_p, abs(mu_p), height) * (1.0 - down_p * 2.0);
+  return max(up_c - up_p + abs(down_c - down_p) * grazing(r0, height, 0.0), 0.0);
+}
+
+void aerial_perspective(vec3 point, out vec3 inscatter, out float haze)
+{
+  vec3 cam = camera.xyz;
+  vec3 view = point - cam;
+  vec3 d = view / max(length(view), 1e-3);
+  float depth_r = segment_depth(cam, point, d, ATM_RAYLEIGH_HEIGHT);
+  float depth_m = segment_depth(cam, point, d, ATM_MIE_HEIGHT);
+  float r = length(point);
+  float mu = dot(point / r, sun.xyz);
+  float r0 = r * sqrt(max(1.0 - mu * mu, 0.0));
+  float sun_r = to_space(r, mu, r0, ATM_RAYLEIGH_HEIGHT);
+  float sun_m = to_space(r, mu, r0, ATM_MIE_HEIGHT);
+  float cos_sun = dot(d, sun.xyz);
+  float g = ATM_MIE_G, g2 = g * g;
+  float phase_r = (cos_sun * cos_sun + 1.0) * (3.0 / (16.0 * PLOD_PI));
+  float phase_m = (cos_sun * cos_sun + 1.0) * (3.0 / (8.0 * PLOD_PI) * (1.0 - g2) / (2.0 + g2)) /
+                  pow(max(cos_sun * (-2.0 * g) + (1.0 + g2), 1e-4), 1.5);
+  vec3 tau_r = ATM_RAYLEIGH * ATM_RAYLEIGH_HEIGHT * depth_r;
+  vec3 tau_m = ATM_MIE * (ATM_MIE_HEIGHT * 1.11) * depth_m;  /* Mie extinction */
+  vec3 tau = max(tau_r + tau_m, vec3(1e-7));
+  vec3 scattered = tau_r * phase_r + ATM_MIE * ATM_MIE_HEIGHT * depth_m * phase_m;
+  vec3 transmittance = exp(-tau);
+  vec3 sun_tau = ATM_RAYLEIGH * ATM_RAYLEIGH_HEIGHT * sun_r + ATM_MIE * (ATM_MIE_HEIGHT * 1.11) * sun_m;
+  vec3 sunlight = exp(-sun_tau) * sun.w;
+  inscatter = scattered / tau * (vec3(1.0) - transmittance) * sunlight * ATM_GAIN;
+  haze = dot(transmittance, vec3(0.3, 0.6, 0.1));  /* luminance-weighted */
+}
+#endif
+
 void main()
 {
-  vec3 n = normalize(v_dir);
+  vec3 n = normalize(v_point);
   vec3 albedo;
-  if (show_levels != 0) {
+  int shading = display % 4;
+  if (shading == SHADING_LEVELS) {
     albedo = srgb_to_linear(level_colour(v_level));
   }
-  else if (v_sea > 0.8) {  /* ground the core lifted to the sea surface */
-    albedo = vec3(0.004, 0.02, 0.06);  /* the render material's deep water */
-  }
-  else if (has_color != 0) {
+  else if (shading == SHADING_COLOR_MAP) {  /* the sea's colour included */
     vec2 st = vec2(atan(n.y, n.x) / (2.0 * PLOD_PI) + 0.5, asin(clamp(n.z, -1.0, 1.0)) / PLOD_PI + 0.5);
     vec2 dx = dFdx(st), dy = dFdy(st);
     dx.x -= floor(dx.x + 0.5);
     dy.x -= floor(dy.x + 0.5);
-    albedo = srgb_to_linear(textureGrad(color_map, st, dx, dy).rgb);
+    albedo = textureGrad(color_map, st, dx, dy).rgb;
+  }
+  else if (v_sea > 0.5) {  /* ground the core lifted to the sea surface */
+    albedo = vec3(0.004, 0.02, 0.06);  /* the render material's deep water */
   }
   else {
     /* the render material's elevation ramp (scene-linear stops) */
-    float t = clamp(v_height / max(height_scale, 1.0), 0.0, 1.0);
+    float t = clamp(v_height / max(anchor.w, 1.0), 0.0, 1.0);
     albedo = t < 0.45 ? mix(vec3(0.18, 0.16, 0.14), vec3(0.55, 0.42, 0.3), t / 0.45) :
                         mix(vec3(0.55, 0.42, 0.3), vec3(0.92, 0.9, 0.88), (t - 0.45) / 0.55);
   }
   float cosine = max(dot(normalize(v_normal), normalize(sun.xyz)), 0.0);
   /* a little sky light keeps the night side readable */
   vec3 radiance = albedo * (sun.w * cosine + 0.02);
-  FragColor = vec4(view_transformed(radiance * exposure), 1.0);
+#ifdef PLOD_ATMOSPHERE
+  vec3 inscatter;
+  float transmit;
+  aerial_perspective(v_point, inscatter, transmit);
+  radiance = radiance * transmit + inscatter;
+#endif
+  vec3 shown = view_transformed(radiance * camera.w);
+  FragColor = vec4(srgbTarget ? srgb_to_linear(shown) : shown, 1.0);
 }

@@ -2,23 +2,28 @@
  * viewport's LOD, the vertices the planet's render mesh gets (heights with
  * the detail, morphing, the sea lifted), relative to the planet's anchor, with
  * the core's normals (planet space).  `surface` holds two texels per vertex:
- * (position, height above sea level) and (normal, 2 * sector level + sea). */
+ * (position, height above sea level) and (normal, 2 * sector level + sea),
+ * zero past the preview's vertices. */
 
 void main()
 {
-  if (vertex_index >= vertex_count) {  /* an unused slot: clipped away */
+  ivec2 size = textureSize(surface, 0);
+  int width = size.x;
+  int texel = 2 * vertex_index;
+  /* slots past the texture are clipped away; those in its zero padding draw
+   * zero-area triangles (the padding holds whole sectors) */
+  if (texel >= size.x * size.y) {
     gl_Position = vec4(0.0, 0.0, 2.0, 1.0);
-    v_dir = v_normal = vec3(0.0, 0.0, 1.0);
+    v_point = v_normal = vec3(0.0, 0.0, 1.0);
     v_height = v_sea = v_level = 0.0;
     return;
   }
-  int width = textureSize(surface, 0).x;
-  int texel = 2 * vertex_index;
   ivec2 at = ivec2(texel % width, texel / width);
   vec4 point = texelFetch(surface, at, 0);
   vec4 normal = texelFetch(surface, at + ivec2(1, 0), 0);
-  /* planet space in float32 is enough for the direction (colour lookups) */
-  v_dir = normalize(point.xyz + anchor);
+  /* planet space in float32 is enough for the direction (colour lookups)
+   * and the haze (scale heights of kilometres) */
+  v_point = point.xyz + anchor.xyz;
   v_normal = normal.xyz;
   v_height = point.w;
   v_sea = mod(normal.w, 2.0);

@@ -6,7 +6,8 @@ The preview draws the vertices the core emitted for the viewport's LOD
 morphing, the sea lifted, the core's normals, relative to the planet's anchor
 as the planet's mesh is.  Only the mesh's hand-off to Blender (seconds per
 million triangles) is left out: the vertices go to the GPU in one upload.
-It is lit by the scene's sun as the render is and shown through the scene's
+It is lit by the scene's sun as the render is, seen through the render
+material's haze (aerial perspective) and shown through the scene's
 exposure and view transform.
 
 GPU resources are cached per planet: the batch (the template's triangles
@@ -27,8 +28,12 @@ from mathutils import Matrix, Vector
 
 from . import atmosphere, compat, core, live, materials
 
+# The ground's colour: the render material's elevation ramp (and water on
+# the sea), the colour map, or the sector levels' colours.
+SHADING_RAMP, SHADING_COLOR_MAP, SHADING_LEVELS = 0, 1, 2
+
 _handle = None
-_shader = None
+_shaders = {}        # atmosphere key -> compiled preview shader
 _shader_error = ""
 _cache = {}
 
@@ -38,38 +43,69 @@ def shader_error():
     return _shader_error
 
 
-def shader_sources():
+def _glsl_float(value):
+    return repr(float(value))
+
+
+def _glsl_vec3(values):
+    return "vec3(" + ", ".join(_glsl_float(v) for v in values) + ")"
+
+
+def shader_defines(atm):
+    """GLSL #defines of a planet's atmosphere (atmosphere.params), "" for none."""
+    if atm is None:
+        return ""
+    values = {"ATM_RADIUS": _glsl_float(atm["radius"]),
+              "ATM_RAYLEIGH": _glsl_vec3(atm["rayleigh"]),
+              "ATM_MIE": _glsl_vec3(atm["mie"]),
+              "ATM_RAYLEIGH_HEIGHT": _glsl_float(atm["rayleigh_height"]),
+              "ATM_MIE_HEIGHT": _glsl_float(atm["mie_height"]),
+              "ATM_MIE_G": _glsl_float(atm["mie_g"]),
+              "ATM_GAIN": _glsl_float(atm["gain"])}
+    return "#define PLOD_ATMOSPHERE\n" + "".join(f"#define {k} {v}\n" for k, v in values.items())
+
+
+PREFIX = ("#define PLOD_PI 3.14159265358979\n"
+          f"#define SHADING_RAMP {SHADING_RAMP}\n#define SHADING_COLOR_MAP {SHADING_COLOR_MAP}\n"
+          f"#define SHADING_LEVELS {SHADING_LEVELS}\n")
+
+
+def shader_sources(defines=""):
     folder = next((d for d in core.resource_dirs("shaders") if os.path.isdir(d)), None)
     if folder is None:
         raise FileNotFoundError("shaders/ folder not found")
 
     def read(name):
         with open(os.path.join(folder, name)) as f:
-            return f.read()
+            return PREFIX + defines + f.read()
     return read("planet_preview_vert.glsl"), read("planet_preview_frag.glsl")
 
 
-def preview_shader():
-    global _shader, _shader_error
-    if _shader is not None or _shader_error:
-        return _shader
+def preview_shader(atm=None):
+    """The preview shader for a planet with atmosphere `atm` (None: airless)."""
+    global _shader_error
+    key = repr(sorted(atm.items())) if atm else ""
+    if key in _shaders or _shader_error:
+        return _shaders.get(key)
     try:
-        vert, frag = shader_sources()
+        vert, frag = shader_sources(shader_defines(atm))
         info = gpu.types.GPUShaderCreateInfo()
+        # 128 bytes of push constants (as Blender counts them), the most
+        # every GPU backend takes
         info.push_constant('MAT4', "ModelViewProjectionMatrix")
-        info.push_constant('VEC3', "anchor")
-        info.push_constant('VEC4', "sun")  # direction (planet space), strength
-        info.push_constant('FLOAT', "exposure")
-        info.push_constant('FLOAT', "height_scale")
-        info.push_constant('INT', "view_transform")
-        info.push_constant('INT', "has_color")
-        info.push_constant('INT', "show_levels")
-        info.push_constant('INT', "vertex_count")
+        info.push_constant('VEC4', "anchor")  # planet space at the object's origin; height scale
+        info.push_constant('VEC4', "sun")     # direction (planet space), strength
+        info.push_constant('VEC4', "camera")  # the viewer (planet space), exposure
+        # 4 * the view transform (VIEW_TRANSFORMS) + the ground's colour (SHADING_*)
+        info.push_constant('INT', "display")
+        # set by Blender when it binds the shader: whether the framebuffer
+        # encodes to sRGB on write (its own shaders read it the same way)
+        info.push_constant('BOOL', "srgbTarget")
         info.sampler(0, 'FLOAT_2D', "color_map")
         info.sampler(1, 'FLOAT_2D', "surface")
         info.vertex_in(0, 'INT', "vertex_index")
         iface = gpu.types.GPUStageInterfaceInfo("plod_preview_iface")
-        iface.smooth('VEC3', "v_dir")
+        iface.smooth('VEC3', "v_point")
         iface.smooth('VEC3', "v_normal")
         iface.smooth('FLOAT', "v_height")
         iface.smooth('FLOAT', "v_sea")
@@ -78,11 +114,11 @@ def preview_shader():
         info.fragment_out(0, 'VEC4', "FragColor")
         info.vertex_source(vert)
         info.fragment_source(frag)
-        _shader = gpu.shader.create_from_info(info)
+        _shaders[key] = gpu.shader.create_from_info(info)
     except Exception as exc:  # keep the viewport alive; the panel shows the reason
         _shader_error = f"GPU preview shader failed: {exc}"
         print("planet_lod:", _shader_error)
-    return _shader
+    return _shaders.get(key)
 
 
 class PlanetGPU:
@@ -154,35 +190,33 @@ VIEW_TRANSFORMS = {"Standard": 0, "Filmic": 1, "AgX": 2}
 
 
 def draw_planet(obj, st, region_data):
-    shader = preview_shader()
+    s = obj.planet_lod
+    shader = preview_shader(atmosphere.params(s))
     preview = st.preview
     if shader is None or preview is None or preview.vertex_count == 0:
         return
     res = _cache.setdefault(obj.name_full, PlanetGPU())
-    s = obj.planet_lod
     _ensure_batch(res, st)
     _ensure_color(res, s)
-    to_planet = obj.matrix_world.to_3x3().inverted_safe()
+    to_planet = obj.matrix_world.inverted_safe()
+    anchor = Vector(live.anchor(obj))
+    eye = to_planet @ region_data.view_matrix.inverted().translation + anchor
     sun, strength = atmosphere.sun_of(bpy.context.scene)
     if sun is not None:
-        light = (to_planet @ Vector(sun)).normalized()
+        light = (to_planet.to_3x3() @ Vector(sun)).normalized()
     else:  # no sun: a light at the viewer
-        eye = obj.matrix_world.inverted_safe() @ region_data.view_matrix.inverted().translation
-        eye = eye + Vector(live.anchor(obj))
         light = eye.normalized() if eye.length > 0 else Vector((0.0, 0.0, 1.0))
         strength = 1.0
     view = bpy.context.scene.view_settings
     shader.bind()
     shader.uniform_float("ModelViewProjectionMatrix",
                          region_data.perspective_matrix @ obj.matrix_world)
-    shader.uniform_float("anchor", Vector(live.anchor(obj)))
+    shader.uniform_float("anchor", (anchor.x, anchor.y, anchor.z, s.height_scale))
     shader.uniform_float("sun", (light.x, light.y, light.z, strength))
-    shader.uniform_float("exposure", 2.0 ** view.exposure)
-    shader.uniform_float("height_scale", s.height_scale)
-    shader.uniform_int("view_transform", VIEW_TRANSFORMS.get(view.view_transform, 2))
-    shader.uniform_int("has_color", 1 if res.color_tex is not None else 0)
-    shader.uniform_int("show_levels", 1 if s.show_levels else 0)
-    shader.uniform_int("vertex_count", preview.vertex_count)
+    shader.uniform_float("camera", (eye.x, eye.y, eye.z, 2.0 ** view.exposure))
+    shading = SHADING_LEVELS if s.show_levels else \
+        SHADING_COLOR_MAP if res.color_tex is not None else SHADING_RAMP
+    shader.uniform_int("display", 4 * VIEW_TRANSFORMS.get(view.view_transform, 2) + shading)
     shader.uniform_sampler("color_map", res.color_tex or _dummy_texture())
     shader.uniform_sampler("surface", res.surface_tex)
     res.batch.draw(shader)
@@ -261,9 +295,10 @@ def register():
 
 
 def unregister():
-    global _handle, _shader, _shader_error
+    global _handle, _shader_error
     if _handle is not None:
         bpy.types.SpaceView3D.draw_handler_remove(_handle, 'WINDOW')
         _handle = None
     _cache.clear()
-    _shader, _shader_error = None, ""
+    _shaders.clear()
+    _shader_error = ""
