@@ -133,6 +133,9 @@ def test():
             f"{preset}: no ground at 2 km"
         assert error < 0.03, f"{preset}: F12 does not show the skyline the viewport framed"
         assert p95 <= 2.0, f"{preset}: the preview's skyline is not the render's"
+        # lit by the same sun through the same exposure and view transform
+        # (the render's ground types and shadows are not in the preview)
+        assert 0.7 < preview_lit / lit.mean() < 1.4, f"{preset}: the preview is not lit as the render"
         assert lit.mean() > 0.05, f"{preset}: the render is dark"
         r3d.view_perspective = 'PERSP'
 
