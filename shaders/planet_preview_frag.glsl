@@ -127,7 +127,7 @@ void main()
   vec3 albedo;
   int shading = display % 4;
   if (shading == SHADING_LEVELS) {
-    albedo = srgb_to_linear(level_colour(v_level));
+    albedo = srgb_to_linear(level_colour(floor(v_level + 0.5)));
   }
   else if (shading == SHADING_COLOR_MAP) {  /* the sea's colour included */
     vec2 st = vec2(atan(n.y, n.x) / (2.0 * PLOD_PI) + 0.5, asin(clamp(n.z, -1.0, 1.0)) / PLOD_PI + 0.5);

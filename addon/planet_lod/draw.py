@@ -109,7 +109,7 @@ def preview_shader(atm=None):
         iface.smooth('VEC3', "v_normal")
         iface.smooth('FLOAT', "v_height")
         iface.smooth('FLOAT', "v_sea")
-        iface.flat('FLOAT', "v_level")
+        iface.smooth('FLOAT', "v_level")  # one value per sector (one interpolation kind: Vulkan)
         info.vertex_out(iface)
         info.fragment_out(0, 'VEC4', "FragColor")
         info.vertex_source(vert)
