@@ -451,7 +451,6 @@ def _refresh_locked(obj, scene, params, build_mesh, for_render):
                 st.preview = surface.preview_data(leaves, anchor(obj), s.radius, sea_level)
                 st.gpu_version += 1
             st.stats["preview_vertices"] = st.preview.vertex_count
-        mesh = None
         if build_mesh:
             t0 = time.perf_counter()
             mesh = planet.mesh(template_level=settings["template_level"], morph=s.morph)

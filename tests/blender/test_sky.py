@@ -95,16 +95,21 @@ def probe(engine, what):
     return sum(mean(px, w, [(x, y) for x in range(w) for y in range(h)]))
 
 
-def moon(engine):
-    """The Moon: no air, a black sky over a lit ground."""
-    from planet_lod import live
+def add_planet(engine, preset):
+    """A new scene for `engine` with a sun and the preset's planet."""
     lib.clear_scene()
     scene = bpy.context.scene
     setup(scene, engine)
     add_sun(scene)
     lib.add_camera((0.0, -3.0e7, 0.0))
-    assert bpy.ops.mesh.planet_add(preset='MOON', quality='DRAFT') == {'FINISHED'}
-    planet = bpy.context.object
+    assert bpy.ops.mesh.planet_add(preset=preset, quality='DRAFT') == {'FINISHED'}
+    return scene, bpy.context.object
+
+
+def moon(engine):
+    """The Moon: no air, a black sky over a lit ground."""
+    from planet_lod import live
+    scene, planet = add_planet(engine, 'MOON')
     add_camera(planet, 36.0, 38.0, 2.0, 90.0, 10.0)
     live.refresh_for_render(scene)
     w, h, px = render(scene, f"sky_moon_{engine}.png")
@@ -130,13 +135,7 @@ def moon(engine):
 def earth(engine):
     """The Earth's sky from the ground and its limb from orbit."""
     from planet_lod import live
-    lib.clear_scene()
-    scene = bpy.context.scene
-    setup(scene, engine)
-    add_sun(scene)
-    lib.add_camera((0.0, -3.0e7, 0.0))
-    assert bpy.ops.mesh.planet_add(preset='EARTH', quality='DRAFT') == {'FINISHED'}
-    planet = bpy.context.object
+    scene, planet = add_planet(engine, 'EARTH')
     assert scene.world.name.startswith("PlanetLOD sky")
     # on the ground under the sun, looking 30 degrees up: a blue sky
     add_camera(planet, 30.0, 30.0, 2.0, 90.0, 30.0)
