@@ -15,7 +15,7 @@ mesh.planet_add, Earth preset): per frame
          before the clock starts), pushed into a plain object with foreach_set
          (clear + add + vertex_index/loop_start/loop_total/co) and evaluated.
 With --gpu (needs a window: run under xvfb-run without -b) also the GPU
-preview's per-update cost: the surface (planet.mesh of every leaf +
+preview's per-update cost: the surface (planet.mesh +
 surface.preview_data) and the upload (draw._ensure_batch: the surface texture).
 In background mode the gpu module cannot build batches; that column is then
 reported as not measurable.  Writes blender_handoff.csv and blender_handoff.json.
@@ -88,8 +88,8 @@ def gpu_update(draw, planet_obj, planet, template_level, res, st):
     from planet_lod import live, surface
     s = planet_obj.planet_lod
     t0 = time.perf_counter()
-    leaves = planet.mesh(template_level=template_level, morph=s.morph, visible_only=False)
-    st.preview = surface.preview_data(leaves, live.anchor(planet_obj), s.radius,
+    visible = planet.mesh(template_level=template_level, morph=s.morph)
+    st.preview = surface.preview_data(visible, live.anchor(planet_obj), s.radius,
                                       s.sea_level if s.use_sea_level else None)
     t1 = time.perf_counter()
     st.gpu_version += 1

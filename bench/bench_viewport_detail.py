@@ -13,7 +13,7 @@ addon/planet_lod/presets.py), 1920x1080.
 Per planet and quality: the slowest refresh (ms), the mean, the refreshes
 over 50 ms, and the vertices of the slowest, for the two refreshes the
 add-on's viewport timer runs: with the GPU preview (the default display:
-refine + planet.mesh of every leaf + surface.preview_data, uploaded and drawn
+refine + planet.mesh + surface.preview_data, uploaded and drawn
 by the GPU) and with the plain mesh (refine + planet.mesh).  Writing the mesh into Blender
 is not included (bench_blender.py measures that hand-off).  Not a test:
 figures only.
@@ -137,8 +137,8 @@ def main():
                         p.refine(cam, max_pixel_error=q["max_pixel_error"], budget=q["budget"],
                                  template_level=level, hysteresis=True)
                         if preview:
-                            leaves = p.mesh(template_level=level, threads=2, visible_only=False)
-                            surface.preview_data(leaves, (0.0, 0.0, 0.0), p.radius)
+                            visible = p.mesh(template_level=level, threads=2)
+                            surface.preview_data(visible, (0.0, 0.0, 0.0), p.radius)
                             preview_ms[name].append((time.perf_counter() - t0) * 1e3)
                         else:
                             mesh = p.mesh(template_level=level, threads=2)

@@ -435,20 +435,19 @@ def _refresh_locked(obj, scene, params, build_mesh, for_render):
         s = obj.planet_lod
         sea_level = s.sea_level if s.use_sea_level else None
         if preview:
-            # the preview draws every leaf sector, not only those in view: the
-            # GPU clips the rest, so turning the view shows terrain at once
-            # and, the same leaves (without morphing, which follows the eye)
-            # giving the same surface, a view that turns or moves without a
-            # change of LOD keeps its preview
-            ids = numpy.sort(numpy.frombuffer(planet.sector_ids(visible_only=False),
+            # the same sectors in view, in any order (without morphing, which
+            # follows the eye), give the same surface: a view that moves
+            # without a change of what it sees keeps its preview.  (Drawing
+            # every leaf instead, for turns without a refresh, doubled the
+            # vertices to emit: bench_viewport_detail.py)
+            ids = numpy.sort(numpy.frombuffer(planet.sector_ids(visible_only=True),
                                               numpy.uint64))
             preview_key = (planet, settings["template_level"], anchor(obj), s.radius, sea_level,
                            ids.tobytes())
             if s.morph or preview_key != st.preview_key or st.preview is None:
                 st.preview_key = preview_key
-                leaves = planet.mesh(template_level=settings["template_level"], morph=s.morph,
-                                     visible_only=False)
-                st.preview = surface.preview_data(leaves, anchor(obj), s.radius, sea_level)
+                visible = planet.mesh(template_level=settings["template_level"], morph=s.morph)
+                st.preview = surface.preview_data(visible, anchor(obj), s.radius, sea_level)
                 st.gpu_version += 1
             st.stats["preview_vertices"] = st.preview.vertex_count
         if build_mesh:
