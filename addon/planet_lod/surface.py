@@ -50,19 +50,25 @@ class VertexData:
         self.attributes = attributes  # name -> float32 flat buffer, 1 per vertex
 
 
-def _ground(mesh, anchor, radius, sea_level):
+def _planet_space(rel, origin):
+    """float64 planet-space positions of the core's float32 positions `rel`
+    (relative to `origin`), their distance from the centre, and how far the
+    float32 rounding may put each above its true height (a sea vertex far
+    from the camera reads up to this much above the sea)."""
+    tolerance = numpy.abs(rel).max(axis=1).astype(numpy.float64) * 2.0 ** -22 + 1e-3
+    pos = rel.astype(numpy.float64) + origin
+    return pos, numpy.sqrt(numpy.einsum("ij,ij->i", pos, pos)), tolerance
+
+
+def _ground(mesh, radius, sea_level):
     """The positions (float64, planet space) and normals of `mesh` with the sea
     lifted, and per vertex: the unit up, the height (above sea level, or the
     radius without a sea), the water depth and the sea flag (numpy arrays)."""
     origin = numpy.array(tuple(mesh.origin), dtype=numpy.float64)
-    pos = numpy.frombuffer(mesh.positions, dtype=numpy.float32).reshape(-1, 3)
-    # float32 rounding of the core's positions, relative to its origin: a sea
-    # vertex far from the camera reads up to this much above the sea
-    tolerance = numpy.abs(pos).max(axis=1).astype(numpy.float64) * 2.0 ** -22 + 1e-3
-    pos = pos.astype(numpy.float64) + origin
+    rel = numpy.frombuffer(mesh.positions, dtype=numpy.float32).reshape(-1, 3)
+    pos, distance, tolerance = _planet_space(rel, origin)
     normals = numpy.frombuffer(mesh.normals, dtype=numpy.float32).reshape(-1, 3)
     normals = normals.astype(numpy.float64)
-    distance = numpy.sqrt(numpy.einsum("ij,ij->i", pos, pos))
     up = pos / distance[:, None]
     height = distance - radius
     depth = numpy.zeros_like(height)
@@ -90,7 +96,7 @@ def vertex_data(mesh, anchor, radius, sea_level=None):
         return VertexData(array("f"), array("f"), {name: array("f") for name in ATTRIBUTES})
     if numpy is None:
         return _vertex_data_python(mesh, anchor, radius, sea_level)
-    pos, normals, up, height, depth, sea = _ground(mesh, anchor, radius, sea_level)
+    pos, normals, up, height, depth, sea = _ground(mesh, radius, sea_level)
     cos_slope = numpy.clip(numpy.einsum("ij,ij->i", normals, up), -1.0, 1.0)
     slope = numpy.degrees(numpy.arccos(cos_slope))
     latitude = numpy.degrees(numpy.arcsin(numpy.clip(up[:, 2], -1.0, 1.0)))
@@ -177,10 +183,7 @@ def preview_data(mesh, anchor, radius, sea_level=None, row_texels=PREVIEW_ROW_TE
         margin = radius * 2.0 ** -18 + 1.0
         near = numpy.flatnonzero(height <= sea_level + margin)
         if near.size:
-            part = rel[near]
-            tolerance = numpy.abs(part).max(axis=1).astype(numpy.float64) * 2.0 ** -22 + 1e-3
-            pos = part.astype(numpy.float64) + origin
-            distance = numpy.sqrt(numpy.einsum("ij,ij->i", pos, pos))
+            pos, distance, tolerance = _planet_space(rel[near], origin)
             below = (distance - radius) <= sea_level + tolerance
             lifted = near[below]
             up = pos[below] / distance[below, None]
