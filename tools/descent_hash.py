@@ -1,0 +1,141 @@
+"""One hash of everything the core outputs along a descent, per planet preset.
+
+    /usr/bin/python3 tools/descent_hash.py [--frames N] [--presets EARTH,MOON,...]
+
+Flies bench/bench_refine.py's descent (20,000 km to 2 m, 1 px, 1920x1080)
+over each planet preset (its maps, sea and detail field, and once more with
+the detail off) with a budget of 8,000 sectors, refining incrementally with hysteresis as the viewport does
+and without it as renders do, and hashes per frame: the refine stats that
+are results (not timings), the visible sector ids and levels, every buffer
+of mesh() (with the sector cache, morph on, 2 threads) and of instances().
+Prints one SHA-256 per preset and configuration and one over all of them:
+two builds whose lines agree emit the same bytes.  Used to check that a
+change of structure changes no output.
+"""
+import argparse
+import hashlib
+import os
+import sys
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, ROOT)
+sys.path.insert(0, os.path.join(ROOT, "bench"))
+sys.path.insert(0, os.path.join(ROOT, "addon", "planet_lod"))
+
+import planetlod  # noqa: E402
+import presets  # noqa: E402
+
+TIMING_KEYS = ("refine_us", "cull_us", "us", "cpu_us")
+MESH_BUFFERS = ("origin", "positions", "normals", "uv", "triangles", "sector_level",
+                "face", "morph", "detail")
+
+
+def data_path(name):
+    for folder in (os.path.join(ROOT, "data"), os.path.join(os.path.dirname(ROOT), "shared", "data")):
+        path = os.path.join(folder, name)
+        if os.path.exists(path):
+            return path
+    raise FileNotFoundError(name)
+
+
+def build(key, detail):
+    s = presets.planet_settings(key, data_path)
+    kwargs = dict(projection=s["projection"].lower(), height_scale=float(s["height_scale"]))
+    if s["heightmap"]:
+        kwargs["heightmap"] = s["heightmap"]
+    if s.get("use_sea_level"):
+        kwargs["sea_level"] = float(s["sea_level"])
+    if detail:
+        kwargs["detail"] = presets.detail_kwargs(s)
+    return planetlod.Planet(float(s["radius"]), **kwargs)
+
+
+def look_at(eye, target, up):
+    import math
+    back = [e - t for e, t in zip(eye, target)]
+    n = math.sqrt(sum(b * b for b in back))
+    back = [b / n for b in back]
+    right = [up[1] * back[2] - up[2] * back[1], up[2] * back[0] - up[0] * back[2],
+             up[0] * back[1] - up[1] * back[0]]
+    n = math.sqrt(sum(r * r for r in right))
+    right = [r / n for r in right]
+    upv = [back[1] * right[2] - back[2] * right[1], back[2] * right[0] - back[0] * right[2],
+           back[0] * right[1] - back[1] * right[0]]
+    return [right[0], upv[0], back[0], eye[0], right[1], upv[1], back[1], eye[1],
+            right[2], upv[2], back[2], eye[2], 0.0, 0.0, 0.0, 1.0]
+
+
+def descent(radius, frames, top):
+    """bench_refine.descent, for any radius: 20,000 km (or 3 radii) to 2 m."""
+    import math
+    lat, lon0 = math.radians(27.9), math.radians(86.9)
+    start = min(2e7, 3.0 * radius)
+    for k in range(frames):
+        t = k / (frames - 1)
+        alt = math.exp(math.log(start) * (1 - t) + math.log(2.0) * t)
+        lon = lon0 + 0.002 * t
+        d = [math.cos(lat) * math.cos(lon), math.cos(lat) * math.sin(lon), math.sin(lat)]
+        east = [-math.sin(lon), math.cos(lon), 0.0]
+        pitch = math.radians(-90 + 80 * min(1.0, t * 1.25))
+        view = [east[i] * math.cos(pitch) + d[i] * math.sin(pitch) for i in range(3)]
+        eye = [d[i] * (radius + top + alt) for i in range(3)]
+        target = [eye[i] + view[i] for i in range(3)]
+        up = d if abs(pitch) < math.radians(89) else [-math.sin(lat) * math.cos(lon),
+                                                        -math.sin(lat) * math.sin(lon),
+                                                        math.cos(lat)]
+        yield look_at(eye, target, up)
+
+
+def camera(planet, matrix):
+    cam = planetlod.Camera(matrix, lens=50.0, sensor_width=36.0, resolution_x=1920,
+                           resolution_y=1080, clip_start=0.1, clip_end=1e12)
+    near, far = planet.recommended_clip(cam)
+    return planetlod.Camera(matrix, lens=50.0, sensor_width=36.0, resolution_x=1920,
+                            resolution_y=1080, clip_start=near, clip_end=far)
+
+
+def feed(h, value):
+    h.update(bytes(memoryview(value).cast("B")) if not isinstance(value, (bytes, str))
+             else (value.encode() if isinstance(value, str) else value))
+
+
+def fly(key, detail, frames, hysteresis):
+    planet = build(key, detail)
+    h = hashlib.sha256()
+    top = planet.height_range()[1]
+    for matrix in descent(planet.radius if hasattr(planet, "radius") else
+                          presets.PLANETS[key]["radius"], frames, top):
+        stats = planet.refine(camera(planet, matrix), max_pixel_error=1.0, template_level=4,
+                              hysteresis=hysteresis, max_level=48,
+                              budget=8000)
+        feed(h, repr(sorted((k, v) for k, v in dict(stats).items() if k not in TIMING_KEYS)))
+        feed(h, planet.sector_ids())
+        feed(h, planet.sector_levels())
+        mesh = planet.mesh(template_level=3, morph=True, threads=2)
+        for name in MESH_BUFFERS:
+            value = getattr(mesh, name)
+            feed(h, repr(tuple(value)) if isinstance(value, tuple) else value)
+        for name, value in sorted(planet.instances(template_level=2).items()):
+            feed(h, name)
+            feed(h, repr(value) if isinstance(value, (tuple, float, int)) else value)
+    return h.hexdigest()
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--frames", type=int, default=48)
+    ap.add_argument("--presets", default=",".join(presets.PLANETS))
+    args = ap.parse_args()
+    total = hashlib.sha256()
+    for key in args.presets.split(","):
+        for detail in (True, False):
+            for hysteresis in (True, False):
+                digest = fly(key, detail, args.frames, hysteresis)
+                total.update(digest.encode())
+                print(f"{key:9s} detail={'on ' if detail else 'off'} "
+                      f"hysteresis={'on ' if hysteresis else 'off'} {digest}", flush=True)
+    print(f"all {total.hexdigest()}")
+
+
+if __name__ == "__main__":
+    main()
