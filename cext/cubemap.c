@@ -31,7 +31,6 @@
 #include <string.h>
 
 #define PLOD__MAX_LEVELS 20
-#define PLOD__CUBEMAP_PI 3.14159265358979323846
 
 typedef struct plod__edge_link {
     int face;  /* neighbour face */
@@ -477,8 +476,8 @@ int plod_cubemap_locate(const plod_cubemap *m, const double dir[3], int *face, d
         double lon = atan2(dir[1], dir[0]);
         double lat = atan2(dir[2], hypot(dir[0], dir[1]));
         *face = 0;
-        *u = lon / PLOD__CUBEMAP_PI;
-        *v = lat / (0.5 * PLOD__CUBEMAP_PI);
+        *u = lon / PLOD_PI;
+        *v = lat / (0.5 * PLOD_PI);
         return 1;
     }
     return plod_dir_to_face(m->projection, dir, face, u, v) == PLOD_OK;
@@ -621,8 +620,8 @@ static void plod__texel_point(const plod_cubemap *m, int f, int i, int j, double
                                (j + 0.5) * 2.0 / n - 1.0, point);
     } else {
         plod__car_wrap(m, &i, &j);
-        double lon = ((i + 0.5) * 2.0 / m->width - 1.0) * PLOD__CUBEMAP_PI;
-        double lat = ((j + 0.5) * 2.0 / m->height - 1.0) * 0.5 * PLOD__CUBEMAP_PI;
+        double lon = ((i + 0.5) * 2.0 / m->width - 1.0) * PLOD_PI;
+        double lat = ((j + 0.5) * 2.0 / m->height - 1.0) * 0.5 * PLOD_PI;
         point[0] = cos(lat) * cos(lon);
         point[1] = cos(lat) * sin(lon);
         point[2] = sin(lat);

@@ -14,7 +14,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define PLOD__DETAIL_PI 3.14159265358979323846
+#define PLOD__DETAIL_PI PLOD_PI
 /* error table over binades of the cell size: 2^e metres, e in [MIN, MAX] */
 #define PLOD__ERR_EXP_MIN (-48)
 #define PLOD__ERR_EXP_MAX 72

@@ -25,7 +25,6 @@
 #define PLOD__TILES_MAGIC "PLODTIL1"
 #define PLOD__TILES_HEADER 128
 #define PLOD__TILES_ALIGN 512
-#define PLOD__TILES_PI 3.141592653589793
 
 typedef struct plod__tiles_header {
     char magic[8];
@@ -864,8 +863,8 @@ void plod_tiles_global_range(const plod_tiles *t, double *lo, double *hi)
 static void plod__tiles_lonlat(const double dir[3], double *u, double *v)
 {
     /* exactly as plod_cubemap_locate for CAR maps: the same bits */
-    *u = atan2(dir[1], dir[0]) / PLOD__TILES_PI;
-    *v = atan2(dir[2], hypot(dir[0], dir[1])) / (0.5 * PLOD__TILES_PI);
+    *u = atan2(dir[1], dir[0]) / PLOD_PI;
+    *v = atan2(dir[2], hypot(dir[0], dir[1])) / (0.5 * PLOD_PI);
 }
 
 static double plod__tiles_source_sample(const void *self, const double dir[3])
@@ -880,23 +879,23 @@ void plod_lonlat_cap_range(const double axis[3], double angle, int width, int he
                            double *hi_out, double *texels)
 {
     *texels = INFINITY;
-    if (!(angle >= 0.0) || angle >= 0.5 * PLOD__TILES_PI)
+    if (!(angle >= 0.0) || angle >= 0.5 * PLOD_PI)
         return;
-    const double deg = 180.0 / PLOD__TILES_PI;
+    const double deg = 180.0 / PLOD_PI;
     double lat = asin(fmax(-1.0, fmin(1.0, axis[2])));
     double lon = atan2(axis[1], axis[0]);
     double lat0 = lat - angle, lat1 = lat + angle, half_lon;
-    if (lat1 >= 0.5 * PLOD__TILES_PI || lat0 <= -0.5 * PLOD__TILES_PI) {
-        half_lon = PLOD__TILES_PI; /* a pole inside: every longitude */
-        lat0 = fmax(lat0, -0.5 * PLOD__TILES_PI);
-        lat1 = fmin(lat1, 0.5 * PLOD__TILES_PI);
+    if (lat1 >= 0.5 * PLOD_PI || lat0 <= -0.5 * PLOD_PI) {
+        half_lon = PLOD_PI; /* a pole inside: every longitude */
+        lat0 = fmax(lat0, -0.5 * PLOD_PI);
+        lat1 = fmin(lat1, 0.5 * PLOD_PI);
     } else {
         /* longitude half-width of a cap not holding a pole */
         half_lon = asin(fmin(1.0, sin(angle) / cos(lat)));
     }
     double v0 = lat0 * deg / 90.0, v1 = lat1 * deg / 90.0;
     double lo, hi, lo2, hi2;
-    if (half_lon >= PLOD__TILES_PI) {
+    if (half_lon >= PLOD_PI) {
         range_uv(context, -1.0, v0, 1.0, v1, &lo, &hi);
     } else {
         double u0 = (lon - half_lon) * deg / 180.0, u1 = (lon + half_lon) * deg / 180.0;
@@ -943,7 +942,7 @@ static double plod__tiles_source_texel(const void *self, const double dir[3])
 {
     (void)dir;
     const plod_tiles *t = self;
-    return PLOD__TILES_PI / t->height; /* along a meridian; narrower east-west near the poles */
+    return PLOD_PI / t->height; /* along a meridian; narrower east-west near the poles */
 }
 
 static const plod_height_source_ops plod__tiles_ops = {

@@ -14,7 +14,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define PLOD__INSET_PI 3.141592653589793
 #define PLOD__INSET_BLOCK 32
 
 typedef struct plod__inset {
@@ -172,7 +171,7 @@ void plod_insets_global_range(const plod_insets *insets, double *lo, double *hi)
 
 static void plod__inset_lonlat(const double dir[3], double *lon, double *lat)
 {
-    const double deg = 180.0 / PLOD__INSET_PI;
+    const double deg = 180.0 / PLOD_PI;
     *lon = atan2(dir[1], dir[0]) * deg;
     *lat = atan2(dir[2], hypot(dir[0], dir[1])) * deg;
 }
@@ -221,7 +220,7 @@ double plod_insets_blend(const plod_insets *insets, const double dir[3], double 
         if (!(value == value))
             return base_m; /* a void: the global data */
         if (texel_angle)
-            *texel_angle = (t->north - t->south) / (t->height - 1) * PLOD__INSET_PI / 180.0;
+            *texel_angle = (t->north - t->south) / (t->height - 1) * PLOD_PI / 180.0;
         return w >= 1.0 ? value : base_m + w * (value - base_m);
     }
     return base_m;
@@ -232,11 +231,11 @@ int plod_insets_range_cap(const plod_insets *insets, const double axis[3], doubl
 {
     if (!insets || !insets->count)
         return 0;
-    const double deg = 180.0 / PLOD__INSET_PI;
+    const double deg = 180.0 / PLOD_PI;
     double lat = asin(fmax(-1.0, fmin(1.0, axis[2]))) * deg;
     double lon = atan2(axis[1], axis[0]) * deg;
     double a = angle * deg, lat0 = lat - a, lat1 = lat + a, half_lon;
-    if (!(angle >= 0.0) || angle >= 0.5 * PLOD__INSET_PI || lat1 >= 90.0 || lat0 <= -90.0)
+    if (!(angle >= 0.0) || angle >= 0.5 * PLOD_PI || lat1 >= 90.0 || lat0 <= -90.0)
         half_lon = 180.0;
     else
         half_lon = asin(fmin(1.0, sin(angle) / cos(lat / deg))) * deg;

@@ -17,13 +17,12 @@
  */
 #include <assert.h>
 #include <math.h>
-#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "plod.h"
 
-#define PLOD__PI 3.14159265358979323846
+#define PLOD__PI PLOD_PI
 
 /* ---- templates ----------------------------------------------------------- */
 
@@ -851,9 +850,8 @@ typedef struct plod__chunk {
     plod_status status;
 } plod__chunk;
 
-static void *plod__run_chunk(void *arg)
+static void plod__run_chunk(plod__chunk *chunk)
 {
-    plod__chunk *chunk = arg;
     const plod__emitter *e = chunk->emitter;
     const plod_mesh_cache *cache = chunk->cache;
     size_t slot = chunk->first_slot;
@@ -883,7 +881,14 @@ static void *plod__run_chunk(void *arg)
             break;
         }
     }
-    return NULL;
+}
+
+/* plod_parallel_for's range: chunks [begin, end). */
+static void plod__run_chunks(void *context, size_t begin, size_t end)
+{
+    plod__chunk *chunks = context;
+    for (size_t t = begin; t < end; t++)
+        plod__run_chunk(&chunks[t]);
 }
 
 /* After the threads: keep the entries this emission used, add its fresh
@@ -1029,17 +1034,8 @@ plod_status plod_mesh_emit(const plod_mesh_params *params,
         }
     }
 
-    pthread_t ids[PLOD_MESH_MAX_THREADS];
-    int started[PLOD_MESH_MAX_THREADS];
-    for (int t = 1; t < threads; t++)
-        started[t] = pthread_create(&ids[t], NULL, plod__run_chunk, &chunks[t]) == 0;
-    plod__run_chunk(&chunks[0]);
-    for (int t = 1; t < threads; t++) {
-        if (started[t])
-            pthread_join(ids[t], NULL);
-        else
-            plod__run_chunk(&chunks[t]); /* no thread: do it here */
-    }
+    /* one chunk a thread: the chunks, not the threads, decide the slots */
+    plod_parallel_for((size_t)threads, threads, plod__run_chunks, chunks);
     st = PLOD_OK;
     for (int t = 0; t < threads; t++)
         if (chunks[t].status != PLOD_OK && st == PLOD_OK)

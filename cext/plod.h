@@ -1,5 +1,6 @@
 /* plod.h -- Planet LOD core, umbrella header.  One header per stage:
- *   plod_status.h      status codes and messages
+ *   plod_base.h        status codes (plod_status.h), constants, vectors,
+ *                      the fork-join loop
  *   plod_projection.h  TSC / CSC / QSC / spherified / CAR mappings
  *   plod_cubemap.h     cube maps, seamless sampling, min/max pyramid
  *   plod_image.h       images and OpenImageIO file I/O
@@ -13,7 +14,7 @@
  */
 #ifndef PLOD_H
 #define PLOD_H
-#include "plod_status.h"
+#include "plod_base.h"
 #include "plod_projection.h"
 #include "plod_cubemap.h"
 #include "plod_image.h"

@@ -23,7 +23,7 @@
 #define PLOD_PROJECTION_H
 
 #include <stddef.h>
-#include "plod_status.h"
+#include "plod_base.h"
 
 #ifdef __cplusplus
 extern "C" {

@@ -23,9 +23,8 @@
 #include <math.h>
 #include <string.h>
 
-#define PLOD__PI 3.14159265358979323846
-#define PLOD__D2R (PLOD__PI / 180.0)
-#define PLOD__R2D (180.0 / PLOD__PI)
+#define PLOD__D2R (PLOD_PI / 180.0)
+#define PLOD__R2D (180.0 / PLOD_PI)
 #define PLOD__SQRT1_2 0.70710678118654752440
 
 /* The per-point kernels are forced inline so that the vectorised loops,
@@ -265,7 +264,7 @@ PLOD__HOT void plod__qsc_fwd(double xi, double eta, double zeta, double r,
     double q = sqrt(2.0 + w2);
     double out[2];
     out[swap] = major * sqrt((1.0 + w2) * q / ((r + zeta) * r * (q - 1.0)));
-    out[1 - swap] = out[swap] * (12.0 / PLOD__PI) * plod__qsc_atan(omega * (q - 1.0) / (q + w2));
+    out[1 - swap] = out[swap] * (12.0 / PLOD_PI) * plod__qsc_atan(omega * (q - 1.0) / (q + w2));
     *u = out[0];
     *v = out[1];
 }
@@ -282,7 +281,7 @@ PLOD__HOT void plod__qsc_inv(double u, double v, double *xi, double *eta,
         *zeta = 1.0;
         return;
     }
-    double tt = plod__qsc_tan((PLOD__PI / 24.0) * (minor / major));
+    double tt = plod__qsc_tan((PLOD_PI / 24.0) * (minor / major));
     double omega = 2.0 * tt / ((1.0 - PLOD__SQRT1_2) - (1.0 + PLOD__SQRT1_2) * tt * tt);
     double w2 = omega * omega;
     double q = sqrt(2.0 + w2);
@@ -453,7 +452,7 @@ PLOD__HOT void plod__cube_face_to_dir(plod_projection projection, int face,
 
 PLOD__HOT void plod__car_face_to_dir(double u, double v, double d[3])
 {
-    const double h = 0.5 * PLOD__PI;
+    const double h = 0.5 * PLOD_PI;
     double a = fabs(u), b = fabs(v);
     double s = a + b, z_sign = 1.0;
     if (s > 1.0) {
@@ -482,7 +481,7 @@ PLOD__HOT void plod__car_face_to_dir(double u, double v, double d[3])
 
 PLOD__HOT void plod__car_dir_to_face(const double d[3], double *u, double *v)
 {
-    const double h = 0.5 * PLOD__PI;
+    const double h = 0.5 * PLOD_PI;
     double ax = fabs(d[0]), ay = fabs(d[1]);
     double rho = hypot(ax, ay);
     double t = atan2(ay, ax) / h; /* fraction of the quadrant, 0 at lon 0 */

@@ -49,7 +49,6 @@
 
 #include <assert.h>
 #include <math.h>
-#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
@@ -614,10 +613,10 @@ static void plod__tighten_subtexel(const plod_planet *planet, plod__corner_memo 
         lo = h < lo ? h : lo;
         hi = h > hi ? h : hi;
     }
-    double reach = 1.4142135623730951 * (1.0 + 2.0 * PLOD__RANGE_MARGIN) * texels;
+    double reach = PLOD_SQRT2 * (1.0 + 2.0 * PLOD__RANGE_MARGIN) * texels;
     /* + the seam tolerance: across a face edge the two faces' samples
      * agree to ~1e-6 relative, not exactly */
-    double deviation = 1.01 * 1.4142135623730951 * (*hmax - *hmin) * reach +
+    double deviation = 1.01 * PLOD_SQRT2 * (*hmax - *hmin) * reach +
                        2e-6 * fmax(fabs(*hmin), fabs(*hmax));
     double tight_min = lo - deviation, tight_max = hi + deviation;
     if (!(tight_min <= tight_max)) /* NaN corner heights: keep the range */
@@ -652,8 +651,8 @@ static void plod__detail_bound(const plod_planet *planet, const plod_sector *s,
     const double *corner = memo->dir[idx[0]];
     if (planet->heightmap && texels < 0.5 && m[1] > m[0]) {
         double mc = plod_planet_modulation(planet, corner);
-        double reach = 1.4142135623730951 * (1.0 + 2.0 * PLOD__RANGE_MARGIN) * texels;
-        double deviation = 1.01 * 1.4142135623730951 * (m[1] - m[0]) * reach + 2e-6;
+        double reach = PLOD_SQRT2 * (1.0 + 2.0 * PLOD__RANGE_MARGIN) * texels;
+        double deviation = 1.01 * PLOD_SQRT2 * (m[1] - m[0]) * reach + 2e-6;
         if (mc - deviation > m[0])
             m[0] = mc - deviation;
         if (mc + deviation < m[1])
@@ -686,7 +685,7 @@ static void plod__detail_bound(const plod_planet *planet, const plod_sector *s,
 static void plod__inflate_cap(double sine, double cosine, double *sin_out, double *cos_out)
 {
     double s = sine, c = cosine; /* of unit vectors: s^2 + c^2 = 1 within rounding */
-    double bound = c > 0.0 ? 1.5707963267948966 * s : 3.141592653589793;
+    double bound = c > 0.0 ? (PLOD_PI / 2) * s : PLOD_PI;
     double delta = (PLOD__CAP_INFLATE - 1.0) * bound + 1e-15;
     double cd = 1.0 - 0.5 * delta * delta, sd = delta - delta * delta * delta * (1.0 / 6.0);
     double cos_ = c * cd - s * sd, sin_ = s * cd + c * sd;
@@ -1673,16 +1672,10 @@ void plod_refine_params_default(plod_refine_params *params)
  * the lazy single-threaded evaluation.  The node sweep itself stays
  * sequential: top-down, a node's plane mask spares its children most plane
  * tests, which a split by index range would lose. */
-typedef struct plod__eval_chunk {
-    plod_refiner *r;
-    size_t begin, end;
-} plod__eval_chunk;
-
-static void *plod__eval_run(void *arg)
+static void plod__eval_range(void *context, size_t begin, size_t end)
 {
-    const plod__eval_chunk *c = arg;
-    plod_refiner *r = c->r;
-    for (size_t i = c->begin; i < c->end; i++) {
+    plod_refiner *r = context;
+    for (size_t i = begin; i < end; i++) {
         plod__geom *g = &r->geom[i];
         unsigned flags, planes;
         g->eval_split = (uint8_t)plod__wants_split(r, &g->self, r->leaves[i].level, &flags,
@@ -1691,7 +1684,6 @@ static void *plod__eval_run(void *arg)
         g->eval_flags = (uint8_t)flags;
         g->eval_frame = r->frame;
     }
-    return NULL;
 }
 
 /* Evaluates every leaf's P and flags on `threads` threads, after the node
@@ -1704,23 +1696,7 @@ static void plod__eval_parallel(plod_refiner *r, int threads)
 {
     if (threads < 2 || r->count < PLOD__PARALLEL_LEAVES)
         return;
-    plod__eval_chunk chunks[PLOD_REFINE_MAX_THREADS];
-    pthread_t ids[PLOD_REFINE_MAX_THREADS];
-    int started[PLOD_REFINE_MAX_THREADS] = {0};
-    for (int t = 0; t < threads; t++) {
-        chunks[t].r = r;
-        chunks[t].begin = r->count * (size_t)t / (size_t)threads;
-        chunks[t].end = r->count * (size_t)(t + 1) / (size_t)threads;
-    }
-    for (int t = 1; t < threads; t++)
-        started[t] = pthread_create(&ids[t], NULL, plod__eval_run, &chunks[t]) == 0;
-    plod__eval_run(&chunks[0]);
-    for (int t = 1; t < threads; t++) {
-        if (started[t])
-            pthread_join(ids[t], NULL);
-        else
-            plod__eval_run(&chunks[t]); /* could not start: do it here */
-    }
+    plod_parallel_for(r->count, threads, plod__eval_range, r);
 }
 
 /* ---- update ------------------------------------------------------------------ */
@@ -1851,7 +1827,7 @@ static plod_status plod__check_params(const plod_refine_params *p)
  * times 2^(step / 2) (pixel error, or split border). */
 static void plod__set_threshold(plod_refiner *r, const plod_refine_params *params, int step)
 {
-    r->coarsening = ldexp(step & 1 ? 1.4142135623730951 : 1.0, step >> 1);
+    r->coarsening = ldexp(step & 1 ? PLOD_SQRT2 : 1.0, step >> 1);
     if (params->criterion == PLOD_CRITERION_SIDE_DISTANCE) {
         r->split_mode = 0;
         r->split_scale = params->split_border * r->coarsening;

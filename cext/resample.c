@@ -29,13 +29,11 @@
 
 #include <assert.h>
 #include <math.h>
-#include <pthread.h>
 #include <stdatomic.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
-#define PLOD__PI 3.14159265358979323846
 #define PLOD__CHUNK_ROWS 8
 
 /* ======================================================================== */
@@ -131,6 +129,8 @@ struct plod__resample_job {
     atomic_int failed;
     atomic_long done_weight; /* in face rows */
     void *faces[PLOD_FACE_COUNT];
+    plod_progress_fn progress; /* called by worker 0 (the caller's thread) */
+    void *user;
 };
 
 /* Source tap rows/columns for one coordinate, wrapping/reflecting. */
@@ -266,8 +266,8 @@ static void plod__dir_to_source(const plod_image *src, const double d[3], double
 {
     double lon = atan2(d[1], d[0]);
     double lat = atan2(d[2], hypot(d[0], d[1]));
-    *x = (lon + PLOD__PI) * (src->width / (2.0 * PLOD__PI)) - 0.5;
-    *y = (0.5 * PLOD__PI - lat) * (src->height / PLOD__PI) - 0.5;
+    *x = (lon + PLOD_PI) * (src->width / (2.0 * PLOD_PI)) - 0.5;
+    *y = (0.5 * PLOD_PI - lat) * (src->height / PLOD_PI) - 0.5;
 }
 
 static void plod__store(const plod__resample_job *job, int face, int i, int j,
@@ -331,11 +331,11 @@ static plod_status plod__resample_row(plod__resample_job *job, int r, void *scra
     if (plod_cubemap_face_count(m) == 1) {
         /* CAR target: separable lon per column, lat per row. */
         int w = plod_cubemap_face_width(m);
-        double lat = -0.5 * PLOD__PI + (r + 0.5) * PLOD__PI / n;
-        double y = (0.5 * PLOD__PI - lat) * (src->height / PLOD__PI) - 0.5;
+        double lat = -0.5 * PLOD_PI + (r + 0.5) * PLOD_PI / n;
+        double y = (0.5 * PLOD_PI - lat) * (src->height / PLOD_PI) - 0.5;
         for (int i = 0; i < w; i++) {
-            double lon = -PLOD__PI + (i + 0.5) * 2.0 * PLOD__PI / w;
-            double x = (lon + PLOD__PI) * (src->width / (2.0 * PLOD__PI)) - 0.5;
+            double lon = -PLOD_PI + (i + 0.5) * 2.0 * PLOD_PI / w;
+            double x = (lon + PLOD_PI) * (src->width / (2.0 * PLOD_PI)) - 0.5;
             plod__filter_source(job, x, y, value);
             plod__store(job, 0, i, r, value);
         }
@@ -425,10 +425,13 @@ static void plod__resample_work(plod__resample_job *job, int report, plod_progre
     plod__scratch_free(&scratch);
 }
 
-static void *plod__resample_thread(void *arg)
+/* plod_parallel_for's range over workers; worker 0 runs on the caller's
+ * thread, the one that may call the progress callback. */
+static void plod__resample_workers(void *context, size_t begin, size_t end)
 {
-    plod__resample_work((plod__resample_job *)arg, 0, NULL, NULL);
-    return NULL;
+    plod__resample_job *job = context;
+    for (size_t w = begin; w < end; w++)
+        plod__resample_work(job, w == 0, job->progress, job->user);
 }
 
 /* Faces 1..4 = face 1 turned by (f - 1) * 90 deg about +Z? */
@@ -519,16 +522,12 @@ plod_status plod_resample_car_to_cube_threads(plod_cubemap *cubemap, const plod_
     atomic_init(&job->failed, PLOD_OK);
     atomic_init(&job->done_weight, 0);
 
-    pthread_t workers[15];
-    int started = 0;
-    for (int t = 1; t < threads && t < job->chunks_total; t++) {
-        if (pthread_create(&workers[started], NULL, plod__resample_thread, job) != 0)
-            break; /* fewer threads: same output */
-        started++;
-    }
-    plod__resample_work(job, 1, progress, user);
-    for (int t = 0; t < started; t++)
-        pthread_join(workers[t], NULL);
+    job->progress = progress;
+    job->user = user;
+    /* workers take chunks from one queue: any number of them (a worker
+     * whose thread cannot start finds it empty) gives the same output */
+    int workers = threads < job->chunks_total ? threads : job->chunks_total;
+    plod_parallel_for((size_t)(workers > 1 ? workers : 1), workers, plod__resample_workers, job);
 
     plod_status status = (plod_status)atomic_load(&job->failed);
     if (status == PLOD_OK && atomic_load(&job->cancel))

@@ -21,7 +21,8 @@ def test_mesh_core_c(tmp_path):
            "-Wno-missing-field-initializers", "-ffp-contract=off",
            "-D_POSIX_C_SOURCE=200809L", "-I", os.path.join(ROOT, "cext"),
            os.path.join(ROOT, "tests", "c", "test_mesh.c"),
-           os.path.join(ROOT, "cext", "mesh.c"), "-lm", "-lpthread", "-o", str(exe)]
+           os.path.join(ROOT, "cext", "mesh.c"), os.path.join(ROOT, "cext", "base.c"),
+           "-lm", "-lpthread", "-o", str(exe)]
     build = subprocess.run(cmd, capture_output=True, text=True)
     assert build.returncode == 0, build.stderr
     run = subprocess.run([str(exe)], capture_output=True, text=True, timeout=120)

@@ -1,0 +1,64 @@
+/* plod_base.h -- what every stage of the Planet LOD core shares: status
+ * codes (plod_status.h), constants, small double[3] vector helpers and one
+ * fork-join loop over threads.
+ */
+#ifndef PLOD_BASE_H
+#define PLOD_BASE_H
+
+#include <math.h>
+#include <stddef.h>
+#include "plod_status.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* ---- constants ------------------------------------------------------------
+ * Written with more digits than a double holds: each rounds to the nearest
+ * double (pi/2 and pi/4 are then exact scalings of PLOD_PI). */
+#define PLOD_PI 3.14159265358979323846
+#define PLOD_SQRT2 1.41421356237309504880
+
+/* ---- vectors --------------------------------------------------------------
+ * Sums in index order (0 + 1) + 2: with -ffp-contract=off a caller gets the
+ * bits of the same expression written out. */
+static inline double plod_dot3(const double a[3], const double b[3])
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+static inline double plod_norm3(const double a[3])
+{
+    return sqrt(plod_dot3(a, a));
+}
+
+/* out = a x b; out may not alias a or b. */
+static inline void plod_cross3(const double a[3], const double b[3], double out[3])
+{
+    out[0] = a[1] * b[2] - a[2] * b[1];
+    out[1] = a[2] * b[0] - a[0] * b[2];
+    out[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+/* ---- threads --------------------------------------------------------------- */
+
+#define PLOD_MAX_THREADS 64
+
+/* Runs indices [begin, end) of a loop. */
+typedef void (*plod_range_fn)(void *context, size_t begin, size_t end);
+
+/* Fork-join: splits [0, count) into n = min(threads, count,
+ * PLOD_MAX_THREADS) contiguous blocks, block t = [count t / n,
+ * count (t + 1) / n), and calls range(context, begin, end) once per block:
+ * block 0 on the calling thread, the others on threads started for them
+ * (a block whose thread cannot start runs on the calling thread after
+ * block 0).  Returns when every block has run.  threads < 1 counts as 1;
+ * count 0 calls nothing.  Blocks run concurrently: they must write
+ * disjoint memory, and the output is the same for every thread count only
+ * if it does not depend on the blocking. */
+void plod_parallel_for(size_t count, int threads, plod_range_fn range, void *context);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* PLOD_BASE_H */
