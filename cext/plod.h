@@ -8,7 +8,7 @@
  *   plod_heightsource.h  height sources; tiled maps read out of core
  *   plod_planet.h      planet description and heights
  *   plod_detail.h      procedural detail field below the map's resolution
- *   plod_cull.h        camera and visibility tests
+ *   plod_camera.h      the camera in Blender's conventions
  *   plod_refine.h      HRTMR split/merge refinement
  *   plod_mesh.h        sector templates and buffer emission
  */
@@ -22,7 +22,7 @@
 #include "plod_heightsource.h"
 #include "plod_planet.h"
 #include "plod_detail.h"
-#include "plod_cull.h"
+#include "plod_camera.h"
 #include "plod_refine.h"
 #include "plod_mesh.h"
 #endif

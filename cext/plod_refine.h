@@ -12,7 +12,7 @@
 #define PLOD_REFINE_H
 
 #include <stdint.h>
-#include "plod_cull.h"
+#include "plod_camera.h"
 
 #ifdef __cplusplus
 extern "C" {

@@ -44,8 +44,8 @@
  * a split costs one new projected point (leaves cache their corners'
  * directions, heights and canonical points) and two bounds.
  */
+#include "plod_bound.h"
 #include "plod_refine.h"
-#include "plod_detail.h"
 
 #include <assert.h>
 #include <math.h>
@@ -56,36 +56,10 @@
 #define PLOD__ONE ((int32_t)1 << PLOD_COORD_BITS)
 #define PLOD__BASE_SHIFT 56
 #define PLOD__HEAP_MASK (((uint64_t)1 << PLOD__BASE_SHIFT) - 1)
-/* Cap angle inflation: slack against rounding in the corner angles. */
-#define PLOD__CAP_INFLATE 1.0001
-/* Height-range query box grows by this fraction of the sector's (u, v)
- * extent: mapped great-circle edges bulge out of the straight (u, v) ones
- * in the non-gnomonic projections. */
-#define PLOD__RANGE_MARGIN 0.25
-
 /* ---- per-leaf bounds ------------------------------------------------------ */
 
-/* A node's cap prism and the per-node constants of its tests. */
-typedef struct plod__bound {
-    double axis[3];
-    double cos_angle, sin_angle; /* cap half-angle */
-    double r_min, r_max;  /* metres from the centre */
-    double size;          /* longest corner chord, metres at the radius */
-    double sag0;          /* size^2 / (8 r_min): curvature sag, template 0 */
-    double relief0;       /* (hmax - hmin) * min(1, extent / texel) */
-    double twist0;        /* inside one bilinear cell: 3 (hmax - hmin) *
-                             (extent / texel)^2; else infinity */
-    double detail0;       /* the detail field's modulation maximum over the
-                             sector (0: no detail there) */
-    int horizon;          /* 0: r_max below the occluder, never hidden */
-    double horizon_cos, horizon_sin; /* of the cap angle + the angle at
-                             which r_max peeks over the occluder ball */
-    double sphere_z, sphere_radius; /* bounding ball: centre axis*sphere_z */
-    float hmin, hmax;     /* metres, outward-rounded */
-} plod__bound;
-
 typedef struct plod__geom {
-    plod__bound self;
+    plod_bound self;
     uint32_t eval_frame;   /* frame of the cached evaluation below */
     uint8_t eval_split;    /* predicate result */
     uint8_t eval_flags;    /* PLOD_SECTOR_BACKFACING | OUTSIDE_FRUSTUM */
@@ -110,7 +84,7 @@ typedef struct plod__edge {
  * P*(node) = P(node) and P*(parent), memoised per frame. */
 typedef struct plod__node {
     uint64_t id;        /* 0 = free slot */
-    plod__bound bound;
+    plod_bound bound;
 } plod__node;
 
 /* node_state bits, valid for the current frame (cleared by its pre-pass) */
@@ -118,8 +92,6 @@ enum {
     PLOD__P_KNOWN = 1, PLOD__P_TRUE = 2,        /* P(node) */
     PLOD__STAR_KNOWN = 4, PLOD__STAR_TRUE = 8   /* P*(node) */
 };
-
-#define PLOD__ALL_PLANES 0x3Fu
 
 struct plod_refiner {
     const plod_planet *planet;
@@ -147,25 +119,17 @@ struct plod_refiner {
     size_t node_capacity, node_top, node_used; /* node_top: slots in use or
                                                   holes (id 0) */
     uint32_t frame;
-    double global_hmin, global_hmax;
+    plod_bound_setup setup;
     /* per-update evaluation context */
-    const plod_camera *camera;
+    plod_bound_view view;
     const plod_refine_params *params;
-    double eye[3], eye_unit[3], eye_dist, occluder;
-    double eye_horizon_angle, eye_horizon_cos, eye_horizon_sin;
-    int horizon_on;
-    double merge_ratio, error_scale, error_scale2; /* 2^-t, 4^-t */
-    double distance_floor;  /* metres: distances below count as this */
-    int split_mode;         /* plod__exceeds: 0 side, 1 pixel, 2 ortho */
-    double split_scale;
-    double coarsening;      /* this pass's threshold factor, 2^(step / 2) */
+    double merge_ratio;
     int coarsen_step;       /* the budget's step of the last update: where the
                                next update's search starts (never its result) */
     int budget_known;       /* coarsen_step is the answer for budget_camera and
                                budget_params (the same frame again) */
     plod_camera budget_camera;
     plod_refine_params budget_params;
-    double texels_per_unit; /* height map texels per unit of u or v */
     size_t max_sectors;
     int truncated;
     size_t splits, merges;
@@ -475,7 +439,7 @@ static plod_status plod__node_reserve(plod_refiner *r, size_t extra)
 }
 
 /* Capacity ensured by plod__node_reserve; returns the node's index. */
-static int32_t plod__node_add(plod_refiner *r, uint64_t id, const plod__bound *bound,
+static int32_t plod__node_add(plod_refiner *r, uint64_t id, const plod_bound *bound,
                               int32_t parent)
 {
     assert(r->node_top < r->node_capacity);
@@ -549,33 +513,12 @@ void plod_sector_corners(const plod_planet *planet, const plod_sector *sector,
     }
 }
 
-/* Below a texel the pyramid range (of the texels a sample can touch) stops
- * shrinking, so a camera a few metres over rough ground would sit inside
- * the prism of every sector under it at every level (distance 0: splits to
- * max_level, sectors of nanometres).  A sub-texel sector's bilinear surface
- * stays within lip * reach of its corner heights: the bilinear gradient is
- * at most sqrt(2) * (range of the touched texels) per texel, and a point of
- * the sector (edges bulge by < PLOD__RANGE_MARGIN of the box) is at most
- * sqrt(2) * (1 + 2 margin) * extent texels from a corner (CAR: texels of
- * the lon/lat box around the sector's cap). */
-/* Corner directions and (lazily) heights shared by the sectors of a split:
- * a diamond parent's 3 corners and its hypotenuse midpoint serve both its
- * children, so they are computed once (the same calls: same bits). */
+/* The corner points of a split (plod_bound_corners) with their canonical
+ * points. */
 typedef struct plod__corner_memo {
-    double dir[4][3];
-    double height[4];
+    plod_bound_corners points;
     int32_t canon[4][3];
-    unsigned known; /* bit k: height[k] computed */
 } plod__corner_memo;
-
-static double plod__memo_height(const plod_planet *planet, plod__corner_memo *memo, int k)
-{
-    if (!(memo->known & (1u << k))) {
-        memo->height[k] = plod_planet_map_height(planet, memo->dir[k]);
-        memo->known |= 1u << k;
-    }
-    return memo->height[k];
-}
 
 /* memo entries idx[0..2] become the corners of the leaf at `at` */
 static void plod__store_corners(plod_refiner *r, size_t at, const plod__corner_memo *memo,
@@ -584,10 +527,10 @@ static void plod__store_corners(plod_refiner *r, size_t at, const plod__corner_m
     plod__corners *c = &r->corners[at];
     c->known = 0;
     for (int k = 0; k < 3; k++) {
-        memcpy(c->dir[k], memo->dir[idx[k]], sizeof c->dir[k]);
+        memcpy(c->dir[k], memo->points.dir[idx[k]], sizeof c->dir[k]);
         memcpy(c->canon[k], memo->canon[idx[k]], sizeof c->canon[k]);
-        c->height[k] = memo->height[idx[k]];
-        if (memo->known & (1u << idx[k]))
+        c->height[k] = memo->points.height[idx[k]];
+        if (memo->points.known & (1u << idx[k]))
             c->known |= 1u << k;
     }
 }
@@ -595,427 +538,34 @@ static void plod__store_corners(plod_refiner *r, size_t at, const plod__corner_m
 static void plod__load_corners(const plod_refiner *r, size_t at, plod__corner_memo *memo)
 {
     const plod__corners *c = &r->corners[at];
-    memcpy(memo->dir, c->dir, sizeof c->dir);
+    memcpy(memo->points.dir, c->dir, sizeof c->dir);
     memcpy(memo->canon, c->canon, sizeof c->canon);
-    memcpy(memo->height, c->height, sizeof c->height);
-    memo->known = c->known & 7u;
-}
-
-static void plod__tighten_subtexel(const plod_planet *planet, plod__corner_memo *memo,
-                                   const int idx[3], double texels, double *hmin,
-                                   double *hmax)
-{
-    if ((!planet->heightmap && !planet->source) || !(texels < 0.5) || !(*hmax > *hmin))
-        return;
-    double lo = INFINITY, hi = -INFINITY;
-    for (int k = 0; k < 3; k++) {
-        double h = plod__memo_height(planet, memo, idx[k]);
-        lo = h < lo ? h : lo;
-        hi = h > hi ? h : hi;
-    }
-    double reach = PLOD_SQRT2 * (1.0 + 2.0 * PLOD__RANGE_MARGIN) * texels;
-    /* + the seam tolerance: across a face edge the two faces' samples
-     * agree to ~1e-6 relative, not exactly */
-    double deviation = 1.01 * PLOD_SQRT2 * (*hmax - *hmin) * reach +
-                       2e-6 * fmax(fabs(*hmin), fabs(*hmax));
-    double tight_min = lo - deviation, tight_max = hi + deviation;
-    if (!(tight_min <= tight_max)) /* NaN corner heights: keep the range */
-        return;
-    *hmin = tight_min > *hmin ? tight_min : *hmin;
-    *hmax = tight_max < *hmax ? tight_max : *hmax;
-    if (*hmin > *hmax)
-        *hmin = *hmax;
-}
-
-/* Bounds of the detail field m N over a sector (plod_detail.h): the
- * region's modulation bounds [mlo, mhi] times N's bounds.  Small sectors
- * tighten both around corner 0: m as the map heights are (bilinear, below
- * half a texel), N by plod_detail_local_range over the cap's diameter
- * chord 2 sin(angle) (every point of the sector is within it of corner
- * 0), with the octaves a mesh of the sector drops counted by range.
- * *mod_max: the modulation bound (the error's scale). */
-static void plod__detail_bound(const plod_planet *planet, const plod_sector *s,
-                               plod__corner_memo *memo, const int idx[3], const plod__bound *b,
-                               double u0, double v0, double u1, double v1, double texels,
-                               double *dmin, double *dmax, double *mod_max)
-{
-    double m[2];
-    if (plod_projection_is_cube(planet->projection))
-        plod_planet_detail_range_uv(planet, s->face, u0, v0, u1, v1, dmin, dmax, m);
-    else
-        plod_planet_detail_range_cap(planet, b->axis, atan2(b->sin_angle, b->cos_angle), dmin,
-                                     dmax, m);
-    *mod_max = m[1];
-    if (!(m[1] > 0.0))
-        return; /* sea: no detail */
-    const double *corner = memo->dir[idx[0]];
-    if (planet->heightmap && texels < 0.5 && m[1] > m[0]) {
-        double mc = plod_planet_modulation(planet, corner);
-        double reach = PLOD_SQRT2 * (1.0 + 2.0 * PLOD__RANGE_MARGIN) * texels;
-        double deviation = 1.01 * PLOD_SQRT2 * (m[1] - m[0]) * reach + 2e-6;
-        if (mc - deviation > m[0])
-            m[0] = mc - deviation;
-        if (mc + deviation < m[1])
-            m[1] = mc + deviation;
-        if (!(m[0] <= m[1])) /* NaN: keep the region's */
-            return;
-    }
-    double chord = 2.0 * b->sin_angle * (b->cos_angle > 0.0 ? 1.0 : 0.0);
-    if (!(chord > 0.0))
-        return; /* a cap past a hemisphere: the region's bounds */
-    double nlo, nhi;
-    plod_detail_local_range(planet->detail, corner, chord, b->size, &nlo, &nhi);
-    /* m in [m0, m1] >= 0 times N in [nlo, nhi] */
-    double p[4] = {m[0] * nlo, m[0] * nhi, m[1] * nlo, m[1] * nhi};
-    double lo = p[0], hi = p[0];
-    for (int k = 1; k < 4; k++) {
-        lo = p[k] < lo ? p[k] : lo;
-        hi = p[k] > hi ? p[k] : hi;
-    }
-    *dmin = lo > *dmin ? lo : *dmin;
-    *dmax = hi < *dmax ? hi : *dmax;
-    if (*dmin > *dmax)
-        *dmin = *dmax;
-    *mod_max = m[1];
-}
-
-/* cos and sin of a cap angle (given by its cosine and sine) grown by the
- * rounding slack PLOD__CAP_INFLATE: by delta >= (INFLATE - 1) * angle,
- * from angle <= pi/2 * sine below 90 degrees and <= pi above. */
-static void plod__inflate_cap(double sine, double cosine, double *sin_out, double *cos_out)
-{
-    double s = sine, c = cosine; /* of unit vectors: s^2 + c^2 = 1 within rounding */
-    double bound = c > 0.0 ? (PLOD_PI / 2) * s : PLOD_PI;
-    double delta = (PLOD__CAP_INFLATE - 1.0) * bound + 1e-15;
-    double cd = 1.0 - 0.5 * delta * delta, sd = delta - delta * delta * delta * (1.0 / 6.0);
-    double cos_ = c * cd - s * sd, sin_ = s * cd + c * sd;
-    if (sin_ < 0.0) { /* past pi: the whole sphere */
-        cos_ = -1.0;
-        sin_ = 0.0;
-    }
-    *cos_out = cos_;
-    *sin_out = sin_;
-}
-
-/* Whether every bilinear tap in the face box [u0,u1] x [v0,v1] reads the
- * same 2 x 2 texels of one face (cube maps, away from face edges, where the
- * height map is one bilinear patch: the range query then returns exactly
- * those 4 texels' range). */
-static int plod__inside_one_cell(const plod_refiner *r, double u0, double v0, double u1,
-                                 double v1)
-{
-    if (!r->planet->heightmap || !plod_projection_is_cube(r->planet->projection))
-        return 0;
-    double size = 2.0 * r->texels_per_unit;
-    double i0 = floor((u0 + 1.0) * 0.5 * size - 0.5), i1 = floor((u1 + 1.0) * 0.5 * size - 0.5);
-    double j0 = floor((v0 + 1.0) * 0.5 * size - 0.5), j1 = floor((v1 + 1.0) * 0.5 * size - 0.5);
-    return i0 == i1 && j0 == j1 && i0 >= 0.0 && j0 >= 0.0 && i1 + 1.0 <= size - 1.0 &&
-           j1 + 1.0 <= size - 1.0;
-}
-
-/* Bound of sector s whose corners are memo->dir[idx[0..2]]. */
-static void plod__compute_bound_at(const plod_refiner *r, const plod_sector *s,
-                                   plod__corner_memo *memo, const int idx[3], plod__bound *b)
-{
-    const plod_planet *planet = r->planet;
-    const double *c[3] = {memo->dir[idx[0]], memo->dir[idx[1]], memo->dir[idx[2]]};
-    double axis[3] = {c[0][0] + c[1][0] + c[2][0], c[0][1] + c[1][1] + c[2][1],
-                      c[0][2] + c[1][2] + c[2][2]};
-    double len = sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
-    double inv_len = 1.0 / len;
-    for (int k = 0; k < 3; k++)
-        b->axis[k] = axis[k] * inv_len;
-    /* the cap angle: the largest corner angle from the axis (largest sine
-     * below 90 degrees, where the sine resolves small angles; smallest
-     * cosine above), kept as its cosine and sine: no trigonometry.  Sines
-     * and chords are compared squared: one square root each */
-    double cap_sin2 = 0.0, cap_cos = 1.0, chord2 = 0.0;
-    int acute = 1;
-    for (int k = 0; k < 3; k++) {
-        const double *a = b->axis, *v = c[k];
-        double x[3] = {a[1] * v[2] - a[2] * v[1], a[2] * v[0] - a[0] * v[2],
-                       a[0] * v[1] - a[1] * v[0]};
-        double sine2 = x[0] * x[0] + x[1] * x[1] + x[2] * x[2];
-        double cosine = a[0] * v[0] + a[1] * v[1] + a[2] * v[2];
-        if (cosine <= 0.0 && acute) {
-            acute = 0;
-            cap_sin2 = sine2, cap_cos = cosine;
-        } else if (acute ? sine2 > cap_sin2 : cosine < cap_cos) {
-            cap_sin2 = sine2, cap_cos = cosine;
-        }
-        const double *p = c[k], *q = c[(k + 1) % 3];
-        double d[3] = {p[0] - q[0], p[1] - q[1], p[2] - q[2]};
-        double ch2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-        chord2 = ch2 > chord2 ? ch2 : chord2;
-    }
-    plod__inflate_cap(sqrt(cap_sin2), cap_cos, &b->sin_angle, &b->cos_angle);
-    b->size = sqrt(chord2) * planet->radius;
-
-    const double scale = 1.0 / (double)PLOD__ONE;
-    double u0 = 2, u1 = -2, v0 = 2, v1 = -2;
-    for (int k = 0; k < 3; k++) {
-        double u = s->cu[k] * scale, v = s->cv[k] * scale;
-        u0 = u < u0 ? u : u0;
-        u1 = u > u1 ? u : u1;
-        v0 = v < v0 ? v : v0;
-        v1 = v > v1 ? v : v1;
-    }
-    double extent = fmax(u1 - u0, v1 - v0);
-    double mu = (u1 - u0) * PLOD__RANGE_MARGIN, mv = (v1 - v0) * PLOD__RANGE_MARGIN;
-    u0 = fmax(-1.0, u0 - mu);
-    u1 = fmin(1.0, u1 + mu);
-    v0 = fmax(-1.0, v0 - mv);
-    v1 = fmin(1.0, v1 + mv);
-    double hmin, hmax, texels;
-    if (plod_projection_is_cube(planet->projection) && !planet->source) {
-        plod_planet_height_range_uv(planet, s->face, u0, v0, u1, v1, &hmin, &hmax);
-        texels = extent * r->texels_per_unit;
-    } else {
-        /* CAR, or a height source: the octahedral square / the face is
-         * not the data's lon/lat grid */
-        plod_planet_height_range_cap(planet, b->axis, atan2(b->sin_angle, b->cos_angle),
-                                     &hmin, &hmax, &texels);
-    }
-    double inset_lo, inset_hi;
-    int insets = plod_planet_insets_range_cap(planet, b->axis, atan2(b->sin_angle, b->cos_angle),
-                                              &inset_lo, &inset_hi);
-    if (insets) { /* the blend lies between the global data and the insets */
-        hmin = inset_lo < hmin ? inset_lo : hmin;
-        hmax = inset_hi > hmax ? inset_hi : hmax;
-    }
-    double relief_range = hmax - hmin;
-    if (!insets) /* corner heights are blends there, not the map's bilinear patch */
-        plod__tighten_subtexel(planet, memo, idx, texels, &hmin, &hmax);
-    b->detail0 = 0.0;
-    if (planet->detail) { /* the map's bounds (tightened on map heights) + the field's */
-        double dmin, dmax;
-        plod__detail_bound(planet, s, memo, idx, b, u0, v0, u1, v1, texels, &dmin, &dmax,
-                           &b->detail0);
-        hmin += dmin;
-        hmax += dmax;
-    }
-    float fmin_ = (float)hmin, fmax_ = (float)hmax;
-    if ((double)fmin_ > hmin)
-        fmin_ = nextafterf(fmin_, -INFINITY);
-    if ((double)fmax_ < hmax)
-        fmax_ = nextafterf(fmax_, INFINITY);
-    b->hmin = fmin_;
-    b->hmax = fmax_;
-    b->r_min = planet->radius + fmin_;
-    b->r_max = planet->radius + fmax_;
-    b->sag0 = b->size * b->size / (8.0 * b->r_min);
-    b->relief0 = relief_range * (texels < 1.0 ? texels : 1.0);
-    b->twist0 = plod__inside_one_cell(r, u0, v0, u1, v1)
-                    ? 3.0 * relief_range * texels * texels
-                    : INFINITY;
-    double rho = r->occluder;
-    b->horizon = b->r_max >= rho;
-    if (b->horizon) { /* cap angle + beta, cos beta = rho / r_max */
-        double inv_r = 1.0 / b->r_max;
-        double cb = rho * inv_r, sb = sqrt((b->r_max - rho) * (b->r_max + rho)) * inv_r;
-        b->horizon_cos = b->cos_angle * cb - b->sin_angle * sb;
-        b->horizon_sin = b->sin_angle * cb + b->cos_angle * sb;
-    }
-    if (b->cos_angle > 0.0) {
-        double z0 = b->r_min * b->cos_angle, lateral = b->r_max * b->sin_angle;
-        b->sphere_z = 0.5 * (z0 + b->r_max);
-        double half = 0.5 * (b->r_max - z0);
-        b->sphere_radius = sqrt(half * half + lateral * lateral) * (1.0 + 1e-12);
-    } else {
-        b->sphere_z = 0.0;
-        b->sphere_radius = b->r_max;
-    }
+    memcpy(memo->points.height, c->height, sizeof c->height);
+    memo->points.known = c->known & 7u;
 }
 
 /* Bound of the leaf at `at` from scratch; fills its corner cache. */
-static void plod__compute_bound(plod_refiner *r, size_t at, plod__bound *b)
+static void plod__compute_bound(plod_refiner *r, size_t at, plod_bound *b)
 {
     plod__corner_memo memo;
-    memo.known = 0;
+    memo.points.known = 0;
     const plod_sector *s = &r->leaves[at];
-    plod_sector_corners(r->planet, s, memo.dir);
+    plod_sector_corners(r->planet, s, memo.points.dir);
     for (int k = 0; k < 3; k++)
         plod__canon(r, s->face, s->cu[k], s->cv[k], memo.canon[k]);
     static const int idx[3] = {0, 1, 2};
-    plod__compute_bound_at(r, s, &memo, idx, b);
+    plod_bound_build(&r->setup, s, &memo.points, idx, b);
     plod__store_corners(r, at, &memo, idx);
 }
 
-/* Culling flags of a bound (PLOD_SECTOR_BACKFACING or OUTSIDE_FRUSTUM:
- * culled or not, the same whichever test finds it).  Angles are compared
- * through cosines with per-node constants, so a test costs a few dot
- * products (no trigonometry).
- * Plane masks: bit i of parent_planes says the parent's surface is inside
- * frustum plane i, so this sector's surface (part of it) is too; its
- * bound, which contains that surface, then has a point inside plane i and
- * plane i cannot cull it: the test is skipped, with the same result.
- * *planes: parent_planes plus the planes this bound is inside of. */
-static unsigned plod__cull(const plod_refiner *r, const plod__bound *b,
-                           unsigned parent_planes, unsigned *planes)
-{
-    *planes = parent_planes;
-    const plod_refine_params *pr = r->params;
-    const plod_camera *cam = r->camera;
-    const double *e = r->eye_unit;
-    double cphi = b->axis[0] * e[0] + b->axis[1] * e[1] + b->axis[2] * e[2];
-    /* both angles are in [0, pi): their sum is below pi iff its sine is
-     * positive (rounding near pi only skips the test: conservative) */
-    if (r->horizon_on && b->horizon &&
-        b->horizon_sin * r->eye_horizon_cos + b->horizon_cos * r->eye_horizon_sin > 0.0) {
-        /* hidden iff phi > horizon angle + eye angle */
-        double limit = b->horizon_cos * r->eye_horizon_cos - b->horizon_sin * r->eye_horizon_sin;
-        if (cphi < limit - 1e-12)
-            return PLOD_SECTOR_BACKFACING;
-    }
-    if (pr->frustum_culling && parent_planes != PLOD__ALL_PLANES) {
-        for (int i = 0; i < 6; i++) {
-            if (parent_planes & (1u << i))
-                continue;
-            const double *pl = cam->planes[i];
-            double c = pl[0] * b->axis[0] + pl[1] * b->axis[1] + pl[2] * b->axis[2];
-            double centre = c * b->sphere_z + pl[3];
-            double margin = 1e-9 * (b->r_max + fabs(pl[3]));
-            if (centre >= b->sphere_radius) {
-                *planes |= 1u << i; /* the bounding ball is inside this plane */
-                continue;
-            }
-            if (centre < -b->sphere_radius - margin)
-                return PLOD_SECTOR_OUTSIDE_FRUSTUM;
-            double best;
-            if (c >= b->cos_angle) {
-                best = 1.0;
-            } else {
-                double s2 = 1.0 - c * c; /* fmax(0, x) without the libm call */
-                double s = sqrt(s2 > 0.0 ? s2 : 0.0);
-                best = c * b->cos_angle + s * b->sin_angle;
-            }
-            double reach = best * (best >= 0.0 ? b->r_max : b->r_min);
-            if (reach + pl[3] < -margin)
-                return PLOD_SECTOR_OUTSIDE_FRUSTUM;
-        }
-    }
-    return 0;
-}
-
-/* Eye distance of a bound's prism: to its nearest point. */
-static double plod__prism_distance(const plod_refiner *r, const plod__bound *b)
-{
-    const double *e = r->eye_unit;
-    double cphi = b->axis[0] * e[0] + b->axis[1] * e[1] + b->axis[2] * e[2];
-    double dist = r->eye_dist;
-    if (cphi >= b->cos_angle)
-        return dist > b->r_max ? dist - b->r_max : (dist < b->r_min ? b->r_min - dist : 0.0);
-    double cr[3] = {b->axis[1] * e[2] - b->axis[2] * e[1], b->axis[2] * e[0] - b->axis[0] * e[2],
-                    b->axis[0] * e[1] - b->axis[1] * e[0]};
-    double sphi = sqrt(cr[0] * cr[0] + cr[1] * cr[1] + cr[2] * cr[2]);
-    /* delta = phi - angle > 0: the eye direction's angle beyond the cap */
-    double cdelta = cphi * b->cos_angle + sphi * b->sin_angle;
-    double sdelta = sphi * b->cos_angle - cphi * b->sin_angle;
-    double one_minus = cdelta > 0.0 ? sdelta * sdelta / (1.0 + cdelta) : 1.0 - cdelta;
-    double t = dist * cdelta;
-    t = t < b->r_min ? b->r_min : (t > b->r_max ? b->r_max : t);
-    double radial = dist - t;
-    return sqrt(radial * radial + 2.0 * dist * t * one_minus);
-}
-
-/* Refinement score of a bound: > 1 wants a split (ignoring culling).
- * Pixel criterion: the geometric error of the sector drawn with a template
- * of 2^t cells per edge, projected at the bound's distance:
- *   curvature sag of a cell   (size / 2^t)^2 / (8 r_min)
- * + relief left between cells (hmax - hmin) * min(1, extent / texel) / 2^t
- * (below one texel the bilinear surface varies ~linearly between its
- * creases, so the relief of the texel footprint shrinks with the sector),
- * or, for a sector inside one bilinear cell (no crease), the smaller
- *   twist of the cell        3 (hmax - hmin) (extent / texel / 2^t)^2:
- * there h = a + b x + c y + d x y with |d| <= 2 (hmax - hmin) per texel^2,
- * and linear interpolation over a template cell of diameter
- * sqrt 2 extent / 2^t leaves at most |d| diameter^2 / 2; times 1.5 for
- * the projection's curvature inside the cell.  Each term only decreases
- * from a parent to its children. */
-static double plod__error_m(const plod_refiner *r, const plod__bound *b)
-{
-    double relief = b->relief0 * r->error_scale, twist = b->twist0 * r->error_scale2;
-    double error = b->sag0 * r->error_scale2 + (twist < relief ? twist : relief);
-    if (b->detail0 > 0.0) /* the detail a template cell does not resolve */
-        error += b->detail0 *
-                 plod_detail_cell_error(r->planet->detail, b->size * r->error_scale);
-    return error;
-}
-
-static double plod__score(const plod_refiner *r, const plod__bound *b, double distance)
-{
-    const plod_refine_params *pr = r->params;
-    double d = distance > r->distance_floor ? distance : r->distance_floor;
-    if (pr->criterion == PLOD_CRITERION_SIDE_DISTANCE)
-        return b->size / d / pr->split_border / r->coarsening;
-    double error_m = plod__error_m(r, b);
-    double px = r->camera->desc.orthographic
-                    ? error_m * r->camera->pixels_per_metre
-                    : error_m * r->camera->pixels_per_radian / d;
-    return px / pr->max_pixel_error / r->coarsening;
-}
-
-/* score > 1 without divisions (hot path: every node, every frame):
- * side / distance: size > split_border * d; pixel, perspective:
- * error * pixels_per_radian / max_pixel_error > d; orthographic:
- * error * pixels_per_metre / max_pixel_error > 1. */
-static int plod__exceeds(const plod_refiner *r, const plod__bound *b, double distance)
-{
-    double d = distance > r->distance_floor ? distance : r->distance_floor;
-    switch (r->split_mode) {
-    case 0:
-        return b->size > r->split_scale * d;
-    case 1:
-        return plod__error_m(r, b) * r->split_scale > d;
-    default:
-        return plod__error_m(r, b) * r->split_scale > 1.0;
-    }
-}
-
-/* plod__exceeds at the prism's distance.  Most nodes are far from the
- * threshold: two bounds without square roots or divisions decide them, the
- * bounding ball (no nearer than the prism) and the prism point axis * r_min
- * (no nearer than the prism's nearest point), each only when it clears the
- * threshold by a margin far above the rounding of the exact distance; so
- * the result is the exact test's. */
-static int plod__exceeds_at_prism(const plod_refiner *r, const plod__bound *b)
-{
-    double reach; /* the distance threshold, metres */
-    switch (r->split_mode) {
-    case 0:
-        reach = b->size / r->split_scale;
-        break;
-    case 1:
-        reach = plod__error_m(r, b) * r->split_scale;
-        break;
-    default:
-        return plod__exceeds(r, b, 0.0); /* orthographic: no distance */
-    }
-    const double *eye = r->eye;
-    double margin = 1e-9 * (reach + b->sphere_radius) + 1e-12 * r->eye_dist;
-    double g[3] = {eye[0] - b->axis[0] * b->sphere_z, eye[1] - b->axis[1] * b->sphere_z,
-                   eye[2] - b->axis[2] * b->sphere_z};
-    double far_ = reach + b->sphere_radius + margin;
-    if (g[0] * g[0] + g[1] * g[1] + g[2] * g[2] >= far_ * far_)
-        return 0;
-    double near_ = reach - margin;
-    if (near_ > 0.0) {
-        double q[3] = {eye[0] - b->axis[0] * b->r_min, eye[1] - b->axis[1] * b->r_min,
-                       eye[2] - b->axis[2] * b->r_min};
-        if (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] <= near_ * near_)
-            return plod__exceeds(r, b, 0.0); /* distance below reach: the floor decides */
-    }
-    return plod__exceeds(r, b, plod__prism_distance(r, b));
-}
-
 /* Split predicate P of a node (level = its level), from its own bound. */
-static int plod__wants_split(const plod_refiner *r, const plod__bound *b, int level,
+static int plod__wants_split(const plod_refiner *r, const plod_bound *b, int level,
                              unsigned *flags, unsigned parent_planes, unsigned *planes)
 {
-    *flags = plod__cull(r, b, parent_planes, planes);
+    *flags = plod_bound_cull(&r->view, b, parent_planes, planes);
     if (level >= r->params->max_level || *flags)
         return 0;
-    return plod__exceeds_at_prism(r, b);
+    return plod_bound_exceeds_at_prism(&r->view, b);
 }
 
 static int plod__id_level(uint64_t id)
@@ -1079,9 +629,9 @@ static int plod__allows_merge(plod_refiner *r, int32_t k)
     if (r->node_parent[k] >= 0 && !plod__node_wants(r, r->node_parent[k]))
         return 1;
     unsigned planes;
-    unsigned flags = plod__cull(r, &n->bound, 0, &planes);
+    unsigned flags = plod_bound_cull(&r->view, &n->bound, 0, &planes);
     return flags || level >= r->params->max_level ||
-           plod__score(r, &n->bound, plod__prism_distance(r, &n->bound)) < r->merge_ratio;
+           plod_bound_score(&r->view, &n->bound, plod_bound_distance(&r->view, &n->bound)) < r->merge_ratio;
 }
 
 /* P*(leaf), caching P(leaf) and its cull flags for this frame. */
@@ -1152,7 +702,7 @@ static void plod__parent(const plod_sector *c, plod_sector *p)
     p->level = (uint8_t)(c->level - 1);
 }
 
-static void plod__apply_bound(plod_sector *s, const plod__bound *b)
+static void plod__apply_bound(plod_sector *s, const plod_bound *b)
 {
     s->height_min = b->hmin;
     s->height_max = b->hmax;
@@ -1196,7 +746,7 @@ static void plod__split_diamond(plod_refiner *r, size_t i, size_t n)
                 const double scale = 1.0 / (double)PLOD__ONE;
                 plod_status st = plod_face_to_dir(r->planet->projection, c->face,
                                                   c->cu[1] * scale, c->cv[1] * scale,
-                                                  memo.dir[3]);
+                                                  memo.points.dir[3]);
                 (void)st;
                 assert(st == PLOD_OK);
                 plod__canon(r, c->face, c->cu[1], c->cv[1], memo.canon[3]);
@@ -1204,7 +754,7 @@ static void plod__split_diamond(plod_refiner *r, size_t i, size_t n)
             /* plod__child: corners (parent a, midpoint, parent b) */
             const int idx[3] = {bit ? 2 : 1, 3, bit ? 1 : 0};
             plod__geom *g = &r->geom[at];
-            plod__compute_bound_at(r, c, &memo, idx, &g->self);
+            plod_bound_build(&r->setup, c, &memo.points, idx, &g->self);
             plod__store_corners(r, at, &memo, idx);
             g->eval_frame = r->frame - 1;
             r->leaf_parent[at] = node[k];
@@ -1542,10 +1092,7 @@ plod_status plod_refiner_create(plod_refiner **out, const plod_planet *planet)
         return PLOD_ERR_NO_MEMORY;
     r->planet = planet;
     r->frame = 1;
-    r->texels_per_unit =
-        planet->heightmap ? 0.5 * plod_cubemap_size(planet->heightmap) : 0.0;
-    plod_planet_height_range(planet, &r->global_hmin, &r->global_hmax);
-    r->occluder = planet->radius + r->global_hmin;
+    plod_bound_setup_init(&r->setup, planet);
     st = plod__build_base(r);
     if (st != PLOD_OK) {
         plod_refiner_destroy(r);
@@ -1827,16 +1374,17 @@ static plod_status plod__check_params(const plod_refine_params *p)
  * times 2^(step / 2) (pixel error, or split border). */
 static void plod__set_threshold(plod_refiner *r, const plod_refine_params *params, int step)
 {
-    r->coarsening = ldexp(step & 1 ? PLOD_SQRT2 : 1.0, step >> 1);
+    plod_bound_view *v = &r->view;
+    v->coarsening = ldexp(step & 1 ? PLOD_SQRT2 : 1.0, step >> 1);
     if (params->criterion == PLOD_CRITERION_SIDE_DISTANCE) {
-        r->split_mode = 0;
-        r->split_scale = params->split_border * r->coarsening;
-    } else if (!r->camera->desc.orthographic) {
-        r->split_mode = 1;
-        r->split_scale = r->camera->pixels_per_radian / (params->max_pixel_error * r->coarsening);
+        v->split_mode = 0;
+        v->split_scale = params->split_border * v->coarsening;
+    } else if (!v->camera->desc.orthographic) {
+        v->split_mode = 1;
+        v->split_scale = v->camera->pixels_per_radian / (params->max_pixel_error * v->coarsening);
     } else {
-        r->split_mode = 2;
-        r->split_scale = r->camera->pixels_per_metre / (params->max_pixel_error * r->coarsening);
+        v->split_mode = 2;
+        v->split_scale = v->camera->pixels_per_metre / (params->max_pixel_error * v->coarsening);
     }
 }
 
@@ -1956,7 +1504,8 @@ static void plod__fit_budget(plod_refiner *r, const plod_refine_params *params)
     int step = r->coarsen_step;
     if (step < 0 || step > PLOD__MAX_COARSEN_STEP)
         step = 0;
-    if (r->budget_known && memcmp(&r->budget_camera, r->camera, sizeof *r->camera) == 0 &&
+    const plod_camera *camera = r->view.camera;
+    if (r->budget_known && memcmp(&r->budget_camera, camera, sizeof *camera) == 0 &&
         memcmp(&r->budget_params, params, sizeof *params) == 0) {
         /* the same camera and parameters again: the same (unique) step */
         plod__refine_pass(r, params, step, params->max_sectors);
@@ -1979,7 +1528,7 @@ static void plod__fit_budget(plod_refiner *r, const plod_refine_params *params)
             plod__refine_pass(r, params, step, params->max_sectors);
     }
     r->coarsen_step = step;
-    r->budget_camera = *r->camera;
+    r->budget_camera = *camera;
     r->budget_params = *params;
     r->budget_known = 1;
 }
@@ -2001,24 +1550,28 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
 
     double t0 = plod__now_us();
     r->frame++;
-    r->camera = camera;
     r->params = params;
-    memcpy(r->eye, camera->position, sizeof r->eye);
-    r->eye_dist = eye_dist;
+    plod_bound_view *v = &r->view;
+    v->camera = camera;
+    v->detail = r->planet->detail;
+    memcpy(v->eye, camera->position, sizeof v->eye);
+    v->eye_dist = eye_dist;
     for (int k = 0; k < 3; k++)
-        r->eye_unit[k] = camera->position[k] / eye_dist;
-    r->horizon_on = params->backface_culling && !camera->desc.orthographic &&
-                    eye_dist > r->occluder;
-    r->eye_horizon_angle =
-        r->horizon_on ? atan2(sqrt((eye_dist - r->occluder) * (eye_dist + r->occluder)),
-                              r->occluder)
-                      : 0.0;
-    r->eye_horizon_cos = cos(r->eye_horizon_angle);
-    r->eye_horizon_sin = sin(r->eye_horizon_angle);
+        v->eye_unit[k] = camera->position[k] / eye_dist;
+    double rho = r->setup.occluder;
+    v->horizon_on = params->backface_culling && !camera->desc.orthographic && eye_dist > rho;
+    double eye_horizon_angle =
+        v->horizon_on ? atan2(sqrt((eye_dist - rho) * (eye_dist + rho)), rho) : 0.0;
+    v->eye_horizon_cos = cos(eye_horizon_angle);
+    v->eye_horizon_sin = sin(eye_horizon_angle);
+    v->frustum_culling = params->frustum_culling;
+    v->criterion = params->criterion;
+    v->split_border = params->split_border;
+    v->max_pixel_error = params->max_pixel_error;
     r->merge_ratio = params->merge_border / params->split_border;
-    r->error_scale = ldexp(1.0, -params->template_level);
-    r->error_scale2 = r->error_scale * r->error_scale;
-    r->distance_floor = 1e-9 * r->planet->radius;
+    v->error_scale = ldexp(1.0, -params->template_level);
+    v->error_scale2 = v->error_scale * v->error_scale;
+    v->distance_floor = 1e-9 * r->planet->radius;
     r->splits = r->merges = 0;
     if (params->budget == 0) {
         plod__refine_pass(r, params, 0, params->max_sectors);
@@ -2077,7 +1630,7 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
         size_t k = 0;
         for (size_t i = 0; i < r->count; i++)
             if (r->leaves[i].flags & PLOD_SECTOR_VISIBLE)
-                ranks[k++] = (plod__rank){plod__prism_distance(r, &r->geom[i].self),
+                ranks[k++] = (plod__rank){plod_bound_distance(&r->view, &r->geom[i].self),
                                           r->leaves[i].id, i};
         qsort(ranks, visible, sizeof *ranks, plod__rank_cmp);
         for (size_t j = params->budget; j < visible; j++) {
@@ -2101,7 +1654,7 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
     s.max_level_reached = deepest;
     s.truncated = r->truncated;
     s.frame = r->frame;
-    r->camera = NULL;
+    r->view.camera = NULL;
     r->params = NULL;
     if (stats)
         *stats = s;

@@ -1,5 +1,5 @@
 /* fuzz_refine.c -- libFuzzer harness for camera construction, HRTMR
- * refinement + culling and mesh emission (cext/cull.c, planet.c, refine.c,
+ * refinement + culling and mesh emission (cext/camera.c, bound.c, planet.c, refine.c,
  * mesh.c, with cubemap.c/projection.c underneath).
  *
  * Each input builds a planet (any projection; radius, height scale and sea

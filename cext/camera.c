@@ -1,51 +1,16 @@
-/* cull.c -- the camera in Blender's conventions and conservative visibility
- * tests of cap prisms.
+/* camera.c -- the camera in Blender's conventions.
  *
- * Camera: matrix_world columns are the camera's local axes in planet space
- * (x right, y up, z backwards) and its position; scale is removed
- * (Blender ignores object scale for the view).  The view window at unit
- * depth follows Blender's sensor fit: AUTO fits the sensor width to the
- * larger of the two (pixel-aspect-corrected) image sides; shift is a
- * fraction of that fitted side.
- *
- * Cap prism tests are exact for the prism {r d : angle(d, axis) <= angle,
- * r in [r_min, r_max]}:
- *   - distance: nearest direction is the eye direction clamped onto the
- *     cap; the nearest point on that ray segment closes it.
- *   - horizon: a point at radius r >= rho is hidden by the ball of radius
- *     rho from an eye at distance D > rho iff its angle from the eye
- *     direction exceeds acos(rho/D) + acos(rho/r); the largest r is the most
- *     visible, the smallest angle to the cap the most visible.
- *   - frustum: max over the prism of n.x is max over the cap of n.d (=
- *     cos(max(0, angle(n, axis) - angle))) scaled by r_max if positive,
- *     r_min otherwise.
+ * matrix_world columns are the camera's local axes in planet space (x
+ * right, y up, z backwards) and its position; scale is removed (Blender
+ * ignores object scale for the view).  The view window at unit depth
+ * follows Blender's sensor fit: AUTO fits the sensor width to the larger
+ * of the two (pixel-aspect-corrected) image sides; shift is a fraction of
+ * that fitted side.  The visibility tests that use it are in bound.c.
  */
-#include "plod_cull.h"
+#include "plod_camera.h"
 
 #include <math.h>
 #include <string.h>
-
-/* Relative slack added to every "hidden" decision so rounding never culls
- * a visible point. */
-#define PLOD__CULL_SLACK 1e-9
-
-static double plod__dot(const double a[3], const double b[3])
-{
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
-
-static double plod__norm(const double a[3])
-{
-    return sqrt(plod__dot(a, a));
-}
-
-/* Angle between two vectors (any length > 0), accurate near 0 and pi. */
-static double plod__angle(const double a[3], const double b[3])
-{
-    double c[3] = {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
-                   a[0] * b[1] - a[1] * b[0]};
-    return atan2(plod__norm(c), plod__dot(a, b));
-}
 
 void plod_camera_desc_default(plod_camera_desc *desc)
 {
@@ -72,10 +37,10 @@ static void plod__set_plane(double plane[4], const plod_camera *cam, double lx,
     double n[3];
     for (int i = 0; i < 3; i++)
         n[i] = cam->right[i] * lx + cam->up[i] * ly - cam->forward[i] * lz;
-    double len = plod__norm(n);
+    double len = plod_norm3(n);
     for (int i = 0; i < 3; i++)
         plane[i] = n[i] / len;
-    plane[3] = (ld - plod__dot(n, cam->position)) / len;
+    plane[3] = (ld - plod_dot3(n, cam->position)) / len;
 }
 
 plod_status plod_camera_init(plod_camera *camera, const plod_camera_desc *desc)
@@ -106,10 +71,10 @@ plod_status plod_camera_init(plod_camera *camera, const plod_camera_desc *desc)
         return PLOD_ERR_BAD_CAMERA; /* projective matrices are not cameras */
     double x[3] = {m[0], m[4], m[8]}, y[3] = {m[1], m[5], m[9]},
            z[3] = {m[2], m[6], m[10]};
-    double sx = plod__norm(x), sy = plod__norm(y), sz = plod__norm(z);
+    double sx = plod_norm3(x), sy = plod_norm3(y), sz = plod_norm3(z);
     double cross[3] = {x[1] * y[2] - x[2] * y[1], x[2] * y[0] - x[0] * y[2],
                        x[0] * y[1] - x[1] * y[0]};
-    double det = plod__dot(cross, z);
+    double det = plod_dot3(cross, z);
     if (!(sx > 0 && sy > 0 && sz > 0) || !(fabs(det) > 1e-9 * sx * sy * sz))
         return PLOD_ERR_BAD_CAMERA;
 
@@ -120,9 +85,9 @@ plod_status plod_camera_init(plod_camera *camera, const plod_camera_desc *desc)
     camera->position[2] = m[11];
     /* Gram-Schmidt keeps the view direction exact and squares the rest. */
     double f[3] = {-z[0] / sz, -z[1] / sz, -z[2] / sz};
-    double yd = plod__dot(y, f);
+    double yd = plod_dot3(y, f);
     double u[3] = {y[0] - yd * f[0], y[1] - yd * f[1], y[2] - yd * f[2]};
-    double ul = plod__norm(u);
+    double ul = plod_norm3(u);
     if (!(ul > 1e-12 * sy))
         return PLOD_ERR_BAD_CAMERA;
     for (int i = 0; i < 3; i++) {
@@ -188,62 +153,10 @@ plod_status plod_camera_init(plod_camera *camera, const plod_camera_desc *desc)
     return PLOD_OK;
 }
 
-double plod_cap_prism_distance(const plod_cap_prism *prism, const double point[3])
-{
-    double dist = plod__norm(point);
-    if (dist == 0.0)
-        return prism->r_min;
-    double phi = plod__angle(point, prism->axis);
-    double delta = phi - prism->angle;
-    if (delta <= 0.0) {
-        if (dist > prism->r_max)
-            return dist - prism->r_max;
-        if (dist < prism->r_min)
-            return prism->r_min - dist;
-        return 0.0;
-    }
-    double c = cos(delta);
-    double t = dist * c;
-    t = t < prism->r_min ? prism->r_min : (t > prism->r_max ? prism->r_max : t);
-    double s = sin(0.5 * delta);
-    double radial = dist - t;
-    /* |p|^2 + t^2 - 2|p|t cos(delta), written without cancellation */
-    double d2 = radial * radial + 4.0 * dist * t * s * s;
-    return sqrt(d2 > 0.0 ? d2 : 0.0);
-}
-
-int plod_cap_prism_beyond_horizon(const plod_cap_prism *prism, const double eye[3],
-                                  double occluder_radius)
-{
-    double dist = plod__norm(eye);
-    double rho = occluder_radius;
-    if (!(rho > 0.0) || !(dist > rho) || prism->r_max < rho)
-        return 0;
-    double limit = acos(rho / dist) + acos(rho / prism->r_max);
-    double nearest = plod__angle(eye, prism->axis) - prism->angle;
-    return nearest > limit * (1.0 + PLOD__CULL_SLACK) + PLOD__CULL_SLACK;
-}
-
-int plod_cap_prism_outside_frustum(const plod_cap_prism *prism,
-                                   const plod_camera *camera)
-{
-    for (int i = 0; i < 6; i++) {
-        const double *pl = camera->planes[i];
-        double psi = plod__angle(pl, prism->axis);
-        double gap = psi - prism->angle;
-        double best = gap <= 0.0 ? 1.0 : cos(gap); /* max of n.d over the cap */
-        double reach = best * (best >= 0.0 ? prism->r_max : prism->r_min);
-        double margin = PLOD__CULL_SLACK * (prism->r_max + fabs(pl[3]));
-        if (reach + pl[3] < -margin)
-            return 1;
-    }
-    return 0;
-}
-
 int plod_camera_contains(const plod_camera *camera, const double point[3])
 {
     for (int i = 0; i < 6; i++)
-        if (plod__dot(camera->planes[i], point) + camera->planes[i][3] < 0.0)
+        if (plod_dot3(camera->planes[i], point) + camera->planes[i][3] < 0.0)
             return 0;
     return 1;
 }

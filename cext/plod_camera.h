@@ -1,8 +1,9 @@
-/* plod_cull.h -- the camera in Blender's conventions, and conservative
- * visibility tests of sector prisms (horizon/backface and frustum).
+/* plod_camera.h -- the camera in Blender's conventions: what Blender holds
+ * in, planet-space axes, view window and frustum planes out.  The
+ * visibility tests of sectors against it are the refiner's (bound.c).
  */
-#ifndef PLOD_CULL_H
-#define PLOD_CULL_H
+#ifndef PLOD_CAMERA_H
+#define PLOD_CAMERA_H
 
 #include "plod_planet.h"
 
@@ -51,32 +52,10 @@ plod_status plod_camera_init(plod_camera *camera, const plod_camera_desc *desc);
  * 0.1..1000) with an identity matrix. */
 void plod_camera_desc_default(plod_camera_desc *desc);
 
-/* ---- sector bounding volumes -------------------------------------------
- * A cap prism: every point r*d with the unit direction d within `angle`
- * radians of `axis` and r in [r_min, r_max] (metres from the planet
- * centre).  Sectors are bounded by one; all tests below are exact for the
- * cap prism, hence conservative for the sector inside it. */
-typedef struct plod_cap_prism {
-    double axis[3];   /* unit */
-    double angle;     /* radians, [0, pi] */
-    double r_min, r_max;
-} plod_cap_prism;
-
-/* Euclidean distance from `point` to the nearest point of the prism (0
- * inside). */
-double plod_cap_prism_distance(const plod_cap_prism *prism, const double point[3]);
-/* 1 if every point of the prism is hidden from `eye` by the ball of radius
- * `occluder_radius` around the centre (beyond the horizon); 0 otherwise
- * (always 0 when the eye is inside that ball). */
-int plod_cap_prism_beyond_horizon(const plod_cap_prism *prism, const double eye[3],
-                                  double occluder_radius);
-/* 1 if the whole prism lies outside one of the camera's frustum planes. */
-int plod_cap_prism_outside_frustum(const plod_cap_prism *prism,
-                                   const plod_camera *camera);
 /* 1 if `point` is inside the camera's frustum (all 6 planes). */
 int plod_camera_contains(const plod_camera *camera, const double point[3]);
 
 #ifdef __cplusplus
 }
 #endif
-#endif /* PLOD_CULL_H */
+#endif /* PLOD_CAMERA_H */

@@ -1,0 +1,456 @@
+/* bound.c -- the bounding volumes of sectors and the only visibility and
+ * error tests of the refinement.
+ *
+ * A sector's bound is a cap prism: every point r d with the unit direction
+ * d within the cap angle of `axis` and r in [r_min, r_max] (metres from
+ * the planet centre), r from the planet's height range over the sector.
+ * Every test is exact or conservative for the prism, hence conservative
+ * for the sector inside it:
+ *   - horizon: a point at radius r >= rho is hidden by the ball of radius
+ *     rho (the occluder, the lowest surface) from an eye at distance
+ *     D > rho iff its angle from the eye direction exceeds
+ *     acos(rho / D) + acos(rho / r); the largest r is the most visible,
+ *     the smallest angle to the cap the most visible.
+ *   - frustum: the max over the prism of n.x is the max over the cap of
+ *     n.d (cos(max(0, angle(n, axis) - angle))) times r_max if positive,
+ *     r_min otherwise; a bounding ball decides most planes first.
+ *   - distance: the nearest direction is the eye direction clamped onto
+ *     the cap; the nearest point of that ray segment closes it.
+ * Angles are kept as cosines and sines, so a test costs a few dot
+ * products (no trigonometry on the per-frame path).
+ */
+#include "plod_bound.h"
+#include "plod_detail.h"
+
+#include <math.h>
+
+/* Cap angle inflation: slack against rounding in the corner angles. */
+#define PLOD__CAP_INFLATE 1.0001
+/* Height-range query box grows by this fraction of the sector's (u, v)
+ * extent: mapped great-circle edges bulge out of the straight (u, v) ones
+ * in the non-gnomonic projections. */
+#define PLOD__RANGE_MARGIN 0.25
+#define PLOD__ONE ((int32_t)1 << PLOD_COORD_BITS)
+
+/* ---- construction ----------------------------------------------------------- */
+
+void plod_bound_setup_init(plod_bound_setup *setup, const plod_planet *planet)
+{
+    double hmin, hmax;
+    setup->planet = planet;
+    setup->texels_per_unit =
+        planet->heightmap ? 0.5 * plod_cubemap_size(planet->heightmap) : 0.0;
+    plod_planet_height_range(planet, &hmin, &hmax);
+    setup->occluder = planet->radius + hmin;
+}
+
+static double plod__memo_height(const plod_planet *planet, plod_bound_corners *memo, int k)
+{
+    if (!(memo->known & (1u << k))) {
+        memo->height[k] = plod_planet_map_height(planet, memo->dir[k]);
+        memo->known |= 1u << k;
+    }
+    return memo->height[k];
+}
+
+/* Below a texel the pyramid range (of the texels a sample can touch) stops
+ * shrinking, so a camera a few metres over rough ground would sit inside
+ * the prism of every sector under it at every level (distance 0: splits to
+ * max_level, sectors of nanometres).  A sub-texel sector's bilinear surface
+ * stays within lip * reach of its corner heights: the bilinear gradient is
+ * at most sqrt(2) * (range of the touched texels) per texel, and a point of
+ * the sector (edges bulge by < PLOD__RANGE_MARGIN of the box) is at most
+ * sqrt(2) * (1 + 2 margin) * extent texels from a corner (CAR: texels of
+ * the lon/lat box around the sector's cap). */
+static void plod__tighten_subtexel(const plod_planet *planet, plod_bound_corners *memo,
+                                   const int idx[3], double texels, double *hmin,
+                                   double *hmax)
+{
+    if ((!planet->heightmap && !planet->source) || !(texels < 0.5) || !(*hmax > *hmin))
+        return;
+    double lo = INFINITY, hi = -INFINITY;
+    for (int k = 0; k < 3; k++) {
+        double h = plod__memo_height(planet, memo, idx[k]);
+        lo = h < lo ? h : lo;
+        hi = h > hi ? h : hi;
+    }
+    double reach = PLOD_SQRT2 * (1.0 + 2.0 * PLOD__RANGE_MARGIN) * texels;
+    /* + the seam tolerance: across a face edge the two faces' samples
+     * agree to ~1e-6 relative, not exactly */
+    double deviation = 1.01 * PLOD_SQRT2 * (*hmax - *hmin) * reach +
+                       2e-6 * fmax(fabs(*hmin), fabs(*hmax));
+    double tight_min = lo - deviation, tight_max = hi + deviation;
+    if (!(tight_min <= tight_max)) /* NaN corner heights: keep the range */
+        return;
+    *hmin = tight_min > *hmin ? tight_min : *hmin;
+    *hmax = tight_max < *hmax ? tight_max : *hmax;
+    if (*hmin > *hmax)
+        *hmin = *hmax;
+}
+
+/* Bounds of the detail field m N over a sector (plod_detail.h): the
+ * region's modulation bounds [mlo, mhi] times N's bounds.  Small sectors
+ * tighten both around corner 0: m as the map heights are (bilinear, below
+ * half a texel), N by plod_detail_local_range over the cap's diameter
+ * chord 2 sin(angle) (every point of the sector is within it of corner
+ * 0), with the octaves a mesh of the sector drops counted by range.
+ * *mod_max: the modulation bound (the error's scale). */
+static void plod__detail_bound(const plod_planet *planet, const plod_sector *s,
+                               plod_bound_corners *memo, const int idx[3], const plod_bound *b,
+                               double u0, double v0, double u1, double v1, double texels,
+                               double *dmin, double *dmax, double *mod_max)
+{
+    double m[2];
+    if (plod_projection_is_cube(planet->projection))
+        plod_planet_detail_range_uv(planet, s->face, u0, v0, u1, v1, dmin, dmax, m);
+    else
+        plod_planet_detail_range_cap(planet, b->axis, atan2(b->sin_angle, b->cos_angle), dmin,
+                                     dmax, m);
+    *mod_max = m[1];
+    if (!(m[1] > 0.0))
+        return; /* sea: no detail */
+    const double *corner = memo->dir[idx[0]];
+    if (planet->heightmap && texels < 0.5 && m[1] > m[0]) {
+        double mc = plod_planet_modulation(planet, corner);
+        double reach = PLOD_SQRT2 * (1.0 + 2.0 * PLOD__RANGE_MARGIN) * texels;
+        double deviation = 1.01 * PLOD_SQRT2 * (m[1] - m[0]) * reach + 2e-6;
+        if (mc - deviation > m[0])
+            m[0] = mc - deviation;
+        if (mc + deviation < m[1])
+            m[1] = mc + deviation;
+        if (!(m[0] <= m[1])) /* NaN: keep the region's */
+            return;
+    }
+    double chord = 2.0 * b->sin_angle * (b->cos_angle > 0.0 ? 1.0 : 0.0);
+    if (!(chord > 0.0))
+        return; /* a cap past a hemisphere: the region's bounds */
+    double nlo, nhi;
+    plod_detail_local_range(planet->detail, corner, chord, b->size, &nlo, &nhi);
+    /* m in [m0, m1] >= 0 times N in [nlo, nhi] */
+    double p[4] = {m[0] * nlo, m[0] * nhi, m[1] * nlo, m[1] * nhi};
+    double lo = p[0], hi = p[0];
+    for (int k = 1; k < 4; k++) {
+        lo = p[k] < lo ? p[k] : lo;
+        hi = p[k] > hi ? p[k] : hi;
+    }
+    *dmin = lo > *dmin ? lo : *dmin;
+    *dmax = hi < *dmax ? hi : *dmax;
+    if (*dmin > *dmax)
+        *dmin = *dmax;
+    *mod_max = m[1];
+}
+
+/* cos and sin of a cap angle (given by its cosine and sine) grown by the
+ * rounding slack PLOD__CAP_INFLATE: by delta >= (INFLATE - 1) * angle,
+ * from angle <= pi/2 * sine below 90 degrees and <= pi above. */
+static void plod__inflate_cap(double sine, double cosine, double *sin_out, double *cos_out)
+{
+    double s = sine, c = cosine; /* of unit vectors: s^2 + c^2 = 1 within rounding */
+    double bound = c > 0.0 ? (PLOD_PI / 2) * s : PLOD_PI;
+    double delta = (PLOD__CAP_INFLATE - 1.0) * bound + 1e-15;
+    double cd = 1.0 - 0.5 * delta * delta, sd = delta - delta * delta * delta * (1.0 / 6.0);
+    double cos_ = c * cd - s * sd, sin_ = s * cd + c * sd;
+    if (sin_ < 0.0) { /* past pi: the whole sphere */
+        cos_ = -1.0;
+        sin_ = 0.0;
+    }
+    *cos_out = cos_;
+    *sin_out = sin_;
+}
+
+/* Whether every bilinear tap in the face box [u0,u1] x [v0,v1] reads the
+ * same 2 x 2 texels of one face (cube maps, away from face edges, where the
+ * height map is one bilinear patch: the range query then returns exactly
+ * those 4 texels' range). */
+static int plod__inside_one_cell(const plod_bound_setup *setup, double u0, double v0, double u1,
+                                 double v1)
+{
+    if (!setup->planet->heightmap || !plod_projection_is_cube(setup->planet->projection))
+        return 0;
+    double size = 2.0 * setup->texels_per_unit;
+    double i0 = floor((u0 + 1.0) * 0.5 * size - 0.5), i1 = floor((u1 + 1.0) * 0.5 * size - 0.5);
+    double j0 = floor((v0 + 1.0) * 0.5 * size - 0.5), j1 = floor((v1 + 1.0) * 0.5 * size - 0.5);
+    return i0 == i1 && j0 == j1 && i0 >= 0.0 && j0 >= 0.0 && i1 + 1.0 <= size - 1.0 &&
+           j1 + 1.0 <= size - 1.0;
+}
+
+/* Bound of sector s whose corners are memo->dir[idx[0..2]]. */
+void plod_bound_build(const plod_bound_setup *setup, const plod_sector *s,
+                      plod_bound_corners *memo, const int idx[3], plod_bound *b)
+{
+    const plod_planet *planet = setup->planet;
+    const double *c[3] = {memo->dir[idx[0]], memo->dir[idx[1]], memo->dir[idx[2]]};
+    double axis[3] = {c[0][0] + c[1][0] + c[2][0], c[0][1] + c[1][1] + c[2][1],
+                      c[0][2] + c[1][2] + c[2][2]};
+    double len = plod_norm3(axis);
+    double inv_len = 1.0 / len;
+    for (int k = 0; k < 3; k++)
+        b->axis[k] = axis[k] * inv_len;
+    /* the cap angle: the largest corner angle from the axis (largest sine
+     * below 90 degrees, where the sine resolves small angles; smallest
+     * cosine above), kept as its cosine and sine: no trigonometry.  Sines
+     * and chords are compared squared: one square root each */
+    double cap_sin2 = 0.0, cap_cos = 1.0, chord2 = 0.0;
+    int acute = 1;
+    for (int k = 0; k < 3; k++) {
+        const double *a = b->axis, *v = c[k];
+        double x[3];
+        plod_cross3(a, v, x);
+        double sine2 = plod_dot3(x, x);
+        double cosine = plod_dot3(a, v);
+        if (cosine <= 0.0 && acute) {
+            acute = 0;
+            cap_sin2 = sine2, cap_cos = cosine;
+        } else if (acute ? sine2 > cap_sin2 : cosine < cap_cos) {
+            cap_sin2 = sine2, cap_cos = cosine;
+        }
+        const double *p = c[k], *q = c[(k + 1) % 3];
+        double d[3] = {p[0] - q[0], p[1] - q[1], p[2] - q[2]};
+        double ch2 = plod_dot3(d, d);
+        chord2 = ch2 > chord2 ? ch2 : chord2;
+    }
+    plod__inflate_cap(sqrt(cap_sin2), cap_cos, &b->sin_angle, &b->cos_angle);
+    b->size = sqrt(chord2) * planet->radius;
+
+    const double scale = 1.0 / (double)PLOD__ONE;
+    double u0 = 2, u1 = -2, v0 = 2, v1 = -2;
+    for (int k = 0; k < 3; k++) {
+        double u = s->cu[k] * scale, v = s->cv[k] * scale;
+        u0 = u < u0 ? u : u0;
+        u1 = u > u1 ? u : u1;
+        v0 = v < v0 ? v : v0;
+        v1 = v > v1 ? v : v1;
+    }
+    double extent = fmax(u1 - u0, v1 - v0);
+    double mu = (u1 - u0) * PLOD__RANGE_MARGIN, mv = (v1 - v0) * PLOD__RANGE_MARGIN;
+    u0 = fmax(-1.0, u0 - mu);
+    u1 = fmin(1.0, u1 + mu);
+    v0 = fmax(-1.0, v0 - mv);
+    v1 = fmin(1.0, v1 + mv);
+    double hmin, hmax, texels;
+    if (plod_projection_is_cube(planet->projection) && !planet->source) {
+        plod_planet_height_range_uv(planet, s->face, u0, v0, u1, v1, &hmin, &hmax);
+        texels = extent * setup->texels_per_unit;
+    } else {
+        /* CAR, or a height source: the octahedral square / the face is
+         * not the data's lon/lat grid */
+        plod_planet_height_range_cap(planet, b->axis, atan2(b->sin_angle, b->cos_angle),
+                                     &hmin, &hmax, &texels);
+    }
+    double inset_lo, inset_hi;
+    int insets = plod_planet_insets_range_cap(planet, b->axis, atan2(b->sin_angle, b->cos_angle),
+                                              &inset_lo, &inset_hi);
+    if (insets) { /* the blend lies between the global data and the insets */
+        hmin = inset_lo < hmin ? inset_lo : hmin;
+        hmax = inset_hi > hmax ? inset_hi : hmax;
+    }
+    double relief_range = hmax - hmin;
+    if (!insets) /* corner heights are blends there, not the map's bilinear patch */
+        plod__tighten_subtexel(planet, memo, idx, texels, &hmin, &hmax);
+    b->detail0 = 0.0;
+    if (planet->detail) { /* the map's bounds (tightened on map heights) + the field's */
+        double dmin, dmax;
+        plod__detail_bound(planet, s, memo, idx, b, u0, v0, u1, v1, texels, &dmin, &dmax,
+                           &b->detail0);
+        hmin += dmin;
+        hmax += dmax;
+    }
+    float fmin_ = (float)hmin, fmax_ = (float)hmax;
+    if ((double)fmin_ > hmin)
+        fmin_ = nextafterf(fmin_, -INFINITY);
+    if ((double)fmax_ < hmax)
+        fmax_ = nextafterf(fmax_, INFINITY);
+    b->hmin = fmin_;
+    b->hmax = fmax_;
+    b->r_min = planet->radius + fmin_;
+    b->r_max = planet->radius + fmax_;
+    b->sag0 = b->size * b->size / (8.0 * b->r_min);
+    b->relief0 = relief_range * (texels < 1.0 ? texels : 1.0);
+    b->twist0 = plod__inside_one_cell(setup, u0, v0, u1, v1)
+                    ? 3.0 * relief_range * texels * texels
+                    : INFINITY;
+    double rho = setup->occluder;
+    b->horizon = b->r_max >= rho;
+    if (b->horizon) { /* cap angle + beta, cos beta = rho / r_max */
+        double inv_r = 1.0 / b->r_max;
+        double cb = rho * inv_r, sb = sqrt((b->r_max - rho) * (b->r_max + rho)) * inv_r;
+        b->horizon_cos = b->cos_angle * cb - b->sin_angle * sb;
+        b->horizon_sin = b->sin_angle * cb + b->cos_angle * sb;
+    }
+    if (b->cos_angle > 0.0) {
+        double z0 = b->r_min * b->cos_angle, lateral = b->r_max * b->sin_angle;
+        b->sphere_z = 0.5 * (z0 + b->r_max);
+        double half = 0.5 * (b->r_max - z0);
+        b->sphere_radius = sqrt(half * half + lateral * lateral) * (1.0 + 1e-12);
+    } else {
+        b->sphere_z = 0.0;
+        b->sphere_radius = b->r_max;
+    }
+}
+
+/* ---- tests ------------------------------------------------------------------ */
+
+/* Culling flags of a bound (PLOD_SECTOR_BACKFACING or OUTSIDE_FRUSTUM:
+ * culled or not, the same whichever test finds it).  Angles are compared
+ * through cosines with per-node constants, so a test costs a few dot
+ * products (no trigonometry).
+ * Plane masks: bit i of parent_planes says the parent's surface is inside
+ * frustum plane i, so this sector's surface (part of it) is too; its
+ * bound, which contains that surface, then has a point inside plane i and
+ * plane i cannot cull it: the test is skipped, with the same result.
+ * *planes: parent_planes plus the planes this bound is inside of. */
+unsigned plod_bound_cull(const plod_bound_view *v, const plod_bound *b, unsigned parent_planes,
+                         unsigned *planes)
+{
+    *planes = parent_planes;
+    const plod_camera *cam = v->camera;
+    const double *e = v->eye_unit;
+    double cphi = plod_dot3(b->axis, e);
+    /* both angles are in [0, pi): their sum is below pi iff its sine is
+     * positive (rounding near pi only skips the test: conservative) */
+    if (v->horizon_on && b->horizon &&
+        b->horizon_sin * v->eye_horizon_cos + b->horizon_cos * v->eye_horizon_sin > 0.0) {
+        /* hidden iff phi > horizon angle + eye angle */
+        double limit = b->horizon_cos * v->eye_horizon_cos - b->horizon_sin * v->eye_horizon_sin;
+        if (cphi < limit - 1e-12)
+            return PLOD_SECTOR_BACKFACING;
+    }
+    if (v->frustum_culling && parent_planes != PLOD_BOUND_ALL_PLANES) {
+        for (int i = 0; i < 6; i++) {
+            if (parent_planes & (1u << i))
+                continue;
+            const double *pl = cam->planes[i];
+            double c = plod_dot3(pl, b->axis);
+            double centre = c * b->sphere_z + pl[3];
+            double margin = 1e-9 * (b->r_max + fabs(pl[3]));
+            if (centre >= b->sphere_radius) {
+                *planes |= 1u << i; /* the bounding ball is inside this plane */
+                continue;
+            }
+            if (centre < -b->sphere_radius - margin)
+                return PLOD_SECTOR_OUTSIDE_FRUSTUM;
+            double best;
+            if (c >= b->cos_angle) {
+                best = 1.0;
+            } else {
+                double s2 = 1.0 - c * c; /* fmax(0, x) without the libm call */
+                double s = sqrt(s2 > 0.0 ? s2 : 0.0);
+                best = c * b->cos_angle + s * b->sin_angle;
+            }
+            double reach = best * (best >= 0.0 ? b->r_max : b->r_min);
+            if (reach + pl[3] < -margin)
+                return PLOD_SECTOR_OUTSIDE_FRUSTUM;
+        }
+    }
+    return 0;
+}
+
+/* Eye distance of a bound's prism: to its nearest point. */
+double plod_bound_distance(const plod_bound_view *v, const plod_bound *b)
+{
+    const double *e = v->eye_unit;
+    double cphi = plod_dot3(b->axis, e);
+    double dist = v->eye_dist;
+    if (cphi >= b->cos_angle)
+        return dist > b->r_max ? dist - b->r_max : (dist < b->r_min ? b->r_min - dist : 0.0);
+    double cr[3];
+    plod_cross3(b->axis, e, cr);
+    double sphi = plod_norm3(cr);
+    /* delta = phi - angle > 0: the eye direction's angle beyond the cap */
+    double cdelta = cphi * b->cos_angle + sphi * b->sin_angle;
+    double sdelta = sphi * b->cos_angle - cphi * b->sin_angle;
+    double one_minus = cdelta > 0.0 ? sdelta * sdelta / (1.0 + cdelta) : 1.0 - cdelta;
+    double t = dist * cdelta;
+    t = t < b->r_min ? b->r_min : (t > b->r_max ? b->r_max : t);
+    double radial = dist - t;
+    return sqrt(radial * radial + 2.0 * dist * t * one_minus);
+}
+
+/* Refinement score of a bound: > 1 wants a split (ignoring culling).
+ * Pixel criterion: the geometric error of the sector drawn with a template
+ * of 2^t cells per edge, projected at the bound's distance:
+ *   curvature sag of a cell   (size / 2^t)^2 / (8 r_min)
+ * + relief left between cells (hmax - hmin) * min(1, extent / texel) / 2^t
+ * (below one texel the bilinear surface varies ~linearly between its
+ * creases, so the relief of the texel footprint shrinks with the sector),
+ * or, for a sector inside one bilinear cell (no crease), the smaller
+ *   twist of the cell        3 (hmax - hmin) (extent / texel / 2^t)^2:
+ * there h = a + b x + c y + d x y with |d| <= 2 (hmax - hmin) per texel^2,
+ * and linear interpolation over a template cell of diameter
+ * sqrt 2 extent / 2^t leaves at most |d| diameter^2 / 2; times 1.5 for
+ * the projection's curvature inside the cell.  Each term only decreases
+ * from a parent to its children. */
+static double plod__error_m(const plod_bound_view *v, const plod_bound *b)
+{
+    double relief = b->relief0 * v->error_scale, twist = b->twist0 * v->error_scale2;
+    double error = b->sag0 * v->error_scale2 + (twist < relief ? twist : relief);
+    if (b->detail0 > 0.0) /* the detail a template cell does not resolve */
+        error += b->detail0 *
+                 plod_detail_cell_error(v->detail, b->size * v->error_scale);
+    return error;
+}
+
+double plod_bound_score(const plod_bound_view *v, const plod_bound *b, double distance)
+{
+    double d = distance > v->distance_floor ? distance : v->distance_floor;
+    if (v->criterion == PLOD_CRITERION_SIDE_DISTANCE)
+        return b->size / d / v->split_border / v->coarsening;
+    double error_m = plod__error_m(v, b);
+    double px = v->camera->desc.orthographic
+                    ? error_m * v->camera->pixels_per_metre
+                    : error_m * v->camera->pixels_per_radian / d;
+    return px / v->max_pixel_error / v->coarsening;
+}
+
+/* score > 1 without divisions (hot path: every node, every frame):
+ * side / distance: size > split_border * d; pixel, perspective:
+ * error * pixels_per_radian / max_pixel_error > d; orthographic:
+ * error * pixels_per_metre / max_pixel_error > 1. */
+static int plod__exceeds(const plod_bound_view *v, const plod_bound *b, double distance)
+{
+    double d = distance > v->distance_floor ? distance : v->distance_floor;
+    switch (v->split_mode) {
+    case 0:
+        return b->size > v->split_scale * d;
+    case 1:
+        return plod__error_m(v, b) * v->split_scale > d;
+    default:
+        return plod__error_m(v, b) * v->split_scale > 1.0;
+    }
+}
+
+/* plod__exceeds at the prism's distance.  Most nodes are far from the
+ * threshold: two bounds without square roots or divisions decide them, the
+ * bounding ball (no nearer than the prism) and the prism point axis * r_min
+ * (no nearer than the prism's nearest point), each only when it clears the
+ * threshold by a margin far above the rounding of the exact distance; so
+ * the result is the exact test's. */
+int plod_bound_exceeds_at_prism(const plod_bound_view *v, const plod_bound *b)
+{
+    double reach; /* the distance threshold, metres */
+    switch (v->split_mode) {
+    case 0:
+        reach = b->size / v->split_scale;
+        break;
+    case 1:
+        reach = plod__error_m(v, b) * v->split_scale;
+        break;
+    default:
+        return plod__exceeds(v, b, 0.0); /* orthographic: no distance */
+    }
+    const double *eye = v->eye;
+    double margin = 1e-9 * (reach + b->sphere_radius) + 1e-12 * v->eye_dist;
+    double g[3] = {eye[0] - b->axis[0] * b->sphere_z, eye[1] - b->axis[1] * b->sphere_z,
+                   eye[2] - b->axis[2] * b->sphere_z};
+    double far_ = reach + b->sphere_radius + margin;
+    if (plod_dot3(g, g) >= far_ * far_)
+        return 0;
+    double near_ = reach - margin;
+    if (near_ > 0.0) {
+        double q[3] = {eye[0] - b->axis[0] * b->r_min, eye[1] - b->axis[1] * b->r_min,
+                       eye[2] - b->axis[2] * b->r_min};
+        if (plod_dot3(q, q) <= near_ * near_)
+            return plod__exceeds(v, b, 0.0); /* distance below reach: the floor decides */
+    }
+    return plod__exceeds(v, b, plod_bound_distance(v, b));
+}
