@@ -67,43 +67,17 @@ struct plod_cubemap {
 /* frames and adjacency                                                     */
 /* ======================================================================== */
 
-/* Signed unit axis nearest to v (largest |component|). */
-static void plod__nearest_axis(const double v[3], int axis[3])
-{
-    int best = 0;
-    for (int k = 1; k < 3; k++)
-        if (fabs(v[k]) > fabs(v[best]))
-            best = k;
-    for (int k = 0; k < 3; k++)
-        axis[k] = 0;
-    axis[best] = v[best] < 0.0 ? -1 : 1;
-}
-
 static int plod__axis_equal(const int a[3], const int b[3], int sign)
 {
     return a[0] == sign * b[0] && a[1] == sign * b[1] && a[2] == sign * b[2];
 }
 
+/* The faces' frames (plod_face_frame) and, from them, which edge of which
+ * face lies across each face edge. */
 static plod_status plod__derive_frames(plod_cubemap *m)
 {
-    for (int f = 0; f < PLOD_FACE_COUNT; f++) {
-        double centre[3], edge_u[3], edge_v[3];
-        plod_status s = plod_face_to_dir(m->projection, f, 0.0, 0.0, centre);
-        if (s == PLOD_OK)
-            s = plod_face_to_dir(m->projection, f, 1.0, 0.0, edge_u);
-        if (s == PLOD_OK)
-            s = plod_face_to_dir(m->projection, f, 0.0, 1.0, edge_v);
-        if (s != PLOD_OK)
-            return s;
-        double du[3], dv[3];
-        for (int k = 0; k < 3; k++) {
-            du[k] = edge_u[k] - centre[k];
-            dv[k] = edge_v[k] - centre[k];
-        }
-        plod__nearest_axis(centre, m->axes[f][0]);
-        plod__nearest_axis(du, m->axes[f][1]);
-        plod__nearest_axis(dv, m->axes[f][2]);
-    }
+    for (int f = 0; f < PLOD_FACE_COUNT; f++)
+        plod_face_frame(f, m->axes[f]);
     for (int f = 0; f < PLOD_FACE_COUNT; f++) {
         for (int e = 0; e < 4; e++) {
             int sign = (e & 1) ? 1 : -1;
@@ -148,7 +122,7 @@ plod_status plod_cubemap_create(plod_cubemap **out, plod_projection projection, 
     *out = NULL;
     if ((unsigned)projection >= PLOD_PROJ_COUNT)
         return PLOD_ERR_BAD_PROJECTION;
-    if (size < 1 || size > 32768 || channels < 1 || channels > 4 ||
+    if (size < 1 || size > PLOD_CUBEMAP_MAX_SIZE || channels < 1 || channels > 4 ||
         (unsigned)type >= PLOD_TEXEL_TYPE_COUNT)
         return PLOD_ERR_BAD_PARAM;
     plod_cubemap *m = calloc(1, sizeof *m);

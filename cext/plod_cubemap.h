@@ -29,7 +29,17 @@ typedef enum plod_texel_type {
 typedef struct plod_cubemap plod_cubemap; /* opaque */
 
 /* ---- create / destroy -------------------------------------------------- */
-/* size in [1, 32768], channels in [1, 4]; texels zeroed.  *out is NULL on
+/* Face sizes, texels a side.  Two limits, on purpose:
+ * PLOD_CUBEMAP_MAX_SIZE is the core's hard limit: plod_cubemap_create
+ * refuses larger (texel coordinates are ints; a CAR face row holds 2 size
+ * texels).  PLOD_CUBEMAP_MAX_MAP_SIZE is the Python API's, for maps it
+ * creates, reads or resamples (CubeMap, from_image, resample, Planet's
+ * heightmap_size): six faces of 16384^2 are 1.6 G texels, 6.4 GB as f32
+ * before the pyramid; larger data is read out of core (TiledMap). */
+#define PLOD_CUBEMAP_MAX_SIZE 32768
+#define PLOD_CUBEMAP_MAX_MAP_SIZE 16384
+
+/* size in [1, PLOD_CUBEMAP_MAX_SIZE], channels in [1, 4]; texels zeroed.  *out is NULL on
  * failure.  Release with plod_cubemap_destroy (NULL is a no-op). */
 plod_status plod_cubemap_create(plod_cubemap **out, plod_projection projection,
                                 int size, int channels, plod_texel_type type);

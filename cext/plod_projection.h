@@ -60,6 +60,12 @@ plod_status plod_dir_to_face(plod_projection projection, const double dir[3],
  * point reached from two faces: the point is canonicalised first. */
 plod_status plod_face_to_dir(plod_projection projection, int face, double u,
                              double v, double dir[3]);
+/* The frame of cube face `face` (the one table of them, the same for every
+ * cube projection): frame[0] its centre c, frame[1] e_u and frame[2] e_v
+ * (the +u and +v directions at the centre), signed unit axes with
+ * components in {-1, 0, 1}.  PLOD_ERR_BAD_PARAM for a face outside 0..5
+ * (frame untouched). */
+plod_status plod_face_frame(int face, int frame[3][3]);
 
 /* Vectorised forms over n points; dirs is 3n doubles (x, y, z per point).
  * stat may be NULL; otherwise stat[i] gets each point's status.  Failed

@@ -82,6 +82,18 @@ static const double plod__sc[PLOD_FACE_COUNT] = {1.0, 1.0, 1.0, -1.0, -1.0, -1.0
 static const double plod__su[PLOD_FACE_COUNT] = {1.0, 1.0, -1.0, -1.0, 1.0, 1.0};
 static const double plod__sv[PLOD_FACE_COUNT] = {-1.0, 1.0, 1.0, 1.0, 1.0, 1.0};
 
+plod_status plod_face_frame(int face, int frame[3][3])
+{
+    if (face < 0 || face >= PLOD_FACE_COUNT)
+        return PLOD_ERR_BAD_PARAM;
+    const int index[3] = {plod__ic[face], plod__iu[face], plod__iv[face]};
+    const double sign[3] = {plod__sc[face], plod__su[face], plod__sv[face]};
+    for (int a = 0; a < 3; a++)
+        for (int k = 0; k < 3; k++)
+            frame[a][k] = k == index[a] ? (int)sign[a] : 0;
+    return PLOD_OK;
+}
+
 PLOD__HOT double plod__maxd(double a, double b) { return a > b ? a : b; }
 
 /* Lowest face whose centre axis is the largest component of d (ties -> the

@@ -14,7 +14,6 @@
 #include <time.h>
 
 #define PLOD__MESSAGE_SIZE 512
-#define PLOD__MAX_SIZE 16384
 
 static PyTypeObject *plod_py_cubemap_type;
 
@@ -61,9 +60,9 @@ static int plod__filter_arg(PyObject *obj, plod_filter *out, const char *context
 
 static int plod__size_arg(long size, const char *context)
 {
-    if (size < 1 || size > PLOD__MAX_SIZE) {
+    if (size < 1 || size > PLOD_CUBEMAP_MAX_MAP_SIZE) {
         char detail[120];
-        snprintf(detail, sizeof detail, "size %ld outside 1..%d", size, PLOD__MAX_SIZE);
+        snprintf(detail, sizeof detail, "size %ld outside 1..%d", size, PLOD_CUBEMAP_MAX_MAP_SIZE);
         plod_py_raise_detail(PLOD_ERR_BAD_PARAM, context, detail);
         return -1;
     }
@@ -334,7 +333,7 @@ static PyObject *plod__cubemap_from_image(const char *path, plod_projection proj
                                           const plod_py_read_options *options)
 {
     const char *context = "planetlod.CubeMap.from_image";
-    if (size < 0 || size > PLOD__MAX_SIZE) {
+    if (size < 0 || size > PLOD_CUBEMAP_MAX_MAP_SIZE) {
         plod__size_arg(size, context);
         return NULL;
     }
@@ -368,8 +367,8 @@ static PyObject *plod__cubemap_from_image(const char *path, plod_projection proj
     }
     if (size == 0) /* as many texels per 90 deg as the source has */
         size = image.width / 4 > 0 ? image.width / 4 : 1;
-    if (size > PLOD__MAX_SIZE)
-        size = PLOD__MAX_SIZE;
+    if (size > PLOD_CUBEMAP_MAX_MAP_SIZE)
+        size = PLOD_CUBEMAP_MAX_MAP_SIZE;
     plod__py_progress p = {progress == Py_None ? NULL : progress, 0.0, 1.0, NULL, NULL, NULL};
     map = plod__resample_image(&image, projection, size, channels, image.type, filter, &p, context);
     plod_image_free(&image);

@@ -425,8 +425,10 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
         self->planet.has_sea_level = 1;
         self->planet.sea_level = s;
     }
-    if (size < 0 || size > 32768) {
-        plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "Planet", "heightmap_size in [0, 32768]");
+    if (size < 0 || size > PLOD_CUBEMAP_MAX_MAP_SIZE) {
+        char detail[64];
+        snprintf(detail, sizeof detail, "heightmap_size in [0, %d]", PLOD_CUBEMAP_MAX_MAP_SIZE);
+        plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "Planet", detail);
         return -1;
     }
     PyObject *map = NULL;

@@ -293,20 +293,35 @@ PyObject *plod_py_raise(plod_status status, const char *context)
 /* Argument helpers                                                          */
 /* ======================================================================== */
 
+/* "'tsc', 'csc', ... or 'car'": the names in plod_projection_name's table. */
+static void plod__projection_choices(char *out, size_t size)
+{
+    size_t used = 0;
+    out[0] = '\0';
+    for (int p = 0; p < PLOD_PROJ_COUNT; p++) {
+        const char *sep = p == 0 ? "" : p + 1 < PLOD_PROJ_COUNT ? ", " : " or ";
+        int n = snprintf(out + used, size - used, "%s'%s'", sep,
+                         plod_projection_name((plod_projection)p));
+        if (n < 0 || (size_t)n >= size - used)
+            break;
+        used += (size_t)n;
+    }
+}
+
 int plod_py_projection_arg(PyObject *name, plod_projection *out)
 {
+    char choices[128];
+    plod__projection_choices(choices, sizeof choices);
     if (!PyUnicode_Check(name)) {
-        PyErr_SetString(plod_py_invalid_argument,
-                        "projection must be a str: 'tsc', 'csc', 'qsc', 'spherified' or 'car'");
+        PyErr_Format(plod_py_invalid_argument, "projection must be a str: %s", choices);
         return -1;
     }
     const char *text = PyUnicode_AsUTF8AndSize(name, NULL);
     if (!text)
         return -1;
     if (plod_projection_from_name(text, out) != PLOD_OK) {
-        PyErr_Format(plod_py_invalid_argument,
-                     "unknown projection '%s' (expected 'tsc', 'csc', 'qsc', 'spherified' or 'car')",
-                     text);
+        PyErr_Format(plod_py_invalid_argument, "unknown projection '%s' (expected %s)", text,
+                     choices);
         return -1;
     }
     return 0;

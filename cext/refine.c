@@ -120,6 +120,7 @@ struct plod_refiner {
                                                   holes (id 0) */
     uint32_t frame;
     plod_bound_setup setup;
+    int face_axes[PLOD_FACE_COUNT][3][3]; /* plod_face_frame of each face */
     /* per-update evaluation context */
     plod_bound_view view;
     const plod_refine_params *params;
@@ -142,21 +143,11 @@ struct plod_refiner {
 
 /* ---- canonical points and edge keys -------------------------------------- */
 
-static const int plod__face_axes[6][3][3] = {
-    /* centre, u axis, v axis (FITS/WCSLIB face orientation) */
-    {{0, 0, 1}, {0, 1, 0}, {-1, 0, 0}},
-    {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}},
-    {{0, 1, 0}, {-1, 0, 0}, {0, 0, 1}},
-    {{-1, 0, 0}, {0, -1, 0}, {0, 0, 1}},
-    {{0, -1, 0}, {1, 0, 0}, {0, 0, 1}},
-    {{0, 0, -1}, {0, 1, 0}, {1, 0, 0}},
-};
-
 static void plod__canon(const plod_refiner *r, int face, int32_t u, int32_t v,
                         int32_t out[3])
 {
     if (plod_projection_is_cube(r->planet->projection)) {
-        const int(*ax)[3] = plod__face_axes[face];
+        const int(*ax)[3] = r->face_axes[face];
         for (int i = 0; i < 3; i++)
             out[i] = ax[0][i] * PLOD__ONE + ax[1][i] * u + ax[2][i] * v;
         return;
@@ -1093,6 +1084,8 @@ plod_status plod_refiner_create(plod_refiner **out, const plod_planet *planet)
     r->planet = planet;
     r->frame = 1;
     plod_bound_setup_init(&r->setup, planet);
+    for (int f = 0; f < PLOD_FACE_COUNT; f++)
+        plod_face_frame(f, r->face_axes[f]);
     st = plod__build_base(r);
     if (st != PLOD_OK) {
         plod_refiner_destroy(r);
