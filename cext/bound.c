@@ -454,3 +454,43 @@ int plod_bound_exceeds_at_prism(const plod_bound_view *v, const plod_bound *b)
     }
     return plod__exceeds(v, b, plod_bound_distance(v, b));
 }
+/* ---- horizon-distance correction ---------------------------------------------- */
+
+void plod_recommended_clip(const plod_planet *planet, const plod_camera *camera,
+                           double *clip_start, double *clip_end)
+{
+    double hmin, hmax;
+    plod_planet_height_range(planet, &hmin, &hmax);
+    const double *p = camera->position;
+    double dist = hypot(hypot(p[0], p[1]), p[2]); /* no overflow below ~1e308 */
+    double top = planet->radius + hmax, rho = planet->radius + hmin;
+    double corner = 1.0;
+    if (!camera->desc.orthographic) {
+        double tx = fmax(fabs(camera->tan_left), fabs(camera->tan_right));
+        double ty = fmax(fabs(camera->tan_bottom), fabs(camera->tan_top));
+        corner = 1.0 / sqrt(1.0 + tx * tx + ty * ty);
+    }
+    /* nearest terrain is at least (dist - top) away; depth >= distance *
+     * cos(corner angle) inside the frustum */
+    double clearance = dist - top;
+    double near_ = clearance > 0 ? 0.9 * clearance * corner : 0.0;
+    double floor_ = fmax(1e-3, 1e-7 * planet->radius);
+    if (clearance <= 0)
+        floor_ = 1e-3;
+    if (!(near_ >= floor_)) /* also NaN: infinite clearance times a zero corner */
+        near_ = floor_;
+    /* farthest visible terrain: the horizon of the occluder ball plus the
+     * distance at which the highest peak still rises above it */
+    double far_;
+    if (dist > rho) {
+        double horizon = sqrt((dist - rho) * (dist + rho));
+        double beyond = sqrt((top - rho) * (top + rho));
+        far_ = (horizon + beyond) * 1.01;
+    } else {
+        far_ = (dist + top) * 1.01;
+    }
+    if (far_ <= near_)
+        far_ = near_ * 2.0;
+    *clip_start = near_;
+    *clip_end = far_;
+}

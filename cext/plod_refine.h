@@ -7,6 +7,9 @@
  * 8 octahedron sectors in the octahedral square.  Split = longest-edge
  * bisection with forced splits across the split edge (conforming); merge =
  * a diamond of 4 sectors back into 2.  Incremental from frame to frame.
+ * Implemented by lodtree.c (the tree: ids, stores, split and merge,
+ * invariants) and lodupdate.c (one frame's passes), over the bounds and
+ * tests of bound.c.
  */
 #ifndef PLOD_REFINE_H
 #define PLOD_REFINE_H
@@ -113,10 +116,11 @@ typedef struct plod_refiner plod_refiner; /* opaque */
 /* The planet (and its height map) is borrowed and must outlive the refiner. */
 plod_status plod_refiner_create(plod_refiner **out, const plod_planet *planet);
 void plod_refiner_destroy(plod_refiner *refiner);
-/* Room for `sectors` leaf sectors (their internal nodes, edges and split
- * queue) allocated and touched now, so that refine() does not grow its
- * arrays, or fault in fresh pages, until the set exceeds it: a planet's
- * first descent then runs at steady-state cost.  Never shrinks (reset
+/* Room for `sectors` leaf sectors (their internal nodes, edges, split
+ * queue and visible order) allocated now, and all but the visible order
+ * touched, so that plod_refiner_update does not grow its arrays, or fault
+ * in fresh pages, until the set exceeds it: a planet's first descent then
+ * runs at steady-state cost.  Never shrinks (reset
  * keeps the capacity).  PLOD_ERR_BAD_PARAM above PLOD_REFINER_MAX_RESERVE,
  * PLOD_ERR_NO_MEMORY (the refiner unchanged but usable) if it cannot. */
 #define PLOD_REFINER_MAX_RESERVE ((size_t)1 << 26)

@@ -1,6 +1,7 @@
 /* fuzz_refine.c -- libFuzzer harness for camera construction, HRTMR
- * refinement + culling and mesh emission (cext/camera.c, bound.c, planet.c, refine.c,
- * mesh.c, with cubemap.c/projection.c underneath).
+ * refinement + culling and mesh emission (cext/camera.c, bound.c,
+ * lodtree.c, lodupdate.c, planet.c, mesh.c, with cubemap.c/projection.c
+ * underneath).
  *
  * Each input builds a planet (any projection; radius, height scale and sea
  * level from a table of edge cases or raw doubles; no height map or a tiny

@@ -1,7 +1,7 @@
 /* refine_merge_edge.c -- reproducer found by fuzz/fuzz_refine.c:
  * after a frame whose split pass was stopped by max_sectors, the next
  * frame's merge pass links a leaf to an edge that already has two leaves
- * (refine.c plod__edge_add assertion; with NDEBUG the adjacency is silently
+ * (lodtree.c plod__edge_add assertion; with NDEBUG the adjacency is silently
  * overwritten).  Build and run: bash fuzz/repro/run.sh refine_merge_edge
  */
 #include <assert.h>

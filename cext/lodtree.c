@@ -1,0 +1,1076 @@
+/* lodtree.c -- the LOD tree of HRTMR (Hybrid Real-Time Mesh Refinement):
+ * leaves only, with implicit longest-edge-bisection ids.
+ * K. Gasiński, "Porównanie metod wizualizacji terenu w czasie rzeczywistym"
+ * (comparison of real-time terrain visualisation methods), master's thesis,
+ * Gdańsk University of Technology, 2010, sections 5.2-5.3.
+ *
+ * Bit rules (libleb-style heap ids):
+ *   id        = base << 56 | heap,  heap = 1 << level | path bits
+ *   child(b)  = heap * 2 + b        parent = heap >> 1
+ *   parent (c0, c1, c2), apex c1, hypotenuse c0-c2, m = (c0 + c2) / 2:
+ *     child 0 = (c1, m, c0)         child 1 = (c2, m, c1)
+ *   so every child keeps the counter-clockwise order and has its apex at m.
+ * Base mesh: cube, per face the diagonal (-1,-1)-(1,1) splits the square
+ * into two sectors that form the level-0 diamond; CAR, the octahedral
+ * square's 8 octant triangles, each inner (northern) one paired with the
+ * outer (southern) one across the equator line |u|+|v| = 1.
+ *
+ * Adjacency: every sector edge is keyed by the sum of its two endpoints'
+ * canonical integer points on the cube (or octahedron) surface, which is
+ * unique for the edges of a conforming mesh and equal from both faces of a
+ * cube edge.  A hash table maps each key to the two leaves sharing it, so
+ * forced splits and diamond lookups are O(1) and exact across faces.
+ *
+ * Nodes: the bounds of the internal (split) nodes are kept in a dense
+ * array in creation order (removed ones leave holes until the next
+ * compaction, which keeps the order), so a parent always precedes its
+ * children; every leaf and node holds its parent's index.
+ *
+ * Edge of the domain: a split at PLOD_MAX_LEVEL and a merge without a
+ * whole diamond are no-ops (plod_lodtree.h), not errors.
+ *
+ * A split costs one new projected point (leaves cache their corners'
+ * directions, heights and canonical points) and two bounds.
+ */
+#include "plod_lodtree.h"
+
+#include <assert.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define PLOD__ONE ((int32_t)1 << PLOD_COORD_BITS)
+
+/* ---- canonical points and edge keys -------------------------------------- */
+
+static void plod__canon(const plod_lodtree *t, int face, int32_t u, int32_t v,
+                        int32_t out[3])
+{
+    if (plod_projection_is_cube(t->planet->projection)) {
+        const int(*ax)[3] = t->face_axes[face];
+        for (int i = 0; i < 3; i++)
+            out[i] = ax[0][i] * PLOD__ONE + ax[1][i] * u + ax[2][i] * v;
+        return;
+    }
+    /* octahedral square folded onto the octahedron |x|+|y|+|z| = ONE */
+    int32_t au = u < 0 ? -u : u, av = v < 0 ? -v : v;
+    int32_t z = PLOD__ONE - au - av;
+    if (z >= 0) {
+        out[0] = u;
+        out[1] = v;
+    } else {
+        out[0] = (u < 0 ? -1 : 1) * (PLOD__ONE - av);
+        out[1] = (v < 0 ? -1 : 1) * (PLOD__ONE - au);
+    }
+    out[2] = z;
+}
+
+/* Edge e joins corners e and (e + 1) % 3; edge 2 is the hypotenuse. */
+static void plod__edge_key(const plod_lodtree *t, const plod_sector *s, int e,
+                           int32_t key[3])
+{
+    int a = e, b = (e + 1) % 3;
+    int32_t pa[3], pb[3];
+    plod__canon(t, s->face, s->cu[a], s->cv[a], pa);
+    plod__canon(t, s->face, s->cu[b], s->cv[b], pb);
+    for (int i = 0; i < 3; i++)
+        key[i] = pa[i] + pb[i];
+}
+
+/* The key of edge e from cached canonical points (= plod__edge_key). */
+static void plod__corners_key(const plod_lodtree_corners *c, int e, int32_t key[3])
+{
+    const int32_t *pa = c->canon[e], *pb = c->canon[(e + 1) % 3];
+    for (int i = 0; i < 3; i++)
+        key[i] = pa[i] + pb[i];
+}
+
+static void plod__leaf_key(const plod_lodtree *t, size_t at, int e, int32_t key[3])
+{
+    plod__corners_key(&t->corners[at], e, key);
+}
+
+static size_t plod__hash(const int32_t key[3])
+{
+    uint64_t h = (uint32_t)key[0];
+    h = h * 0x9E3779B97F4A7C15ull ^ (uint32_t)key[1];
+    h = h * 0xC2B2AE3D27D4EB4Full ^ (uint32_t)key[2];
+    h ^= h >> 31;
+    h *= 0x94D049BB133111EBull;
+    h ^= h >> 29;
+    return (size_t)h;
+}
+
+static int plod__key_eq(const int32_t a[3], const int32_t b[3])
+{
+    return a[0] == b[0] && a[1] == b[1] && a[2] == b[2];
+}
+
+static int plod__slot_empty(const plod_lodtree_edge *e)
+{
+    return e->leaf[0] < 0 && e->leaf[1] < 0;
+}
+
+static size_t plod__edge_find(const plod_lodtree *t, const int32_t key[3])
+{
+    size_t i = plod__hash(key) & t->edge_mask;
+    for (;;) {
+        const plod_lodtree_edge *e = &t->edges[i];
+        if (plod__slot_empty(e))
+            return (size_t)-1;
+        if (plod__key_eq(e->key, key))
+            return i;
+        i = (i + 1) & t->edge_mask;
+    }
+}
+
+static plod_status plod__edge_grow(plod_lodtree *t, size_t capacity)
+{
+    plod_lodtree_edge *fresh = malloc(capacity * sizeof *fresh);
+    if (!fresh)
+        return PLOD_ERR_NO_MEMORY;
+    for (size_t i = 0; i < capacity; i++)
+        fresh[i].leaf[0] = fresh[i].leaf[1] = -1;
+    plod_lodtree_edge *old = t->edges;
+    size_t old_capacity = old ? t->edge_mask + 1 : 0;
+    t->edges = fresh;
+    t->edge_mask = capacity - 1;
+    for (size_t i = 0; i < old_capacity; i++) {
+        if (plod__slot_empty(&old[i]))
+            continue;
+        size_t j = plod__hash(old[i].key) & t->edge_mask;
+        while (!plod__slot_empty(&fresh[j]))
+            j = (j + 1) & t->edge_mask;
+        fresh[j] = old[i];
+    }
+    free(old);
+    return PLOD_OK;
+}
+
+/* Capacity is ensured by the caller (plod__reserve). */
+static void plod__edge_add(plod_lodtree *t, const int32_t key[3], int32_t leaf)
+{
+    size_t i = plod__hash(key) & t->edge_mask;
+    for (;;) {
+        plod_lodtree_edge *e = &t->edges[i];
+        if (plod__slot_empty(e)) {
+            memcpy(e->key, key, sizeof e->key);
+            e->leaf[0] = leaf;
+            e->leaf[1] = -1;
+            t->edge_used++;
+            return;
+        }
+        if (plod__key_eq(e->key, key)) {
+            assert(e->leaf[0] < 0 || e->leaf[1] < 0);
+            e->leaf[e->leaf[0] < 0 ? 0 : 1] = leaf;
+            return;
+        }
+        i = (i + 1) & t->edge_mask;
+    }
+}
+
+/* A new edge shared by leaves a and b (key absent; capacity ensured). */
+static void plod__edge_add_two(plod_lodtree *t, const int32_t key[3], int32_t a, int32_t b)
+{
+    size_t i = plod__hash(key) & t->edge_mask;
+    while (!plod__slot_empty(&t->edges[i])) {
+        assert(!plod__key_eq(t->edges[i].key, key));
+        i = (i + 1) & t->edge_mask;
+    }
+    plod_lodtree_edge *e = &t->edges[i];
+    memcpy(e->key, key, sizeof e->key);
+    e->leaf[0] = a;
+    e->leaf[1] = b;
+    t->edge_used++;
+}
+
+static void plod__edge_remove(plod_lodtree *t, const int32_t key[3], int32_t leaf)
+{
+    size_t i = plod__edge_find(t, key);
+    assert(i != (size_t)-1);
+    plod_lodtree_edge *e = &t->edges[i];
+    if (e->leaf[0] == leaf)
+        e->leaf[0] = -1;
+    else if (e->leaf[1] == leaf)
+        e->leaf[1] = -1;
+    else
+        assert(!"leaf not on its edge");
+    if (!plod__slot_empty(e))
+        return;
+    /* backward-shift deletion keeps linear probing chains intact */
+    t->edge_used--;
+    size_t hole = i, j = i;
+    for (;;) {
+        j = (j + 1) & t->edge_mask;
+        plod_lodtree_edge *n = &t->edges[j];
+        if (plod__slot_empty(n))
+            break;
+        size_t home = plod__hash(n->key) & t->edge_mask;
+        /* move n into the hole unless its home lies cyclically in (hole, j] */
+        int stays = hole <= j ? (home > hole && home <= j) : (home > hole || home <= j);
+        if (stays)
+            continue;
+        t->edges[hole] = *n;
+        n->leaf[0] = n->leaf[1] = -1;
+        hole = j;
+    }
+}
+
+static void plod__edge_replace(plod_lodtree *t, const int32_t key[3], int32_t from,
+                               int32_t to)
+{
+    size_t i = plod__edge_find(t, key);
+    assert(i != (size_t)-1);
+    plod_lodtree_edge *e = &t->edges[i];
+    if (e->leaf[0] == from)
+        e->leaf[0] = to;
+    else {
+        assert(e->leaf[1] == from);
+        e->leaf[1] = to;
+    }
+}
+
+/* The other leaf on edge `e` of leaf `index`, or -1. */
+static int32_t plod__across(const plod_lodtree *t, size_t index, int e)
+{
+    int32_t key[3];
+    plod__leaf_key(t, index, e, key);
+    size_t i = plod__edge_find(t, key);
+    if (i == (size_t)-1)
+        return -1;
+    const plod_lodtree_edge *edge = &t->edges[i];
+    return edge->leaf[0] == (int32_t)index ? edge->leaf[1] : edge->leaf[0];
+}
+
+static void plod__leaf_link(plod_lodtree *t, size_t index)
+{
+    for (int e = 0; e < 3; e++) {
+        int32_t key[3];
+        plod__leaf_key(t, index, e, key);
+        plod__edge_add(t, key, (int32_t)index);
+    }
+}
+
+/* Room for `extra` more leaves (and their edges). */
+static plod_status plod__reserve(plod_lodtree *t, size_t extra)
+{
+    size_t need = t->count + extra;
+    if (need > t->capacity) {
+        size_t capacity = t->capacity ? t->capacity : 64;
+        while (capacity < need)
+            capacity *= 2;
+        plod_sector *leaves = realloc(t->leaves, capacity * sizeof *leaves);
+        if (!leaves)
+            return PLOD_ERR_NO_MEMORY;
+        t->leaves = leaves;
+        plod_lodtree_leaf *geom = realloc(t->geom, capacity * sizeof *geom);
+        if (!geom)
+            return PLOD_ERR_NO_MEMORY;
+        t->geom = geom;
+        plod_lodtree_corners *corners = realloc(t->corners, capacity * sizeof *corners);
+        if (!corners)
+            return PLOD_ERR_NO_MEMORY;
+        t->corners = corners;
+        int32_t *parent = realloc(t->leaf_parent, capacity * sizeof *parent);
+        if (!parent)
+            return PLOD_ERR_NO_MEMORY;
+        t->leaf_parent = parent;
+        t->capacity = capacity;
+    }
+    /* every leaf has 3 edges, each shared by 2 leaves: 1.5 keys per leaf */
+    size_t keys = t->edge_used + 3 * extra + 8;
+    size_t edge_capacity = t->edges ? t->edge_mask + 1 : 0;
+    if (keys * 2 > edge_capacity) {
+        size_t capacity = edge_capacity ? edge_capacity : 256;
+        while (keys * 2 > capacity)
+            capacity *= 2;
+        return plod__edge_grow(t, capacity);
+    }
+    return PLOD_OK;
+}
+
+/* ---- internal nodes ----------------------------------------------------------- */
+
+static plod_status plod__node_reserve(plod_lodtree *t, size_t extra)
+{
+    size_t need = t->node_top + extra;
+    if (need <= t->node_capacity)
+        return PLOD_OK;
+    if (need > (size_t)INT32_MAX)
+        return PLOD_ERR_NO_MEMORY;
+    size_t capacity = t->node_capacity ? t->node_capacity : 64;
+    while (capacity < need)
+        capacity *= 2;
+    plod_lodtree_node *fresh = realloc(t->nodes, capacity * sizeof *fresh);
+    if (!fresh)
+        return PLOD_ERR_NO_MEMORY;
+    t->nodes = fresh;
+    int32_t *parent = realloc(t->node_parent, capacity * sizeof *parent);
+    if (!parent)
+        return PLOD_ERR_NO_MEMORY;
+    t->node_parent = parent;
+    uint8_t *state = realloc(t->node_state, capacity);
+    if (!state)
+        return PLOD_ERR_NO_MEMORY;
+    t->node_state = state;
+    uint8_t *planes = realloc(t->node_planes, capacity);
+    if (!planes)
+        return PLOD_ERR_NO_MEMORY;
+    t->node_planes = planes;
+    uint8_t *leaves = realloc(t->node_leaves, capacity);
+    if (!leaves)
+        return PLOD_ERR_NO_MEMORY;
+    t->node_leaves = leaves;
+    int32_t *partner = realloc(t->node_partner, capacity * sizeof *partner);
+    if (!partner)
+        return PLOD_ERR_NO_MEMORY;
+    t->node_partner = partner;
+    t->node_capacity = capacity; /* only once all four have grown */
+    return PLOD_OK;
+}
+
+/* Capacity ensured by plod__node_reserve; returns the node's index. */
+static int32_t plod__node_add(plod_lodtree *t, uint64_t id, const plod_bound *bound,
+                              int32_t parent)
+{
+    assert(t->node_top < t->node_capacity);
+    assert(parent < (int32_t)t->node_top);
+    int32_t at = (int32_t)t->node_top++; /* after its parent: creation order */
+    plod_lodtree_node *n = &t->nodes[at];
+    n->id = id;
+    n->bound = *bound;
+    t->node_parent[at] = parent;
+    t->node_state[at] = 0; /* evaluated on demand this frame */
+    t->node_planes[at] = 0;
+    t->node_leaves[at] = 2;
+    t->node_used++;
+    return at;
+}
+
+static void plod__node_remove(plod_lodtree *t, int32_t at)
+{
+    assert(at >= 0 && (size_t)at < t->node_top && t->nodes[at].id);
+    t->nodes[at].id = 0; /* a hole until plod_lodtree_compact */
+    t->node_used--;
+}
+
+/* Squeezes the holes out of the node arrays, keeping the order (parents
+ * before children), and renumbers the parent indices of nodes and leaves.
+ * Runs when holes outnumber live nodes: amortised O(1) per removal. */
+void plod_lodtree_compact(plod_lodtree *t)
+{
+    if (t->node_top < 64 || t->node_top < 2 * t->node_used)
+        return;
+    int32_t *map = malloc(t->node_top * sizeof *map);
+    if (!map)
+        return; /* the holes stay: only memory, never correctness */
+    size_t next = 0;
+    for (size_t k = 0; k < t->node_top; k++) {
+        if (!t->nodes[k].id) {
+            map[k] = -1;
+            continue;
+        }
+        int32_t parent = t->node_parent[k];
+        assert(parent < (int32_t)k);
+        map[k] = (int32_t)next;
+        t->nodes[next] = t->nodes[k]; /* next <= k: in place */
+        t->node_parent[next] = parent >= 0 ? map[parent] : -1;
+        t->node_leaves[next] = t->node_leaves[k];
+        t->node_partner[next] = t->node_partner[k]; /* renumbered below */
+        next++;
+    }
+    for (size_t k = 0; k < next; k++)
+        t->node_partner[k] = map[t->node_partner[k]];
+    for (size_t i = 0; i < t->count; i++)
+        if (t->leaf_parent[i] >= 0)
+            t->leaf_parent[i] = map[t->leaf_parent[i]];
+    assert(next == t->node_used);
+    t->node_top = next;
+    free(map);
+}
+
+/* ---- geometry of a node ---------------------------------------------------- */
+
+void plod_sector_corners(const plod_planet *planet, const plod_sector *sector,
+                         double corners[3][3])
+{
+    const double scale = 1.0 / (double)PLOD__ONE;
+    for (int k = 0; k < 3; k++) {
+        plod_status st = plod_face_to_dir(planet->projection, sector->face,
+                                          sector->cu[k] * scale,
+                                          sector->cv[k] * scale, corners[k]);
+        (void)st;
+        assert(st == PLOD_OK);
+    }
+}
+
+/* The corner points of a split (plod_bound_corners) with their canonical
+ * points. */
+typedef struct plod__corner_memo {
+    plod_bound_corners points;
+    int32_t canon[4][3];
+} plod__corner_memo;
+
+/* memo entries idx[0..2] become the corners of the leaf at `at` */
+static void plod__store_corners(plod_lodtree *t, size_t at, const plod__corner_memo *memo,
+                                const int idx[3])
+{
+    plod_lodtree_corners *c = &t->corners[at];
+    c->known = 0;
+    for (int k = 0; k < 3; k++) {
+        memcpy(c->dir[k], memo->points.dir[idx[k]], sizeof c->dir[k]);
+        memcpy(c->canon[k], memo->canon[idx[k]], sizeof c->canon[k]);
+        c->height[k] = memo->points.height[idx[k]];
+        if (memo->points.known & (1u << idx[k]))
+            c->known |= 1u << k;
+    }
+}
+
+static void plod__load_corners(const plod_lodtree *t, size_t at, plod__corner_memo *memo)
+{
+    const plod_lodtree_corners *c = &t->corners[at];
+    memcpy(memo->points.dir, c->dir, sizeof c->dir);
+    memcpy(memo->canon, c->canon, sizeof c->canon);
+    memcpy(memo->points.height, c->height, sizeof c->height);
+    memo->points.known = c->known & 7u;
+}
+
+/* Bound of the leaf at `at` from scratch; fills its corner cache. */
+static void plod__compute_bound(plod_lodtree *t, size_t at, plod_bound *b)
+{
+    plod__corner_memo memo;
+    memo.points.known = 0;
+    const plod_sector *s = &t->leaves[at];
+    plod_sector_corners(t->planet, s, memo.points.dir);
+    for (int k = 0; k < 3; k++)
+        plod__canon(t, s->face, s->cu[k], s->cv[k], memo.canon[k]);
+    static const int idx[3] = {0, 1, 2};
+    plod_bound_build(&t->setup, s, &memo.points, idx, b);
+    plod__store_corners(t, at, &memo, idx);
+}
+
+/* Split predicate P of a node (level = its level), from its own bound. */
+
+/* ---- node algebra ---------------------------------------------------------- */
+
+static void plod__child(const plod_sector *p, int bit, uint32_t frame,
+                        plod_sector *c)
+{
+    int32_t mu = (int32_t)(((int64_t)p->cu[0] + p->cu[2]) / 2);
+    int32_t mv = (int32_t)(((int64_t)p->cv[0] + p->cv[2]) / 2);
+    memset(c, 0, sizeof *c);
+    int a = bit ? 2 : 1, b = bit ? 1 : 0; /* corners 0 and 2 of the child */
+    c->cu[0] = p->cu[a];
+    c->cv[0] = p->cv[a];
+    c->cu[1] = mu;
+    c->cv[1] = mv;
+    c->cu[2] = p->cu[b];
+    c->cv[2] = p->cv[b];
+    uint64_t base = p->id >> PLOD_LODTREE_BASE_SHIFT, heap = p->id & PLOD_LODTREE_HEAP_MASK;
+    c->id = base << PLOD_LODTREE_BASE_SHIFT | (heap * 2 + (uint64_t)bit);
+    c->face = p->face;
+    c->level = (uint8_t)(p->level + 1);
+    c->birth = frame;
+}
+
+static void plod__parent(const plod_sector *c, plod_sector *p)
+{
+    uint64_t base = c->id >> PLOD_LODTREE_BASE_SHIFT, heap = c->id & PLOD_LODTREE_HEAP_MASK;
+    int bit = (int)(heap & 1);
+    memset(p, 0, sizeof *p);
+    if (!bit) { /* c = (c1, m, c0) */
+        p->cu[0] = c->cu[2];
+        p->cv[0] = c->cv[2];
+        p->cu[1] = c->cu[0];
+        p->cv[1] = c->cv[0];
+        p->cu[2] = 2 * c->cu[1] - c->cu[2];
+        p->cv[2] = 2 * c->cv[1] - c->cv[2];
+    } else { /* c = (c2, m, c1) */
+        p->cu[0] = 2 * c->cu[1] - c->cu[0];
+        p->cv[0] = 2 * c->cv[1] - c->cv[0];
+        p->cu[1] = c->cu[2];
+        p->cv[1] = c->cv[2];
+        p->cu[2] = c->cu[0];
+        p->cv[2] = c->cv[0];
+    }
+    p->id = base << PLOD_LODTREE_BASE_SHIFT | (heap >> 1);
+    p->face = c->face;
+    p->level = (uint8_t)(c->level - 1);
+}
+
+static void plod__apply_bound(plod_sector *s, const plod_bound *b)
+{
+    s->height_min = b->hmin;
+    s->height_max = b->hmax;
+}
+
+/* ---- split ----------------------------------------------------------------- */
+
+/* Both leaves share their hypotenuse and have the same level. */
+static void plod__split_diamond(plod_lodtree *t, size_t i, size_t n)
+{
+    size_t pair[2] = {i, n};
+    plod_sector parents[2] = {t->leaves[i], t->leaves[n]};
+    /* edge table, incrementally: the shared hypotenuse goes; a child's own
+     * hypotenuse is one of its parent's legs (child 0 keeps the parent's
+     * slot, so only child 1's leg is relinked); the children's other two
+     * edges are new, four keys each shared by two of the four children */
+    int32_t hyp[3];
+    plod__leaf_key(t, i, 2, hyp);
+    plod__edge_remove(t, hyp, (int32_t)i);
+    plod__edge_remove(t, hyp, (int32_t)n);
+    int32_t node[2] = {plod__node_add(t, parents[0].id, &t->geom[i].self, t->leaf_parent[i]),
+                       plod__node_add(t, parents[1].id, &t->geom[n].self, t->leaf_parent[n])};
+    t->node_partner[node[0]] = node[1];
+    t->node_partner[node[1]] = node[0];
+    for (int k = 0; k < 2; k++) {
+        int32_t up = t->node_parent[node[k]];
+        if (up >= 0)
+            t->node_leaves[up]--; /* that child is a node now */
+    }
+    size_t child[2][2]; /* [parent][bit] */
+    for (int k = 0; k < 2; k++) {
+        /* the parent's corners 0..2 and the midpoint 3 of its hypotenuse */
+        plod__corner_memo memo;
+        plod__load_corners(t, pair[k], &memo);
+        for (int bit = 0; bit < 2; bit++) {
+            size_t at = bit ? t->count++ : pair[k];
+            child[k][bit] = at;
+            plod_sector *c = &t->leaves[at];
+            plod__child(&parents[k], bit, t->frame, c);
+            if (bit == 0) {
+                const double scale = 1.0 / (double)PLOD__ONE;
+                plod_status st = plod_face_to_dir(t->planet->projection, c->face,
+                                                  c->cu[1] * scale, c->cv[1] * scale,
+                                                  memo.points.dir[3]);
+                (void)st;
+                assert(st == PLOD_OK);
+                plod__canon(t, c->face, c->cu[1], c->cv[1], memo.canon[3]);
+            }
+            /* plod__child: corners (parent a, midpoint, parent b) */
+            const int idx[3] = {bit ? 2 : 1, 3, bit ? 1 : 0};
+            plod_lodtree_leaf *g = &t->geom[at];
+            plod_bound_build(&t->setup, c, &memo.points, idx, &g->self);
+            plod__store_corners(t, at, &memo, idx);
+            g->eval_frame = t->frame - 1;
+            t->leaf_parent[at] = node[k];
+            plod__apply_bound(c, &g->self);
+            if (at != pair[k]) {
+                int32_t key[3];
+                plod__leaf_key(t, at, 2, key);
+                plod__edge_replace(t, key, (int32_t)pair[k], (int32_t)at);
+            }
+        }
+    }
+    /* p's children (p1, m, p0), (p2, m, p1); q's (q1, m, p2), (p0, m, q1):
+     * edge 0 of each child is edge 1 of the next one around m */
+    static const int ring[4][2] = {{0, 0}, {0, 1}, {1, 0}, {1, 1}}; /* [parent, bit] */
+    for (int k = 0; k < 4; k++) {
+        size_t a = child[ring[k][0]][ring[k][1]];
+        size_t b = child[ring[(k + 1) % 4][0]][ring[(k + 1) % 4][1]];
+        int32_t key[3];
+        plod__leaf_key(t, a, 0, key);
+        plod__edge_add_two(t, key, (int32_t)a, (int32_t)b);
+    }
+    t->splits += 2;
+    t->pending[t->pending_count++] = i;
+    t->pending[t->pending_count++] = n;
+}
+
+static plod_status plod__pending_reserve(plod_lodtree *t, size_t extra)
+{
+    if (t->pending_count + extra <= t->pending_capacity)
+        return PLOD_OK;
+    size_t capacity = t->pending_capacity ? 2 * t->pending_capacity : 256;
+    while (capacity < t->pending_count + extra)
+        capacity *= 2;
+    size_t *fresh = realloc(t->pending, capacity * sizeof *fresh);
+    if (!fresh)
+        return PLOD_ERR_NO_MEMORY;
+    t->pending = fresh;
+    t->pending_capacity = capacity;
+    return PLOD_OK;
+}
+
+/* Splits leaf i, first splitting the coarser neighbour across its
+ * hypotenuse when needed.  Returns 0 when the sector cap stopped it. */
+int plod_lodtree_split(plod_lodtree *t, size_t i)
+{
+    if (t->leaves[i].level >= PLOD_MAX_LEVEL)
+        return 1; /* edge of domain: a no-op */
+    for (int attempt = 0; attempt < 2; attempt++) {
+        int32_t n = plod__across(t, i, 2);
+        assert(n >= 0);
+        if (n < 0)
+            return 1;
+        if (t->leaves[n].level == t->leaves[i].level) {
+            if (t->count + 2 > t->max_sectors || plod__reserve(t, 2) != PLOD_OK ||
+                plod__node_reserve(t, 2) != PLOD_OK || plod__pending_reserve(t, 2) != PLOD_OK) {
+                t->truncated = 1;
+                return 0;
+            }
+            plod__split_diamond(t, i, (size_t)n);
+            return 1;
+        }
+        assert(t->leaves[n].level + 1 == t->leaves[i].level);
+        if (!plod_lodtree_split(t, (size_t)n))
+            return 0;
+    }
+    assert(!"forced split did not produce a diamond");
+    return 1;
+}
+
+/* ---- merge ----------------------------------------------------------------- */
+
+/* Drops leaf x, already unlinked, moving the last leaf into its slot. */
+static void plod__drop_unlinked(plod_lodtree *t, size_t x)
+{
+    size_t last = t->count - 1;
+    if (x != last) {
+        for (int e = 0; e < 3; e++) {
+            int32_t key[3];
+            plod__leaf_key(t, last, e, key);
+            plod__edge_replace(t, key, (int32_t)last, (int32_t)x);
+        }
+        t->leaves[x] = t->leaves[last];
+        t->geom[x] = t->geom[last];
+        t->corners[x] = t->corners[last];
+        t->leaf_parent[x] = t->leaf_parent[last];
+    }
+    t->count--;
+}
+
+/* A parent's corners from its child 0 (p1, m, p0) and child 1 (p2, m, p1). */
+static plod_lodtree_corners plod__parent_corners(const plod_lodtree_corners *c0, const plod_lodtree_corners *c1)
+{
+    plod_lodtree_corners p;
+    const plod_lodtree_corners *from[3] = {c0, c0, c1};
+    static const int which[3] = {2, 0, 0};
+    p.known = 0;
+    for (int k = 0; k < 3; k++) {
+        memcpy(p.dir[k], from[k]->dir[which[k]], sizeof p.dir[k]);
+        memcpy(p.canon[k], from[k]->canon[which[k]], sizeof p.canon[k]);
+        p.height[k] = from[k]->height[which[k]];
+        if (from[k]->known & (1u << which[k]))
+            p.known |= 1u << k;
+    }
+    return p;
+}
+
+static int plod__same_point(const plod_lodtree *t, size_t a, int ka, size_t b, int kb)
+{
+    return plod__key_eq(t->corners[a].canon[ka], t->corners[b].canon[kb]);
+}
+
+/* Tries to merge the diamond whose child-0 leaf is at index ia.  Returns 1
+ * if merged (leaves[ia] then holds the restored parent). */
+/* The LOD update's merge policy, handed down through a cascade. */
+typedef struct plod__merge_policy {
+    plod_lodtree_merge_fn allows;
+    void *context;
+} plod__merge_policy;
+
+static int plod__try_merge(plod_lodtree *t, size_t ia, const plod__merge_policy *m);
+
+/* After a merge restored a leaf at `index`, tries its own diamond (a merge
+ * can only become possible when one of its four subtrees collapses). */
+static void plod__cascade(plod_lodtree *t, size_t index, const plod__merge_policy *m)
+{
+    const plod_sector *s = &t->leaves[index];
+    if (s->level == 0)
+        return;
+    if (!(s->id & 1)) {
+        plod__try_merge(t, index, m);
+        return;
+    }
+    int32_t sibling = plod__across(t, index, 1); /* child 1's edge (m, c1) */
+    if (sibling >= 0 && (t->leaves[sibling].id ^ s->id) == 1)
+        plod__try_merge(t, (size_t)sibling, m);
+}
+
+static int plod__merge_diamond(plod_lodtree *t, size_t ia, int32_t pi,
+                               const plod__merge_policy *m);
+
+static int plod__try_merge(plod_lodtree *t, size_t ia, const plod__merge_policy *m)
+{
+    const plod_sector *a = &t->leaves[ia];
+    if (a->level == 0 || (a->id & 1))
+        return 0;
+    /* necessary conditions that need no edge lookup come first (leaf-child
+     * counts, the memoised predicate); every condition is pure, so the
+     * order does not change which diamonds merge */
+    int32_t pi = t->leaf_parent[ia];
+    assert(pi >= 0 && t->nodes[pi].id == plod_lodtree_parent_id(a->id));
+    if (t->node_leaves[pi] != 2 || !m->allows(m->context, pi))
+        return 0; /* a's sibling is split, or p still wants its split */
+    return plod__merge_diamond(t, ia, pi, m);
+}
+
+/* The rest of try_merge: the partner half, then the merge itself. */
+static int plod__merge_diamond(plod_lodtree *t, size_t ia, int32_t pi,
+                               const plod__merge_policy *m)
+{
+    const plod_sector *a = &t->leaves[ia];
+    int level = a->level;
+    int32_t ic = plod__across(t, ia, 1);
+    if (ic < 0)
+        return 0;
+    const plod_sector *c = &t->leaves[ic];
+    if (c->level != level || !plod__same_point(t, ia, 1, (size_t)ic, 1))
+        return 0; /* c is not the partner parent's child (it is split) */
+    int32_t qi = t->leaf_parent[ic];
+    assert(qi >= 0 && t->nodes[qi].id == plod_lodtree_parent_id(c->id));
+    if (t->node_leaves[qi] != 2 || !m->allows(m->context, qi))
+        return 0;
+    int32_t ib = plod__across(t, ia, 0);
+    if (ib < 0)
+        return 0;
+    const plod_sector *b = &t->leaves[ib];
+    if (b->level != level || (a->id ^ b->id) != 1)
+        return 0;
+    int32_t id_ = plod__across(t, (size_t)ib, 0);
+    if (id_ < 0)
+        return 0;
+    const plod_sector *d = &t->leaves[id_];
+    if (d->level != level || (c->id ^ d->id) != 1 || !plod__same_point(t, ia, 1, (size_t)id_, 1))
+        return 0;
+    const plod_lodtree_node *pn = &t->nodes[pi], *qn = &t->nodes[qi];
+
+    plod_sector p, q;
+    plod__parent(a, &p);
+    plod__parent(c, &q);
+    plod_lodtree_leaf gp = {.self = pn->bound, .eval_frame = t->frame - 1};
+    plod_lodtree_leaf gq = {.self = qn->bound, .eval_frame = t->frame - 1};
+    p.birth = q.birth = t->frame;
+    plod__apply_bound(&p, &gp.self);
+    plod__apply_bound(&q, &gq.self);
+    int32_t gp_gq_parent[2] = {t->node_parent[pi], t->node_parent[qi]};
+    plod__node_remove(t, pi);
+    plod__node_remove(t, qi);
+    size_t ib_ = (size_t)ib, ic_ = (size_t)ic, id2 = (size_t)id_;
+    /* edge table, incrementally (the reverse of plod__split_diamond): each
+     * child's hypotenuse is a leg of its parent, relinked to the parent's
+     * slot; the children's other edges go; the parents' shared hypotenuse
+     * comes back */
+    const size_t child_at[4] = {ia, ib_, ic_, id2};
+    for (int x = 0; x < 4; x++) {
+        size_t to = x < 2 ? ia : ic_;
+        int32_t key[3];
+        if (child_at[x] != to) {
+            plod__leaf_key(t, child_at[x], 2, key);
+            plod__edge_replace(t, key, (int32_t)child_at[x], (int32_t)to);
+        }
+        for (int e = 0; e < 2; e++) {
+            plod__leaf_key(t, child_at[x], e, key);
+            plod__edge_remove(t, key, (int32_t)child_at[x]);
+        }
+    }
+    plod_lodtree_corners cp = plod__parent_corners(&t->corners[ia], &t->corners[ib_]);
+    /* a is child 0 of p; c may be either child of q */
+    int c_first = !(t->leaves[ic_].id & 1);
+    plod_lodtree_corners cq = plod__parent_corners(&t->corners[c_first ? ic_ : id2],
+                                            &t->corners[c_first ? id2 : ic_]);
+    t->corners[ia] = cp;
+    t->corners[ic_] = cq;
+    t->leaves[ia] = p;
+    t->geom[ia] = gp;
+    t->leaf_parent[ia] = gp_gq_parent[0];
+    t->leaves[ic_] = q;
+    t->geom[ic_] = gq;
+    t->leaf_parent[ic_] = gp_gq_parent[1];
+    int32_t hyp[3];
+    plod__leaf_key(t, ia, 2, hyp);
+    plod__edge_add(t, hyp, (int32_t)ia);
+    plod__edge_add(t, hyp, (int32_t)ic_);
+    size_t hi = ib_ > id2 ? ib_ : id2, lo = ib_ > id2 ? id2 : ib_;
+    size_t at[2] = {ia, ic_};
+    for (int k = 0; k < 2; k++) {
+        size_t hole = k ? lo : hi, last = t->count - 1;
+        for (int j = 0; j < 2; j++)
+            if (at[j] == last)
+                at[j] = hole;
+        plod__drop_unlinked(t, hole);
+    }
+    for (int k = 0; k < 2; k++) {
+        int32_t up = gp_gq_parent[k];
+        if (up >= 0)
+            t->node_leaves[up]++; /* its child is a leaf again */
+    }
+    t->merges += 2;
+    uint64_t q_id = t->leaves[at[1]].id;
+    int32_t q_hyp[3];
+    plod__leaf_key(t, at[1], 2, q_hyp);
+    plod__cascade(t, at[0], m);
+    /* the first cascade may have moved q into a hole (or merged p away):
+     * q is still on its own hypotenuse edge, found by key */
+    size_t slot = plod__edge_find(t, q_hyp);
+    assert(slot != (size_t)-1);
+    for (int k = 0; k < 2; k++) {
+        int32_t leaf = t->edges[slot].leaf[k];
+        if (leaf >= 0 && t->leaves[leaf].id == q_id) {
+            plod__cascade(t, (size_t)leaf, m);
+            break;
+        }
+    }
+    return 1;
+}
+
+/* ---- create / reset ---------------------------------------------------------- */
+
+static void plod__add_base(plod_lodtree *t, unsigned base, int face,
+                           const int32_t cu[3], const int32_t cv[3])
+{
+    size_t at = t->count++;
+    plod_sector *s = &t->leaves[at];
+    memset(s, 0, sizeof *s);
+    s->id = (uint64_t)base << PLOD_LODTREE_BASE_SHIFT | 1u;
+    s->face = (uint8_t)face;
+    s->level = 0;
+    s->birth = t->frame;
+    for (int k = 0; k < 3; k++) {
+        s->cu[k] = cu[k];
+        s->cv[k] = cv[k];
+    }
+    plod_lodtree_leaf *g = &t->geom[at];
+    memset(g, 0, sizeof *g);
+    plod__compute_bound(t, at, &g->self);
+    g->eval_frame = t->frame - 1;
+    t->leaf_parent[at] = -1;
+    plod__apply_bound(s, &g->self);
+    plod__leaf_link(t, at);
+}
+
+
+static plod_status plod__build_base(plod_lodtree *t)
+{
+    t->count = 0;
+    t->edge_used = 0;
+    t->node_used = 0;
+    t->node_top = 0;
+    if (t->edges)
+        for (size_t i = 0; i <= t->edge_mask; i++)
+            t->edges[i].leaf[0] = t->edges[i].leaf[1] = -1;
+    plod_status st = plod__reserve(t, 12);
+    if (st != PLOD_OK)
+        return st;
+    const int32_t O = PLOD__ONE;
+    if (plod_projection_is_cube(t->planet->projection)) {
+        for (int f = 0; f < 6; f++) {
+            const int32_t au[3] = {-O, O, O}, av[3] = {-O, -O, O};
+            const int32_t bu[3] = {O, -O, -O}, bv[3] = {O, O, -O};
+            plod__add_base(t, (unsigned)(2 * f), f, au, av);
+            plod__add_base(t, (unsigned)(2 * f + 1), f, bu, bv);
+        }
+    } else {
+        unsigned base = 0;
+        for (int q = 0; q < 4; q++) {
+            int32_t su = (q & 1) ? -O : O, sv = (q & 2) ? -O : O;
+            /* counter-clockwise when su * sv > 0; else swap the ends */
+            int flip = (su > 0) != (sv > 0);
+            int32_t iu[3] = {0, 0, su}, iv[3] = {sv, 0, 0};
+            int32_t ou[3] = {su, su, 0}, ov[3] = {0, sv, sv};
+            if (flip) {
+                int32_t t;
+                t = iu[0]; iu[0] = iu[2]; iu[2] = t;
+                t = iv[0]; iv[0] = iv[2]; iv[2] = t;
+                t = ou[0]; ou[0] = ou[2]; ou[2] = t;
+                t = ov[0]; ov[0] = ov[2]; ov[2] = t;
+            }
+            plod__add_base(t, base++, 0, iu, iv);
+            plod__add_base(t, base++, 0, ou, ov);
+        }
+    }
+    return PLOD_OK;
+}
+
+/* ---- create / destroy ----------------------------------------------------------- */
+
+plod_status plod_lodtree_init(plod_lodtree *t, const plod_planet *planet)
+{
+    memset(t, 0, sizeof *t);
+    t->planet = planet;
+    t->frame = 1;
+    plod_bound_setup_init(&t->setup, planet);
+    for (int f = 0; f < PLOD_FACE_COUNT; f++)
+        plod_face_frame(f, t->face_axes[f]);
+    plod_status st = plod__build_base(t);
+    if (st != PLOD_OK)
+        plod_lodtree_free(t);
+    return st;
+}
+
+void plod_lodtree_free(plod_lodtree *t)
+{
+    free(t->leaves);
+    free(t->geom);
+    free(t->corners);
+    free(t->leaf_parent);
+    free(t->edges);
+    free(t->nodes);
+    free(t->node_parent);
+    free(t->node_state);
+    free(t->node_planes);
+    free(t->node_leaves);
+    free(t->node_partner);
+    free(t->pending);
+    memset(t, 0, sizeof *t);
+}
+
+void plod_lodtree_reset(plod_lodtree *t)
+{
+    t->frame++;
+    plod_status st = plod__build_base(t);
+    (void)st; /* capacity for 12 leaves exists since init */
+}
+
+plod_status plod_lodtree_reserve(plod_lodtree *t, size_t sectors)
+{
+    size_t old_leaves = t->capacity, old_nodes = t->node_capacity;
+    size_t old_pending = t->pending_capacity;
+    /* a binary forest over 12 roots: internal nodes = leaves - 12 */
+    plod_status st = plod__reserve(t, sectors > t->count ? sectors - t->count : 0);
+    if (st == PLOD_OK)
+        st = plod__node_reserve(t, sectors > t->node_top ? sectors - t->node_top : 0);
+    if (st == PLOD_OK)
+        st = plod__pending_reserve(t, sectors > t->pending_count ? sectors - t->pending_count : 0);
+    if (st != PLOD_OK)
+        return st;
+    /* Touch the new tails now: the first faults on fresh pages are what
+     * made growth frames slow, and this moves them out of the update. */
+    size_t grown = t->capacity - old_leaves;
+    if (grown) {
+        memset(t->leaves + old_leaves, 0, grown * sizeof *t->leaves);
+        memset(t->geom + old_leaves, 0, grown * sizeof *t->geom);
+        memset(t->corners + old_leaves, 0, grown * sizeof *t->corners);
+        memset(t->leaf_parent + old_leaves, 0, grown * sizeof *t->leaf_parent);
+    }
+    grown = t->node_capacity - old_nodes;
+    if (grown) {
+        memset(t->nodes + old_nodes, 0, grown * sizeof *t->nodes);
+        memset(t->node_parent + old_nodes, 0, grown * sizeof *t->node_parent);
+        memset(t->node_state + old_nodes, 0, grown);
+        memset(t->node_planes + old_nodes, 0, grown);
+        memset(t->node_leaves + old_nodes, 0, grown);
+        memset(t->node_partner + old_nodes, 0, grown * sizeof *t->node_partner);
+    }
+    grown = t->pending_capacity - old_pending;
+    if (grown) /* the split queue may not exist yet (NULL + 0 is undefined) */
+        memset(t->pending + old_pending, 0, grown * sizeof *t->pending);
+    return PLOD_OK;
+}
+
+size_t plod_lodtree_memory_bytes(const plod_lodtree *t)
+{
+    size_t bytes = t->capacity * (sizeof(plod_sector) + sizeof(plod_lodtree_leaf) +
+                                  sizeof(int32_t));
+    if (t->edges)
+        bytes += (t->edge_mask + 1) * sizeof(plod_lodtree_edge);
+    bytes += t->capacity * sizeof(plod_lodtree_corners);
+    bytes += t->node_capacity * (sizeof(plod_lodtree_node) + 2 * sizeof(int32_t) + 3);
+    bytes += t->pending_capacity * sizeof(size_t);
+    return bytes;
+}
+
+/* ---- merge, the public entry ------------------------------------------------------ */
+
+int plod_lodtree_try_merge(plod_lodtree *t, size_t leaf, plod_lodtree_merge_fn allows_merge,
+                           void *context)
+{
+    const plod__merge_policy m = {allows_merge, context};
+    return plod__try_merge(t, leaf, &m);
+}
+
+/* ---- invariants ---------------------------------------------------------------- */
+
+plod_status plod_lodtree_check(const plod_lodtree *t)
+{
+    size_t links = 0;
+    for (size_t i = 0; i < t->count; i++) {
+        const plod_sector *s = &t->leaves[i];
+        for (int e = 0; e < 3; e++) {
+            int32_t key[3];
+            plod__edge_key(t, s, e, key);
+            size_t slot = plod__edge_find(t, key);
+            if (slot == (size_t)-1)
+                return PLOD_ERR_BAD_PARAM;
+            const plod_lodtree_edge *edge = &t->edges[slot];
+            if (edge->leaf[0] != (int32_t)i && edge->leaf[1] != (int32_t)i)
+                return PLOD_ERR_BAD_PARAM;
+            int32_t other = edge->leaf[0] == (int32_t)i ? edge->leaf[1] : edge->leaf[0];
+            if (other < 0 || (size_t)other >= t->count)
+                return PLOD_ERR_BAD_PARAM; /* closed sphere: always two */
+            int dl = (int)t->leaves[other].level - (int)s->level;
+            if (dl < -1 || dl > 1)
+                return PLOD_ERR_BAD_PARAM;
+        }
+        /* the corner cache holds the bits a fresh computation gives */
+        double fresh[3][3];
+        plod_sector_corners(t->planet, s, fresh);
+        const plod_lodtree_corners *cc = &t->corners[i];
+        if (memcmp(fresh, cc->dir, sizeof fresh) != 0)
+            return PLOD_ERR_BAD_PARAM;
+        for (int k = 0; k < 3; k++) {
+            int32_t point[3];
+            plod__canon(t, s->face, s->cu[k], s->cv[k], point);
+            if (!plod__key_eq(point, cc->canon[k]))
+                return PLOD_ERR_BAD_PARAM;
+        }
+        for (int k = 0; k < 3; k++) {
+            double h = plod_planet_map_height(t->planet, cc->dir[k]);
+            if ((cc->known & (1u << k)) && memcmp(&h, &cc->height[k], sizeof h) != 0)
+                return PLOD_ERR_BAD_PARAM;
+        }
+        int32_t parent = t->leaf_parent[i];
+        if ((s->level > 0) != (parent >= 0))
+            return PLOD_ERR_BAD_PARAM;
+        if (parent >= 0 && ((size_t)parent >= t->node_top ||
+                            t->nodes[parent].id != plod_lodtree_parent_id(s->id)))
+            return PLOD_ERR_BAD_PARAM;
+        links += 3;
+    }
+    size_t used = 0;
+    for (size_t i = 0; i <= t->edge_mask; i++)
+        if (!plod__slot_empty(&t->edges[i]))
+            used++;
+    if (used != t->edge_used || 2 * used != links)
+        return PLOD_ERR_BAD_PARAM;
+    /* a binary forest with count leaves over the base sectors */
+    size_t bases = plod_projection_is_cube(t->planet->projection) ? 12 : 8;
+    if (t->node_used + bases != t->count)
+        return PLOD_ERR_BAD_PARAM;
+    size_t live = 0;
+    for (size_t k = 0; k < t->node_top; k++) {
+        const plod_lodtree_node *n = &t->nodes[k];
+        if (!n->id)
+            continue;
+        live++;
+        int top = plod_lodtree_id_level(n->id) == 0;
+        int32_t parent = t->node_parent[k];
+        if (top != (parent < 0))
+            return PLOD_ERR_BAD_PARAM;
+        if (!top && ((size_t)parent >= k ||
+                     t->nodes[parent].id != plod_lodtree_parent_id(n->id)))
+            return PLOD_ERR_BAD_PARAM;
+        int32_t partner = t->node_partner[k];
+        if (partner < 0 || (size_t)partner >= t->node_top || !t->nodes[partner].id ||
+            t->node_partner[partner] != (int32_t)k || partner == (int32_t)k ||
+            plod_lodtree_id_level(t->nodes[partner].id) != plod_lodtree_id_level(n->id))
+            return PLOD_ERR_BAD_PARAM;
+    }
+    if (live != t->node_used)
+        return PLOD_ERR_BAD_PARAM;
+    /* leaf-child counts: every node's children, leaves or nodes, add to 2 */
+    uint8_t *count = calloc(t->node_top ? t->node_top : 1, 1);
+    if (!count)
+        return PLOD_ERR_NO_MEMORY;
+    for (size_t i = 0; i < t->count; i++)
+        if (t->leaf_parent[i] >= 0)
+            count[t->leaf_parent[i]]++;
+    plod_status st = PLOD_OK;
+    for (size_t k = 0; k < t->node_top; k++)
+        if (t->nodes[k].id && count[k] != t->node_leaves[k])
+            st = PLOD_ERR_BAD_PARAM;
+    free(count);
+    if (st != PLOD_OK)
+        return st;
+    return PLOD_OK;
+}

@@ -1,0 +1,761 @@
+/* lodupdate.c -- the LOD update policy of HRTMR (Hybrid Real-Time Mesh
+ * Refinement; K. Gasiński, "Porównanie metod wizualizacji terenu w czasie
+ * rzeczywistym" (comparison of real-time terrain visualisation methods),
+ * master's thesis, Gdańsk University of Technology, 2010, sections
+ * 5.2-5.3): one frame's passes over the LOD tree (lodtree.c) with the
+ * tests of bound.c, and the public refiner of plod_refine.h.
+ *
+ * Determinism: the raw split predicate P of a node is a pure function of the
+ * node and the camera (its own bounding cap prism; heights from range
+ * queries).  Caps of children do not nest in their parents' (projection
+ * distortion), so P alone is not monotone; the refinement uses
+ * P*(node) = P(node) and P*(parent), which is.  The tree keeps internal
+ * nodes parents first, so one sequential sweep per frame gives P* of every
+ * node top-down, skipping P where the parent already fails P*, and hands
+ * each node's frustum plane mask to its children.  Each frame merges every
+ * diamond whose two parents fail P*, then splits every leaf that passes it
+ * (with forced splits), until stable: the unique minimal conforming
+ * refinement of {P* true}, whatever the previous frame was.  With
+ * `hysteresis` the merge test uses the merge border instead and the result
+ * depends on history.
+ *
+ * Per-frame cost is the predicate of every node and leaf, so it is kept to
+ * a few dot products (bounds hold cosines and sines, not angles; distance
+ * thresholds are decided by square-root-free bounds where they clear them).
+ * The values the tests read live in a frame context built by each update,
+ * not in the refiner.
+ */
+#include "plod_lodtree.h"
+
+#include <assert.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+struct plod_refiner {
+    plod_lodtree tree;
+    /* the budget search, from one update to the next */
+    int coarsen_step;       /* the budget's step of the last update: where the
+                               next update's search starts (never its result) */
+    int budget_known;       /* coarsen_step is the answer for budget_camera and
+                               budget_params (the same frame again) */
+    plod_camera budget_camera;
+    plod_refine_params budget_params;
+    /* this frame's visible sectors in canonical order (plod__order_visible) */
+    uint32_t *order;
+    size_t order_count, order_capacity;
+    uint64_t *order_keys;        /* radix-sort scratch: 2 * order_capacity */
+    uint32_t *order_scratch;     /* order_capacity */
+};
+
+/* One update's context: the tree it refines, its parameters and the
+ * camera-derived values and thresholds its tests read. */
+typedef struct plod__frame {
+    plod_lodtree *tree;
+    const plod_refine_params *params;
+    plod_bound_view view;
+    double merge_ratio;     /* merge_border / split_border (hysteresis) */
+} plod__frame;
+
+/* tree->node_state bits, valid for the current frame (cleared by its
+ * sweep) */
+enum {
+    PLOD__P_KNOWN = 1, PLOD__P_TRUE = 2,        /* P(node) */
+    PLOD__STAR_KNOWN = 4, PLOD__STAR_TRUE = 8   /* P*(node) */
+};
+
+/* ---- the predicate ------------------------------------------------------------ */
+
+/* Split predicate P of a node (level = its level), from its own bound. */
+static int plod__wants_split(const plod__frame *f, const plod_bound *b, int level,
+                             unsigned *flags, unsigned parent_planes, unsigned *planes)
+{
+    *flags = plod_bound_cull(&f->view, b, parent_planes, planes);
+    if (level >= f->params->max_level || *flags)
+        return 0;
+    return plod_bound_exceeds_at_prism(&f->view, b);
+}
+
+/* The frustum planes node `parent`'s surface is inside of, this frame
+ * (final once the node sweep, or a lazy evaluation, has visited it). */
+static unsigned plod__parent_planes(const plod_lodtree *t, int32_t parent)
+{
+    return parent >= 0 ? t->node_planes[parent] : 0u;
+}
+
+/* P(node) of an internal node, as PLOD__P_KNOWN | P_TRUE bits; stores its
+ * plane mask. */
+static unsigned plod__node_p(const plod__frame *f, int32_t k, unsigned parent_planes)
+{
+    plod_lodtree *t = f->tree;
+    const plod_lodtree_node *n = &t->nodes[k];
+    unsigned flags, planes;
+    int p = plod__wants_split(f, &n->bound, plod_lodtree_id_level(n->id), &flags,
+                              parent_planes, &planes);
+    t->node_planes[k] = (uint8_t)planes;
+    return PLOD__P_KNOWN | (p ? PLOD__P_TRUE : 0u);
+}
+
+/* P*(node) = P(node) and P*(parent): monotone by construction, so the
+ * refinement it defines has a unique minimal conforming closure.  For an
+ * internal node, memoised per frame. */
+static int plod__node_wants(const plod__frame *f, int32_t k)
+{
+    plod_lodtree *t = f->tree;
+    unsigned st = t->node_state[k];
+    if (st & PLOD__STAR_KNOWN)
+        return (st & PLOD__STAR_TRUE) != 0;
+    if (!(st & PLOD__P_KNOWN))
+        st |= plod__node_p(f, k, plod__parent_planes(t, t->node_parent[k]));
+    int wants = (st & PLOD__P_TRUE) != 0;
+    int32_t parent = t->node_parent[k];
+    if (wants && parent >= 0) {
+        assert(t->nodes[parent].id == plod_lodtree_parent_id(t->nodes[k].id));
+        wants = plod__node_wants(f, parent);
+    }
+    t->node_state[k] = (uint8_t)(st | PLOD__STAR_KNOWN | (wants ? PLOD__STAR_TRUE : 0u));
+    return wants;
+}
+
+/* Whether an internal node may be merged back (its children removed): the
+ * tree's merge policy (plod_lodtree_merge_fn). */
+static int plod__allows_merge(void *context, int32_t k)
+{
+    const plod__frame *f = context;
+    const plod_lodtree *t = f->tree;
+    if (!f->params->hysteresis)
+        return !plod__node_wants(f, k);
+    const plod_lodtree_node *n = &t->nodes[k];
+    int level = plod_lodtree_id_level(n->id);
+    if (t->node_parent[k] >= 0 && !plod__node_wants(f, t->node_parent[k]))
+        return 1;
+    unsigned planes;
+    unsigned flags = plod_bound_cull(&f->view, &n->bound, 0, &planes);
+    return flags || level >= f->params->max_level ||
+           plod_bound_score(&f->view, &n->bound, plod_bound_distance(&f->view, &n->bound)) <
+               f->merge_ratio;
+}
+
+/* P*(leaf), caching P(leaf) and its cull flags for this frame. */
+static int plod__leaf_wants_split(const plod__frame *f, size_t i)
+{
+    plod_lodtree *t = f->tree;
+    plod_lodtree_leaf *g = &t->geom[i];
+    if (g->eval_frame != t->frame) {
+        unsigned flags;
+        unsigned planes;
+        g->eval_split = (uint8_t)plod__wants_split(f, &g->self, t->leaves[i].level, &flags,
+                                                   plod__parent_planes(t, t->leaf_parent[i]),
+                                                   &planes);
+        g->eval_flags = (uint8_t)flags;
+        g->eval_frame = t->frame;
+    }
+    int32_t parent = t->leaf_parent[i];
+    if (!g->eval_split || parent < 0)
+        return g->eval_split;
+    assert(t->nodes[parent].id == plod_lodtree_parent_id(t->leaves[i].id));
+    return plod__node_wants(f, parent);
+}
+
+/* ---- parallel evaluation ------------------------------------------------------- */
+
+/* P and cull flags of leaves [begin, end), written to their own slots only:
+ * pure functions of the bounds, the camera and the parents' plane masks
+ * (final after the node sweep), so any split of the work gives the bits of
+ * the lazy single-threaded evaluation.  The node sweep itself stays
+ * sequential: top-down, a node's plane mask spares its children most plane
+ * tests, which a split by index range would lose. */
+static void plod__eval_range(void *context, size_t begin, size_t end)
+{
+    const plod__frame *f = context;
+    plod_lodtree *t = f->tree;
+    for (size_t i = begin; i < end; i++) {
+        plod_lodtree_leaf *g = &t->geom[i];
+        unsigned flags, planes;
+        g->eval_split = (uint8_t)plod__wants_split(f, &g->self, t->leaves[i].level, &flags,
+                                                   plod__parent_planes(t, t->leaf_parent[i]),
+                                                   &planes);
+        g->eval_flags = (uint8_t)flags;
+        g->eval_frame = t->frame;
+    }
+}
+
+/* Evaluates every leaf's P and flags on `threads` threads, after the node
+ * sweep; below PLOD__PARALLEL_LEAVES leaves (thread start-up, ~10-50 us,
+ * would eat the gain) or when no thread can be started the split pass
+ * evaluates them as usual. */
+#define PLOD__PARALLEL_LEAVES 8192
+
+static void plod__eval_parallel(plod__frame *f, int threads)
+{
+    if (threads < 2 || f->tree->count < PLOD__PARALLEL_LEAVES)
+        return;
+    plod_parallel_for(f->tree->count, threads, plod__eval_range, f);
+}
+
+/* ---- one refinement pass; the budget ---------------------------------------------- */
+
+/* The split thresholds of coarsening step `step`: the criterion's threshold
+ * times 2^(step / 2) (pixel error, or split border). */
+static void plod__set_threshold(plod__frame *f, int step)
+{
+    const plod_refine_params *params = f->params;
+    plod_bound_view *v = &f->view;
+    v->coarsening = ldexp(step & 1 ? PLOD_SQRT2 : 1.0, step >> 1);
+    if (params->criterion == PLOD_CRITERION_SIDE_DISTANCE) {
+        v->split_mode = 0;
+        v->split_scale = params->split_border * v->coarsening;
+    } else if (!v->camera->desc.orthographic) {
+        v->split_mode = 1;
+        v->split_scale = v->camera->pixels_per_radian / (params->max_pixel_error * v->coarsening);
+    } else {
+        v->split_mode = 2;
+        v->split_scale = v->camera->pixels_per_metre / (params->max_pixel_error * v->coarsening);
+    }
+}
+
+/* P* of every internal node in one sequential, top-down sweep (parents come
+ * first); P is evaluated only where the parent passes P*.  Then the leaves'
+ * P, on threads when there are many. */
+static void plod__sweep(plod__frame *f, int step)
+{
+    plod_lodtree *t = f->tree;
+    t->frame++;
+    plod__set_threshold(f, step);
+    plod_lodtree_compact(t);
+    for (size_t k = 0; k < t->node_top; k++) {
+        if (!t->nodes[k].id) {
+            t->node_state[k] = 0;
+            continue;
+        }
+        int32_t parent = t->node_parent[k];
+        if (parent >= 0 && !(t->node_state[parent] & PLOD__STAR_TRUE)) {
+            t->node_state[k] = PLOD__STAR_KNOWN; /* P* false, P not needed */
+            t->node_planes[k] = 0;
+            continue;
+        }
+        unsigned pk = plod__node_p(f, (int32_t)k, plod__parent_planes(t, parent));
+        t->node_state[k] = (uint8_t)((pk & (PLOD__P_KNOWN | PLOD__P_TRUE)) |
+                                     PLOD__STAR_KNOWN |
+                                     ((pk & PLOD__P_TRUE) ? PLOD__STAR_TRUE : 0u));
+    }
+    plod__eval_parallel(f, f->params->threads);
+}
+
+/* The merge pass: every diamond whose parents fail the split predicate;
+ * downwards, so the leaves moved into holes were already visited, and
+ * merges cascade upwards as subtrees collapse. */
+static void plod__merge_pass(plod__frame *f)
+{
+    plod_lodtree *t = f->tree;
+    for (size_t i = t->count; i-- > 0;) {
+        if (i >= t->count)
+            i = t->count - 1;
+        /* plod_lodtree_try_merge's first tests, inline: most leaves fail them */
+        int32_t pi = t->leaf_parent[i];
+        if (pi < 0 || t->node_leaves[pi] != 2)
+            continue;
+        int32_t qi = t->node_partner[pi]; /* its diamond must merge too */
+        if (t->node_leaves[qi] != 2)
+            continue;
+        if (!f->params->hysteresis &&
+            ((t->node_state[pi] | t->node_state[qi]) & PLOD__STAR_TRUE))
+            continue;
+        plod_lodtree_try_merge(t, i, plod__allows_merge, f);
+    }
+}
+
+/* Splits leaf i while it passes P* (and the split happens). */
+static void plod__split_leaf(const plod__frame *f, size_t i)
+{
+    plod_lodtree *t = f->tree;
+    while (!t->truncated && plod__leaf_wants_split(f, i)) {
+        size_t before = t->splits;
+        plod_lodtree_split(t, i);
+        if (t->splits == before)
+            break; /* at PLOD_MAX_LEVEL or truncated */
+    }
+}
+
+/* The split pass: one sweep (children appended at the end are swept too);
+ * children written in place of earlier leaves are revisited after. */
+static void plod__split_pass(plod__frame *f)
+{
+    plod_lodtree *t = f->tree;
+    t->pending_count = 0;
+    for (size_t i = 0; i < t->count && !t->truncated; i++)
+        plod__split_leaf(f, i);
+    while (t->pending_count && !t->truncated)
+        plod__split_leaf(f, t->pending[--t->pending_count]);
+}
+
+/* One pass at coarsening step `step`: merges every diamond whose parents fail
+ * P*, then splits every leaf that passes it, stopping (truncated) before the
+ * leaves would exceed `cap`.  Untruncated, the result is the unique minimal
+ * conforming refinement of {P* true} whatever the refinement was before. */
+static void plod__refine_pass(plod__frame *f, int step, size_t cap)
+{
+    plod__sweep(f, step);
+    f->tree->max_sectors = cap;
+    f->tree->truncated = 0;
+    plod__merge_pass(f);
+    plod__split_pass(f);
+}
+
+/* Coarsening steps the budget may take: 2^(64 / 2) times the threshold
+ * leaves nothing but the base mesh split. */
+#define PLOD__MAX_COARSEN_STEP 64
+
+/* Whether step `step`'s refinement keeps at most `budget` sectors (visible
+ * or not); leaves the refiner at it (truncated when it does not fit). */
+static int plod__fits(plod__frame *f, int step)
+{
+    const plod_refine_params *params = f->params;
+    size_t cap = params->budget < params->max_sectors ? params->budget + 1 : params->max_sectors;
+    plod__refine_pass(f, step, cap);
+    return !f->tree->truncated && f->tree->count <= params->budget;
+}
+
+/* A lower bound of the sectors step `step` keeps, from the current
+ * refinement of a coarser step (a subset of step's, the thresholds being
+ * monotone): every leaf that step splits adds at least one sector. */
+static size_t plod__sectors_at_least(plod__frame *f, int step)
+{
+    plod__sweep(f, step);
+    size_t n = f->tree->count;
+    for (size_t i = 0; i < f->tree->count; i++)
+        n += plod__leaf_wants_split(f, i) != 0;
+    return n;
+}
+
+/* The budget coarsens the whole refinement instead of dropping sectors: the
+ * result is the refinement of the smallest coarsening step (threshold times
+ * 2^(step / 2)) that keeps at most `budget` sectors.  The sector count only
+ * falls as the step grows (thresholds only rise, P* sets only shrink), so
+ * that step is unique: a function of the camera and the parameters alone,
+ * not of the step the search starts from (the last update's, for speed).
+ * Visible sectors are a subset, so they fit too; only when even the coarsest
+ * step keeps more sectors than the budget does the nearest-first cut after
+ * culling apply. */
+static void plod__fit_budget(plod_refiner *r, plod__frame *f)
+{
+    const plod_refine_params *params = f->params;
+    const plod_camera *camera = f->view.camera;
+    int step = r->coarsen_step;
+    if (step < 0 || step > PLOD__MAX_COARSEN_STEP)
+        step = 0;
+    if (r->budget_known && memcmp(&r->budget_camera, camera, sizeof *camera) == 0 &&
+        memcmp(&r->budget_params, params, sizeof *params) == 0) {
+        /* the same camera and parameters again: the same (unique) step */
+        plod__refine_pass(f, step, params->max_sectors);
+        return;
+    }
+    if (plod__fits(f, step)) {
+        while (step > 0) {
+            if (plod__sectors_at_least(f, step - 1) > params->budget)
+                break; /* the finer step cannot fit: no need to build it */
+            if (!plod__fits(f, step - 1)) {
+                plod__fits(f, step); /* back to the result */
+                break;
+            }
+            step--;
+        }
+    } else {
+        while (step < PLOD__MAX_COARSEN_STEP && !plod__fits(f, ++step))
+            ;
+        if (f->tree->truncated) /* even the coarsest step does not fit: complete it */
+            plod__refine_pass(f, step, params->max_sectors);
+    }
+    r->coarsen_step = step;
+    r->budget_camera = *camera;
+    r->budget_params = *params;
+    r->budget_known = 1;
+}
+
+/* ---- visible ordering ---------------------------------------------------------- */
+
+/* Depth-first key of a sector: its base, then its bisection path
+ * left-aligned (the heap's leading 1 at bit 55), so leaves, which never
+ * nest, sort in depth-first order: a spatially coherent order that depends
+ * on the leaf set alone, not on the order in which splits and merges left
+ * them in the leaf array. */
+static uint64_t plod__order_key(uint64_t id)
+{
+    uint64_t heap = id & PLOD_LODTREE_HEAP_MASK;
+    int level = plod_lodtree_id_level(id);
+    return (id & ~PLOD_LODTREE_HEAP_MASK) | heap << (PLOD_LODTREE_BASE_SHIFT - 1 - level);
+}
+
+static plod_status plod__order_reserve(plod_refiner *r, size_t need)
+{
+    if (need <= r->order_capacity)
+        return PLOD_OK;
+    size_t capacity = r->order_capacity ? r->order_capacity : 256;
+    while (capacity < need)
+        capacity *= 2;
+    uint32_t *order = realloc(r->order, capacity * sizeof *order);
+    if (!order)
+        return PLOD_ERR_NO_MEMORY;
+    r->order = order;
+    uint32_t *scratch = realloc(r->order_scratch, capacity * sizeof *scratch);
+    if (!scratch)
+        return PLOD_ERR_NO_MEMORY;
+    r->order_scratch = scratch;
+    uint64_t *keys = realloc(r->order_keys, 2 * capacity * sizeof *keys);
+    if (!keys)
+        return PLOD_ERR_NO_MEMORY;
+    r->order_keys = keys;
+    r->order_capacity = capacity; /* only once all three have grown */
+    return PLOD_OK;
+}
+
+/* The visible leaves' indices sorted by plod__order_key: an LSD radix sort,
+ * 8 bits a pass, skipping the passes in which every key has the same digit
+ * (the high bits of a frame's keys mostly agree). */
+static plod_status plod__order_visible(plod_refiner *r, size_t visible)
+{
+    r->order_count = 0;
+    if (visible == 0)
+        return PLOD_OK; /* the arrays may not exist yet (NULL + 0 is undefined) */
+    plod_status st = plod__order_reserve(r, visible);
+    if (st != PLOD_OK)
+        return st;
+    uint64_t *keys = r->order_keys, *keys_out = r->order_keys + r->order_capacity;
+    uint32_t *index = r->order, *index_out = r->order_scratch;
+    size_t n = 0;
+    for (size_t i = 0; i < r->tree.count; i++) {
+        if (!(r->tree.leaves[i].flags & PLOD_SECTOR_VISIBLE))
+            continue;
+        keys[n] = plod__order_key(r->tree.leaves[i].id);
+        index[n++] = (uint32_t)i;
+    }
+    assert(n == visible);
+    for (int shift = 0; shift < 64; shift += 8) {
+        size_t start[257] = {0};
+        for (size_t k = 0; k < n; k++)
+            start[(keys[k] >> shift & 0xFF) + 1]++;
+        if (start[(keys[0] >> shift & 0xFF) + 1] == n)
+            continue; /* one digit for all: this pass keeps the order */
+        for (int d = 0; d < 256; d++)
+            start[d + 1] += start[d];
+        for (size_t k = 0; k < n; k++) {
+            size_t to = start[keys[k] >> shift & 0xFF]++;
+            keys_out[to] = keys[k];
+            index_out[to] = index[k];
+        }
+        uint64_t *tk = keys; keys = keys_out; keys_out = tk;
+        uint32_t *ti = index; index = index_out; index_out = ti;
+    }
+    if (index != r->order) /* an odd number of passes ran */
+        memcpy(r->order, index, n * sizeof *index);
+    r->order_count = n;
+    return PLOD_OK;
+}
+
+/* ---- one update ------------------------------------------------------------------ */
+
+static plod_status plod__check_params(const plod_refine_params *p)
+{
+    if ((unsigned)p->criterion > PLOD_CRITERION_SIDE_DISTANCE)
+        return PLOD_ERR_BAD_PARAM;
+    if (!(isfinite(p->max_pixel_error) && p->max_pixel_error > 0))
+        return PLOD_ERR_BAD_PARAM;
+    if (!(isfinite(p->split_border) && p->split_border > 0 &&
+          isfinite(p->merge_border) && p->merge_border > 0 &&
+          p->merge_border <= p->split_border))
+        return PLOD_ERR_BAD_PARAM;
+    if (p->template_level < 0 || p->template_level > 7)
+        return PLOD_ERR_BAD_PARAM;
+    if (p->max_level < 0 || p->max_level > PLOD_MAX_LEVEL)
+        return PLOD_ERR_BAD_PARAM;
+    if (p->max_sectors < 12)
+        return PLOD_ERR_BAD_PARAM;
+    if (p->threads < 1 || p->threads > PLOD_REFINE_MAX_THREADS)
+        return PLOD_ERR_BAD_PARAM;
+    return PLOD_OK;
+}
+
+static double plod__now_us(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec * 1e6 + ts.tv_nsec * 1e-3;
+}
+
+/* The frame context of an update at `camera` (eye_dist: its distance from
+ * the centre, checked by the caller). */
+static void plod__frame_init(plod__frame *f, plod_refiner *r, const plod_camera *camera,
+                             const plod_refine_params *params, double eye_dist)
+{
+    const plod_planet *planet = r->tree.planet;
+    f->tree = &r->tree;
+    f->params = params;
+    plod_bound_view *v = &f->view;
+    memset(v, 0, sizeof *v);
+    v->camera = camera;
+    v->detail = planet->detail;
+    memcpy(v->eye, camera->position, sizeof v->eye);
+    v->eye_dist = eye_dist;
+    for (int k = 0; k < 3; k++)
+        v->eye_unit[k] = camera->position[k] / eye_dist;
+    double rho = r->tree.setup.occluder;
+    v->horizon_on = params->backface_culling && !camera->desc.orthographic && eye_dist > rho;
+    double eye_horizon_angle =
+        v->horizon_on ? atan2(sqrt((eye_dist - rho) * (eye_dist + rho)), rho) : 0.0;
+    v->eye_horizon_cos = cos(eye_horizon_angle);
+    v->eye_horizon_sin = sin(eye_horizon_angle);
+    v->frustum_culling = params->frustum_culling;
+    v->criterion = params->criterion;
+    v->split_border = params->split_border;
+    v->max_pixel_error = params->max_pixel_error;
+    v->error_scale = ldexp(1.0, -params->template_level);
+    v->error_scale2 = v->error_scale * v->error_scale;
+    v->distance_floor = 1e-9 * planet->radius;
+    f->merge_ratio = params->merge_border / params->split_border;
+}
+
+/* The refinement of this frame: one pass, or the budget's search. */
+static void plod__refine(plod_refiner *r, plod__frame *f)
+{
+    r->tree.splits = r->tree.merges = 0;
+    if (f->params->budget == 0) {
+        plod__refine_pass(f, 0, f->params->max_sectors);
+        r->coarsen_step = 0;
+        r->budget_known = 0;
+    } else {
+        plod__fit_budget(r, f);
+    }
+}
+
+/* Every leaf's flags (culling, sea, visible) and the culling counts of
+ * `stats`; returns the visible count. */
+static size_t plod__classify(const plod__frame *f, plod_refine_stats *s)
+{
+    plod_lodtree *t = f->tree;
+    const plod_planet *planet = t->planet;
+    size_t visible = 0;
+    int deepest = 0;
+    for (size_t i = 0; i < t->count; i++) {
+        plod_sector *sec = &t->leaves[i];
+        plod_lodtree_leaf *g = &t->geom[i];
+        if (g->eval_frame != t->frame) { /* not visited (truncated pass) */
+            unsigned cull_flags;
+            unsigned planes;
+            g->eval_split = (uint8_t)plod__wants_split(f, &g->self, sec->level, &cull_flags, 0,
+                                                       &planes);
+            g->eval_flags = (uint8_t)cull_flags;
+            g->eval_frame = t->frame;
+        }
+        unsigned flags = g->eval_flags;
+        int sea = planet->has_sea_level && sec->height_max <= planet->sea_level;
+        if (sea)
+            flags |= PLOD_SECTOR_SEA;
+        deepest = sec->level > deepest ? sec->level : deepest;
+        if (flags & PLOD_SECTOR_BACKFACING) {
+            sec->flags = (uint16_t)flags;
+            continue;
+        }
+        s->sectors_after_backface++;
+        if (flags & PLOD_SECTOR_OUTSIDE_FRUSTUM) {
+            sec->flags = (uint16_t)flags;
+            continue;
+        }
+        s->sectors_after_frustum++;
+        if (sea) {
+            if (f->params->skip_sea) {
+                s->sectors_sea_skipped++;
+                sec->flags = (uint16_t)flags;
+                continue;
+            }
+        }
+        sec->flags = (uint16_t)(flags | PLOD_SECTOR_VISIBLE);
+        visible++;
+    }
+    s->max_level_reached = deepest;
+    return visible;
+}
+
+typedef struct plod__rank {
+    double distance;
+    uint64_t id;
+    size_t index;
+} plod__rank;
+
+static int plod__rank_cmp(const void *pa, const void *pb)
+{
+    const plod__rank *a = pa, *b = pb;
+    if (a->distance != b->distance)
+        return a->distance < b->distance ? -1 : 1;
+    return a->id < b->id ? -1 : (a->id > b->id);
+}
+
+/* When even the coarsest step keeps more visible sectors than the budget:
+ * the farthest lose PLOD_SECTOR_VISIBLE for PLOD_SECTOR_OVER_BUDGET
+ * (nearest first, ties by id). */
+static plod_status plod__cut_to_budget(const plod__frame *f, size_t *visible)
+{
+    plod_lodtree *t = f->tree;
+    size_t budget = f->params->budget;
+    if (budget == 0 || *visible <= budget)
+        return PLOD_OK;
+    plod__rank *ranks = malloc(*visible * sizeof *ranks);
+    if (!ranks)
+        return PLOD_ERR_NO_MEMORY;
+    size_t k = 0;
+    for (size_t i = 0; i < t->count; i++)
+        if (t->leaves[i].flags & PLOD_SECTOR_VISIBLE)
+            ranks[k++] = (plod__rank){plod_bound_distance(&f->view, &t->geom[i].self),
+                                      t->leaves[i].id, i};
+    qsort(ranks, *visible, sizeof *ranks, plod__rank_cmp);
+    for (size_t j = budget; j < *visible; j++) {
+        plod_sector *sec = &t->leaves[ranks[j].index];
+        sec->flags = (uint16_t)((sec->flags & ~PLOD_SECTOR_VISIBLE) | PLOD_SECTOR_OVER_BUDGET);
+    }
+    free(ranks);
+    *visible = budget;
+    return PLOD_OK;
+}
+
+plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
+                                const plod_refine_params *params,
+                                plod_refine_stats *stats)
+{
+    if (!r || !camera || !params)
+        return PLOD_ERR_NULL;
+    plod_status st = plod__check_params(params);
+    if (st != PLOD_OK)
+        return st;
+    double eye_dist = sqrt(camera->position[0] * camera->position[0] +
+                           camera->position[1] * camera->position[1] +
+                           camera->position[2] * camera->position[2]);
+    if (!isfinite(eye_dist) || !(eye_dist > 1e-6 * r->tree.planet->radius))
+        return PLOD_ERR_BAD_CAMERA; /* at (or numerically at) the centre */
+
+    double t0 = plod__now_us();
+    r->tree.frame++;
+    plod__frame f;
+    plod__frame_init(&f, r, camera, params, eye_dist);
+    plod__refine(r, &f);
+    double t1 = plod__now_us();
+    plod_refine_stats s;
+    memset(&s, 0, sizeof s);
+    size_t visible = plod__classify(&f, &s);
+    st = plod__cut_to_budget(&f, &visible);
+    if (st == PLOD_OK)
+        st = plod__order_visible(r, visible);
+    if (st != PLOD_OK)
+        return st;
+    double t2 = plod__now_us();
+    s.sectors_total = r->tree.count;
+    s.sectors_after_budget = visible;
+    s.splits = r->tree.splits;
+    s.merges = r->tree.merges;
+    s.refine_us = t1 - t0;
+    s.cull_us = t2 - t1;
+    s.truncated = r->tree.truncated;
+    s.frame = r->tree.frame;
+    if (stats)
+        *stats = s;
+    return PLOD_OK;
+}
+
+/* ---- the refiner ------------------------------------------------------------------ */
+
+plod_status plod_refiner_create(plod_refiner **out, const plod_planet *planet)
+{
+    if (!out)
+        return PLOD_ERR_NULL;
+    *out = NULL;
+    plod_status st = plod_planet_check(planet);
+    if (st != PLOD_OK)
+        return st;
+    plod_refiner *r = calloc(1, sizeof *r);
+    if (!r)
+        return PLOD_ERR_NO_MEMORY;
+    st = plod_lodtree_init(&r->tree, planet);
+    if (st != PLOD_OK) {
+        free(r);
+        return st;
+    }
+    *out = r;
+    return PLOD_OK;
+}
+
+void plod_refiner_destroy(plod_refiner *refiner)
+{
+    if (!refiner)
+        return;
+    plod_lodtree_free(&refiner->tree);
+    free(refiner->order);
+    free(refiner->order_keys);
+    free(refiner->order_scratch);
+    free(refiner);
+}
+
+plod_status plod_refiner_reserve(plod_refiner *refiner, size_t sectors)
+{
+    if (!refiner)
+        return PLOD_ERR_NULL;
+    if (sectors > PLOD_REFINER_MAX_RESERVE)
+        return PLOD_ERR_BAD_PARAM;
+    plod_status st = plod_lodtree_reserve(&refiner->tree, sectors);
+    if (st == PLOD_OK)
+        st = plod__order_reserve(refiner, sectors);
+    return st;
+}
+
+void plod_refiner_reset(plod_refiner *refiner)
+{
+    if (!refiner)
+        return;
+    refiner->order_count = 0;
+    plod_lodtree_reset(&refiner->tree);
+}
+
+const plod_sector *plod_refiner_sectors(const plod_refiner *refiner, size_t *count)
+{
+    if (count)
+        *count = refiner ? refiner->tree.count : 0;
+    return refiner ? refiner->tree.leaves : NULL;
+}
+
+const uint32_t *plod_refiner_visible(const plod_refiner *refiner, size_t *count)
+{
+    if (count)
+        *count = refiner ? refiner->order_count : 0;
+    return refiner ? refiner->order : NULL;
+}
+
+void plod_refine_params_default(plod_refine_params *params)
+{
+    memset(params, 0, sizeof *params);
+    params->criterion = PLOD_CRITERION_PIXEL_ERROR;
+    params->max_pixel_error = 1.0;
+    params->split_border = 0.5;
+    params->merge_border = 0.25;
+    params->hysteresis = 0;
+    params->template_level = 4;
+    params->max_level = 48;
+    params->budget = 0;
+    params->backface_culling = 1;
+    params->frustum_culling = 1;
+    params->skip_sea = 0;
+    params->max_sectors = PLOD_DEFAULT_MAX_SECTORS;
+    params->threads = 1;
+}
+
+size_t plod_refiner_memory_bytes(const plod_refiner *r)
+{
+    if (!r)
+        return 0;
+    return sizeof *r + plod_lodtree_memory_bytes(&r->tree) +
+           r->order_capacity * (2 * sizeof(uint32_t) + 2 * sizeof(uint64_t));
+}
+
+plod_status plod_refiner_check(const plod_refiner *r)
+{
+    if (!r)
+        return PLOD_ERR_NULL;
+    return plod_lodtree_check(&r->tree);
+}

@@ -1,0 +1,159 @@
+/* plod_lodtree.h -- the LOD tree of the refinement (lodtree.c): implicit
+ * longest-edge-bisection ids, the leaf and internal-node stores, the edge
+ * hash that gives conforming neighbours, split and merge, and the
+ * invariants.  Mechanics only: when to split or merge is the LOD update's
+ * (lodupdate.c), which drives the tree through these calls.  Internal to
+ * the core: bindings use plod_refine.h.
+ *
+ * Bit rules (libleb-style heap ids):
+ *   id        = base << 56 | heap,  heap = 1 << level | path bits
+ *   child(b)  = heap * 2 + b        parent = heap >> 1
+ *
+ * Edge of the domain (documented no-ops, as in libleb): a split at
+ * PLOD_MAX_LEVEL changes nothing and returns 1; a merge of a base sector
+ * (level 0, no diamond parent) or of a diamond that is not whole (a
+ * sibling or the partner is split further) changes nothing and returns 0.
+ */
+#ifndef PLOD_LODTREE_H
+#define PLOD_LODTREE_H
+
+#include <assert.h>
+#include "plod_bound.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* ---- ids ---------------------------------------------------------------------- */
+
+#define PLOD_LODTREE_BASE_SHIFT 56
+#define PLOD_LODTREE_HEAP_MASK (((uint64_t)1 << PLOD_LODTREE_BASE_SHIFT) - 1)
+
+static inline int plod_lodtree_id_level(uint64_t id)
+{
+    assert(id & PLOD_LODTREE_HEAP_MASK);
+    return 63 - __builtin_clzll(id & PLOD_LODTREE_HEAP_MASK);
+}
+
+static inline uint64_t plod_lodtree_parent_id(uint64_t id)
+{
+    return (id & ~PLOD_LODTREE_HEAP_MASK) | ((id & PLOD_LODTREE_HEAP_MASK) >> 1);
+}
+
+/* ---- the stores ----------------------------------------------------------------- */
+
+/* A leaf's bound, and the slots where the LOD update caches its evaluation
+ * of this frame (the tree moves them with the leaf and marks a new leaf's
+ * stale). */
+typedef struct plod_lodtree_leaf {
+    plod_bound self;
+    uint32_t eval_frame;   /* frame of the cached evaluation below */
+    uint8_t eval_split;    /* predicate result */
+    uint8_t eval_flags;    /* PLOD_SECTOR_BACKFACING | OUTSIDE_FRUSTUM */
+} plod_lodtree_leaf;
+
+/* A leaf's corner directions and, once a bound needed them, heights: kept
+ * so that a split computes only the new midpoint (the same calls on the
+ * same corners, so the same bits as computing them again). */
+typedef struct plod_lodtree_corners {
+    double dir[3][3];
+    double height[3];
+    int32_t canon[3][3]; /* canonical points: edge keys */
+    unsigned known; /* bit k: height[k] computed */
+} plod_lodtree_corners;
+
+typedef struct plod_lodtree_edge {
+    int32_t key[3];
+    int32_t leaf[2]; /* -1 = none; both -1 = empty slot */
+} plod_lodtree_edge;
+
+/* An internal (split) node and its bound. */
+typedef struct plod_lodtree_node {
+    uint64_t id;        /* 0 = free slot */
+    plod_bound bound;
+} plod_lodtree_node;
+
+/* Given: planet (borrowed).  Returned: everything else.  The arrays are
+ * read directly by the LOD update; only these calls change their shape. */
+typedef struct plod_lodtree {
+    const plod_planet *planet;
+    plod_bound_setup setup;
+    int face_axes[PLOD_FACE_COUNT][3][3]; /* plod_face_frame of each face */
+    plod_sector *leaves;
+    plod_lodtree_leaf *geom;
+    plod_lodtree_corners *corners; /* apart from geom: only splits and merges
+                                      read it, the per-frame sweeps do not */
+    int32_t *leaf_parent;        /* parent's index in nodes[], -1 at level 0;
+                                    apart from geom: the merge sweep reads
+                                    it for every leaf */
+    size_t count, capacity;
+    plod_lodtree_edge *edges;
+    size_t edge_mask, edge_used; /* capacity - 1, live entries */
+    size_t *pending;             /* leaves a split wrote children into in
+                                    place (the split pass revisits them) */
+    size_t pending_count, pending_capacity;
+    plod_lodtree_node *nodes;    /* internal nodes, dense, parents first */
+    int32_t *node_parent;        /* parent's index (< own), -1 at level 0 */
+    uint8_t *node_state;         /* the LOD update's per-frame flags; 0 for
+                                    a new node, not moved by compaction */
+    uint8_t *node_planes;        /* the LOD update's per-frame plane mask;
+                                    as node_state */
+    uint8_t *node_leaves;        /* how many of its 2 children are leaves */
+    int32_t *node_partner;       /* the other parent of its diamond: both
+                                    are made by one split, removed by one
+                                    merge */
+    size_t node_capacity, node_top, node_used; /* node_top: slots in use or
+                                                  holes (id 0) */
+    uint32_t frame;              /* refine frame: births, stale evaluations */
+    size_t max_sectors;          /* a split that would exceed it stops */
+    int truncated;               /* 1: max_sectors stopped a split */
+    size_t splits, merges;       /* counted since the caller zeroed them */
+} plod_lodtree;
+
+/* ---- create / destroy ----------------------------------------------------------- */
+
+/* The base sectors of the planet's projection (12 on the cube, 8 for CAR).
+ * tree is zeroed first; on failure it holds nothing to free. */
+plod_status plod_lodtree_init(plod_lodtree *tree, const plod_planet *planet);
+void plod_lodtree_free(plod_lodtree *tree);
+/* Back to the base sectors (the frame counter advances); keeps capacity. */
+void plod_lodtree_reset(plod_lodtree *tree);
+/* Room for `sectors` leaves, their nodes, edges and split queue, allocated
+ * and touched now.  PLOD_ERR_NO_MEMORY leaves the tree usable. */
+plod_status plod_lodtree_reserve(plod_lodtree *tree, size_t sectors);
+size_t plod_lodtree_memory_bytes(const plod_lodtree *tree);
+
+/* ---- split / merge ------------------------------------------------------------- */
+
+/* Splits leaf i and, first, the coarser neighbours across its hypotenuse
+ * (forced splits: the result conforms).  Leaf i's slot receives child 0 of
+ * its split, its index is pushed on `pending`, new leaves are appended.
+ * Returns 0 when max_sectors (or memory) stopped it (truncated = 1), 1
+ * otherwise; at PLOD_MAX_LEVEL a no-op returning 1. */
+int plod_lodtree_split(plod_lodtree *tree, size_t i);
+
+/* Whether internal node `node` may lose its children (the LOD update's
+ * policy, asked by the merge below). */
+typedef int (*plod_lodtree_merge_fn)(void *context, int32_t node);
+/* Merges the diamond whose child-0 leaf is at `leaf` back into its two
+ * parents if it is whole and allows_merge agrees for both, then tries the
+ * parents' own diamonds (cascade).  Returns 1 if it merged (leaves moved
+ * to fill the holes: indices above the merged ones may change), 0
+ * otherwise, a no-op (child 1 or level 0 given, a diamond not whole, or
+ * refused). */
+int plod_lodtree_try_merge(plod_lodtree *tree, size_t leaf, plod_lodtree_merge_fn allows_merge,
+                           void *context);
+/* Squeezes the holes of removed nodes out of the node arrays (keeping
+ * parents before children) when they outnumber the live nodes.  node_state
+ * and node_planes are not carried: call before the frame's evaluation. */
+void plod_lodtree_compact(plod_lodtree *tree);
+
+/* ---- invariants ------------------------------------------------------------------ */
+
+/* plod_refiner_check's tests (plod_refine.h); PLOD_OK or PLOD_ERR_BAD_PARAM. */
+plod_status plod_lodtree_check(const plod_lodtree *tree);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* PLOD_LODTREE_H */
