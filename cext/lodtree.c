@@ -448,8 +448,6 @@ static void plod__compute_bound(plod_lodtree *t, size_t at, plod_bound *b)
     plod__store_corners(t, at, &memo, idx);
 }
 
-/* Split predicate P of a node (level = its level), from its own bound. */
-
 /* ---- node algebra ---------------------------------------------------------- */
 
 static void plod__child(const plod_sector *p, int bit, uint32_t frame,
@@ -838,7 +836,6 @@ static void plod__add_base(plod_lodtree *t, unsigned base, int face,
     plod__apply_bound(s, &g->self);
     plod__leaf_link(t, at);
 }
-
 
 static plod_status plod__build_base(plod_lodtree *t)
 {
