@@ -10,6 +10,7 @@
  *   plod_cull.h        camera and visibility tests
  *   plod_refine.h      HRTMR split/merge refinement
  *   plod_mesh.h        sector templates and buffer emission
+ *   plod_session.h     one planet's per-frame state: refine, then emit
  */
 #ifndef PLOD_H
 #define PLOD_H
@@ -24,4 +25,5 @@
 #include "plod_cull.h"
 #include "plod_refine.h"
 #include "plod_mesh.h"
+#include "plod_session.h"
 #endif
