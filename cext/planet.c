@@ -618,3 +618,35 @@ void plod_planet_detail_range_cap(const plod_planet *planet, const double axis[3
         plod__cap_range(mod, axis, angle, &mlo, &mhi, &texels);
     plod__detail_scaled(planet, mlo, mhi, min_m, max_m, modulation);
 }
+
+/* ---- the planet as a surface source --------------------------------------- */
+
+static void plod__surface_sample_n(const void *self, size_t n, const double *dirs,
+                                   const int *octaves, const int *normal_octaves,
+                                   double *heights, double *normals, double *detail)
+{
+    plod_planet_surface_detail_n(self, n, dirs, octaves, normal_octaves, heights, normals,
+                                 detail);
+}
+
+static int plod__surface_octaves_for_cell(const void *self, double cell)
+{
+    return plod_detail_octaves_for_cell(((const plod_planet *)self)->detail, cell);
+}
+
+static uint64_t plod__surface_stamp(const void *self)
+{
+    return plod_detail_stamp(((const plod_planet *)self)->detail);
+}
+
+static const plod_surface_ops plod__planet_surface_ops = {plod__surface_sample_n, NULL, NULL};
+static const plod_surface_ops plod__detail_surface_ops = {
+    plod__surface_sample_n, plod__surface_octaves_for_cell, plod__surface_stamp};
+
+plod_surface_source plod_planet_surface_source(const plod_planet *planet)
+{
+    plod_surface_source source = {
+        planet && planet->detail ? &plod__detail_surface_ops : &plod__planet_surface_ops,
+        planet};
+    return source;
+}

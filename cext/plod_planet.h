@@ -95,6 +95,11 @@ void plod_planet_surface_band_n(const plod_planet *planet, size_t n, const doubl
 void plod_planet_surface_detail_n(const plod_planet *planet, size_t n, const double *dirs,
                                   const int *octaves, const int *normal_octaves,
                                   double *heights, double *normals, double *detail);
+/* The planet as a surface source (plod_heightsource.h) for the mesh
+ * emitter: sample_n is plod_planet_surface_detail_n; octaves_for_cell and
+ * stamp are the detail field's (both NULL without one).  Valid while
+ * `planet` lives; reads its fields at each call. */
+plod_surface_source plod_planet_surface_source(const plod_planet *planet);
 /* Global height bounds in metres, the detail field's included (0, 0
  * without a map or detail). */
 void plod_planet_height_range(const plod_planet *planet, double *min_m,

@@ -316,16 +316,16 @@ static int plod__corner_sector(const void *context, size_t index,
 
 typedef struct plod__corner_emission {
     const plod_mesh_params *params;
-    const plod__corner_source *source;
-    size_t count;
+    plod_mesh_sector_source sectors;
+    plod_surface_source surface;
 } plod__corner_emission;
 
 static plod_status plod__corner_emit(const void *context, const plod_mesh_buffers *out,
                                      size_t *vertex_count, size_t *triangle_count)
 {
     const plod__corner_emission *e = context;
-    return plod_mesh_emit(e->params, plod__corner_sector, e->source, e->count, out,
-                          vertex_count, triangle_count);
+    return plod_mesh_emit(e->params, &e->sectors, &e->surface, out, vertex_count,
+                          triangle_count);
 }
 
 static plod_status plod__corner_instances(const void *context, float *corners,
@@ -333,8 +333,8 @@ static plod_status plod__corner_instances(const void *context, float *corners,
                                           size_t *instance_count)
 {
     const plod__corner_emission *e = context;
-    return plod_mesh_instances(e->params, plod__corner_sector, e->source, e->count,
-                               corners, levels, morph, instance_count);
+    return plod_mesh_instances(e->params, &e->sectors, &e->surface, corners, levels, morph,
+                               instance_count);
 }
 
 static int plod__vec3_arg(PyObject *obj, double out[3], const char *what)
@@ -441,7 +441,8 @@ static PyObject *plod__mesh_from_corners(PyObject *module, PyObject *args, PyObj
         }
         planet.normalmap = normals;
     }
-    plod__corner_emission emission = {&params, &src, count};
+    plod__corner_emission emission = {&params, {plod__corner_sector, &src, count},
+                                      plod_planet_surface_source(&planet)};
     result = instances
                  ? plod__instances_build(&params, count, plod__corner_instances, &emission)
                  : plod__mesh_build(&params, count, plod__corner_emit, &emission);

@@ -18,11 +18,6 @@
 #include <stdio.h>
 #include <string.h>
 
-/* Supplied by py_cubemap.c; weak so this stage builds and
- * tests before those land (missing ones raise NotImplementedError). */
-#pragma weak plod_py_cubemap_get
-#pragma weak plod_py_cubemap_from_image
-
 /* ---- Camera ---------------------------------------------------------------- */
 
 typedef struct {
@@ -434,10 +429,6 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
     } else if (heightmap != Py_None) {
         if (PyUnicode_Check(heightmap) || PyBytes_Check(heightmap) ||
             PyObject_HasAttrString(heightmap, "__fspath__")) {
-            if (!plod_py_cubemap_from_image) {
-                PyErr_SetString(PyExc_NotImplementedError, "cube maps are not built in");
-                return -1;
-            }
             PyObject *path = NULL;
             if (!PyUnicode_FSConverter(heightmap, &path))
                 return -1;
@@ -455,11 +446,6 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
             }
             Py_INCREF(heightmap);
             map = heightmap;
-        }
-        if (!plod_py_cubemap_get) {
-            Py_DECREF(map);
-            PyErr_SetString(PyExc_NotImplementedError, "cube maps are not built in");
-            return -1;
         }
         plod_cubemap *cm = plod_py_cubemap_get(map);
         if (!cm) {

@@ -208,16 +208,20 @@ static int plod__leaf_sector(const void *context, size_t index, plod_mesh_sector
     return 1;
 }
 
-static size_t plod__leaf_source_init(const plod_session *session, int visible_only,
-                                     plod__leaf_source *src)
+/* The sector source over `leaves` (which it points into). */
+static plod_mesh_sector_source plod__leaf_source_init(const plod_session *session,
+                                                      int visible_only,
+                                                      plod__leaf_source *leaves)
 {
     size_t count, visible;
-    src->planet = &session->planet;
-    src->sectors = plod_refiner_sectors(session->refiner, &count);
-    src->order = plod_refiner_visible(session->refiner, &visible);
+    leaves->planet = &session->planet;
+    leaves->sectors = plod_refiner_sectors(session->refiner, &count);
+    leaves->order = plod_refiner_visible(session->refiner, &visible);
     if (!visible_only)
-        src->order = NULL;
-    return visible_only ? visible : count;
+        leaves->order = NULL;
+    plod_mesh_sector_source source = {plod__leaf_sector, leaves,
+                                      visible_only ? visible : count};
+    return source;
 }
 
 void plod_session_mesh_params(const plod_session *session, int template_level, int morph,
@@ -227,7 +231,8 @@ void plod_session_mesh_params(const plod_session *session, int template_level, i
     params->threads = threads;
     if (session->has_camera) {
         const plod_camera *camera = &session->camera;
-        plod_mesh_origin(&session->planet, camera->position, params->origin);
+        plod_surface_source surface = plod_planet_surface_source(&session->planet);
+        plod_mesh_origin(&surface, session->planet.radius, camera->position, params->origin);
         for (int c = 0; c < 3; c++)
             params->eye[c] = camera->position[c];
         if (morph)
@@ -238,8 +243,8 @@ void plod_session_mesh_params(const plod_session *session, int template_level, i
 
 size_t plod_session_sector_count(const plod_session *session, int visible_only)
 {
-    plod__leaf_source src;
-    return plod__leaf_source_init(session, visible_only, &src);
+    plod__leaf_source leaves;
+    return plod__leaf_source_init(session, visible_only, &leaves).count;
 }
 
 plod_status plod_session_emit(plod_session *session, const plod_mesh_params *params,
@@ -259,10 +264,10 @@ plod_status plod_session_emit(plod_session *session, const plod_mesh_params *par
             return PLOD_ERR_NO_MEMORY;
         mp.cache = session->mesh_cache;
     }
-    plod__leaf_source src;
-    size_t count = plod__leaf_source_init(session, visible_only, &src);
-    return plod_mesh_emit(&mp, plod__leaf_sector, &src, count, out, vertex_count,
-                          triangle_count);
+    plod__leaf_source leaves;
+    plod_mesh_sector_source sectors = plod__leaf_source_init(session, visible_only, &leaves);
+    plod_surface_source surface = plod_planet_surface_source(&session->planet);
+    return plod_mesh_emit(&mp, &sectors, &surface, out, vertex_count, triangle_count);
 }
 
 plod_status plod_session_instances(plod_session *session, const plod_mesh_params *params,
@@ -274,9 +279,10 @@ plod_status plod_session_instances(plod_session *session, const plod_mesh_params
     plod_mesh_params mp = *params;
     mp.planet = &session->planet;
     mp.cache = NULL;
-    plod__leaf_source src;
-    size_t count = plod__leaf_source_init(session, 1, &src);
-    return plod_mesh_instances(&mp, plod__leaf_sector, &src, count, corners, levels, morph,
+    plod__leaf_source leaves;
+    plod_mesh_sector_source sectors = plod__leaf_source_init(session, 1, &leaves);
+    plod_surface_source surface = plod_planet_surface_source(&session->planet);
+    return plod_mesh_instances(&mp, &sectors, &surface, corners, levels, morph,
                                instance_count);
 }
 
