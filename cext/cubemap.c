@@ -27,6 +27,7 @@
 
 #include <assert.h>
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -149,7 +150,7 @@ plod_status plod_cubemap_create(plod_cubemap **out, plod_projection projection, 
     *out = NULL;
     if ((unsigned)projection >= PLOD_PROJ_COUNT)
         return PLOD_ERR_BAD_PROJECTION;
-    if (size < 1 || size > 32768 || channels < 1 || channels > 4 ||
+    if (size < 1 || size > PLOD_CUBEMAP_MAX_SIZE || channels < 1 || channels > 4 ||
         (unsigned)type >= PLOD_TEXEL_TYPE_COUNT)
         return PLOD_ERR_BAD_PARAM;
     plod_cubemap *m = calloc(1, sizeof *m);
@@ -929,4 +930,38 @@ void plod_cubemap_global_range(const plod_cubemap *m, double *min_value, double 
     double scale = plod__scale(m->type);
     *min_value = lo * scale;
     *max_value = hi * scale;
+}
+
+/* ---- image layouts ---------------------------------------------------------- */
+
+int plod_cubemap_is_cross_layout(int width, int height)
+{
+    return width % 4 == 0 && width / 4 * 3 == height;
+}
+
+int plod_cubemap_is_equirectangular(int width, int height)
+{
+    return width == 2 * height;
+}
+
+int plod_cubemap_size_for_width(int width)
+{
+    int size = width / 4 > 0 ? width / 4 : 1;
+    return size > PLOD_CUBEMAP_MAX_IMAGE_SIZE ? PLOD_CUBEMAP_MAX_IMAGE_SIZE : size;
+}
+
+int plod_cubemap_face_path(char *out, size_t size, const char *path, int face)
+{
+    const char *mark = strstr(path, "{face}");
+    int n;
+    if (mark) {
+        n = snprintf(out, size, "%.*s%d%s", (int)(mark - path), path, face, mark + 6);
+    } else {
+        const char *slash = strrchr(path, '/');
+        const char *dot = strrchr(path, '.');
+        if (!dot || (slash && dot < slash))
+            dot = path + strlen(path);
+        n = snprintf(out, size, "%.*s_face%d%s", (int)(dot - path), path, face, dot);
+    }
+    return n > 0 && (size_t)n < size ? 0 : -1;
 }

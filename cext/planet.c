@@ -11,6 +11,7 @@
 #include "plod_detail.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 plod_status plod_planet_check(const plod_planet *planet)
@@ -649,4 +650,30 @@ plod_surface_source plod_planet_surface_source(const plod_planet *planet)
         planet && planet->detail ? &plod__detail_surface_ops : &plod__planet_surface_ops,
         planet};
     return source;
+}
+
+/* ---- checks with messages ------------------------------------------------------ */
+
+plod_status plod_planet_check_numbers(const plod_planet *planet, char *message,
+                                      size_t message_size)
+{
+    const char *rule = NULL;
+    if (!planet)
+        return PLOD_ERR_NULL;
+    if (!isfinite(planet->height_offset))
+        rule = "height_offset must be finite";
+    else if (!isfinite(planet->radius) || planet->radius < 1.0 || planet->radius > 1e8)
+        rule = "radius must be finite, in [1, 1e8] metres";
+    if (message && message_size)
+        snprintf(message, message_size, "%s", rule ? rule : "");
+    return rule ? PLOD_ERR_BAD_PARAM : PLOD_OK;
+}
+
+size_t plod_planet_nan_count(const plod_planet *planet)
+{
+    if (planet->heightmap)
+        return plod_cubemap_nan_count(planet->heightmap);
+    if (planet->source && planet->source->ops && planet->source->ops->nan_count)
+        return planet->source->ops->nan_count(planet->source->self);
+    return 0;
 }

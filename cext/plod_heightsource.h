@@ -38,6 +38,8 @@ typedef struct plod_height_source_ops {
     /* Angular size of a texel at a unit direction (radians): the data's
      * local resolution (detail below it, normals from differences). */
     double (*texel_angle)(const void *self, const double dir[3]);
+    /* No-data (NaN) values in the data; may be NULL (none known). */
+    size_t (*nan_count)(const void *self);
 } plod_height_source_ops;
 
 typedef struct plod_height_source {

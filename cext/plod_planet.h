@@ -60,6 +60,16 @@ int plod_planet_insets_range_cap(const plod_planet *planet, const double axis[3]
 
 /* Validates fields (finite, radius range, pyramid built).  */
 plod_status plod_planet_check(const plod_planet *planet);
+/* The planet's own numbers, checkable before any height data is read:
+ * height_offset finite, radius finite in [1, 1e8] metres.
+ * PLOD_ERR_BAD_PARAM with `message` (may be NULL) naming the rule. */
+plod_status plod_planet_check_numbers(const plod_planet *planet, char *message,
+                                      size_t message_size);
+/* No-data (NaN) texels in the planet's height data: the height map's, or
+ * the height source's when it counts them; 0 without data.  A planet with
+ * any is refused (plod_planet_check, plod_session_create): NaN heights
+ * would reach the emitted vertices. */
+size_t plod_planet_nan_count(const plod_planet *planet);
 /* The normal map of planet's height map (plod_cubemap_build_normals with
  * its radius and height_scale), for planet->normalmap; caller owns *out. */
 plod_status plod_planet_build_normals(const plod_planet *planet, plod_cubemap **out);

@@ -50,8 +50,9 @@ typedef struct plod_session plod_session; /* opaque */
 /* Checks the planet (plod_planet_check), builds the detail field when
  * `detail` is not NULL, and the refiner at the base sectors.  On failure
  * *out is NULL and `message` (may be NULL) says which part was refused:
- * PLOD_ERR_BAD_PARAM for bad detail parameters or a bad planet,
- * PLOD_ERR_NO_MEMORY.  The mesh cache budget starts at
+ * PLOD_ERR_BAD_IMAGE for height data with NaN texels
+ * (plod_planet_nan_count), PLOD_ERR_BAD_PARAM for bad detail parameters or
+ * a bad planet, PLOD_ERR_NO_MEMORY.  The mesh cache budget starts at
  * PLOD_MESH_CACHE_DEFAULT_BYTES. */
 plod_status plod_session_create(plod_session **out, const plod_planet *planet,
                                 const plod_detail_params *detail, char *message,

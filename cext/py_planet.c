@@ -372,12 +372,16 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
     plod_py_read_options read_options;
     if (plod_py_read_options_arg(raw, is_signed, &read_options, "Planet") < 0)
         return -1;
-    if (!isfinite(offset)) {
-        plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "Planet", "height_offset must be finite");
-        return -1;
-    }
     plod_planet planet;
     memset(&planet, 0, sizeof planet);
+    planet.radius = radius;
+    planet.height_scale = scale;
+    planet.height_offset = offset;
+    char message[256];
+    if (plod_planet_check_numbers(&planet, message, sizeof message) != PLOD_OK) {
+        plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "Planet", message);
+        return -1;
+    }
     plod_insets_destroy(self->insets);
     self->insets = NULL;
     if (plod_py_insets_arg(insets, feather, &self->insets) < 0)
@@ -386,14 +390,6 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
     planet.projection = PLOD_PROJ_QSC;
     if (proj && proj != Py_None && plod_py_projection_arg(proj, &planet.projection) < 0)
         return -1;
-    if (!isfinite(radius) || radius < 1.0 || radius > 1e8) {
-        plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "Planet",
-                             "radius must be finite, in [1, 1e8] metres");
-        return -1;
-    }
-    planet.radius = radius;
-    planet.height_scale = scale;
-    planet.height_offset = offset;
     if (sea != Py_None) {
         double s = PyFloat_AsDouble(sea);
         if (s == -1.0 && PyErr_Occurred())
@@ -401,8 +397,9 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
         planet.has_sea_level = 1;
         planet.sea_level = s;
     }
-    if (size < 0 || size > 32768) {
-        plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "Planet", "heightmap_size in [0, 32768]");
+    if (size < 0 || size > PLOD_CUBEMAP_MAX_SIZE) {
+        snprintf(message, sizeof message, "heightmap_size in [0, %d]", PLOD_CUBEMAP_MAX_SIZE);
+        plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "Planet", message);
         return -1;
     }
     PyObject *map = NULL;
@@ -412,14 +409,6 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
             plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "Planet",
                                  "height_signed and heightmap_raw apply to a height map read "
                                  "from a file; give them to TiledMap");
-            return -1;
-        }
-        if (plod_tiles_nan_count(tiles) != 0) {
-            char detail[160];
-            snprintf(detail, sizeof detail, "height map has %zu NaN samples (no-data "
-                     "texels); fill them before using it as a height map",
-                     plod_tiles_nan_count(tiles));
-            plod_py_raise_detail(PLOD_ERR_BAD_IMAGE, "Planet", detail);
             return -1;
         }
         self->source = plod_tiles_source(tiles);
@@ -463,19 +452,9 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
             PyErr_NoMemory();
             return -1;
         }
-        size_t nan_texels = plod_cubemap_nan_count(cm);
-        if (nan_texels != 0) {
-            Py_DECREF(map);
-            char detail[160];
-            snprintf(detail, sizeof detail, "height map has %zu NaN samples (no-data "
-                     "texels); fill them before using it as a height map", nan_texels);
-            plod_py_raise_detail(PLOD_ERR_BAD_IMAGE, "Planet", detail);
-            return -1;
-        }
         planet.heightmap = cm;
     }
     self->heightmap = map;
-    char message[256];
     plod_session *session = NULL;
     plod_status st;
     Py_BEGIN_ALLOW_THREADS

@@ -59,6 +59,16 @@ plod_status plod_session_create(plod_session **out, const plod_planet *planet,
     }
     s->planet = *planet;
     plod_status st = PLOD_OK;
+    size_t nan_texels = plod_planet_nan_count(&s->planet);
+    if (nan_texels != 0) {
+        if (message && message_size)
+            snprintf(message, message_size,
+                     "height map has %zu NaN samples (no-data texels); fill them before "
+                     "using it as a height map",
+                     nan_texels);
+        plod_session_destroy(s);
+        return PLOD_ERR_BAD_IMAGE;
+    }
     if (detail) {
         st = plod_planet_check(&s->planet);
         if (st == PLOD_OK)
