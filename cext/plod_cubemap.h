@@ -1,5 +1,6 @@
 /* plod_cubemap.h -- in-memory cube maps in a cube projection, seamless
- * bilinear sampling by direction, and a min/max pyramid for culling.
+ * bilinear sampling by direction, a min/max pyramid for culling, normal
+ * maps of height maps, and the rules by which images become cube maps.
  *
  * Layout: 6 faces (FITS numbering, see plod_projection.h), each size x size
  * texels, row-major, rows along +v, columns along +u, texel (i, j) centred at

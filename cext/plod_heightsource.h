@@ -1,8 +1,9 @@
 /* plod_heightsource.h -- height data the planet samples without holding it
  * in a cube map: a small interface (sample at a direction, conservative
- * bounds over a spherical cap, texel size) and its out-of-core
- * implementation, a tiled equirectangular map read through a bounded
- * cache (plod_tiles).
+ * bounds over a spherical cap, texel size, no-data count) and its
+ * out-of-core implementation, a tiled equirectangular map read through a
+ * bounded cache (plod_tiles); the surface interface the mesh emitter
+ * samples (finished heights, normals, detail); regional insets.
  *
  * A tile file is written once from an equirectangular map (RAW/R16/HGT
  * grid or any image OpenImageIO reads scanline by scanline): a header, the

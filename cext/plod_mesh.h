@@ -74,14 +74,18 @@ typedef struct plod_mesh_sector_source {
  * frames only by the origin they are written relative to.  A cache keeps, per
  * sector key, the planet-space positions (double), normals, uv and detail of the
  * sectors emitted by the last plod_mesh_emit that used it; a sector found
- * there is copied (positions re-offset in double, then cast) instead of
- * recomputed, so the output is bit-identical to an uncached emission.
+ * there is copied (positions re-offset in double, then cast; with a detail
+ * field, corner normals whose band depends on the origin sampled again)
+ * instead of recomputed, so the output is bit-identical to an uncached
+ * emission.
  * Entries not used by an emission are freed at its end: the cache holds one
  * frame's sectors, at most max_bytes (48 bytes per vertex and 12 per
- * sector; sectors that do not fit are emitted uncached).  One cache serves one planet and template
- * level: emitting another planet (pointer, radius, height scale, maps) or
- * level through it empties it first.  Not thread-safe: one emission at a
- * time per cache (the emission's own threads are handled inside). */
+ * sector; sectors that do not fit are emitted uncached).  One cache serves
+ * one planet, surface source and template level: emitting another planet
+ * (pointer, radius, height scale and offset, maps, source, insets, detail),
+ * another surface source (ops, self, stamp) or level through it empties it
+ * first.  Not thread-safe: one emission at a time per cache (the emission's
+ * own threads are handled inside). */
 typedef struct plod_mesh_cache plod_mesh_cache; /* opaque */
 
 typedef struct plod_mesh_cache_stats {
@@ -158,8 +162,10 @@ double plod_mesh_morph_factor(const plod_mesh_params *params,
 /* ---- emission ------------------------------------------------------------ */
 /* Output buffers, caller-owned; any may be NULL (not written).  Sizes for S
  * emitted sectors (V = plod_mesh_vertex_bound, T = plod_mesh_triangle_bound):
- * positions 3V floats (relative to params.origin), normals 3V (unit, from
- * central differences of the height field at each vertex's direction), uv
+ * positions 3V floats (relative to params.origin), normals 3V (unit, the
+ * surface source's at each vertex's direction: for the planet, sampled from
+ * its normal map when it has one, else from height differences; see
+ * plod_planet_surface), uv
  * 2V (equirectangular: u = lon/2pi + 0.5, v = lat/pi + 0.5, lon unwrapped to
  * within pi of the sector centroid's; vertices at a pole take the centroid's
  * longitude), morph V (applied factor, 0 for even vertices), triangles 3T
@@ -188,7 +194,10 @@ size_t plod_mesh_count_sectors(const plod_mesh_sector_source *sectors);
 /* Emits every sector `sectors` accepts, in index order, with heights,
  * normals and detail sampled from `surface`, splitting the index
  * range into contiguous chunks over params->threads threads (each writes its
- * own slice; no allocation).  Buffers must hold the bounds for the emitted
+ * own slice).  Allocation: none but the threads without a cache; with
+ * params->cache, a slot per emitted sector, the new entries and the
+ * cache's table (a failed allocation emits uncached or empties the cache,
+ * never fails the emission).  Buffers must hold the bounds for the emitted
  * sector count.  Returns PLOD_ERR_NULL, PLOD_ERR_BAD_PARAM (level, threads,
  * morph parameters, too many vertices), PLOD_ERR_BAD_COORD (a sector with
  * non-finite or degenerate corners; output then partial).  Counts may be
@@ -206,8 +215,9 @@ plod_status plod_mesh_emit_array(const plod_mesh_params *params,
 
 /* ---- instanced form (GPU path) ---------------------------------------------
  * Per emitted sector: corners 9 floats (unit directions), level 1 float,
- * morph 1 float (the morph factor at the sector's centroid on the surface).
- * Any output may be NULL.  *instance_count gets the number written. */
+ * morph 1 float (the morph factor at the sector's centroid on the surface,
+ * its height from `surface`).  Any output may be NULL; no allocation.
+ * *instance_count gets the number written. */
 plod_status plod_mesh_instances(const plod_mesh_params *params,
                                 const plod_mesh_sector_source *sectors,
                                 const plod_surface_source *surface, float *corners,

@@ -18,7 +18,10 @@ typedef struct plod_planet {
     plod_projection projection; /* mapping used for sectors */
     const plod_cubemap *heightmap; /* borrowed; NULL = perfect sphere.  Its
                                       projection equals `projection` (CAR:
-                                      an equirectangular map). */
+                                      an equirectangular map) and its
+                                      pyramid is built
+                                      (plod_cubemap_build_pyramid; bounds
+                                      and NaN count come from it). */
     double height_scale;        /* metres per unit of sampled height */
     double height_offset;       /* metres added to every height (a datum:
                                    terrain below the radius, sea floor);
@@ -58,7 +61,12 @@ double plod_planet_texel_size(const plod_planet *planet, const double dir[3]);
 int plod_planet_insets_range_cap(const plod_planet *planet, const double axis[3],
                                  double angle, double *min_m, double *max_m);
 
-/* Validates fields (finite, radius range, pyramid built).  */
+/* Validates fields: finite numbers, radius range, projection
+ * (PLOD_ERR_BAD_PROJECTION, also for a height map in another one), no NaN
+ * texels in the height map (PLOD_ERR_BAD_IMAGE), height ranges that keep
+ * the terrain outside the centre, a complete height source, a normal map
+ * and detail field made for this planet.  PLOD_ERR_BAD_PARAM otherwise.
+ * The height map's pyramid is not checked (see `heightmap`). */
 plod_status plod_planet_check(const plod_planet *planet);
 /* The planet's own numbers, checkable before any height data is read:
  * height_offset finite, radius finite in [1, 1e8] metres.
@@ -79,10 +87,12 @@ double plod_planet_height(const plod_planet *planet, const double dir[3]);
 /* The height map's part alone (0 without a map). */
 double plod_planet_map_height(const plod_planet *planet, const double dir[3]);
 /* Height as plod_planet_height (bit for bit) and, if `normal` is not NULL,
- * the unit outward surface normal at a unit direction: sampled from
- * normalmap at the same map location (one projection for both); without a
- * normal map, from central differences of four more heights (4x slower);
- * without a height map, the direction. */
+ * the unit outward surface normal at a unit direction: with a height map,
+ * sampled from normalmap at the same map location (one projection for
+ * both), or without a normal map from central differences of four more
+ * heights (4x slower); with a height source, and inside insets, from
+ * differences; without data, the direction; tilted by the detail field's
+ * analytic slope when there is one. */
 double plod_planet_surface(const plod_planet *planet, const double dir[3],
                            double normal[3]);
 /* plod_planet_surface at n unit directions (dirs: 3 n doubles), bit for
