@@ -64,7 +64,7 @@ def bytes_per_vertex(mesh):
 
 def c_emission(topo):
     """Builds bench_mesh_c.c against the core (setup.py's flags) and returns
-    its table: plod_mesh_emit into buffers allocated once and reused."""
+    its table: plod_session_emit into buffers allocated once and reused."""
     cc, cxx = shutil.which("gcc") or shutil.which("cc"), shutil.which("g++") or shutil.which("c++")
     if not cc or not cxx:
         return "(no C/C++ compiler: C-level table skipped)"
@@ -161,7 +161,7 @@ def main():
     if len(planets) > 1:
         flyby(planets[1][1], args.frames)
     if args.c:
-        print("\nC level (plod_mesh_emit, buffers allocated once and reused, best of 5):")
+        print("\nC level (plod_session_emit, buffers allocated once and reused, best of 5):")
         print(c_emission(None if args.no_map or not os.path.exists(topo) else topo))
 
 

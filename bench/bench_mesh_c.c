@@ -4,8 +4,8 @@
  * and run by `bench_mesh.py --c`.  Scene as bench_mesh.py: an
  * Earth-radius planet, perfect sphere and the Earth topology map as a 1024^2
  * QSC cube map with its normal map, camera 10 km up, refined without
- * culling; then plod_mesh_emit of every sector with every output, at
- * template levels 4..7 on 1 and 2 threads, best of 5 (wall clock).
+ * culling; then the session's emission of every sector with every output,
+ * at template levels 4..7 on 1 and 2 threads, best of 5 (wall clock).
  *     bench_mesh_c [earth-topology.png]
  */
 #include "plod.h"
@@ -22,27 +22,6 @@ static double bench__now(void)
     struct timespec t;
     clock_gettime(CLOCK_MONOTONIC, &t);
     return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
-}
-
-typedef struct bench_source {
-    const plod_planet *planet;
-    const plod_sector *sectors;
-    int visible_only;
-} bench_source;
-
-static int bench__sector(const void *context, size_t index, plod_mesh_sector *out)
-{
-    const bench_source *src = context;
-    const plod_sector *s = &src->sectors[index];
-    if (src->visible_only && !(s->flags & PLOD_SECTOR_VISIBLE))
-        return 0;
-    if (out) {
-        plod_sector_corners(src->planet, s, out->corners);
-        out->level = s->level;
-        out->face = s->face;
-        out->key = s->id;
-    }
-    return 1;
 }
 
 /* Blender-style camera matrix looking from eye at target, +Z up. */
@@ -77,19 +56,17 @@ static void bench__look_at(const double eye[3], const double target[3], double m
 
 static int bench__run(const char *name, const plod_planet *planet, const plod_camera *camera)
 {
-    plod_refiner *refiner = NULL;
+    plod_session *session = NULL;
     plod_refine_params rp;
     plod_refine_params_default(&rp);
     rp.backface_culling = 0;
     rp.frustum_culling = 0;
-    if (plod_refiner_create(&refiner, planet) != PLOD_OK ||
-        plod_refiner_update(refiner, camera, &rp, NULL) != PLOD_OK) {
+    if (plod_session_create(&session, planet, NULL, NULL, 0) != PLOD_OK ||
+        plod_session_refine(session, camera, &rp, NULL) != PLOD_OK) {
         fprintf(stderr, "bench_mesh_c: refine failed\n");
         return 1;
     }
-    size_t count = 0;
-    const plod_sector *sectors = plod_refiner_sectors(refiner, &count);
-    bench_source src = {planet, sectors, 0};
+    size_t count = plod_session_sector_count(session, 0);
     for (int level = 4; level <= 7; level++) {
         size_t vb = plod_mesh_vertex_bound(count, level), tb = plod_mesh_triangle_bound(count, level);
         plod_mesh_buffers out = {
@@ -105,15 +82,12 @@ static int bench__run(const char *name, const plod_planet *planet, const plod_ca
         }
         for (int threads = 1; threads <= 2; threads++) {
             plod_mesh_params mp;
-            plod_mesh_params_init(&mp, planet, level);
-            mp.threads = threads;
-            plod_mesh_origin(planet, camera->position, mp.origin);
+            plod_session_mesh_params(session, level, 0, threads, &mp);
             double best = INFINITY;
             size_t vertices = 0;
             for (int run = 0; run < 6; run++) { /* the first run warms the buffers */
                 double t0 = bench__now();
-                if (plod_mesh_emit(&mp, bench__sector, &src, count, &out, &vertices, NULL) !=
-                    PLOD_OK) {
+                if (plod_session_emit(session, &mp, 0, 0, &out, &vertices, NULL) != PLOD_OK) {
                     fprintf(stderr, "bench_mesh_c: emission failed\n");
                     return 1;
                 }
@@ -127,7 +101,7 @@ static int bench__run(const char *name, const plod_planet *planet, const plod_ca
         free(out.positions), free(out.normals), free(out.uv), free(out.morph);
         free(out.triangles), free(out.sector_level), free(out.face);
     }
-    plod_refiner_destroy(refiner);
+    plod_session_destroy(session);
     return 0;
 }
 
@@ -140,11 +114,6 @@ static int bench__flyby(const char *name, const plod_planet *planet, double terr
 {
     const double pi = 3.14159265358979323846, radius = planet->radius;
     const int frames = 240;
-    plod_refiner *refiner = NULL;
-    plod_mesh_cache *cache = NULL;
-    if (plod_refiner_create(&refiner, planet) != PLOD_OK ||
-        plod_mesh_cache_create(&cache, PLOD_MESH_CACHE_DEFAULT_BYTES) != PLOD_OK)
-        return 1;
     plod_refine_params rp;
     plod_refine_params_default(&rp);
     rp.max_level = 24;
@@ -153,8 +122,9 @@ static int bench__flyby(const char *name, const plod_planet *planet, double terr
     for (int threads = 1; threads <= 2; threads++) {
         double t_cached = 0.0, t_plain = 0.0;
         size_t vertices_total = 0, hits = 0, misses = 0;
-        plod_refiner_reset(refiner);
-        plod_mesh_cache_clear(cache);
+        plod_session *session = NULL; /* fresh: base sectors, empty cache */
+        if (plod_session_create(&session, planet, NULL, NULL, 0) != PLOD_OK)
+            return 1;
         for (int k = 0; k < frames; k++) {
             double t = (double)k / (frames - 1);
             double alt = exp(log(2e7) * (1 - t) + log(2.0) * t);
@@ -176,12 +146,9 @@ static int bench__flyby(const char *name, const plod_planet *planet, double terr
             desc.clip_end = 1e9;
             plod_camera camera;
             if (plod_camera_init(&camera, &desc) != PLOD_OK ||
-                plod_refiner_update(refiner, &camera, &rp, NULL) != PLOD_OK)
+                plod_session_refine(session, &camera, &rp, NULL) != PLOD_OK)
                 return 1;
-            size_t count = 0;
-            const plod_sector *sectors = plod_refiner_sectors(refiner, &count);
-            bench_source src = {planet, sectors, 1};
-            size_t emitted = plod_mesh_count_sectors(bench__sector, &src, count);
+            size_t emitted = plod_session_sector_count(session, 1);
             if (emitted > capacity) {
                 capacity = emitted + emitted / 2;
                 size_t vb = plod_mesh_vertex_bound(capacity, rp.template_level);
@@ -198,38 +165,34 @@ static int bench__flyby(const char *name, const plod_planet *planet, double terr
                     return 1;
                 /* touch every page once, as a reused buffer would be */
                 plod_mesh_params warm;
-                plod_mesh_params_init(&warm, planet, rp.template_level);
-                plod_mesh_emit(&warm, bench__sector, &src, count, &out, NULL, NULL);
+                plod_session_mesh_params(session, rp.template_level, 0, 1, &warm);
+                plod_session_emit(session, &warm, 1, 0, &out, NULL, NULL);
             }
             plod_mesh_params mp;
-            plod_mesh_params_init(&mp, planet, rp.template_level);
-            mp.threads = threads;
-            plod_mesh_origin(planet, camera.position, mp.origin);
+            plod_session_mesh_params(session, rp.template_level, 0, threads, &mp);
             size_t vertices = 0;
             double t0 = bench__now();
-            if (plod_mesh_emit(&mp, bench__sector, &src, count, &out, &vertices, NULL) != PLOD_OK)
+            if (plod_session_emit(session, &mp, 1, 0, &out, &vertices, NULL) != PLOD_OK)
                 return 1;
             double t1 = bench__now();
-            mp.cache = cache;
-            if (plod_mesh_emit(&mp, bench__sector, &src, count, &out, NULL, NULL) != PLOD_OK)
+            if (plod_session_emit(session, &mp, 1, 1, &out, NULL, NULL) != PLOD_OK)
                 return 1;
             double t2 = bench__now();
             plod_mesh_cache_stats cs;
-            plod_mesh_cache_get_stats(cache, &cs);
+            plod_session_cache_stats(session, &cs);
             hits += cs.hits;
             misses += cs.misses;
             t_plain += t1 - t0;
             t_cached += t2 - t1;
             vertices_total += vertices;
         }
+        plod_session_destroy(session);
         printf("%15s %4d %10zu %10.1f %10.1f %7.2fx %8.1f%%\n", name, threads, vertices_total,
                vertices_total / t_plain / 1e6, vertices_total / t_cached / 1e6,
                t_plain / t_cached, 100.0 * (double)hits / (double)(hits + misses));
     }
     free(out.positions), free(out.normals), free(out.uv), free(out.morph);
     free(out.triangles), free(out.sector_level), free(out.face);
-    plod_mesh_cache_destroy(cache);
-    plod_refiner_destroy(refiner);
     return 0;
 }
 

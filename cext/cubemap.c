@@ -27,6 +27,7 @@
 
 #include <assert.h>
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -902,4 +903,38 @@ void plod_cubemap_global_range(const plod_cubemap *m, double *min_value, double 
     double scale = plod__scale(m->type);
     *min_value = lo * scale;
     *max_value = hi * scale;
+}
+
+/* ---- image layouts ---------------------------------------------------------- */
+
+int plod_cubemap_is_cross_layout(int width, int height)
+{
+    return width % 4 == 0 && width / 4 * 3 == height;
+}
+
+int plod_cubemap_is_equirectangular(int width, int height)
+{
+    return width == 2 * height;
+}
+
+int plod_cubemap_size_for_width(int width)
+{
+    int size = width / 4 > 0 ? width / 4 : 1;
+    return size > PLOD_CUBEMAP_MAX_MAP_SIZE ? PLOD_CUBEMAP_MAX_MAP_SIZE : size;
+}
+
+int plod_cubemap_face_path(char *out, size_t size, const char *path, int face)
+{
+    const char *mark = strstr(path, "{face}");
+    int n;
+    if (mark) {
+        n = snprintf(out, size, "%.*s%d%s", (int)(mark - path), path, face, mark + 6);
+    } else {
+        const char *slash = strrchr(path, '/');
+        const char *dot = strrchr(path, '.');
+        if (!dot || (slash && dot < slash))
+            dot = path + strlen(path);
+        n = snprintf(out, size, "%.*s_face%d%s", (int)(dot - path), path, face, dot);
+    }
+    return n > 0 && (size_t)n < size ? 0 : -1;
 }

@@ -945,11 +945,17 @@ static double plod__tiles_source_texel(const void *self, const double dir[3])
     return PLOD_PI / t->height; /* along a meridian; narrower east-west near the poles */
 }
 
+static size_t plod__tiles_source_nan_count(const void *self)
+{
+    return plod_tiles_nan_count(self);
+}
+
 static const plod_height_source_ops plod__tiles_ops = {
     plod__tiles_source_sample,
     plod__tiles_source_range_cap,
     plod__tiles_source_global,
     plod__tiles_source_texel,
+    plod__tiles_source_nan_count,
 };
 
 plod_height_source plod_tiles_source(const plod_tiles *tiles)

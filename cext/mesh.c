@@ -7,7 +7,7 @@
  *   A vertex on a shared edge has two non-zero terms, the same two products
  *   from either sector, and IEEE addition is commutative: identical sums.
  *   Everything after (height, normal, uv latitude, position, morph) is a
- *   function of that direction, the planet and the parameters only.
+ *   function of that direction, the surface source and the parameters only.
  * Geomorph rule: n is even for level >= 1, so an odd vertex has exactly one
  *   even weight; its morph neighbours keep that weight and move the two odd
  *   ones by -+1 (both even vertices).  On a sector edge the even weight is
@@ -116,25 +116,25 @@ void plod_mesh_params_init(plod_mesh_params *params, const plod_planet *planet,
     params->morph_level_rate = 2.0;
 }
 
-static double plod__height(const plod_planet *planet, const double dir[3])
+/* Height at one direction, every detail octave kept. */
+static double plod__height(const plod_surface_source *surface, const double dir[3])
 {
-    /* Without a map the planet is a perfect sphere: skip the call. */
-    return planet->heightmap || planet->detail || planet->source || planet->insets
-               ? plod_planet_height(planet, dir)
-               : 0.0;
+    double height;
+    surface->ops->sample_n(surface->self, 1, dir, NULL, NULL, &height, NULL, NULL);
+    return height;
 }
 
-void plod_mesh_origin(const plod_planet *planet, const double eye[3],
-                      double origin[3])
+void plod_mesh_origin(const plod_surface_source *surface, double radius,
+                      const double eye[3], double origin[3])
 {
     origin[0] = origin[1] = origin[2] = 0.0;
-    if (!planet || !eye)
+    if (!surface || !eye)
         return;
     double len = sqrt(eye[0] * eye[0] + eye[1] * eye[1] + eye[2] * eye[2]);
     if (!(len > 0.0) || !isfinite(len))
         return;
     double dir[3] = {eye[0] / len, eye[1] / len, eye[2] / len};
-    double r = planet->radius + plod__height(planet, dir);
+    double r = radius + plod__height(surface, dir);
     for (int c = 0; c < 3; c++)
         origin[c] = dir[c] * r;
 }
@@ -257,14 +257,13 @@ size_t plod_mesh_triangle_bound(size_t sector_count, int template_level)
     return sector_count * per;
 }
 
-size_t plod_mesh_count_sectors(plod_mesh_sector_fn source, const void *context,
-                               size_t count)
+size_t plod_mesh_count_sectors(const plod_mesh_sector_source *sectors)
 {
     size_t emitted = 0;
-    if (!source)
+    if (!sectors || !sectors->sector)
         return 0;
-    for (size_t s = 0; s < count; s++)
-        emitted += source(context, s, NULL) ? 1 : 0;
+    for (size_t s = 0; s < sectors->count; s++)
+        emitted += sectors->sector(sectors->context, s, NULL) ? 1 : 0;
     return emitted;
 }
 
@@ -352,15 +351,20 @@ static void plod__vertex_direction(const double corners[3][3], const int k[3],
 
 typedef struct plod__emitter {
     const plod_mesh_params *params;
+    const plod_surface_source *surface;
+    int banded; /* the surface limits detail per point (octaves_for_cell) */
     const plod_mesh_buffers *out;
     int n;
     size_t vertices_per_sector, triangles_per_sector;
 } plod__emitter;
 
 static void plod__emitter_init(plod__emitter *e, const plod_mesh_params *params,
+                               const plod_surface_source *surface,
                                const plod_mesh_buffers *out)
 {
     e->params = params;
+    e->surface = surface;
+    e->banded = surface->ops->octaves_for_cell != NULL;
     e->out = out;
     e->n = 1 << params->template_level;
     e->vertices_per_sector = plod_template_vertex_count(params->template_level);
@@ -425,7 +429,8 @@ struct plod_mesh_cache {
     double radius, height_scale, height_offset;
     const void *heightmap, *normalmap, *source, *insets;
     const void *detail;
-    uint64_t detail_stamp;
+    const void *surface_ops, *surface_self;
+    uint64_t surface_stamp;
     int template_level;
     size_t entry_bytes;
     plod__cache_entry *entries;
@@ -560,16 +565,18 @@ void plod_mesh_cache_get_stats(const plod_mesh_cache *cache, plod_mesh_cache_sta
 
 /* Empties the cache unless its entries were computed for these parameters. */
 static void plod__cache_bind(plod_mesh_cache *c, const plod_mesh_params *params,
-                             size_t vertices_per_sector)
+                             const plod_surface_source *surface, size_t vertices_per_sector)
 {
     const plod_planet *p = params->planet;
+    uint64_t stamp = surface->ops->stamp ? surface->ops->stamp(surface->self) : 0;
     if (c->planet != p || c->template_level != params->template_level ||
         c->radius != p->radius || c->height_scale != p->height_scale ||
         c->height_offset != p->height_offset ||
         c->heightmap != (const void *)p->heightmap || c->normalmap != (const void *)p->normalmap ||
         c->source != (const void *)p->source || c->insets != (const void *)p->insets ||
         c->detail != (const void *)p->detail ||
-        (p->detail && c->detail_stamp != plod_detail_stamp(p->detail)))
+        c->surface_ops != (const void *)surface->ops || c->surface_self != surface->self ||
+        c->surface_stamp != stamp)
         plod_mesh_cache_clear(c);
     c->planet = p;
     c->radius = p->radius;
@@ -580,7 +587,9 @@ static void plod__cache_bind(plod_mesh_cache *c, const plod_mesh_params *params,
     c->insets = p->insets;
     c->normalmap = p->normalmap;
     c->detail = p->detail;
-    c->detail_stamp = p->detail ? plod_detail_stamp(p->detail) : 0;
+    c->surface_ops = surface->ops;
+    c->surface_self = surface->self;
+    c->surface_stamp = stamp;
     c->template_level = params->template_level;
     c->entry_bytes = vertices_per_sector * PLOD__VERTEX_CACHE_BYTES + PLOD__SECTOR_CACHE_BYTES;
 }
@@ -616,37 +625,39 @@ static double plod__chord2(const double a[3], const double b[3])
     return d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
 }
 
-static void plod__detail_bands(const plod_planet *planet, const double corners[3][3], int n,
+static void plod__detail_bands(const plod__emitter *e, const double corners[3][3], int n,
                                int band[4])
 {
+    const plod_surface_source *surface = e->surface;
+    double radius = e->params->planet->radius;
     double longest = 0.0;
     for (int k = 0; k < 3; k++) {
         double c2 = plod__chord2(corners[(k + 1) % 3], corners[(k + 2) % 3]);
-        double cell = sqrt(c2) * planet->radius / (double)n;
-        band[k] = plod_detail_octaves_for_cell(planet->detail, cell);
+        double cell = sqrt(c2) * radius / (double)n;
+        band[k] = surface->ops->octaves_for_cell(surface->self, cell);
         longest = c2 > longest ? c2 : longest;
     }
-    band[3] = plod_detail_octaves_for_cell(planet->detail,
-                                           sqrt(longest) * planet->radius / (double)n);
+    band[3] = surface->ops->octaves_for_cell(surface->self, sqrt(longest) * radius / (double)n);
 }
 
-static int plod__corner_band(const plod_mesh_params *params, const double dir[3])
+static int plod__corner_band(const plod__emitter *e, const double dir[3])
 {
-    const plod_planet *planet = params->planet;
+    const plod_mesh_params *params = e->params;
+    double radius = params->planet->radius;
     double d2 = 0.0;
     for (int c = 0; c < 3; c++) {
-        double x = dir[c] * planet->radius - params->origin[c];
+        double x = dir[c] * radius - params->origin[c];
         d2 += x * x;
     }
-    return plod_detail_octaves_for_cell(planet->detail, sqrt(d2) * PLOD__CORNER_CELL);
+    return e->surface->ops->octaves_for_cell(e->surface->self, sqrt(d2) * PLOD__CORNER_CELL);
 }
 
-static int plod__vertex_band(const plod_mesh_params *params, const int k[3], const int band[4],
+static int plod__vertex_band(const plod__emitter *e, const int k[3], const int band[4],
                              const double dir[3], int *normal_band)
 {
     int zeros = (k[0] == 0) + (k[1] == 0) + (k[2] == 0);
     if (zeros == 2) { /* a corner */
-        *normal_band = plod__corner_band(params, dir);
+        *normal_band = plod__corner_band(e, dir);
         return PLOD_DETAIL_MAX_OCTAVES;
     }
     int b = zeros == 1 ? band[k[0] == 0 ? 0 : (k[1] == 0 ? 1 : 2)] : band[3];
@@ -679,8 +690,8 @@ static void plod__compute_vertices(const plod__emitter *e, const plod_mesh_secto
     enum { ROW = (1 << PLOD_MAX_TEMPLATE_LEVEL) + 1 };
     double dirs[3 * ROW], heights[ROW], normals[3 * ROW], detail[ROW];
     int octaves[ROW], normal_octaves[ROW], band[4];
-    if (planet->detail)
-        plod__detail_bands(planet, corners, n, band);
+    if (e->banded)
+        plod__detail_bands(e, corners, n, band);
     if (block)
         for (int c = 0; c < 3; c++)
             block->corner_band[c] = -1;
@@ -691,16 +702,16 @@ static void plod__compute_vertices(const plod__emitter *e, const plod_mesh_secto
         for (int j = 0; j < row; j++) {
             int k[3] = {n - i - j, j, i};
             plod__vertex_direction(corners, k, inv_n, dirs + 3 * j);
-            if (planet->detail) {
-                octaves[j] = plod__vertex_band(params, k, band, dirs + 3 * j, normal_octaves + j);
+            if (e->banded) {
+                octaves[j] = plod__vertex_band(e, k, band, dirs + 3 * j, normal_octaves + j);
                 if (block && (k[0] == n || k[1] == n || k[2] == n)) /* a corner */
                     block->corner_band[k[0] == n ? 0 : (k[1] == n ? 1 : 2)] = normal_octaves[j];
             }
         }
-        plod_planet_surface_detail_n(planet, (size_t)row, dirs, planet->detail ? octaves : NULL,
-                                     planet->detail ? normal_octaves : NULL, heights,
-                                     want_normal ? normals : NULL,
-                                     want_detail ? detail : NULL);
+        e->surface->ops->sample_n(e->surface->self, (size_t)row, dirs,
+                                  e->banded ? octaves : NULL,
+                                  e->banded ? normal_octaves : NULL, heights,
+                                  want_normal ? normals : NULL, want_detail ? detail : NULL);
         for (int j = 0; j < row; j++, v++, b++) {
             const double *dir = dirs + 3 * j, *normal = normals + 3 * j;
             double r = planet->radius + heights[j];
@@ -750,7 +761,6 @@ static void plod__compute_vertices(const plod__emitter *e, const plod_mesh_secto
 static void plod__corner_normals(const plod__emitter *e, const plod_mesh_sector *sector,
                                  size_t vbase, const plod__block *block)
 {
-    const plod_mesh_params *params = e->params;
     int n = e->n;
     double inv_n = 1.0 / (double)n;
     const int ks[3][3] = {{n, 0, 0}, {0, n, 0}, {0, 0, n}};
@@ -761,11 +771,11 @@ static void plod__corner_normals(const plod__emitter *e, const plod_mesh_sector 
         int octaves, normal_octaves;
         plod__vertex_direction((const double (*)[3])sector->corners, ks[c], inv_n, dir);
         octaves = PLOD_DETAIL_MAX_OCTAVES;
-        normal_octaves = plod__corner_band(params, dir);
+        normal_octaves = plod__corner_band(e, dir);
         if (normal_octaves == block->corner_band[c])
             continue;
-        plod_planet_surface_band_n(params->planet, 1, dir, &octaves, &normal_octaves, &height,
-                                   normal);
+        e->surface->ops->sample_n(e->surface->self, 1, dir, &octaves, &normal_octaves, &height,
+                                  normal, NULL);
         for (int k = 0; k < 3; k++)
             e->out->normals[3 * (vbase + at[c]) + k] = (float)normal[k];
     }
@@ -810,7 +820,7 @@ static plod_status plod__emit_sector(const plod__emitter *e, const plod_mesh_sec
     if (sc && sc->hit >= 0) {
         plod__block_view(cache->entries[sc->hit].data, e->vertices_per_sector, &block);
         plod__copy_vertices(e, vbase, &block);
-        if (params->planet->detail && out->normals)
+        if (e->banded && out->normals)
             plod__corner_normals(e, sector, vbase, &block);
     } else if (sc && sc->fresh) {
         plod__block_view(sc->fresh, e->vertices_per_sector, &block);
@@ -968,22 +978,26 @@ static void plod__cache_commit(plod_mesh_cache *c, plod__slot_cache *slots, size
 #define PLOD__MIN_SECTORS_PER_THREAD 4
 
 plod_status plod_mesh_emit(const plod_mesh_params *params,
-                           plod_mesh_sector_fn source, const void *context,
-                           size_t count, const plod_mesh_buffers *out,
+                           const plod_mesh_sector_source *sectors,
+                           const plod_surface_source *surface, const plod_mesh_buffers *out,
                            size_t *vertex_count, size_t *triangle_count)
 {
     if (vertex_count)
         *vertex_count = 0;
     if (triangle_count)
         *triangle_count = 0;
-    if (!source || !out)
+    if (!sectors || !sectors->sector || !surface || !surface->ops || !surface->ops->sample_n ||
+        !out)
         return PLOD_ERR_NULL;
     plod_status st = plod__check_params(params);
     if (st != PLOD_OK)
         return st;
+    plod_mesh_sector_fn source = sectors->sector;
+    const void *context = sectors->context;
+    size_t count = sectors->count;
 
     plod__emitter emitter;
-    plod__emitter_init(&emitter, params, out);
+    plod__emitter_init(&emitter, params, surface, out);
 
     int threads = params->threads;
     if ((size_t)threads * PLOD__MIN_SECTORS_PER_THREAD > count)
@@ -1016,7 +1030,7 @@ plod_status plod_mesh_emit(const plod_mesh_params *params,
     plod_mesh_cache *cache = params->cache;
     plod__slot_cache *slots = NULL;
     if (cache) {
-        plod__cache_bind(cache, params, emitter.vertices_per_sector);
+        plod__cache_bind(cache, params, surface, emitter.vertices_per_sector);
         slots = total ? calloc(total, sizeof *slots) : NULL;
         if (total && !slots) {
             plod_mesh_cache_clear(cache); /* emit uncached */
@@ -1064,33 +1078,34 @@ static int plod__array_source(const void *context, size_t index,
 
 plod_status plod_mesh_emit_array(const plod_mesh_params *params,
                                  const plod_mesh_sector *sectors, size_t count,
+                                 const plod_surface_source *surface,
                                  const plod_mesh_buffers *out,
                                  size_t *vertex_count, size_t *triangle_count)
 {
     if (!sectors && count > 0)
         return PLOD_ERR_NULL;
-    return plod_mesh_emit(params, plod__array_source, sectors, count, out,
-                          vertex_count, triangle_count);
+    plod_mesh_sector_source source = {plod__array_source, sectors, count};
+    return plod_mesh_emit(params, &source, surface, out, vertex_count, triangle_count);
 }
 
 /* ---- instanced form ---------------------------------------------------------- */
 
 plod_status plod_mesh_instances(const plod_mesh_params *params,
-                                plod_mesh_sector_fn source, const void *context,
-                                size_t count, float *corners, float *levels,
-                                float *morph, size_t *instance_count)
+                                const plod_mesh_sector_source *sectors,
+                                const plod_surface_source *surface, float *corners,
+                                float *levels, float *morph, size_t *instance_count)
 {
     if (instance_count)
         *instance_count = 0;
-    if (!source)
+    if (!sectors || !sectors->sector || !surface || !surface->ops || !surface->ops->sample_n)
         return PLOD_ERR_NULL;
     plod_status st = plod__check_params(params);
     if (st != PLOD_OK)
         return st;
     size_t slot = 0;
     plod_mesh_sector sector;
-    for (size_t s = 0; s < count; s++) {
-        if (!source(context, s, &sector))
+    for (size_t s = 0; s < sectors->count; s++) {
+        if (!sectors->sector(sectors->context, s, &sector))
             continue;
         if (!plod__sector_ok(&sector))
             return PLOD_ERR_BAD_COORD;
@@ -1104,7 +1119,7 @@ plod_status plod_mesh_instances(const plod_mesh_params *params,
             double centroid[3];
             int k[3] = {1, 1, 1};
             plod__vertex_direction((const double (*)[3])sector.corners, k, 1.0, centroid);
-            double r = params->planet->radius + plod__height(params->planet, centroid);
+            double r = params->planet->radius + plod__height(surface, centroid);
             for (int c = 0; c < 3; c++)
                 centroid[c] *= r;
             morph[slot] = (float)plod_mesh_morph_factor(params, centroid);

@@ -11,6 +11,7 @@
 #include "plod_detail.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 plod_status plod_planet_check(const plod_planet *planet)
@@ -617,4 +618,62 @@ void plod_planet_detail_range_cap(const plod_planet *planet, const double axis[3
     if (planet->heightmap && mod)
         plod__cap_range(mod, axis, angle, &mlo, &mhi, &texels);
     plod__detail_scaled(planet, mlo, mhi, min_m, max_m, modulation);
+}
+
+/* ---- the planet as a surface source --------------------------------------- */
+
+static void plod__surface_sample_n(const void *self, size_t n, const double *dirs,
+                                   const int *octaves, const int *normal_octaves,
+                                   double *heights, double *normals, double *detail)
+{
+    plod_planet_surface_detail_n(self, n, dirs, octaves, normal_octaves, heights, normals,
+                                 detail);
+}
+
+static int plod__surface_octaves_for_cell(const void *self, double cell)
+{
+    return plod_detail_octaves_for_cell(((const plod_planet *)self)->detail, cell);
+}
+
+static uint64_t plod__surface_stamp(const void *self)
+{
+    return plod_detail_stamp(((const plod_planet *)self)->detail);
+}
+
+static const plod_surface_ops plod__planet_surface_ops = {plod__surface_sample_n, NULL, NULL};
+static const plod_surface_ops plod__detail_surface_ops = {
+    plod__surface_sample_n, plod__surface_octaves_for_cell, plod__surface_stamp};
+
+plod_surface_source plod_planet_surface_source(const plod_planet *planet)
+{
+    plod_surface_source source = {
+        planet && planet->detail ? &plod__detail_surface_ops : &plod__planet_surface_ops,
+        planet};
+    return source;
+}
+
+/* ---- checks with messages ------------------------------------------------------ */
+
+plod_status plod_planet_check_numbers(const plod_planet *planet, char *message,
+                                      size_t message_size)
+{
+    const char *rule = NULL;
+    if (!planet)
+        return PLOD_ERR_NULL;
+    if (!isfinite(planet->height_offset))
+        rule = "height_offset must be finite";
+    else if (!isfinite(planet->radius) || planet->radius < 1.0 || planet->radius > 1e8)
+        rule = "radius must be finite, in [1, 1e8] metres";
+    if (message && message_size)
+        snprintf(message, message_size, "%s", rule ? rule : "");
+    return rule ? PLOD_ERR_BAD_PARAM : PLOD_OK;
+}
+
+size_t plod_planet_nan_count(const plod_planet *planet)
+{
+    if (planet->heightmap)
+        return plod_cubemap_nan_count(planet->heightmap);
+    if (planet->source && planet->source->ops && planet->source->ops->nan_count)
+        return planet->source->ops->nan_count(planet->source->self);
+    return 0;
 }

@@ -11,6 +11,7 @@
  *   plod_camera.h      the camera in Blender's conventions
  *   plod_refine.h      HRTMR split/merge refinement
  *   plod_mesh.h        sector templates and buffer emission
+ *   plod_session.h     one planet's per-frame state: refine, then emit
  */
 #ifndef PLOD_H
 #define PLOD_H
@@ -25,4 +26,5 @@
 #include "plod_camera.h"
 #include "plod_refine.h"
 #include "plod_mesh.h"
+#include "plod_session.h"
 #endif

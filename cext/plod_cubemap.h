@@ -1,5 +1,6 @@
 /* plod_cubemap.h -- in-memory cube maps in a cube projection, seamless
- * bilinear sampling by direction, and a min/max pyramid for culling.
+ * bilinear sampling by direction, a min/max pyramid for culling, normal
+ * maps of height maps, and the rules by which images become cube maps.
  *
  * Layout: 6 faces (FITS numbering, see plod_projection.h), each size x size
  * texels, row-major, rows along +v, columns along +u, texel (i, j) centred at
@@ -147,6 +148,28 @@ int plod_cubemap_has_pyramid(const plod_cubemap *cubemap);
  * (0 without a pyramid).  A height map with any is refused by
  * plod_planet_check: NaN heights would reach the emitted vertices. */
 size_t plod_cubemap_nan_count(const plod_cubemap *cubemap);
+
+/* ---- image layouts: how images on disk become cube maps --------------------
+ * An image is either a cube map in the cross layout (4N x 3N, plod_resample.h)
+ * or an equirectangular map (2:1: longitude -180..180 across, latitude
+ * 90..-90 down) resampled into a projection; other shapes are resampled as
+ * equirectangular anyway (callers warn).  Six-face output names a file per
+ * face. */
+
+/* Non-zero when a width x height image is read as a cross-layout cube map
+ * (width divisible by 4 and height = 3/4 width). */
+int plod_cubemap_is_cross_layout(int width, int height);
+/* Non-zero when a width x height image has the equirectangular 2:1 shape. */
+int plod_cubemap_is_equirectangular(int width, int height);
+/* Face size an equirectangular image of `width` texels is resampled to when
+ * the caller names none: as many texels per 90 degrees of longitude as the
+ * image has (width / 4), in 1..PLOD_CUBEMAP_MAX_MAP_SIZE. */
+int plod_cubemap_size_for_width(int width);
+/* The file of face `face` when a cube map is written as six images: "{face}"
+ * in `path` is replaced by the face number, else "_face<N>" goes before the
+ * extension.  Writes at most `size` bytes to `out`; 0, or -1 when they do
+ * not hold the name. */
+int plod_cubemap_face_path(char *out, size_t size, const char *path, int face);
 
 #ifdef __cplusplus
 }

@@ -2,9 +2,12 @@
  * visible sectors as flat float32 / int32 buffers (meshoptimizer-style:
  * caller-owned outputs, Bound() sizes, counts returned).
  *
- * The emission core does not know the refiner: a sector is three unit corner
- * directions (counter-clockwise seen from outside), a level and a face,
- * delivered by a callback.  Each sector becomes one copy of the template:
+ * The emission core knows neither the refiner nor the planet's data: a
+ * sector is three unit corner directions (counter-clockwise seen from
+ * outside), a level and a face, delivered by a sector source; heights,
+ * normals and detail come from a surface source (plod_heightsource.h; the
+ * planet's is plod_planet_surface_source, the refiner's leaves are
+ * delivered by plod_session.h).  Each sector becomes one copy of the template:
  * vertex (i, j) of a template with n = 2^template_level segments per edge has
  * the integer weights (n-i-j, j, i) on corners (0, 1, 2), direction
  * normalise(sum of the non-zero terms w_c * corner_c, in corner order) and
@@ -52,11 +55,18 @@ typedef struct plod_mesh_sector {
                              it to 0 before each source call. */
 } plod_mesh_sector;
 
-/* Sector source: returns 1 if sector `index` (0..count-1) is emitted and then
- * fills *sector unless it is NULL (the counting pass passes NULL), 0 to skip
- * it.  Called concurrently from several threads: must be reentrant. */
+/* Returns 1 if sector `index` (0..count-1) is emitted and then fills
+ * *sector unless it is NULL (the counting pass passes NULL), 0 to skip it.
+ * Called concurrently from several threads: must be reentrant. */
 typedef int (*plod_mesh_sector_fn)(const void *context, size_t index,
                                    plod_mesh_sector *sector);
+
+/* Sector source: `sector` over indices 0..count-1 with its `context`. */
+typedef struct plod_mesh_sector_source {
+    plod_mesh_sector_fn sector;
+    const void *context;
+    size_t count;
+} plod_mesh_sector_source;
 
 /* ---- sector cache ----------------------------------------------------------
  * Sectors persist from frame to frame (a flyby splits or merges a few percent
@@ -64,14 +74,18 @@ typedef int (*plod_mesh_sector_fn)(const void *context, size_t index,
  * frames only by the origin they are written relative to.  A cache keeps, per
  * sector key, the planet-space positions (double), normals, uv and detail of the
  * sectors emitted by the last plod_mesh_emit that used it; a sector found
- * there is copied (positions re-offset in double, then cast) instead of
- * recomputed, so the output is bit-identical to an uncached emission.
+ * there is copied (positions re-offset in double, then cast; with a detail
+ * field, corner normals whose band depends on the origin sampled again)
+ * instead of recomputed, so the output is bit-identical to an uncached
+ * emission.
  * Entries not used by an emission are freed at its end: the cache holds one
  * frame's sectors, at most max_bytes (48 bytes per vertex and 12 per
- * sector; sectors that do not fit are emitted uncached).  One cache serves one planet and template
- * level: emitting another planet (pointer, radius, height scale, maps) or
- * level through it empties it first.  Not thread-safe: one emission at a
- * time per cache (the emission's own threads are handled inside). */
+ * sector; sectors that do not fit are emitted uncached).  One cache serves
+ * one planet, surface source and template level: emitting another planet
+ * (pointer, radius, height scale and offset, maps, source, insets, detail),
+ * another surface source (ops, self, stamp) or level through it empties it
+ * first.  Not thread-safe: one emission at a time per cache (the emission's
+ * own threads are handled inside). */
 typedef struct plod_mesh_cache plod_mesh_cache; /* opaque */
 
 typedef struct plod_mesh_cache_stats {
@@ -94,7 +108,9 @@ void plod_mesh_cache_get_stats(const plod_mesh_cache *cache,
 
 /* ---- parameters ---------------------------------------------------------- */
 typedef struct plod_mesh_params {
-    const plod_planet *planet;  /* borrowed: radius and heights */
+    const plod_planet *planet;  /* borrowed: radius, projection (morph
+                                   scale) and the cache's identity; heights
+                                   come from the emission's surface source */
     int template_level;         /* 0..PLOD_MAX_TEMPLATE_LEVEL */
     double origin[3];           /* positions are written relative to it
                                    (subtracted in double, then cast) */
@@ -121,10 +137,11 @@ typedef struct plod_mesh_params {
  * rate 2, no cache. */
 void plod_mesh_params_init(plod_mesh_params *params, const plod_planet *planet,
                            int template_level);
-/* Surface point nearest the eye: d = eye/|eye|, d * (radius + height(d)).
- * Zero vector when the eye is at the centre or not finite. */
-void plod_mesh_origin(const plod_planet *planet, const double eye[3],
-                      double origin[3]);
+/* Surface point nearest the eye: d = eye/|eye|, d * (radius + height(d)),
+ * the height from `surface` (every detail octave).  Zero vector when the
+ * eye is at the centre or not finite, or surface is NULL. */
+void plod_mesh_origin(const plod_surface_source *surface, double radius,
+                      const double eye[3], double origin[3]);
 /* Sets params->morph_lod_scale and morph_level_rate so that the continuous
  * level tracks the refine criterion's split distance of a level-L sector
  * (side = longest corner chord ~ base chord * 2^(-L/2)).  side_distance: split when side/d >
@@ -145,8 +162,10 @@ double plod_mesh_morph_factor(const plod_mesh_params *params,
 /* ---- emission ------------------------------------------------------------ */
 /* Output buffers, caller-owned; any may be NULL (not written).  Sizes for S
  * emitted sectors (V = plod_mesh_vertex_bound, T = plod_mesh_triangle_bound):
- * positions 3V floats (relative to params.origin), normals 3V (unit, from
- * central differences of the height field at each vertex's direction), uv
+ * positions 3V floats (relative to params.origin), normals 3V (unit, the
+ * surface source's at each vertex's direction: for the planet, sampled from
+ * its normal map when it has one, else from height differences; see
+ * plod_planet_surface), uv
  * 2V (equirectangular: u = lon/2pi + 0.5, v = lat/pi + 0.5, lon unwrapped to
  * within pi of the sector centroid's; vertices at a pole take the centroid's
  * longitude), morph V (applied factor, 0 for even vertices), triangles 3T
@@ -169,35 +188,40 @@ typedef struct plod_mesh_buffers {
  * the count would not fit int32 indices. */
 size_t plod_mesh_vertex_bound(size_t sector_count, int template_level);
 size_t plod_mesh_triangle_bound(size_t sector_count, int template_level);
-/* Number of sectors `source` emits (the counting pass). */
-size_t plod_mesh_count_sectors(plod_mesh_sector_fn source, const void *context,
-                               size_t count);
+/* Number of sectors `sectors` emits (the counting pass); 0 for NULL. */
+size_t plod_mesh_count_sectors(const plod_mesh_sector_source *sectors);
 
-/* Emits every sector `source` accepts, in index order, splitting the index
+/* Emits every sector `sectors` accepts, in index order, with heights,
+ * normals and detail sampled from `surface`, splitting the index
  * range into contiguous chunks over params->threads threads (each writes its
- * own slice; no allocation).  Buffers must hold the bounds for the emitted
+ * own slice).  Allocation: none but the threads without a cache; with
+ * params->cache, a slot per emitted sector, the new entries and the
+ * cache's table (a failed allocation emits uncached or empties the cache,
+ * never fails the emission).  Buffers must hold the bounds for the emitted
  * sector count.  Returns PLOD_ERR_NULL, PLOD_ERR_BAD_PARAM (level, threads,
  * morph parameters, too many vertices), PLOD_ERR_BAD_COORD (a sector with
  * non-finite or degenerate corners; output then partial).  Counts may be
  * NULL. */
 plod_status plod_mesh_emit(const plod_mesh_params *params,
-                           plod_mesh_sector_fn source, const void *context,
-                           size_t count, const plod_mesh_buffers *out,
+                           const plod_mesh_sector_source *sectors,
+                           const plod_surface_source *surface, const plod_mesh_buffers *out,
                            size_t *vertex_count, size_t *triangle_count);
 /* Same over a plain array (every sector emitted). */
 plod_status plod_mesh_emit_array(const plod_mesh_params *params,
                                  const plod_mesh_sector *sectors, size_t count,
+                                 const plod_surface_source *surface,
                                  const plod_mesh_buffers *out,
                                  size_t *vertex_count, size_t *triangle_count);
 
 /* ---- instanced form (GPU path) ---------------------------------------------
  * Per emitted sector: corners 9 floats (unit directions), level 1 float,
- * morph 1 float (the morph factor at the sector's centroid on the surface).
- * Any output may be NULL.  *instance_count gets the number written. */
+ * morph 1 float (the morph factor at the sector's centroid on the surface,
+ * its height from `surface`).  Any output may be NULL; no allocation.
+ * *instance_count gets the number written. */
 plod_status plod_mesh_instances(const plod_mesh_params *params,
-                                plod_mesh_sector_fn source, const void *context,
-                                size_t count, float *corners, float *levels,
-                                float *morph, size_t *instance_count);
+                                const plod_mesh_sector_source *sectors,
+                                const plod_surface_source *surface, float *corners,
+                                float *levels, float *morph, size_t *instance_count);
 
 #ifdef __cplusplus
 }

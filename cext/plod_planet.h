@@ -18,7 +18,10 @@ typedef struct plod_planet {
     plod_projection projection; /* mapping used for sectors */
     const plod_cubemap *heightmap; /* borrowed; NULL = perfect sphere.  Its
                                       projection equals `projection` (CAR:
-                                      an equirectangular map). */
+                                      an equirectangular map) and its
+                                      pyramid is built
+                                      (plod_cubemap_build_pyramid; bounds
+                                      and NaN count come from it). */
     double height_scale;        /* metres per unit of sampled height */
     double height_offset;       /* metres added to every height (a datum:
                                    terrain below the radius, sea floor);
@@ -58,8 +61,23 @@ double plod_planet_texel_size(const plod_planet *planet, const double dir[3]);
 int plod_planet_insets_range_cap(const plod_planet *planet, const double axis[3],
                                  double angle, double *min_m, double *max_m);
 
-/* Validates fields (finite, radius range, pyramid built).  */
+/* Validates fields: finite numbers, radius range, projection
+ * (PLOD_ERR_BAD_PROJECTION, also for a height map in another one), no NaN
+ * texels in the height map (PLOD_ERR_BAD_IMAGE), height ranges that keep
+ * the terrain outside the centre, a complete height source, a normal map
+ * and detail field made for this planet.  PLOD_ERR_BAD_PARAM otherwise.
+ * The height map's pyramid is not checked (see `heightmap`). */
 plod_status plod_planet_check(const plod_planet *planet);
+/* The planet's own numbers, checkable before any height data is read:
+ * height_offset finite, radius finite in [1, 1e8] metres.
+ * PLOD_ERR_BAD_PARAM with `message` (may be NULL) naming the rule. */
+plod_status plod_planet_check_numbers(const plod_planet *planet, char *message,
+                                      size_t message_size);
+/* No-data (NaN) texels in the planet's height data: the height map's, or
+ * the height source's when it counts them; 0 without data.  A planet with
+ * any is refused (plod_planet_check, plod_session_create): NaN heights
+ * would reach the emitted vertices. */
+size_t plod_planet_nan_count(const plod_planet *planet);
 /* The normal map of planet's height map (plod_cubemap_build_normals with
  * its radius and height_scale), for planet->normalmap; caller owns *out. */
 plod_status plod_planet_build_normals(const plod_planet *planet, plod_cubemap **out);
@@ -69,10 +87,12 @@ double plod_planet_height(const plod_planet *planet, const double dir[3]);
 /* The height map's part alone (0 without a map). */
 double plod_planet_map_height(const plod_planet *planet, const double dir[3]);
 /* Height as plod_planet_height (bit for bit) and, if `normal` is not NULL,
- * the unit outward surface normal at a unit direction: sampled from
- * normalmap at the same map location (one projection for both); without a
- * normal map, from central differences of four more heights (4x slower);
- * without a height map, the direction. */
+ * the unit outward surface normal at a unit direction: with a height map,
+ * sampled from normalmap at the same map location (one projection for
+ * both), or without a normal map from central differences of four more
+ * heights (4x slower); with a height source, and inside insets, from
+ * differences; without data, the direction; tilted by the detail field's
+ * analytic slope when there is one. */
 double plod_planet_surface(const plod_planet *planet, const double dir[3],
                            double normal[3]);
 /* plod_planet_surface at n unit directions (dirs: 3 n doubles), bit for
@@ -95,6 +115,11 @@ void plod_planet_surface_band_n(const plod_planet *planet, size_t n, const doubl
 void plod_planet_surface_detail_n(const plod_planet *planet, size_t n, const double *dirs,
                                   const int *octaves, const int *normal_octaves,
                                   double *heights, double *normals, double *detail);
+/* The planet as a surface source (plod_heightsource.h) for the mesh
+ * emitter: sample_n is plod_planet_surface_detail_n; octaves_for_cell and
+ * stamp are the detail field's (both NULL without one).  Valid while
+ * `planet` lives; reads its fields at each call. */
+plod_surface_source plod_planet_surface_source(const plod_planet *planet);
 /* Global height bounds in metres, the detail field's included (0, 0
  * without a map or detail). */
 void plod_planet_height_range(const plod_planet *planet, double *min_m,

@@ -286,7 +286,7 @@ static int plod__read_image(const char *path, plod_image *image, const char *con
 /* Warns (UserWarning) unless the equirectangular input is 2:1. */
 static int plod__warn_aspect(const plod_image *image, const char *path)
 {
-    if (image->width == 2 * image->height)
+    if (plod_cubemap_is_equirectangular(image->width, image->height))
         return 0;
     return PyErr_WarnFormat(PyExc_UserWarning, 1,
                             "planetlod: '%s' is %dx%d, not 2:1; resampling it as an "
@@ -322,11 +322,6 @@ static plod_cubemap *plod__resample_image(const plod_image *image, plod_projecti
     return map;
 }
 
-static int plod__is_cross(const plod_image *image)
-{
-    return image->width % 4 == 0 && image->width / 4 * 3 == image->height;
-}
-
 /* The shared loader of CubeMap.from_image and plod_py_cubemap_from_image. */
 static PyObject *plod__cubemap_from_image(const char *path, plod_projection projection, int size,
                                           int channels, plod_filter filter, PyObject *progress,
@@ -345,7 +340,8 @@ static PyObject *plod__cubemap_from_image(const char *path, plod_projection proj
     if (channels == 0)
         channels = image.channels;
     plod_cubemap *map = NULL;
-    if (plod__is_cross(&image) && plod_projection_is_cube(projection)) {
+    if (plod_cubemap_is_cross_layout(image.width, image.height) &&
+        plod_projection_is_cube(projection)) {
         plod_image converted = {0};
         const plod_image *cross = &image;
         plod_status s = PLOD_OK;
@@ -365,10 +361,8 @@ static PyObject *plod__cubemap_from_image(const char *path, plod_projection proj
         plod_image_free(&image);
         return NULL;
     }
-    if (size == 0) /* as many texels per 90 deg as the source has */
-        size = image.width / 4 > 0 ? image.width / 4 : 1;
-    if (size > PLOD_CUBEMAP_MAX_MAP_SIZE)
-        size = PLOD_CUBEMAP_MAX_MAP_SIZE;
+    if (size == 0)
+        size = plod_cubemap_size_for_width(image.width);
     plod__py_progress p = {progress == Py_None ? NULL : progress, 0.0, 1.0, NULL, NULL, NULL};
     map = plod__resample_image(&image, projection, size, channels, image.type, filter, &p, context);
     plod_image_free(&image);
@@ -620,24 +614,6 @@ static PyObject *plod__cubemap_range(plod_py_cubemap *self, PyObject *args, PyOb
     return Py_BuildValue("(dd)", lo, hi);
 }
 
-/* "{face}" in the path is replaced by the face number; otherwise "_face<N>"
- * goes before the extension. */
-static int plod__face_path(const char *path, int face, char *out, size_t size)
-{
-    const char *mark = strstr(path, "{face}");
-    int n;
-    if (mark) {
-        n = snprintf(out, size, "%.*s%d%s", (int)(mark - path), path, face, mark + 6);
-    } else {
-        const char *slash = strrchr(path, '/');
-        const char *dot = strrchr(path, '.');
-        if (!dot || (slash && dot < slash))
-            dot = path + strlen(path);
-        n = snprintf(out, size, "%.*s_face%d%s", (int)(dot - path), path, face, dot);
-    }
-    return n > 0 && (size_t)n < size ? 0 : -1;
-}
-
 /* Writes a cube map (cross or six faces) converted to channels/type.
  * GIL released around the writes. */
 static PyObject *plod__write_cubemap(const plod_cubemap *map, const char *path, int cross,
@@ -653,7 +629,7 @@ static PyObject *plod__write_cubemap(const plod_cubemap *map, const char *path, 
     for (int f = 0; f < faces && s == PLOD_OK; f++) {
         const char *target = path;
         if (faces > 1) {
-            if (plod__face_path(path, f, face_path, path_size) < 0) {
+            if (plod_cubemap_face_path(face_path, path_size, path, f) < 0) {
                 free(face_path);
                 return plod_py_raise_detail(PLOD_ERR_BAD_PARAM, context, "bad output path");
             }

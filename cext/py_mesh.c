@@ -1,6 +1,6 @@
 /* py_mesh.c -- Python bindings of the mesh stage: the planetlod.Mesh result
- * type, the glue called by Planet.mesh() / Planet.instances(), and a
- * test-only entry point emitting explicit corner triangles.
+ * type, Planet.mesh() / Planet.instances() over the planet's session, and
+ * a test-only entry point emitting explicit corner triangles.
  */
 #include "pyplanetlod.h"
 
@@ -129,12 +129,18 @@ static PyObject *plod__uninit_buffer(char format, size_t count, void **data)
     return buffer;
 }
 
-/* Emits through `source` into a new Mesh; the GIL is released meanwhile. */
-static PyObject *plod__mesh_build(const plod_mesh_params *params,
-                                  plod_mesh_sector_fn source, const void *context,
-                                  size_t count)
+/* One emission into caller-sized buffers (plod_mesh_emit's contract). */
+typedef plod_status (*plod__emit_fn)(const void *context, const plod_mesh_buffers *out,
+                                     size_t *vertex_count, size_t *triangle_count);
+/* One instanced emission (plod_mesh_instances' contract). */
+typedef plod_status (*plod__instances_fn)(const void *context, float *corners, float *levels,
+                                          float *morph, size_t *instance_count);
+
+/* Emits `sectors` sectors through `emit` into a new Mesh; the GIL is
+ * released meanwhile. */
+static PyObject *plod__mesh_build(const plod_mesh_params *params, size_t sectors,
+                                  plod__emit_fn emit, const void *context)
 {
-    size_t sectors = plod_mesh_count_sectors(source, context, count);
     size_t vb = plod_mesh_vertex_bound(sectors, params->template_level);
     size_t tb = plod_mesh_triangle_bound(sectors, params->template_level);
     if (sectors > 0 && (vb == 0 || tb == 0))
@@ -171,7 +177,7 @@ static PyObject *plod__mesh_build(const plod_mesh_params *params,
     size_t vertices = 0, triangles = 0;
     plod_status st;
     Py_BEGIN_ALLOW_THREADS
-    st = plod_mesh_emit(params, source, context, count, &out, &vertices, &triangles);
+    st = emit(context, &out, &vertices, &triangles);
     Py_END_ALLOW_THREADS
     if (st != PLOD_OK) {
         Py_DECREF(mesh);
@@ -183,12 +189,10 @@ static PyObject *plod__mesh_build(const plod_mesh_params *params,
 }
 
 /* Template barycentrics/triangles and per-sector instance data as a dict. */
-static PyObject *plod__instances_build(const plod_mesh_params *params,
-                                       plod_mesh_sector_fn source,
-                                       const void *context, size_t count)
+static PyObject *plod__instances_build(const plod_mesh_params *params, size_t sectors,
+                                       plod__instances_fn emit, const void *context)
 {
     int level = params->template_level;
-    size_t sectors = plod_mesh_count_sectors(source, context, count);
     float *bary, *corners, *levels, *morph;
     int32_t *tris;
     PyObject *dict = PyDict_New();
@@ -220,8 +224,7 @@ static PyObject *plod__instances_build(const plod_mesh_params *params,
         st = plod_template_triangles(tris, level);
     size_t written = 0;
     if (st == PLOD_OK)
-        st = plod_mesh_instances(params, source, context, count, corners, levels,
-                                 morph, &written);
+        st = emit(context, corners, levels, morph, &written);
     if (st != PLOD_OK) {
         Py_DECREF(dict);
         return plod_py_raise(st, "instances");
@@ -230,39 +233,33 @@ static PyObject *plod__instances_build(const plod_mesh_params *params,
     return dict;
 }
 
-/* ---- glue for Planet.mesh() / Planet.instances() -------------------------- */
+/* ---- Planet.mesh() / Planet.instances(): through the planet's session ------ */
 
-typedef struct plod__refiner_source {
-    const plod_planet *planet;
-    const plod_sector *sectors;
-    const uint32_t *order; /* NULL: storage order */
-} plod__refiner_source;
+typedef struct plod__session_emission {
+    plod_session *session;
+    plod_mesh_params params;
+    int visible_only, use_cache;
+} plod__session_emission;
 
-static int plod__refiner_sector(const void *context, size_t index,
-                                plod_mesh_sector *out)
+static plod_status plod__session_emit(const void *context, const plod_mesh_buffers *out,
+                                      size_t *vertex_count, size_t *triangle_count)
 {
-    const plod__refiner_source *src = context;
-    const plod_sector *s = &src->sectors[src->order ? src->order[index] : index];
-    if (out) {
-        plod_sector_corners(src->planet, s, out->corners);
-        out->level = s->level;
-        out->face = s->face;
-        out->key = s->id;
-    }
-    return 1;
+    const plod__session_emission *e = context;
+    return plod_session_emit(e->session, &e->params, e->visible_only, e->use_cache, out,
+                             vertex_count, triangle_count);
 }
 
-/* Parameters shared by mesh and instances: origin under the camera, morph
- * scale from the refine criterion. */
-static int plod__glue_params(plod_mesh_params *params, const plod_planet *planet,
-                             const plod_camera *camera,
-                             const plod_refine_params *refine_params,
-                             int template_level, int morph, int threads)
+static plod_status plod__session_instances(const void *context, float *corners,
+                                           float *levels, float *morph,
+                                           size_t *instance_count)
 {
-    if (!planet) {
-        plod_py_raise(PLOD_ERR_NULL, "mesh");
-        return -1;
-    }
+    const plod__session_emission *e = context;
+    return plod_session_instances(e->session, &e->params, corners, levels, morph,
+                                  instance_count);
+}
+
+static int plod__emission_args(int template_level, int threads)
+{
     if (template_level < 0 || template_level > PLOD_MAX_TEMPLATE_LEVEL) {
         plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "mesh",
                              "template_level must be in 0..7");
@@ -272,47 +269,28 @@ static int plod__glue_params(plod_mesh_params *params, const plod_planet *planet
         plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "mesh", "threads must be in 1..64");
         return -1;
     }
-    plod_mesh_params_init(params, planet, template_level);
-    params->threads = threads;
-    if (camera) {
-        plod_mesh_origin(planet, camera->position, params->origin);
-        for (int c = 0; c < 3; c++)
-            params->eye[c] = camera->position[c];
-        if (morph && refine_params)
-            params->morph = plod_mesh_set_morph_scale(params, camera, refine_params) > 0.0;
-    }
     return 0;
 }
 
-PyObject *plod_py_mesh_emit(const plod_planet *planet, const plod_camera *camera,
-                            const plod_refine_params *params,
-                            const plod_sector *sectors, const uint32_t *order,
-                            size_t count, int template_level, int morph, int threads,
-                            plod_mesh_cache *cache)
+PyObject *plod_py_mesh_emit(plod_session *session, int template_level, int morph,
+                            int threads, int visible_only, int use_cache)
 {
-    plod_mesh_params mp;
-    if (plod__glue_params(&mp, planet, camera, params, template_level, morph,
-                          threads) < 0)
+    if (plod__emission_args(template_level, threads) < 0)
         return NULL;
-    mp.cache = cache;
-    if (!sectors && count > 0)
-        return plod_py_raise(PLOD_ERR_NULL, "mesh");
-    plod__refiner_source src = {planet, sectors, order};
-    return plod__mesh_build(&mp, plod__refiner_sector, &src, count);
+    plod__session_emission e = {session, {0}, visible_only, use_cache};
+    plod_session_mesh_params(session, template_level, morph, threads, &e.params);
+    return plod__mesh_build(&e.params, plod_session_sector_count(session, visible_only),
+                            plod__session_emit, &e);
 }
 
-PyObject *plod_py_instances(const plod_planet *planet, const plod_camera *camera,
-                            const plod_refine_params *params,
-                            const plod_sector *sectors, const uint32_t *order,
-                            size_t count, int template_level)
+PyObject *plod_py_instances(plod_session *session, int template_level)
 {
-    plod_mesh_params mp;
-    if (plod__glue_params(&mp, planet, camera, params, template_level, 1, 1) < 0)
+    if (plod__emission_args(template_level, 1) < 0)
         return NULL;
-    if (!sectors && count > 0)
-        return plod_py_raise(PLOD_ERR_NULL, "instances");
-    plod__refiner_source src = {planet, sectors, order};
-    return plod__instances_build(&mp, plod__refiner_sector, &src, count);
+    plod__session_emission e = {session, {0}, 1, 0};
+    plod_session_mesh_params(session, template_level, 1, 1, &e.params);
+    return plod__instances_build(&e.params, plod_session_sector_count(session, 1),
+                                 plod__session_instances, &e);
 }
 
 /* ---- test entry point: explicit corner triangles -------------------------- */
@@ -334,6 +312,29 @@ static int plod__corner_sector(const void *context, size_t index,
         out->face = src->faces ? (int)src->faces[index] : 0;
     }
     return 1;
+}
+
+typedef struct plod__corner_emission {
+    const plod_mesh_params *params;
+    plod_mesh_sector_source sectors;
+    plod_surface_source surface;
+} plod__corner_emission;
+
+static plod_status plod__corner_emit(const void *context, const plod_mesh_buffers *out,
+                                     size_t *vertex_count, size_t *triangle_count)
+{
+    const plod__corner_emission *e = context;
+    return plod_mesh_emit(e->params, &e->sectors, &e->surface, out, vertex_count,
+                          triangle_count);
+}
+
+static plod_status plod__corner_instances(const void *context, float *corners,
+                                          float *levels, float *morph,
+                                          size_t *instance_count)
+{
+    const plod__corner_emission *e = context;
+    return plod_mesh_instances(e->params, &e->sectors, &e->surface, corners, levels, morph,
+                               instance_count);
 }
 
 static int plod__vec3_arg(PyObject *obj, double out[3], const char *what)
@@ -440,8 +441,11 @@ static PyObject *plod__mesh_from_corners(PyObject *module, PyObject *args, PyObj
         }
         planet.normalmap = normals;
     }
-    result = instances ? plod__instances_build(&params, plod__corner_sector, &src, count)
-                       : plod__mesh_build(&params, plod__corner_sector, &src, count);
+    plod__corner_emission emission = {&params, {plod__corner_sector, &src, count},
+                                      plod_planet_surface_source(&planet)};
+    result = instances
+                 ? plod__instances_build(&params, count, plod__corner_instances, &emission)
+                 : plod__mesh_build(&params, count, plod__corner_emit, &emission);
     plod_cubemap_destroy(normals);
 done:
     free(corners);

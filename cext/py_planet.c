@@ -1,5 +1,6 @@
-/* py_planet.c -- planetlod.Camera and planetlod.Planet (planet, refinement,
- * culling; mesh output delegated to py_mesh.c).
+/* py_planet.c -- planetlod.Camera and planetlod.Planet: argument and status
+ * translation over a plod_session (plod_session.h), which owns the planet's
+ * per-frame state; mesh output is built in py_mesh.c.
  *
  * Bad input policy (documented in API.md):
  *   - Camera: NaN/inf anywhere, singular or projective matrix, lens <= 0,
@@ -16,13 +17,6 @@
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
-
-/* Supplied by py_cubemap.c / py_mesh.c; weak so this stage builds and
- * tests before those land (missing ones raise NotImplementedError). */
-#pragma weak plod_py_cubemap_get
-#pragma weak plod_py_cubemap_from_image
-#pragma weak plod_py_mesh_emit
-#pragma weak plod_py_instances
 
 /* ---- Camera ---------------------------------------------------------------- */
 
@@ -237,38 +231,30 @@ static const plod_camera *plod__camera_arg(PyObject *obj)
 
 typedef struct {
     PyObject_HEAD
-    plod_planet planet;
+    /* Owned: the planet, its refiner, detail field, normal map, mesh cache,
+     * last camera, and the lock that serialises every method reading or
+     * writing them: refine() and mesh() run with the GIL released, so two
+     * Python threads (a render job and the viewport) could otherwise be
+     * inside one refiner at once.  Taken only through plod__planet_lock,
+     * which never waits holding the GIL. */
+    plod_session *session;
     PyObject *heightmap;  /* the CubeMap (or TiledMap) keeping the height data alive */
-    plod_height_source source; /* planet.source for a TiledMap */
-    plod_insets *insets;       /* owned; planet.insets */
-    plod_cubemap *normalmap; /* owned; built by the first mesh() with a map */
-    plod_detail *detail;  /* owned; NULL when detail is off */
-    plod_mesh_cache *mesh_cache; /* owned; created by the first cached mesh() */
-    size_t mesh_cache_max_bytes;
-    plod_refiner *refiner;
-    plod_camera camera;   /* last refine's */
-    plod_refine_params params;
-    plod_refine_stats stats;
-    int has_camera;
-    /* Serialises every method that reads or writes the refiner: refine() and
-     * mesh() run with the GIL released, so two Python threads (a render job
-     * and the viewport) could otherwise be inside one refiner at once.  Taken
-     * only through plod__planet_lock, which never waits holding the GIL. */
-    PyThread_type_lock lock;
+    plod_height_source source; /* the session planet's source for a TiledMap */
+    plod_insets *insets;       /* owned; the session planet's insets */
 } plod_py_planet;
 
 static void plod__planet_lock(plod_py_planet *self)
 {
-    if (PyThread_acquire_lock(self->lock, NOWAIT_LOCK))
+    if (plod_session_trylock(self->session))
         return;
     Py_BEGIN_ALLOW_THREADS
-    PyThread_acquire_lock(self->lock, WAIT_LOCK);
+    plod_session_lock(self->session);
     Py_END_ALLOW_THREADS
 }
 
 static void plod__planet_unlock(plod_py_planet *self)
 {
-    PyThread_release_lock(self->lock);
+    plod_session_unlock(self->session);
 }
 
 static const char *const plod__detail_styles[PLOD_DETAIL_STYLE_COUNT] = {"hills", "mountains",
@@ -371,19 +357,8 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
     PyObject *raw = Py_None, *insets = Py_None;
     double scale = 1.0, offset = 0.0, feather = 0.1;
     int size = 0, is_signed = 0;
-    if (self->refiner) {
+    if (self->session) {
         PyErr_SetString(PyExc_RuntimeError, "Planet already initialised");
-        return -1;
-    }
-    if (!self->lock) {
-        self->lock = PyThread_allocate_lock();
-        if (!self->lock) {
-            PyErr_NoMemory();
-            return -1;
-        }
-    }
-    if (self->refiner) {
-        PyErr_SetString(PyExc_RuntimeError, "Planet is already initialised");
         return -1;
     }
     if (!PyArg_ParseTupleAndKeywords(args, kwds, "d|OOdOiOdpOOd", kwlist, &radius, &proj,
@@ -397,38 +372,34 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
     plod_py_read_options read_options;
     if (plod_py_read_options_arg(raw, is_signed, &read_options, "Planet") < 0)
         return -1;
-    if (!isfinite(offset)) {
-        plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "Planet", "height_offset must be finite");
+    plod_planet planet;
+    memset(&planet, 0, sizeof planet);
+    planet.radius = radius;
+    planet.height_scale = scale;
+    planet.height_offset = offset;
+    char message[256];
+    if (plod_planet_check_numbers(&planet, message, sizeof message) != PLOD_OK) {
+        plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "Planet", message);
         return -1;
     }
-    memset(&self->planet, 0, sizeof self->planet);
     plod_insets_destroy(self->insets);
     self->insets = NULL;
     if (plod_py_insets_arg(insets, feather, &self->insets) < 0)
         return -1;
-    self->planet.insets = self->insets;
-    self->planet.projection = PLOD_PROJ_QSC;
-    if (proj && proj != Py_None && plod_py_projection_arg(proj, &self->planet.projection) < 0)
+    planet.insets = self->insets;
+    planet.projection = PLOD_PROJ_QSC;
+    if (proj && proj != Py_None && plod_py_projection_arg(proj, &planet.projection) < 0)
         return -1;
-    if (!isfinite(radius) || radius < 1.0 || radius > 1e8) {
-        plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "Planet",
-                             "radius must be finite, in [1, 1e8] metres");
-        return -1;
-    }
-    self->planet.radius = radius;
-    self->planet.height_scale = scale;
-    self->planet.height_offset = offset;
     if (sea != Py_None) {
         double s = PyFloat_AsDouble(sea);
         if (s == -1.0 && PyErr_Occurred())
             return -1;
-        self->planet.has_sea_level = 1;
-        self->planet.sea_level = s;
+        planet.has_sea_level = 1;
+        planet.sea_level = s;
     }
     if (size < 0 || size > PLOD_CUBEMAP_MAX_MAP_SIZE) {
-        char detail[64];
-        snprintf(detail, sizeof detail, "heightmap_size in [0, %d]", PLOD_CUBEMAP_MAX_MAP_SIZE);
-        plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "Planet", detail);
+        snprintf(message, sizeof message, "heightmap_size in [0, %d]", PLOD_CUBEMAP_MAX_MAP_SIZE);
+        plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "Planet", message);
         return -1;
     }
     PyObject *map = NULL;
@@ -440,30 +411,18 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
                                  "from a file; give them to TiledMap");
             return -1;
         }
-        if (plod_tiles_nan_count(tiles) != 0) {
-            char detail[160];
-            snprintf(detail, sizeof detail, "height map has %zu NaN samples (no-data "
-                     "texels); fill them before using it as a height map",
-                     plod_tiles_nan_count(tiles));
-            plod_py_raise_detail(PLOD_ERR_BAD_IMAGE, "Planet", detail);
-            return -1;
-        }
         self->source = plod_tiles_source(tiles);
-        self->planet.source = &self->source;
+        planet.source = &self->source;
         Py_INCREF(heightmap);
         map = heightmap;
     } else if (heightmap != Py_None) {
         if (PyUnicode_Check(heightmap) || PyBytes_Check(heightmap) ||
             PyObject_HasAttrString(heightmap, "__fspath__")) {
-            if (!plod_py_cubemap_from_image) {
-                PyErr_SetString(PyExc_NotImplementedError, "cube maps are not built in");
-                return -1;
-            }
             PyObject *path = NULL;
             if (!PyUnicode_FSConverter(heightmap, &path))
                 return -1;
             map = plod_py_cubemap_from_image(PyBytes_AsString(path),
-                                             self->planet.projection, size, 1, &read_options);
+                                             planet.projection, size, 1, &read_options);
             Py_DECREF(path);
             if (!map)
                 return -1;
@@ -477,17 +436,12 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
             Py_INCREF(heightmap);
             map = heightmap;
         }
-        if (!plod_py_cubemap_get) {
-            Py_DECREF(map);
-            PyErr_SetString(PyExc_NotImplementedError, "cube maps are not built in");
-            return -1;
-        }
         plod_cubemap *cm = plod_py_cubemap_get(map);
         if (!cm) {
             Py_DECREF(map);
             return -1;
         }
-        if (plod_cubemap_projection(cm) != self->planet.projection) {
+        if (plod_cubemap_projection(cm) != planet.projection) {
             Py_DECREF(map);
             plod_py_raise_detail(PLOD_ERR_BAD_PROJECTION, "Planet",
                                  "heightmap projection differs from the planet's");
@@ -498,74 +452,31 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
             PyErr_NoMemory();
             return -1;
         }
-        size_t nan_texels = plod_cubemap_nan_count(cm);
-        if (nan_texels != 0) {
-            Py_DECREF(map);
-            char detail[160];
-            snprintf(detail, sizeof detail, "height map has %zu NaN samples (no-data "
-                     "texels); fill them before using it as a height map", nan_texels);
-            plod_py_raise_detail(PLOD_ERR_BAD_IMAGE, "Planet", detail);
-            return -1;
-        }
-        self->planet.heightmap = cm;
+        planet.heightmap = cm;
     }
     self->heightmap = map;
-    plod_status st = PLOD_OK;
-    if (detail_on) {
-        st = plod_planet_check(&self->planet);
-        if (st == PLOD_OK) {
-            Py_BEGIN_ALLOW_THREADS
-            st = plod_detail_create(&self->detail, &detail_params, &self->planet);
-            Py_END_ALLOW_THREADS
-        }
-        if (st != PLOD_OK) {
-            Py_CLEAR(self->heightmap);
-            self->planet.heightmap = NULL;
-            self->planet.source = NULL;
-            plod_py_raise_detail(st, "Planet",
-                                 st == PLOD_ERR_BAD_PARAM
-                                     ? "invalid detail (amplitude in [0, 1e6], roughness in "
-                                       "[0, 1), largest >= 0, smallest > 0, craters in [0, 4], "
-                                       "crater_density and plains in [0, 1], relief >= 0) or "
-                                       "planet"
-                                     : "detail field");
-            return -1;
-        }
-        self->planet.detail = self->detail;
-    }
-    st = plod_refiner_create(&self->refiner, &self->planet);
+    plod_session *session = NULL;
+    plod_status st;
+    Py_BEGIN_ALLOW_THREADS
+    st = plod_session_create(&session, &planet, detail_on ? &detail_params : NULL, message,
+                             sizeof message);
+    Py_END_ALLOW_THREADS
     if (st != PLOD_OK) {
-        self->planet.detail = NULL;
-        plod_detail_destroy(self->detail);
-        self->detail = NULL;
         Py_CLEAR(self->heightmap);
-        self->planet.heightmap = NULL;
-        self->planet.source = NULL;
-        plod_py_raise_detail(st, "Planet", "invalid planet (radius, height_scale, height_offset, "
-                                           "sea_level, height range or detail amplitude)");
+        plod_py_raise_detail(st, "Planet", message);
         return -1;
     }
-    plod_refine_params_default(&self->params);
-    self->mesh_cache_max_bytes = PLOD_MESH_CACHE_DEFAULT_BYTES;
+    self->session = session;
     return 0;
 }
 
 static void plod__planet_dealloc(plod_py_planet *self)
 {
-    plod_refiner_destroy(self->refiner);
+    plod_session_destroy(self->session);
+    self->session = NULL;
     plod_insets_destroy(self->insets);
     self->insets = NULL;
-    plod_mesh_cache_destroy(self->mesh_cache);
-    self->mesh_cache = NULL;
-    self->planet.normalmap = NULL;
-    plod_cubemap_destroy(self->normalmap);
-    self->normalmap = NULL;
-    self->planet.detail = NULL;
-    plod_detail_destroy(self->detail);
-    self->detail = NULL;
     Py_CLEAR(self->heightmap);
-    if (self->lock)
-        PyThread_free_lock(self->lock);
     PyTypeObject *tp = Py_TYPE((PyObject *)self);
     plod_py_free((PyObject *)self);
     Py_DECREF(tp);
@@ -573,7 +484,7 @@ static void plod__planet_dealloc(plod_py_planet *self)
 
 static int plod__planet_ready(plod_py_planet *self)
 {
-    if (!self->refiner) {
+    if (!self->session) {
         PyErr_SetString(PyExc_RuntimeError, "Planet not initialised");
         return 0;
     }
@@ -622,7 +533,7 @@ static PyObject *plod__planet_refine(plod_py_planet *self, PyObject *args, PyObj
     plod_refine_stats s;
     plod_status st;
     Py_BEGIN_ALLOW_THREADS
-    st = plod_refiner_update(self->refiner, cam, &p, &s);
+    st = plod_session_refine(self->session, cam, &p, &s);
     Py_END_ALLOW_THREADS
     if (st != PLOD_OK)
         return plod_py_raise_detail(st, "refine",
@@ -631,10 +542,6 @@ static PyObject *plod__planet_refine(plod_py_planet *self, PyObject *args, PyObj
                                         : "criterion, borders (0 < merge <= split), "
                                           "template_level 0..7, max_level 0..52, "
                                           "max_pixel_error > 0");
-    self->camera = *cam;
-    self->params = p;
-    self->stats = s;
-    self->has_camera = 1;
     /* what planet.mesh(template_level) would emit for the visible sectors */
     size_t per_v = plod_template_vertex_count(p.template_level);
     size_t per_t = plod_template_triangle_count(p.template_level);
@@ -656,8 +563,7 @@ static PyObject *plod__planet_reset(plod_py_planet *self, PyObject *unused)
     (void)unused;
     if (!plod__planet_ready(self))
         return NULL;
-    plod_refiner_reset(self->refiner);
-    self->has_camera = 0;
+    plod_session_reset(self->session);
     Py_RETURN_NONE;
 }
 
@@ -672,7 +578,7 @@ static PyObject *plod__planet_reserve(plod_py_planet *self, PyObject *args, PyOb
                                     "sectors must be in 0..2**26");
     plod_status st;
     Py_BEGIN_ALLOW_THREADS
-    st = plod_refiner_reserve(self->refiner, (size_t)sectors);
+    st = plod_session_reserve(self->session, (size_t)sectors);
     Py_END_ALLOW_THREADS
     if (st != PLOD_OK)
         return plod_py_raise(st, "reserve");
@@ -696,8 +602,8 @@ static PyObject *plod__planet_export(plod_py_planet *self, PyObject *args, PyObj
     if (!plod__planet_ready(self) || !plod__visible_only_arg(args, kwds, &visible_only))
         return NULL;
     size_t count, visible;
-    const plod_sector *sec = plod_refiner_sectors(self->refiner, &count);
-    const uint32_t *order = plod_refiner_visible(self->refiner, &visible);
+    const plod_sector *sec = plod_refiner_sectors(plod_session_refiner(self->session), &count);
+    const uint32_t *order = plod_refiner_visible(plod_session_refiner(self->session), &visible);
     size_t n = visible_only ? visible : count;
     static const char formats[] = {'Q', 'i', 'd', 'i', 'f'};
     static const size_t per[] = {1, 1, 9, 1, 2};
@@ -710,7 +616,7 @@ static PyObject *plod__planet_export(plod_py_planet *self, PyObject *args, PyObj
         switch (kind) {
         case 0: ((uint64_t *)data)[k] = sec[i].id; break;
         case 1: ((int32_t *)data)[k] = sec[i].level; break;
-        case 2: plod_sector_corners(&self->planet, &sec[i], (double(*)[3])((double *)data + 9 * k)); break;
+        case 2: plod_sector_corners(plod_session_planet(self->session), &sec[i], (double(*)[3])((double *)data + 9 * k)); break;
         case 3: ((int32_t *)data)[k] = sec[i].flags; break;
         default:
             ((float *)data)[2 * k] = sec[i].height_min;
@@ -746,7 +652,7 @@ static PyObject *plod__planet_check(plod_py_planet *self, PyObject *unused)
     (void)unused;
     if (!plod__planet_ready(self))
         return NULL;
-    return PyBool_FromLong(plod_refiner_check(self->refiner) == PLOD_OK);
+    return PyBool_FromLong(plod_refiner_check(plod_session_refiner(self->session)) == PLOD_OK);
 }
 
 static PyObject *plod__planet_sectors(plod_py_planet *self, PyObject *unused)
@@ -755,7 +661,7 @@ static PyObject *plod__planet_sectors(plod_py_planet *self, PyObject *unused)
     if (!plod__planet_ready(self))
         return NULL;
     size_t count;
-    const plod_sector *sec = plod_refiner_sectors(self->refiner, &count);
+    const plod_sector *sec = plod_refiner_sectors(plod_session_refiner(self->session), &count);
     void *data;
     PyObject *buf = plod_py_buffer_new('B', count * sizeof *sec, &data);
     if (buf && count)
@@ -772,7 +678,7 @@ static PyObject *plod__planet_recommended_clip(plod_py_planet *self, PyObject *a
     if (!cam)
         return NULL;
     double a, b;
-    plod_recommended_clip(&self->planet, cam, &a, &b);
+    plod_recommended_clip(plod_session_planet(self->session), cam, &a, &b);
     return Py_BuildValue("(dd)", a, b);
 }
 
@@ -785,7 +691,7 @@ static PyObject *plod__planet_height(plod_py_planet *self, PyObject *args)
     if (!isfinite(len) || !(len > 0))
         return plod_py_raise_detail(PLOD_ERR_BAD_COORD, "height",
                                     "direction must be finite and non-zero");
-    return PyFloat_FromDouble(plod_planet_height(&self->planet, d));
+    return PyFloat_FromDouble(plod_planet_height(plod_session_planet(self->session), d));
 }
 
 static PyObject *plod__planet_texel_size(plod_py_planet *self, PyObject *args)
@@ -798,7 +704,7 @@ static PyObject *plod__planet_texel_size(plod_py_planet *self, PyObject *args)
         return plod_py_raise_detail(PLOD_ERR_BAD_COORD, "texel_size",
                                     "direction must be finite and non-zero");
     d[0] /= len, d[1] /= len, d[2] /= len;
-    return PyFloat_FromDouble(plod_planet_texel_size(&self->planet, d));
+    return PyFloat_FromDouble(plod_planet_texel_size(plod_session_planet(self->session), d));
 }
 
 static PyObject *plod__planet_height_range(plod_py_planet *self, PyObject *unused)
@@ -807,14 +713,14 @@ static PyObject *plod__planet_height_range(plod_py_planet *self, PyObject *unuse
     if (!plod__planet_ready(self))
         return NULL;
     double a, b;
-    plod_planet_height_range(&self->planet, &a, &b);
+    plod_planet_height_range(plod_session_planet(self->session), &a, &b);
     return Py_BuildValue("(dd)", a, b);
 }
 
 /* template_level=None means the level of the last refine. */
 static int plod__template_level_arg(const plod_py_planet *self, PyObject *level_obj, int *level)
 {
-    *level = self->params.template_level;
+    *level = plod_session_refine_params(self->session)->template_level;
     if (level_obj == Py_None)
         return 0;
     long value = PyLong_AsLong(level_obj);
@@ -828,17 +734,14 @@ static int plod__template_level_arg(const plod_py_planet *self, PyObject *level_
  * samples its normal instead of differencing four heights. */
 static int plod__ensure_normalmap(plod_py_planet *self, const char *context)
 {
-    if (!self->planet.heightmap || self->normalmap)
-        return 0;
     plod_status st;
     Py_BEGIN_ALLOW_THREADS
-    st = plod_planet_build_normals(&self->planet, &self->normalmap);
+    st = plod_session_build_normals(self->session);
     Py_END_ALLOW_THREADS
     if (st != PLOD_OK) {
         plod_py_raise(st, context);
         return -1;
     }
-    self->planet.normalmap = self->normalmap;
     return 0;
 }
 
@@ -881,7 +784,7 @@ static PyObject *plod__planet_surface(plod_py_planet *self, PyObject *args, PyOb
         return NULL;
     }
     Py_BEGIN_ALLOW_THREADS
-    plod_planet_surface_n(&self->planet, n, dirs, heights, normals);
+    plod_planet_surface_n(plod_session_planet(self->session), n, dirs, heights, normals);
     Py_END_ALLOW_THREADS
     free(dirs);
     return Py_BuildValue("(NN)", h, nb);
@@ -901,22 +804,9 @@ static PyObject *plod__planet_mesh(plod_py_planet *self, PyObject *args, PyObjec
     int level;
     if (plod__template_level_arg(self, level_obj, &level) < 0)
         return NULL;
-    if (!plod_py_mesh_emit) {
-        PyErr_SetString(PyExc_NotImplementedError, "mesh emission is not built in");
-        return NULL;
-    }
     if (plod__ensure_normalmap(self, "mesh (normal map)") < 0)
         return NULL;
-    if (use_cache && !self->mesh_cache &&
-        plod_mesh_cache_create(&self->mesh_cache, self->mesh_cache_max_bytes) != PLOD_OK)
-        return PyErr_NoMemory();
-    size_t count, visible;
-    const plod_sector *sec = plod_refiner_sectors(self->refiner, &count);
-    const uint32_t *order = plod_refiner_visible(self->refiner, &visible);
-    return plod_py_mesh_emit(&self->planet, self->has_camera ? &self->camera : NULL,
-                             &self->params, sec, visible_only ? order : NULL,
-                             visible_only ? visible : count, level, morph, threads,
-                             use_cache ? self->mesh_cache : NULL);
+    return plod_py_mesh_emit(self->session, level, morph, threads, visible_only, use_cache);
 }
 
 static PyObject *plod__planet_instances(plod_py_planet *self, PyObject *args, PyObject *kwds)
@@ -930,15 +820,7 @@ static PyObject *plod__planet_instances(plod_py_planet *self, PyObject *args, Py
     int level;
     if (plod__template_level_arg(self, level_obj, &level) < 0)
         return NULL;
-    if (!plod_py_instances) {
-        PyErr_SetString(PyExc_NotImplementedError, "instancing is not built in");
-        return NULL;
-    }
-    size_t visible;
-    const plod_sector *sec = plod_refiner_sectors(self->refiner, NULL);
-    const uint32_t *order = plod_refiner_visible(self->refiner, &visible);
-    return plod_py_instances(&self->planet, self->has_camera ? &self->camera : NULL,
-                             &self->params, sec, order, visible, level);
+    return plod_py_instances(self->session, level);
 }
 
 static PyObject *plod__planet_get(plod_py_planet *self, void *closure)
@@ -946,16 +828,17 @@ static PyObject *plod__planet_get(plod_py_planet *self, void *closure)
     if (!plod__planet_ready(self))
         return NULL;
     size_t count;
-    const plod_sector *sec = plod_refiner_sectors(self->refiner, &count);
+    const plod_planet *planet = plod_session_planet(self->session);
+    const plod_sector *sec = plod_refiner_sectors(plod_session_refiner(self->session), &count);
     switch ((int)(intptr_t)closure) {
     case 0: return PyLong_FromSize_t(count);
-    case 7: return PyLong_FromSize_t(plod_refiner_memory_bytes(self->refiner));
+    case 7: return PyLong_FromSize_t(plod_refiner_memory_bytes(plod_session_refiner(self->session)));
     case 8: {
         plod_mesh_cache_stats st;
-        plod_mesh_cache_get_stats(self->mesh_cache, &st);
+        plod_session_cache_stats(self->session, &st);
         return Py_BuildValue("{s:n,s:n,s:n,s:n,s:n}", "sectors", (Py_ssize_t)st.sectors,
                              "bytes", (Py_ssize_t)st.bytes, "max_bytes",
-                             (Py_ssize_t)self->mesh_cache_max_bytes, "hits",
+                             (Py_ssize_t)st.max_bytes, "hits",
                              (Py_ssize_t)st.hits, "misses", (Py_ssize_t)st.misses);
     }
     case 1: {
@@ -964,19 +847,19 @@ static PyObject *plod__planet_get(plod_py_planet *self, void *closure)
             n += (sec[i].flags & PLOD_SECTOR_VISIBLE) != 0;
         return PyLong_FromSize_t(n);
     }
-    case 2: return PyFloat_FromDouble(self->planet.radius);
-    case 3: return PyUnicode_FromString(plod_projection_name(self->planet.projection));
-    case 4: return PyFloat_FromDouble(self->planet.height_scale);
-    case 10: return PyFloat_FromDouble(self->planet.height_offset);
+    case 2: return PyFloat_FromDouble(planet->radius);
+    case 3: return PyUnicode_FromString(plod_projection_name(planet->projection));
+    case 4: return PyFloat_FromDouble(planet->height_scale);
+    case 10: return PyFloat_FromDouble(planet->height_offset);
     case 5:
-        if (!self->planet.has_sea_level)
+        if (!planet->has_sea_level)
             Py_RETURN_NONE;
-        return PyFloat_FromDouble(self->planet.sea_level);
+        return PyFloat_FromDouble(planet->sea_level);
     case 9: {
-        if (!self->detail)
+        if (!planet->detail)
             Py_RETURN_NONE;
-        const plod_detail_params *p = plod_detail_get_params(self->detail);
-        int octaves = plod_detail_octave_count(self->detail);
+        const plod_detail_params *p = plod_detail_get_params(planet->detail);
+        int octaves = plod_detail_octave_count(planet->detail);
         return Py_BuildValue("{s:O,s:s,s:d,s:d,s:d,s:d,s:K,s:d,s:d,s:d,s:d,s:i,s:d}",
                              "enabled", Py_True, "style", plod__detail_styles[p->style],
                              "amplitude", p->amplitude, "roughness", p->roughness, "largest",
@@ -984,7 +867,7 @@ static PyObject *plod__planet_get(plod_py_planet *self, void *closure)
                              (unsigned long long)p->seed, "craters", p->craters,
                              "crater_density", p->crater_density, "plains", p->plains,
                              "relief", p->relief, "octaves", octaves, "finest_wavelength",
-                             octaves ? plod_detail_wavelength(self->detail, octaves - 1) : 0.0);
+                             octaves ? plod_detail_wavelength(planet->detail, octaves - 1) : 0.0);
     }
     case 6:
     default:
@@ -1063,7 +946,7 @@ static PyObject *plod__planet_cache_bytes_get_locked(plod_py_planet *self, void 
     if (!plod__planet_ready(self))
         return NULL;
     plod__planet_lock(self);
-    size_t bytes = self->mesh_cache_max_bytes;
+    size_t bytes = plod_session_cache_max_bytes(self->session);
     plod__planet_unlock(self);
     return PyLong_FromSize_t(bytes);
 }
@@ -1086,8 +969,7 @@ static int plod__planet_cache_bytes_set_locked(plod_py_planet *self, PyObject *v
         return -1;
     }
     plod__planet_lock(self);
-    self->mesh_cache_max_bytes = bytes;
-    plod_mesh_cache_set_max_bytes(self->mesh_cache, bytes);
+    plod_session_set_cache_max_bytes(self->session, bytes);
     plod__planet_unlock(self);
     return 0;
 }

@@ -101,23 +101,16 @@ PyObject *plod_py_cubemap_from_image(const char *path, plod_projection projectio
                                      int size, int channels,
                                      const plod_py_read_options *options);
 
-/* ---- mesh glue (py_mesh.c; called by Planet.mesh / Planet.instances) ----
- * `sectors` are the refiner's leaves; only those with PLOD_SECTOR_VISIBLE are
- * emitted when visible_only.  `camera` (the last refine's, may be NULL)
- * places the float64 origin on the surface point nearest the camera and
- * drives geomorphing; `params` is the last refine's parameters.  `cache`
- * (may be NULL) keeps sectors' vertices from one mesh() to the next. */
-/* `order` (may be NULL: every sector in storage order) lists the indices
- * into `sectors` to emit, `count` of them. */
-PyObject *plod_py_mesh_emit(const plod_planet *planet, const plod_camera *camera,
-                            const plod_refine_params *params,
-                            const plod_sector *sectors, const uint32_t *order,
-                            size_t count, int template_level, int morph, int threads,
-                            plod_mesh_cache *cache);
-PyObject *plod_py_instances(const plod_planet *planet, const plod_camera *camera,
-                            const plod_refine_params *params,
-                            const plod_sector *sectors, const uint32_t *order,
-                            size_t count, int template_level);
+/* ---- emission (py_mesh.c; called by Planet.mesh / Planet.instances) -----
+ * New planetlod.Mesh / instances dict from the planet's session (its lock
+ * held by the caller): the visible sectors (every leaf unless
+ * visible_only) at `template_level`, origin and geomorphing from the last
+ * refine (plod_session_mesh_params), through the session's cache when
+ * use_cache.  InvalidArgument for a template level outside 0..7 or
+ * threads outside 1..64. */
+PyObject *plod_py_mesh_emit(plod_session *session, int template_level, int morph,
+                            int threads, int visible_only, int use_cache);
+PyObject *plod_py_instances(plod_session *session, int template_level);
 
 /* ---- per-stage registration (each py_*.c defines one) --------------------- */
 int plod_py_init_projection(PyObject *module);

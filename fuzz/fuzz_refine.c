@@ -1,6 +1,7 @@
 /* fuzz_refine.c -- libFuzzer harness for camera construction, HRTMR
- * refinement + culling and mesh emission (cext/camera.c, bound.c,
- * lodtree.c, lodupdate.c, planet.c, mesh.c, with cubemap.c/projection.c
+ * refinement + culling and mesh emission through a session (cext/session.c
+ * over camera.c, bound.c, lodtree.c, lodupdate.c, planet.c, mesh.c, with
+ * cubemap.c/projection.c
  * underneath).
  *
  * Each input builds a planet (any projection; radius, height scale and sea
@@ -27,6 +28,7 @@
 #include "plod_detail.h"
 #include "plod_mesh.h"
 #include "plod_refine.h"
+#include "plod_session.h"
 
 #define MAX_CAMERAS 3
 
@@ -146,55 +148,34 @@ static int fuzz__finite3(const double v[3])
     return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]);
 }
 
-typedef struct fuzz_source {
-    const plod_planet *planet;
-    const plod_sector *sectors;
-    int visible_only;
-} fuzz_source;
-
-static int fuzz__sector(const void *context, size_t index, plod_mesh_sector *out)
-{
-    const fuzz_source *src = context;
-    const plod_sector *s = &src->sectors[index];
-    if (src->visible_only && !(s->flags & PLOD_SECTOR_VISIBLE))
-        return 0;
-    if (out) {
-        plod_sector_corners(src->planet, s, out->corners);
-        out->level = s->level;
-        out->face = s->face;
-        out->key = s->id;
-    }
-    return 1;
-}
-
 static int fuzz__same(const void *a, const void *b, size_t bytes)
 {
     return bytes == 0 || memcmp(a, b, bytes) == 0;
 }
 
-/* `cache` persists over the execution's frames: with flag 0x20 the emission
- * goes through it (budget: everything, or half the sectors with 0x40) and,
- * for small meshes, must equal an uncached emission bit for bit. */
-static void fuzz__emit(fuzz_input *in, const plod_planet *planet, const plod_camera *camera,
-                       const plod_refine_params *rp, const plod_sector *sectors,
-                       size_t count, int finite_heights, plod_mesh_cache *cache)
+/* The session's cache persists over the execution's frames: with flag 0x20
+ * the emission goes through it (budget: everything, or half the sectors
+ * with 0x40) and, for small meshes, must equal an uncached emission bit for
+ * bit. */
+static void fuzz__emit(fuzz_input *in, plod_session *session, int finite_heights)
 {
+    const plod_camera *camera = plod_session_camera(session);
+    const plod_refine_params *rp = plod_session_refine_params(session);
     uint8_t flags = fuzz_u8(in);
     int level = (flags & 0x80) ? fuzz_range(in, -2, 9) : fuzz_range(in, 0, 2);
-    fuzz_source src = {planet, sectors, !(flags & 1)};
-    size_t emitted = plod_mesh_count_sectors(fuzz__sector, &src, count);
+    int visible_only = !(flags & 1);
+    size_t count = 0;
+    plod_refiner_sectors(plod_session_refiner(session), &count);
+    size_t emitted = plod_session_sector_count(session, visible_only);
     FUZZ_CHECK(emitted <= count, "counted %zu of %zu", emitted, count);
     if (emitted > 256)
         return; /* keep an execution cheap */
     plod_mesh_params mp;
-    plod_mesh_params_init(&mp, planet, level);
-    plod_mesh_origin(planet, camera->position, mp.origin);
+    plod_session_mesh_params(session, level, 0, (flags & 2) ? 2 : 1, &mp);
     if (finite_heights) /* non-finite maps are refused by plod_planet_check (NaN count, range) */
         FUZZ_CHECK(fuzz__finite3(mp.origin), "origin not finite");
-    mp.threads = (flags & 2) ? 2 : 1;
     if (flags & 4) {
         mp.morph = 1;
-        memcpy(mp.eye, camera->position, sizeof mp.eye);
         plod_mesh_set_morph_scale(&mp, camera, rp);
         if (flags & 8) {
             mp.morph_lod_scale = fuzz_double(in);
@@ -220,19 +201,20 @@ static void fuzz__emit(fuzz_input *in, const plod_planet *planet, const plod_cam
     FUZZ_CHECK(b.positions && b.normals && b.uv && b.morph && b.triangles &&
                    b.sector_level && b.face, "out of memory");
     size_t nv = 0, nt = 0, cached_before = 0;
-    if ((flags & 0x20) && cache) {
-        plod_mesh_cache_set_max_bytes(cache, (flags & 0x40) ? vbound * 22 : PLOD_MESH_CACHE_DEFAULT_BYTES);
-        mp.cache = cache;
+    int use_cache = (flags & 0x20) != 0;
+    if (use_cache) {
+        plod_session_set_cache_max_bytes(session, (flags & 0x40) ? vbound * 22
+                                                                 : PLOD_MESH_CACHE_DEFAULT_BYTES);
         plod_mesh_cache_stats before;
-        plod_mesh_cache_get_stats(cache, &before);
+        plod_session_cache_stats(session, &before);
         cached_before = before.sectors;
     }
-    plod_status s = plod_mesh_emit(&mp, fuzz__sector, &src, count, &b, &nv, &nt);
+    plod_status s = plod_session_emit(session, &mp, visible_only, use_cache, &b, &nv, &nt);
     if (!level_ok)
         FUZZ_CHECK(s != PLOD_OK, "template level %d accepted", level);
-    if (mp.cache) {
+    if (use_cache) {
         plod_mesh_cache_stats cst;
-        plod_mesh_cache_get_stats(cache, &cst);
+        plod_session_cache_stats(session, &cst);
         FUZZ_CHECK(cst.bytes <= cst.max_bytes, "cache holds %zu bytes, budget %zu", cst.bytes,
                    cst.max_bytes);
         if (s == PLOD_OK)
@@ -244,7 +226,7 @@ static void fuzz__emit(fuzz_input *in, const plod_planet *planet, const plod_cam
                        "failed emission left %zu cache entries (%zu before)", cst.sectors,
                        cached_before);
     }
-    if (mp.cache && s == PLOD_OK && vbound <= 1024) { /* 16 level-3 sectors */
+    if (use_cache && s == PLOD_OK && vbound <= 1024) { /* 16 level-3 sectors */
         plod_mesh_buffers u = {
             malloc(3 * vcap * sizeof(float)), malloc(3 * vcap * sizeof(float)),
             malloc(2 * vcap * sizeof(float)), malloc(vcap * sizeof(float)),
@@ -253,10 +235,8 @@ static void fuzz__emit(fuzz_input *in, const plod_planet *planet, const plod_cam
         };
         FUZZ_CHECK(u.positions && u.normals && u.uv && u.morph && u.triangles &&
                        u.sector_level && u.face, "out of memory");
-        plod_mesh_params plain = mp;
-        plain.cache = NULL;
         size_t unv = 0, unt = 0;
-        FUZZ_CHECK(plod_mesh_emit(&plain, fuzz__sector, &src, count, &u, &unv, &unt) == PLOD_OK &&
+        FUZZ_CHECK(plod_session_emit(session, &mp, visible_only, 0, &u, &unv, &unt) == PLOD_OK &&
                        unv == nv && unt == nt,
                    "uncached emission disagrees on status or counts");
         FUZZ_CHECK(fuzz__same(u.positions, b.positions, 12 * nv) &&
@@ -294,15 +274,16 @@ static void fuzz__emit(fuzz_input *in, const plod_planet *planet, const plod_cam
     free(b.positions), free(b.normals), free(b.uv), free(b.morph);
     free(b.triangles), free(b.sector_level), free(b.face);
 
-    /* Instanced form over the same sectors. */
-    float *corners = malloc(9 * (emitted ? emitted : 1) * sizeof(float));
-    float *levels = malloc((emitted ? emitted : 1) * sizeof(float));
-    float *morph = malloc((emitted ? emitted : 1) * sizeof(float));
+    /* Instanced form over the visible sectors. */
+    size_t visible = plod_session_sector_count(session, 1);
+    float *corners = malloc(9 * (visible ? visible : 1) * sizeof(float));
+    float *levels = malloc((visible ? visible : 1) * sizeof(float));
+    float *morph = malloc((visible ? visible : 1) * sizeof(float));
     FUZZ_CHECK(corners && levels && morph, "out of memory");
     size_t instances = 0;
-    s = plod_mesh_instances(&mp, fuzz__sector, &src, count, corners, levels, morph, &instances);
+    s = plod_session_instances(session, &mp, corners, levels, morph, &instances);
     if (s == PLOD_OK) {
-        FUZZ_CHECK(instances == emitted, "%zu instances, %zu sectors", instances, emitted);
+        FUZZ_CHECK(instances == visible, "%zu instances, %zu sectors", instances, visible);
         for (size_t i = 0; i < 9 * instances; i++)
             FUZZ_CHECK(isfinite(corners[i]) && fabsf(corners[i]) <= 1.0f, "corner %g", corners[i]);
     }
@@ -519,10 +500,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         (unsigned)planet.projection >= PLOD_PROJ_COUNT)
         FUZZ_CHECK(s != PLOD_OK, "planet radius %g projection %d accepted", planet.radius,
                    planet.projection);
-    plod_refiner *refiner = NULL;
-    plod_status cs = plod_refiner_create(&refiner, &planet);
+    plod_session *session = NULL;
+    plod_status cs = plod_session_create(&session, &planet, NULL, NULL, 0);
     if (s != PLOD_OK) {
-        FUZZ_CHECK(cs != PLOD_OK, "refiner accepted a planet plod_planet_check refused (%d)", s);
+        FUZZ_CHECK(cs != PLOD_OK, "session accepted a planet plod_planet_check refused (%d)", s);
         plod_detail_destroy(detail);
         plod_cubemap_destroy(map);
         return 0;
@@ -532,10 +513,13 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         plod_cubemap_destroy(map);
         return 0;
     }
-    plod_cubemap *normals = NULL;
+    const plod_refiner *refiner = plod_session_refiner(session);
     if (planet.heightmap && (fuzz_u8(&in) & 1)) {
-        FUZZ_CHECK(plod_planet_build_normals(&planet, &normals) == PLOD_OK,
+        FUZZ_CHECK(plod_session_build_normals(session) == PLOD_OK,
                    "normal map of a valid planet refused");
+        planet = *plod_session_planet(session); /* the session's normal map */
+        const plod_cubemap *normals = planet.normalmap;
+        FUZZ_CHECK(normals != NULL, "no normal map built");
         FUZZ_CHECK(plod_cubemap_channels(normals) == 3 &&
                        plod_cubemap_size(normals) == plod_cubemap_size(planet.heightmap),
                    "normal map shape");
@@ -548,7 +532,6 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                 FUZZ_CHECK(fabs(x * x + y * y + z * z - 1.0) < 1e-3, "normal texel not unit");
             }
         }
-        planet.normalmap = normals;
         FUZZ_CHECK(plod_planet_check(&planet) == PLOD_OK, "planet with its normal map refused");
     }
     if (fuzz__dump())
@@ -606,9 +589,6 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                 rp.frustum_culling, rp.skip_sea, rp.template_level, rp.max_level, rp.budget,
                 rp.max_sectors, frames);
 
-    plod_mesh_cache *cache = NULL; /* shared by the frames, as Planet.mesh() does */
-    FUZZ_CHECK(plod_mesh_cache_create(&cache, PLOD_MESH_CACHE_DEFAULT_BYTES) == PLOD_OK,
-               "cache");
     for (int f = 0; f < frames; f++) {
         plod_camera_desc desc;
         fuzz__camera_desc(&in, planet.radius, &desc);
@@ -647,7 +627,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                            (dist > 1e150 || (isfinite(clip1) && clip0 < clip1)),
                        "recommended clip %g %g at distance %g", clip0, clip1, dist);
         plod_refine_stats st;
-        s = plod_refiner_update(refiner, &camera, &rp, &st);
+        s = plod_session_refine(session, &camera, &rp, &st);
         int params_ok = rp.max_level >= 0 && rp.max_level <= PLOD_MAX_LEVEL;
         if (!params_ok)
             FUZZ_CHECK(s != PLOD_OK, "max_level %d accepted", rp.max_level);
@@ -657,24 +637,20 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         fuzz__check_history_free(refiner, &planet, &camera, &rp, &st);
         if (planet.detail && finite_heights)
             fuzz__check_bounds(refiner, &planet);
-        size_t count = 0;
-        const plod_sector *sectors = plod_refiner_sectors(refiner, &count);
         if (f == frames - 1 || (fuzz_u8(&in) & 1))
-            fuzz__emit(&in, &planet, &camera, &rp, sectors, count, finite_heights, cache);
+            fuzz__emit(&in, session, finite_heights);
         uint8_t op = fuzz_u8(&in);
         if (op == 0xff) {
-            plod_refiner_reset(refiner);
+            plod_session_reset(session);
         } else if (op == 0xfe) { /* capacity ahead: results must not change */
             size_t want = (size_t)fuzz_u8(&in) * 64;
-            FUZZ_CHECK(plod_refiner_reserve(refiner, want) == PLOD_OK, "reserve(%zu)", want);
-            FUZZ_CHECK(plod_refiner_reserve(refiner, PLOD_REFINER_MAX_RESERVE + 1) ==
+            FUZZ_CHECK(plod_session_reserve(session, want) == PLOD_OK, "reserve(%zu)", want);
+            FUZZ_CHECK(plod_session_reserve(session, PLOD_REFINER_MAX_RESERVE + 1) ==
                            PLOD_ERR_BAD_PARAM, "reserve above the cap accepted");
             FUZZ_CHECK(plod_refiner_check(refiner) == PLOD_OK, "invariants after reserve");
         }
     }
-    plod_mesh_cache_destroy(cache);
-    plod_refiner_destroy(refiner);
-    plod_cubemap_destroy(normals);
+    plod_session_destroy(session);
     plod_detail_destroy(detail);
     plod_cubemap_destroy(map);
     return 0;

@@ -2,9 +2,9 @@
  * hand-made conforming sector sets: the 12 base sectors of a cube, uniform
  * and adaptive longest-edge bisections of them (forced splits).
  *
- * Built alone with mesh.c (tests/test_mesh.py compiles and runs it); the
- * planet's height function and the cube map size are stubbed here with an
- * analytic height field so the test does not depend on other stages.
+ * Built alone with mesh.c (tests/test_mesh_core.py compiles and runs it):
+ * the emitter samples an analytic height field through its surface source,
+ * so the test does not depend on other stages.
  */
 #include <assert.h>
 #include <math.h>
@@ -14,10 +14,10 @@
 
 #include "plod.h"
 
-/* ---- stubs: analytic heights ---------------------------------------------- */
+/* ---- the surface: analytic heights ---------------------------------------------- */
 static int g_height_kind = 1; /* 0: linear in x, 1: bumpy */
 
-double plod_planet_height(const plod_planet *planet, const double dir[3])
+static double analytic_height(const plod_planet *planet, const double dir[3])
 {
     if (g_height_kind == 0)
         return planet->height_scale * dir[0];
@@ -27,14 +27,14 @@ double plod_planet_height(const plod_planet *planet, const double dir[3])
 
 /* Normal by central differences of the analytic field (the core samples a
  * normal map; here only the mesh stage's use of it is under test). */
-double plod_planet_surface(const plod_planet *planet, const double dir[3], double normal[3])
+static double analytic_surface(const plod_planet *planet, const double dir[3], double normal[3])
 {
     if (!planet->heightmap) {
         if (normal)
             memcpy(normal, dir, 3 * sizeof(double));
         return 0.0;
     }
-    double height = plod_planet_height(planet, dir);
+    double height = analytic_height(planet, dir);
     if (!normal)
         return height;
     double axis[3] = {fabs(dir[0]) <= fabs(dir[1]) && fabs(dir[0]) <= fabs(dir[2]),
@@ -60,7 +60,7 @@ double plod_planet_surface(const plod_planet *planet, const double dir[3], doubl
             double l = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
             for (int c = 0; c < 3; c++)
                 p[c] /= l;
-            h[s] = plod_planet_height(planet, p);
+            h[s] = analytic_height(planet, p);
         }
         slope[f] = (h[0] - h[1]) / (2.0 * atan(step));
     }
@@ -74,42 +74,27 @@ double plod_planet_surface(const plod_planet *planet, const double dir[3], doubl
     return height;
 }
 
-void plod_planet_surface_n(const plod_planet *planet, size_t n, const double *dirs,
-                           double *heights, double *normals)
-{
-    for (size_t i = 0; i < n; i++)
-        heights[i] = plod_planet_surface(planet, dirs + 3 * i, normals ? normals + 3 * i : NULL);
-}
-
-/* band-limited form: the analytic field has no octaves to drop */
-void plod_planet_surface_band_n(const plod_planet *planet, size_t n, const double *dirs,
-                                const int *octaves, const int *normal_octaves,
-                                double *heights, double *normals)
+/* No detail field: every point keeps everything (octaves ignored). */
+static void analytic_sample_n(const void *self, size_t n, const double *dirs,
+                              const int *octaves, const int *normal_octaves, double *heights,
+                              double *normals, double *detail)
 {
     (void)octaves, (void)normal_octaves;
-    plod_planet_surface_n(planet, n, dirs, heights, normals);
+    for (size_t i = 0; i < n; i++) {
+        heights[i] = analytic_surface(self, dirs + 3 * i, normals ? normals + 3 * i : NULL);
+        if (detail)
+            detail[i] = 0.0;
+    }
 }
 
-void plod_planet_surface_detail_n(const plod_planet *planet, size_t n, const double *dirs,
-                                  const int *octaves, const int *normal_octaves,
-                                  double *heights, double *normals, double *detail)
-{
-    plod_planet_surface_band_n(planet, n, dirs, octaves, normal_octaves, heights, normals);
-    for (size_t i = 0; detail && i < n; i++)
-        detail[i] = 0.0;
-}
+static const plod_surface_ops analytic_ops = {analytic_sample_n, NULL, NULL};
 
-/* the stub planets never carry a detail field */
-int plod_detail_octaves_for_cell(const plod_detail *detail, double cell)
+/* The analytic field of `planet` (its radius, height_scale, and a non-NULL
+ * heightmap token for relief). */
+static plod_surface_source analytic_source(const plod_planet *planet)
 {
-    (void)detail, (void)cell;
-    return 0;
-}
-
-uint64_t plod_detail_stamp(const plod_detail *detail)
-{
-    (void)detail;
-    return 0;
+    plod_surface_source source = {&analytic_ops, planet};
+    return source;
 }
 
 static int g_failures = 0;
@@ -383,7 +368,8 @@ static plod_status emit(const plod_mesh_params *params, const sector_set *set, m
     assert(m->positions && m->normals && m->uv && m->morph && m->triangles && m->level && m->face);
     plod_mesh_buffers out = {m->positions, m->normals, m->uv, m->morph,
                              m->triangles, m->level, m->face};
-    return plod_mesh_emit_array(params, set->s, set->count, &out, &m->vertices,
+    plod_surface_source surface = analytic_source(params->planet);
+    return plod_mesh_emit_array(params, set->s, set->count, &surface, &out, &m->vertices,
                                 &m->triangles_count);
 }
 
@@ -754,6 +740,7 @@ static void test_bad_input(void)
     plod_planet planet = test_planet(1000.0, 1.0, 0);
     sector_set set = {0};
     cube_sectors(&set);
+    plod_surface_source surface = analytic_source(&planet);
     plod_mesh_params params;
     plod_mesh_params_init(&params, &planet, 2);
     float buf[3 * 200];
@@ -761,31 +748,31 @@ static void test_bad_input(void)
     out.positions = buf;
     size_t vc = 1;
     params.template_level = 9;
-    CHECK(plod_mesh_emit_array(&params, set.s, 1, &out, &vc, NULL) == PLOD_ERR_BAD_PARAM, "level");
+    CHECK(plod_mesh_emit_array(&params, set.s, 1, &surface, &out, &vc, NULL) == PLOD_ERR_BAD_PARAM, "level");
     CHECK(vc == 0, "count reset on error");
     params.template_level = 2;
     params.threads = 0;
-    CHECK(plod_mesh_emit_array(&params, set.s, 1, &out, &vc, NULL) == PLOD_ERR_BAD_PARAM, "threads");
+    CHECK(plod_mesh_emit_array(&params, set.s, 1, &surface, &out, &vc, NULL) == PLOD_ERR_BAD_PARAM, "threads");
     params.threads = 1;
-    CHECK(plod_mesh_emit_array(NULL, set.s, 1, &out, &vc, NULL) == PLOD_ERR_NULL, "null params");
+    CHECK(plod_mesh_emit_array(NULL, set.s, 1, &surface, &out, &vc, NULL) == PLOD_ERR_NULL, "null params");
     set.s[0].corners[1][2] = NAN;
-    CHECK(plod_mesh_emit_array(&params, set.s, 1, &out, &vc, NULL) == PLOD_ERR_BAD_COORD, "nan corner");
+    CHECK(plod_mesh_emit_array(&params, set.s, 1, &surface, &out, &vc, NULL) == PLOD_ERR_BAD_COORD, "nan corner");
     memcpy(set.s[0].corners[1], set.s[0].corners[0], sizeof(double[3]));
     for (int c = 0; c < 3; c++)
         set.s[0].corners[1][c] = -set.s[0].corners[0][c];
-    CHECK(plod_mesh_emit_array(&params, set.s, 1, &out, &vc, NULL) == PLOD_ERR_BAD_COORD, "antipodal");
+    CHECK(plod_mesh_emit_array(&params, set.s, 1, &surface, &out, &vc, NULL) == PLOD_ERR_BAD_COORD, "antipodal");
     params.origin[0] = INFINITY;
-    CHECK(plod_mesh_emit_array(&params, set.s + 1, 1, &out, &vc, NULL) == PLOD_ERR_BAD_COORD, "origin");
+    CHECK(plod_mesh_emit_array(&params, set.s + 1, 1, &surface, &out, &vc, NULL) == PLOD_ERR_BAD_COORD, "origin");
     params.origin[0] = 0;
     params.morph = 1;
     params.morph_ramp = 0.0;
-    CHECK(plod_mesh_emit_array(&params, set.s + 1, 1, &out, &vc, NULL) == PLOD_ERR_BAD_PARAM, "ramp");
+    CHECK(plod_mesh_emit_array(&params, set.s + 1, 1, &surface, &out, &vc, NULL) == PLOD_ERR_BAD_PARAM, "ramp");
     CHECK(plod_mesh_vertex_bound((size_t)1 << 40, 7) == 0, "bound overflow");
     double origin[3] = {1, 2, 3}, zero[3] = {0, 0, 0};
-    plod_mesh_origin(&planet, zero, origin);
+    plod_mesh_origin(&surface, planet.radius, zero, origin);
     CHECK(origin[0] == 0 && origin[1] == 0 && origin[2] == 0, "origin at centre");
     double eye[3] = {0, 3000, 0};
-    plod_mesh_origin(&planet, eye, origin);
+    plod_mesh_origin(&surface, planet.radius, eye, origin);
     CHECK(origin[1] == 1000.0 && origin[0] == 0.0, "origin under eye");
     free(set.s);
 }

@@ -1,0 +1,141 @@
+/* plod_session.h -- the one object that owns a planet's per-frame state:
+ * the planet, its refiner, its detail field and normal map, the emission
+ * cache and the last frame's camera and parameters.  A frame is
+ * plod_session_refine (camera -> LOD tree, culling) and then
+ * plod_session_emit or plod_session_instances (the refiner's leaves ->
+ * the emitter: the sector list in the canonical visible order, the origin
+ * under the camera, the morph scale of the refine criterion, the cache).
+ * Bindings, benchmarks and fuzzers drive a planet through a session; none
+ * of them writes that glue again.
+ *
+ * The session, as WCSLIB documents a struct (it is opaque; these are what
+ * the calls below give and return):
+ *   Given, at plod_session_create:
+ *     planet   copied; what its pointers reach (height map, height source,
+ *              insets, a caller's detail field or normal map) is borrowed
+ *              and must outlive the session.
+ *     detail   optional detail parameters: the session builds the field
+ *              and owns it (else planet->detail, borrowed, as given).
+ *   Returned, per frame:
+ *     the refiner's leaves and visible order (plod_session_refiner), the
+ *     last refine's camera, parameters and statistics.
+ *   Private, owned and released by plod_session_destroy:
+ *     refiner, detail field (when built here), normal map (when built
+ *     here), emission cache, lock.
+ *
+ * Thread safety: a session is not safe to call from two threads at once.
+ * It holds a mutex for its callers to serialise themselves with
+ * (plod_session_lock / _trylock / _unlock): a binding that lets several
+ * threads reach one planet takes it around every call that reads or writes
+ * the session (and around its use of the pointers those calls return).
+ * The calls do not take it themselves, so a caller that owns the session
+ * alone (a benchmark, a fuzzer) pays nothing.  Emission and refinement run
+ * their own threads inside one call.
+ */
+#ifndef PLOD_SESSION_H
+#define PLOD_SESSION_H
+
+#include "plod_detail.h"
+#include "plod_mesh.h"
+#include "plod_refine.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct plod_session plod_session; /* opaque */
+
+/* ---- create / destroy ---------------------------------------------------- */
+
+/* Checks the planet (plod_planet_check), builds the detail field when
+ * `detail` is not NULL, and the refiner at the base sectors.  On failure
+ * *out is NULL and `message` (may be NULL) says which part was refused:
+ * PLOD_ERR_BAD_IMAGE for height data with NaN texels
+ * (plod_planet_nan_count), PLOD_ERR_BAD_PARAM for bad detail parameters or
+ * a bad planet, PLOD_ERR_NO_MEMORY.  The mesh cache budget starts at
+ * PLOD_MESH_CACHE_DEFAULT_BYTES. */
+plod_status plod_session_create(plod_session **out, const plod_planet *planet,
+                                const plod_detail_params *detail, char *message,
+                                size_t message_size);
+/* Releases everything the session owns; NULL is a no-op.  The lock must
+ * not be held. */
+void plod_session_destroy(plod_session *session);
+
+/* ---- lock (see above) ------------------------------------------------------ */
+void plod_session_lock(plod_session *session);
+/* 1 when taken, 0 when another thread holds it. */
+int plod_session_trylock(plod_session *session);
+void plod_session_unlock(plod_session *session);
+
+/* ---- queries (valid until the next call that changes the session) -------- */
+/* The session's planet (its normal map and detail field included). */
+const plod_planet *plod_session_planet(const plod_session *session);
+/* The refiner: its leaves (plod_refiner_sectors) and visible order. */
+const plod_refiner *plod_session_refiner(const plod_session *session);
+/* The last successful refine's camera; NULL before one and after a reset. */
+const plod_camera *plod_session_camera(const plod_session *session);
+/* The last successful refine's parameters (plod_refine_params_default
+ * before one) and statistics (zero before one). */
+const plod_refine_params *plod_session_refine_params(const plod_session *session);
+const plod_refine_stats *plod_session_refine_stats(const plod_session *session);
+
+/* ---- per frame --------------------------------------------------------------- */
+
+/* plod_refiner_update; on success the camera, parameters and statistics
+ * become the session's last (stats may be NULL).  On failure the session
+ * keeps the previous frame's. */
+plod_status plod_session_refine(plod_session *session, const plod_camera *camera,
+                                const plod_refine_params *params, plod_refine_stats *stats);
+/* Back to the base sectors; forgets the last camera. */
+void plod_session_reset(plod_session *session);
+/* plod_refiner_reserve. */
+plod_status plod_session_reserve(plod_session *session, size_t sectors);
+
+/* Builds the normal map of the planet's height map once (a no-op without a
+ * height map or with one already, the caller's included); emissions and
+ * plod_planet_surface on the session's planet then sample normals instead
+ * of differencing heights.  PLOD_ERR_NO_MEMORY. */
+plod_status plod_session_build_normals(plod_session *session);
+
+/* ---- emission ------------------------------------------------------------------ */
+
+/* Returned: emission parameters for the last refine: plod_mesh_params_init
+ * for the session's planet, `threads`, and with a last camera the origin
+ * on the surface point nearest it, the eye at it, and when `morph` the
+ * morph scale of the refine criterion (plod_mesh_set_morph_scale; morph
+ * stays off where that scale is 0).  Values are not checked here:
+ * plod_session_emit refuses bad ones.  The caller may adjust the result. */
+void plod_session_mesh_params(const plod_session *session, int template_level, int morph,
+                              int threads, plod_mesh_params *params);
+/* Sectors an emission emits: the visible ones, or every leaf. */
+size_t plod_session_sector_count(const plod_session *session, int visible_only);
+
+/* Emits the visible sectors in the canonical visible order (plod_refiner_
+ * visible), or every leaf in storage order, through plod_mesh_emit with
+ * `params` (params->planet and params->cache are replaced by the session's
+ * planet and, when use_cache, its cache, created on first use).  Buffers
+ * and counts as plod_mesh_emit; size them with plod_session_sector_count.
+ * PLOD_ERR_NO_MEMORY when the cache cannot be created; else
+ * plod_mesh_emit's statuses. */
+plod_status plod_session_emit(plod_session *session, const plod_mesh_params *params,
+                              int visible_only, int use_cache,
+                              const plod_mesh_buffers *out, size_t *vertex_count,
+                              size_t *triangle_count);
+/* plod_mesh_instances over the visible sectors, in the same order. */
+plod_status plod_session_instances(plod_session *session, const plod_mesh_params *params,
+                                   float *corners, float *levels, float *morph,
+                                   size_t *instance_count);
+
+/* ---- emission cache ------------------------------------------------------------- */
+/* The cache's budget (bytes; 0 disables it): kept for the cache's
+ * creation, applied at once to an existing one. */
+void plod_session_set_cache_max_bytes(plod_session *session, size_t max_bytes);
+size_t plod_session_cache_max_bytes(const plod_session *session);
+/* The cache's statistics (zero before its first use); max_bytes is the
+ * session's budget. */
+void plod_session_cache_stats(const plod_session *session, plod_mesh_cache_stats *stats);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* PLOD_SESSION_H */

@@ -1,0 +1,316 @@
+/* session.c -- one planet's per-frame state and the refiner -> emitter glue
+ * (plod_session.h).
+ *
+ * The glue: the emitter sees a sector as three corner directions, a level,
+ * a face and a key; a refiner leaf gives them through plod_sector_corners,
+ * its level and face, and its id as the cache key (ids are unique among the
+ * leaves and stable while a leaf lives, which is what the cache needs).
+ * Visible sectors are emitted in the refiner's canonical visible order, so
+ * a mesh does not depend on the order splits and merges left the storage
+ * in.  The origin is the surface point under the camera (float32 positions
+ * relative to it keep millimetres at a planet's scale), and geomorphing
+ * follows the refine criterion's split distance.
+ */
+#include "plod_session.h"
+
+#include <pthread.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+struct plod_session {
+    plod_planet planet;        /* copy; normalmap / detail may point below */
+    plod_detail *detail;       /* owned, or NULL (planet.detail borrowed) */
+    plod_cubemap *normalmap;   /* owned, or NULL */
+    plod_refiner *refiner;     /* owned; reads &planet */
+    plod_mesh_cache *mesh_cache; /* owned; created by the first cached emission */
+    size_t mesh_cache_max_bytes;
+    plod_camera camera;        /* last refine's */
+    plod_refine_params params;
+    plod_refine_stats stats;
+    int has_camera;
+    pthread_mutex_t lock;
+};
+
+static void plod__session_message(char *message, size_t size, const char *text)
+{
+    if (message && size)
+        snprintf(message, size, "%s", text);
+}
+
+/* ---- create / destroy ------------------------------------------------------ */
+
+plod_status plod_session_create(plod_session **out, const plod_planet *planet,
+                                const plod_detail_params *detail, char *message,
+                                size_t message_size)
+{
+    plod__session_message(message, message_size, "");
+    if (!out)
+        return PLOD_ERR_NULL;
+    *out = NULL;
+    if (!planet)
+        return PLOD_ERR_NULL;
+    plod_session *s = calloc(1, sizeof *s);
+    if (!s)
+        return PLOD_ERR_NO_MEMORY;
+    if (pthread_mutex_init(&s->lock, NULL) != 0) {
+        free(s);
+        return PLOD_ERR_NO_MEMORY;
+    }
+    s->planet = *planet;
+    plod_status st = PLOD_OK;
+    size_t nan_texels = plod_planet_nan_count(&s->planet);
+    if (nan_texels != 0) {
+        if (message && message_size)
+            snprintf(message, message_size,
+                     "height map has %zu NaN samples (no-data texels); fill them before "
+                     "using it as a height map",
+                     nan_texels);
+        plod_session_destroy(s);
+        return PLOD_ERR_BAD_IMAGE;
+    }
+    if (detail) {
+        st = plod_planet_check(&s->planet);
+        if (st == PLOD_OK)
+            st = plod_detail_create(&s->detail, detail, &s->planet);
+        if (st != PLOD_OK) {
+            plod__session_message(message, message_size,
+                                  st == PLOD_ERR_BAD_PARAM
+                                      ? "invalid detail (amplitude in [0, 1e6], roughness in "
+                                        "[0, 1), largest >= 0, smallest > 0, craters in [0, 4], "
+                                        "crater_density and plains in [0, 1], relief >= 0) or "
+                                        "planet"
+                                      : "detail field");
+            plod_session_destroy(s);
+            return st;
+        }
+        s->planet.detail = s->detail;
+    }
+    st = plod_refiner_create(&s->refiner, &s->planet);
+    if (st != PLOD_OK) {
+        plod__session_message(message, message_size,
+                              "invalid planet (radius, height_scale, height_offset, "
+                              "sea_level, height range or detail amplitude)");
+        plod_session_destroy(s);
+        return st;
+    }
+    plod_refine_params_default(&s->params);
+    s->mesh_cache_max_bytes = PLOD_MESH_CACHE_DEFAULT_BYTES;
+    *out = s;
+    return PLOD_OK;
+}
+
+void plod_session_destroy(plod_session *session)
+{
+    if (!session)
+        return;
+    plod_refiner_destroy(session->refiner);
+    plod_mesh_cache_destroy(session->mesh_cache);
+    plod_cubemap_destroy(session->normalmap);
+    plod_detail_destroy(session->detail);
+    pthread_mutex_destroy(&session->lock);
+    free(session);
+}
+
+/* ---- lock ---------------------------------------------------------------------- */
+
+void plod_session_lock(plod_session *session)
+{
+    pthread_mutex_lock(&session->lock);
+}
+
+int plod_session_trylock(plod_session *session)
+{
+    return pthread_mutex_trylock(&session->lock) == 0;
+}
+
+void plod_session_unlock(plod_session *session)
+{
+    pthread_mutex_unlock(&session->lock);
+}
+
+/* ---- queries ---------------------------------------------------------------------- */
+
+const plod_planet *plod_session_planet(const plod_session *session)
+{
+    return &session->planet;
+}
+
+const plod_refiner *plod_session_refiner(const plod_session *session)
+{
+    return session->refiner;
+}
+
+const plod_camera *plod_session_camera(const plod_session *session)
+{
+    return session->has_camera ? &session->camera : NULL;
+}
+
+const plod_refine_params *plod_session_refine_params(const plod_session *session)
+{
+    return &session->params;
+}
+
+const plod_refine_stats *plod_session_refine_stats(const plod_session *session)
+{
+    return &session->stats;
+}
+
+/* ---- per frame ---------------------------------------------------------------------- */
+
+plod_status plod_session_refine(plod_session *session, const plod_camera *camera,
+                                const plod_refine_params *params, plod_refine_stats *stats)
+{
+    plod_refine_stats frame;
+    plod_status st = plod_refiner_update(session->refiner, camera, params, &frame);
+    if (st != PLOD_OK)
+        return st;
+    session->camera = *camera;
+    session->params = *params;
+    session->stats = frame;
+    session->has_camera = 1;
+    if (stats)
+        *stats = frame;
+    return PLOD_OK;
+}
+
+void plod_session_reset(plod_session *session)
+{
+    plod_refiner_reset(session->refiner);
+    session->has_camera = 0;
+}
+
+plod_status plod_session_reserve(plod_session *session, size_t sectors)
+{
+    return plod_refiner_reserve(session->refiner, sectors);
+}
+
+plod_status plod_session_build_normals(plod_session *session)
+{
+    if (!session->planet.heightmap || session->planet.normalmap)
+        return PLOD_OK;
+    plod_status st = plod_planet_build_normals(&session->planet, &session->normalmap);
+    if (st != PLOD_OK)
+        return st;
+    session->planet.normalmap = session->normalmap;
+    return PLOD_OK;
+}
+
+/* ---- emission ------------------------------------------------------------------------ */
+
+/* The refiner's leaves as the emitter's sector source. */
+typedef struct plod__leaf_source {
+    const plod_planet *planet;
+    const plod_sector *sectors;
+    const uint32_t *order; /* NULL: storage order */
+} plod__leaf_source;
+
+static int plod__leaf_sector(const void *context, size_t index, plod_mesh_sector *out)
+{
+    const plod__leaf_source *src = context;
+    const plod_sector *s = &src->sectors[src->order ? src->order[index] : index];
+    if (out) {
+        plod_sector_corners(src->planet, s, out->corners);
+        out->level = s->level;
+        out->face = s->face;
+        out->key = s->id;
+    }
+    return 1;
+}
+
+/* The sector source over `leaves` (which it points into). */
+static plod_mesh_sector_source plod__leaf_source_init(const plod_session *session,
+                                                      int visible_only,
+                                                      plod__leaf_source *leaves)
+{
+    size_t count, visible;
+    leaves->planet = &session->planet;
+    leaves->sectors = plod_refiner_sectors(session->refiner, &count);
+    leaves->order = plod_refiner_visible(session->refiner, &visible);
+    if (!visible_only)
+        leaves->order = NULL;
+    plod_mesh_sector_source source = {plod__leaf_sector, leaves,
+                                      visible_only ? visible : count};
+    return source;
+}
+
+void plod_session_mesh_params(const plod_session *session, int template_level, int morph,
+                              int threads, plod_mesh_params *params)
+{
+    plod_mesh_params_init(params, &session->planet, template_level);
+    params->threads = threads;
+    if (session->has_camera) {
+        const plod_camera *camera = &session->camera;
+        plod_surface_source surface = plod_planet_surface_source(&session->planet);
+        plod_mesh_origin(&surface, session->planet.radius, camera->position, params->origin);
+        for (int c = 0; c < 3; c++)
+            params->eye[c] = camera->position[c];
+        if (morph)
+            params->morph =
+                plod_mesh_set_morph_scale(params, camera, &session->params) > 0.0;
+    }
+}
+
+size_t plod_session_sector_count(const plod_session *session, int visible_only)
+{
+    plod__leaf_source leaves;
+    return plod__leaf_source_init(session, visible_only, &leaves).count;
+}
+
+plod_status plod_session_emit(plod_session *session, const plod_mesh_params *params,
+                              int visible_only, int use_cache,
+                              const plod_mesh_buffers *out, size_t *vertex_count,
+                              size_t *triangle_count)
+{
+    if (!params)
+        return PLOD_ERR_NULL;
+    plod_mesh_params mp = *params;
+    mp.planet = &session->planet;
+    mp.cache = NULL;
+    if (use_cache) {
+        if (!session->mesh_cache &&
+            plod_mesh_cache_create(&session->mesh_cache, session->mesh_cache_max_bytes) !=
+                PLOD_OK)
+            return PLOD_ERR_NO_MEMORY;
+        mp.cache = session->mesh_cache;
+    }
+    plod__leaf_source leaves;
+    plod_mesh_sector_source sectors = plod__leaf_source_init(session, visible_only, &leaves);
+    plod_surface_source surface = plod_planet_surface_source(&session->planet);
+    return plod_mesh_emit(&mp, &sectors, &surface, out, vertex_count, triangle_count);
+}
+
+plod_status plod_session_instances(plod_session *session, const plod_mesh_params *params,
+                                   float *corners, float *levels, float *morph,
+                                   size_t *instance_count)
+{
+    if (!params)
+        return PLOD_ERR_NULL;
+    plod_mesh_params mp = *params;
+    mp.planet = &session->planet;
+    mp.cache = NULL;
+    plod__leaf_source leaves;
+    plod_mesh_sector_source sectors = plod__leaf_source_init(session, 1, &leaves);
+    plod_surface_source surface = plod_planet_surface_source(&session->planet);
+    return plod_mesh_instances(&mp, &sectors, &surface, corners, levels, morph,
+                               instance_count);
+}
+
+/* ---- emission cache ----------------------------------------------------------------------- */
+
+void plod_session_set_cache_max_bytes(plod_session *session, size_t max_bytes)
+{
+    session->mesh_cache_max_bytes = max_bytes;
+    plod_mesh_cache_set_max_bytes(session->mesh_cache, max_bytes);
+}
+
+size_t plod_session_cache_max_bytes(const plod_session *session)
+{
+    return session->mesh_cache_max_bytes;
+}
+
+void plod_session_cache_stats(const plod_session *session, plod_mesh_cache_stats *stats)
+{
+    plod_mesh_cache_get_stats(session->mesh_cache, stats);
+    stats->max_bytes = session->mesh_cache_max_bytes;
+}
