@@ -181,17 +181,20 @@ def _structure(luminance):
     return float((box(luminance, 3) - box(luminance, 9)).std())
 
 
-DESCENT_STRUCTURE = 0.006
+# The descent's ground below the horizon, seen through the haze: at 52 km
+# (frame 7 of the 12-frame path, 96x54) the colour map alone measures 0.0022,
+# the ground's land use, fields and woods 0.0049.
+DESCENT_STRUCTURE = 0.0035
 
 
 @pytest.mark.parametrize("which", BLENDERS)
 def test_flyby_frames_show_surface_sky_and_sea(which, user_scripts, tmp_path):
     """Every frame of the README's flyby (orbit, descent, skim at 5 m) shows a lit
-    surface; the descent (1-200 km up) shows ground detail, not a blur of the
-    colour map under haze; the orbit shows the planet against black space, the skim a blue sky
-    above the horizon and the sea where the camera flies over the sea (the
-    descent looks down, below the horizon); checked by per-frame image
-    statistics of the rendered PNGs."""
+    surface; the descent (1-200 km up) shows ground detail below the horizon
+    (its lower third), not a blur of the colour map under haze; the orbit
+    shows the planet against black space, the descent and the skim a sky
+    above the horizon, the skim a blue one and the sea where the camera flies
+    over the sea; checked by per-frame image statistics of the rendered PNGs."""
     import numpy
     env = blender_env(user_scripts, tmp_path)
     rows = _flyby(which, "1-12", tmp_path / "flyby", env, resolution="96x54", samples=4)
@@ -205,13 +208,17 @@ def test_flyby_frames_show_surface_sky_and_sea(which, user_scripts, tmp_path):
         space = (luminance < 0.03).mean()
         lit = (luminance > 0.12).mean()
         structure = _structure(luminance)
+        ground_structure = _structure(luminance[-h // 3:])
         print(f"frame {frame}: altitude {altitude:.0f} m, ground {ground:.0f} m, space "
-              f"{space:.2f}, lit {lit:.2f}, structure {structure:.4f}, top RGB "
+              f"{space:.2f}, lit {lit:.2f}, structure {structure:.4f} (lower third "
+              f"{ground_structure:.4f}), top RGB "
               f"{numpy.round(top, 3)}, bottom RGB {numpy.round(bottom.mean(0), 3)}")
         assert lit > 0.1, f"frame {frame}: no lit surface"
         assert luminance.std() > 0.01, f"frame {frame}: a flat frame"
-        if 1000.0 < altitude - ground < 2.0e5:  # the descent: ground detail, not a haze blur
-            assert structure > DESCENT_STRUCTURE, f"frame {frame}: a blur ({structure:.4f})"
+        if 1000.0 < altitude - ground < 2.0e5:  # the descent: ground detail under a sky
+            assert ground_structure > DESCENT_STRUCTURE, \
+                f"frame {frame}: a blur ({ground_structure:.4f})"
+            assert top[2] > top[0], f"frame {frame}: no sky above the horizon"
         if altitude > 1.0e6:  # orbit: the planet against black space
             assert 0.05 < space < 0.95, f"frame {frame}: no planet against space"
         elif altitude - ground < 100.0:  # the skim: a few metres up, the horizon in view

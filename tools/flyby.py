@@ -76,8 +76,9 @@ def build_scene(args):
             scene.render.threads_mode = 'FIXED'
             scene.render.threads = args.threads
     sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", 'SUN'))
-    sun.data.energy = 4.0
-    sun.rotation_euler = (0.9, 0.0, 2.2)
+    from planet_lod import core
+    sun.data.energy = core.FLYBY_SUN_STRENGTH
+    sun.rotation_euler = core.FLYBY_SUN_ROTATION
     scene.collection.objects.link(sun)
     bpy.ops.mesh.planet_add(preset=args.preset.upper(), quality=args.quality.upper())
     return scene, bpy.context.object

@@ -275,6 +275,14 @@ def template_level_from_density(triangles):
 
 ORBIT_END = 0.4
 DESCENT_END = 0.75
+# share of the descent over which the gaze turns from the planet's centre to
+# the horizon: the rest of the descent keeps the horizon and the sky in view
+GAZE_TURN = 0.3
+# The flyby's sun (a sun lamp's XYZ Euler rotation and strength): afternoon
+# light from the south-west, about 40 degrees up over the orbit and the
+# descent and 25-30 over the skim, low enough for the relief to show
+FLYBY_SUN_ROTATION = (1.914, 0.0, 2.314)
+FLYBY_SUN_STRENGTH = 4.0
 
 
 def _normalise(v):
@@ -312,7 +320,8 @@ def flyby_pose(frame, path_frames, radius, skim_height=5.0, ground_height=None,
 
     orbit (camera at orbit_distance*radius circling over 60 degrees of longitude,
     looking at the centre) -> descent (altitude falls exponentially to
-    skim_height, gaze tilts to the horizon) -> skim (skim_height metres above
+    skim_height; the gaze turns to just below the horizon early on, so the
+    ground comes down to meet a sky) -> skim (skim_height metres above
     the ground, flying east).  ground_height(dir) -> metres gives the terrain
     under the camera (None: the bare sphere)."""
     t = 0.0 if path_frames <= 1 else (frame - 1) / float(path_frames - 1)
@@ -333,7 +342,7 @@ def flyby_pose(frame, path_frames, radius, skim_height=5.0, ground_height=None,
     elif t <= DESCENT_END:
         s = _smooth((t - ORBIT_END) / (DESCENT_END - ORBIT_END))
         altitude = math.exp(math.log(top) * (1 - s) + math.log(skim_height) * s)
-        tilt = s
+        tilt = _smooth(s / GAZE_TURN)
     else:
         altitude = skim_height
         tilt = 1.0

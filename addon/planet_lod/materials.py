@@ -203,10 +203,50 @@ def _noise(b, coords, scale, detail=4.0):
     return b.socket(node.outputs["Fac"], vector=False)
 
 
+def _parcels(b, coords, scale, edges=True):
+    """(a random value per cell, another, the distance to the cell's edge in
+    cells, or None) of a Voronoi tessellation of `coords` into cells 1/scale
+    across."""
+    cells = b.node("ShaderNodeTexVoronoi")
+    cells.voronoi_dimensions = '3D'
+    cells.feature = 'F1'
+    cells.distance = 'EUCLIDEAN'
+    b.link(coords, cells.inputs["Vector"])
+    cells.inputs["Scale"].default_value = scale
+    value, other, _ = b.split(b.socket(cells.outputs["Color"]))
+    if not edges:
+        return value, other, None
+    edges = b.node("ShaderNodeTexVoronoi")
+    edges.voronoi_dimensions = '3D'
+    edges.feature = 'DISTANCE_TO_EDGE'
+    b.link(coords, edges.inputs["Vector"])
+    edges.inputs["Scale"].default_value = scale
+    return value, other, b.socket(edges.outputs["Distance"], vector=False)
+
+
+# crops by a parcel's random value (0..1, shifted up in dry regions): green,
+# ripe, ploughed soil, fallow; multipliers of the colour map's colour whose
+# mean is about one, so the farmland averages to the map seen from afar
+CROP_TINTS = ((0.0, (0.72, 0.95, 0.58)), (0.35, (1.30, 1.16, 0.82)),
+              (0.62, (1.02, 0.82, 0.62)), (0.84, (1.05, 1.02, 0.90)))
+# land use by a region's random value: forest, cropland, dry scrub and
+# pasture (likewise about one on average)
+REGION_TINTS = ((0.0, (0.50, 0.62, 0.45)), (0.3, (1.0, 1.0, 1.0)),
+                (0.62, (1.40, 1.25, 0.95)), (0.85, (1.1, 1.12, 0.9)))
+
+
+def _tint(b, table, value):
+    tint = b.const(table[0][1])
+    for start, colour in table[1:]:
+        tint = b.mix(tint, b.const(colour), b.less(start, value))
+    return tint
+
+
 def _ground_types(b, s, base, airless):
     """Ground colour below the colour map's resolution: rock on steep slopes and
     bare crests, snow above a latitude-dependent snow line, sand at the shore,
-    vegetation tinted by the colour map and gathered in hollows, regolith on
+    vegetation tinted by the colour map: woods in hollows and on hillsides,
+    farmland parcels of a few hundred metres on flat lowland, regolith on
     airless bodies; by per-vertex height, slope, latitude and the core's
     detail field (`planet_detail`: its ridges and hollows, which the colour map
     cannot show), textured by noise in planet-anchored coordinates.  The
@@ -251,22 +291,45 @@ def _ground_types(b, s, base, airless):
         ground = b.mix(textured, b.const(rock) * grain,
                        b.smoothstep(30.0, 45.0, slope) * near * 0.5)
         return ground, bump
-    # land cover in patches the colour map's texels average out: woods (in
-    # hollows and in patches with edges at 3 km, 250 m and 11 m, each scale
-    # added where it spans a few pixels), dry fields and bare soil between
     def fade(reach):
         return 1.0 - b.smoothstep(0.1 * reach, reach, distance)
-    cover = broad + (coarse - 0.5) * fade(4.0e4) + (mid - 0.5) * (fade(3000.0) * 0.7)
-    fields = _noise(b, detail, 0.0019, detail=2.0)
-    forest = b.maximum(b.smoothstep(0.5, 0.54, cover) * (fade(2.5e5) * 0.9), hollow * 0.6)
-    plains = _noise(b, detail, 0.00012, detail=3.0)  # 8 km patches seen from 100 km up
-    dry = b.maximum(b.smoothstep(0.49, 0.53, fields) * fade(1.5e5),
-                    b.smoothstep(0.49, 0.53, plains) * (fade(5.0e5) * 0.8)) * (1.0 - forest)
-    # (woods reflect a third to a half of what grass does, dry fields and bare
-    # soil about twice: the contrast a patchwork of fields shows from the air)
-    vegetation = b.mix(textured, textured * (0.42, 0.52, 0.36), forest)
-    soil = b.mix(textured * (1.4, 1.25, 0.95), b.const((0.30, 0.24, 0.15)) * grain, 0.5)
-    vegetation = b.mix(vegetation, soil, dry * 0.9)
+    # the colour map's own green against its browns: farmland and woods follow
+    # the region's climate (green crops and woods where the map is green)
+    base_r, base_g, _ = b.split(base)
+    green = b.smoothstep(-0.02, 0.03, base_g - base_r)
+    # woods: soft-edged stands, gathered in hollows and on hillsides
+    cover = broad + (coarse - 0.5) * fade(4.0e4) + (mid - 0.5) * (fade(3000.0) * 0.7) + \
+        hollow * 0.35 + b.smoothstep(8.0, 20.0, slope) * 0.12
+    woods = b.smoothstep(0.5, 0.62, cover - green * 0.08) * (green * 0.5 + 0.4) * fade(2.5e5)
+    # farmland on flat lowland: parcels of one crop each (Voronoi cells, a
+    # random value per cell picks green, ripe, ploughed or fallow), a few
+    # hundred metres across, in holdings of a few kilometres seen from afar,
+    # with field margins close up
+    flat = (1.0 - b.smoothstep(5.0, 12.0, slope)) * (1.0 - b.smoothstep(800.0, 2500.0, height))
+    aridity = (1.0 - green) * 0.25
+    near_parcels, near_brightness, near_edge = _parcels(b, detail, 1.0 / 350.0)
+    far_parcels, far_brightness, _ = _parcels(b, detail, 1.0 / 2500.0, edges=False)
+    near_crop = _tint(b, CROP_TINTS, near_parcels + aridity) * (near_brightness * 0.35 + 0.82)
+    far_crop = _tint(b, CROP_TINTS, far_parcels + aridity) * (far_brightness * 0.7 + 0.65)
+    crop = b.mix(b.mix(b.const((1.0, 1.0, 1.0)), far_crop, fade(2.5e5)), near_crop,
+                 fade(4.0e4))
+    margin = (1.0 - b.smoothstep(0.008, 0.02, near_edge)) * fade(5000.0)
+    crop = b.mix(crop, b.const((0.5, 0.6, 0.42)), margin * 0.8)
+    # land use in regions of a few kilometres with irregular borders: the
+    # texture of a plain seen from 20 to 300 km up, where fields blur
+    warp = b.node("ShaderNodeTexNoise")
+    warp.noise_dimensions = '3D'
+    b.link(detail, warp.inputs["Vector"])
+    warp.inputs["Scale"].default_value = 1.0 / 4000.0
+    warp.inputs["Detail"].default_value = 3.0
+    warped = detail + (b.socket(warp.outputs["Color"]) - (0.5, 0.5, 0.5)) * 6000.0
+    region, _, _ = _parcels(b, warped, 1.0 / 6000.0, edges=False)
+    land_use = b.mix(b.const((1.0, 1.0, 1.0)), _tint(b, REGION_TINTS, region + aridity),
+                     fade(3.0e5))
+    farmland = flat * (1.0 - woods)
+    vegetation = textured * land_use
+    vegetation = b.mix(vegetation, vegetation * crop, farmland)
+    vegetation = b.mix(vegetation, textured * (0.32, 0.42, 0.28), woods)
     steep = b.smoothstep(28.0, 42.0, slope)
     bare = b.maximum(steep, b.smoothstep(0.4, 0.8, ridge) * regional * 0.7)
     rock_colour = b.const(rock) * (grain * 0.8 + 0.2) * (crest * 0.3 + 1.0)
@@ -358,7 +421,7 @@ def planet_material(obj):
     atm = atmosphere.params(s)
     key = (color_map, s.projection, round(s.radius, 3), round(s.height_scale, 3),
            s.use_sea_level, round(s.sea_level, 3), s.heightmap, repr(atm), s.use_detail,
-           round(s.detail_amplitude, 3), 5)
+           round(s.detail_amplitude, 3), 6)
     if material.get("planet_lod_key") == repr(key):
         return material
     material.use_nodes = True

@@ -136,8 +136,8 @@ class _SceneState:
                for o in scene.objects):
             return
         sun = bpy.data.objects.new("Flyby Sun", bpy.data.lights.new("Flyby Sun", 'SUN'))
-        sun.data.energy = 4.0
-        sun.rotation_euler = (0.9, 0.0, 2.2)
+        sun.data.energy = core.FLYBY_SUN_STRENGTH
+        sun.rotation_euler = core.FLYBY_SUN_ROTATION
         scene.collection.objects.link(sun)
         self.sun_name = sun.name
 
