@@ -9,6 +9,7 @@ addon/planet_lod/presets.py), 1920x1080.
 
     /usr/bin/python3 bench/bench_viewport_detail.py [--frames 48]
         [--planets EARTH,MOON,MARS,ASTEROID] [--quality DRAFT,PREVIEW]
+        [--build DIR]
 
 Per planet and quality: the slowest refresh (ms), the mean, the refreshes
 over 50 ms, and the vertices of the slowest, for the two refreshes the
@@ -29,6 +30,9 @@ import time
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 sys.path.insert(0, os.path.join(ROOT, "bench"))
+
+if "--build" in sys.argv:  # before the import: another build's module
+    sys.path.insert(0, os.path.abspath(sys.argv[sys.argv.index("--build") + 1]))
 
 import planetlod  # noqa: E402
 import bench_refine  # noqa: E402
@@ -103,6 +107,7 @@ def main():
     parser.add_argument("--planets", default="EARTH,MOON,MARS,ASTEROID")
     parser.add_argument("--quality", default="DRAFT,PREVIEW")
     parser.add_argument("--set", default="", help="detail overrides, e.g. roughness=0.5")
+    parser.add_argument("--build", default="", help="folder of the planetlod build to use")
     args = parser.parse_args()
     presets = load_presets()
     for item in filter(None, args.set.split(",")):

@@ -116,86 +116,77 @@ static const signed char plod__grad[16][3] = {
     {1, 0, -1}, {-1, 0, -1}, {0, 1, 1}, {0, -1, 1}, {0, 1, -1}, {0, -1, -1},
     {1, 1, 0}, {-1, 1, 0}, {0, -1, 1}, {0, -1, -1}};
 
-/* Improved noise at lattice point p, clamped to [-1, 1] (its extremes are
- * within ~1 already; the clamp makes the bound exact); g: d n / d p. */
-static double plod__gnoise(const double p[3], uint64_t seed, double g[3])
-{
-    double fx = plod__floor(p[0]), fy = plod__floor(p[1]), fz = plod__floor(p[2]);
-    double x = p[0] - fx, y = p[1] - fy, z = p[2] - fz;
-    uint64_t base = (uint64_t)(int64_t)fx * PLOD__HX + (uint64_t)(int64_t)fy * PLOD__HY +
-                    (uint64_t)(int64_t)fz * PLOD__HZ + seed;
-    double val[8], gr[8][3];
-    for (int c = 0; c < 8; c++) {
-        int cx = c & 1, cy = (c >> 1) & 1, cz = (c >> 2) & 1;
-        uint64_t h = plod__mix_fast(base + (cx ? PLOD__HX : 0) + (cy ? PLOD__HY : 0) +
-                                    (cz ? PLOD__HZ : 0));
-        const signed char *q = plod__grad[h >> 60];
-        gr[c][0] = q[0], gr[c][1] = q[1], gr[c][2] = q[2];
-        val[c] = q[0] * (x - cx) + q[1] * (y - cy) + q[2] * (z - cz);
-    }
-    double ux = x * x * x * (x * (x * 6.0 - 15.0) + 10.0);
-    double uy = y * y * y * (y * (y * 6.0 - 15.0) + 10.0);
-    double uz = z * z * z * (z * (z * 6.0 - 15.0) + 10.0);
-    double dx = 30.0 * x * x * (x * (x - 2.0) + 1.0);
-    double dy = 30.0 * y * y * (y * (y - 2.0) + 1.0);
-    double dz = 30.0 * z * z * (z * (z - 2.0) + 1.0);
-    /* corners a..h = 000 100 010 110 001 101 011 111 */
-    double k0 = val[0], k1 = val[1] - val[0], k2 = val[2] - val[0], k3 = val[4] - val[0];
-    double k4 = val[0] - val[1] - val[2] + val[3];
-    double k5 = val[0] - val[2] - val[4] + val[6];
-    double k6 = val[0] - val[1] - val[4] + val[5];
-    double k7 = -val[0] + val[1] + val[2] - val[3] + val[4] - val[5] - val[6] + val[7];
-    double n = k0 + k1 * ux + k2 * uy + k3 * uz + k4 * ux * uy + k5 * uy * uz + k6 * uz * ux +
-               k7 * ux * uy * uz;
-    for (int a = 0; a < 3; a++) {
-        double g0 = gr[0][a], g1 = gr[1][a] - gr[0][a], g2 = gr[2][a] - gr[0][a],
-               g3 = gr[4][a] - gr[0][a];
-        double g4 = gr[0][a] - gr[1][a] - gr[2][a] + gr[3][a];
-        double g5 = gr[0][a] - gr[2][a] - gr[4][a] + gr[6][a];
-        double g6 = gr[0][a] - gr[1][a] - gr[4][a] + gr[5][a];
-        double g7 = -gr[0][a] + gr[1][a] + gr[2][a] - gr[3][a] + gr[4][a] - gr[5][a] -
-                    gr[6][a] + gr[7][a];
-        g[a] = g0 + g1 * ux + g2 * uy + g3 * uz + g4 * ux * uy + g5 * uy * uz + g6 * uz * ux +
-               g7 * ux * uy * uz;
-    }
-    g[0] += dx * (k1 + k4 * uy + k6 * uz + k7 * uy * uz);
-    g[1] += dy * (k2 + k5 * uz + k4 * ux + k7 * uz * ux);
-    g[2] += dz * (k3 + k6 * ux + k5 * uy + k7 * ux * uy);
-    if (n > 1.0 || n < -1.0) {
-        g[0] = g[1] = g[2] = 0.0;
-        n = n > 0.0 ? 1.0 : -1.0;
-    }
-    return n;
-}
+/* plod__grad as doubles (the lanes copy them, no conversions) */
+static const double plod__grad_double[16][3] = {
+    {1, 1, 0}, {-1, 1, 0}, {1, -1, 0}, {-1, -1, 0}, {1, 0, 1}, {-1, 0, 1},
+    {1, 0, -1}, {-1, 0, -1}, {0, 1, 1}, {0, -1, 1}, {0, 1, -1}, {0, -1, -1},
+    {1, 1, 0}, {-1, 1, 0}, {0, -1, 1}, {0, -1, -1}};
 
-/* plod__gnoise's value alone: the same operations in the same order, so
- * the same bits (height-only callers: bounds, heights without normals). */
-static double plod__gnoise_value(const double p[3], uint64_t seed)
+/* Improved noise at lattice point p, clamped to [-1, 1] (its extremes are
+ * within ~1 already; the clamp makes the bound exact); g (when not NULL):
+ * d n / d p.  Written for the compiler: the corners unrolled, the corner
+ * gradients' blend coefficients in integers (small integers, so the same
+ * values as in doubles), and inlined with g constant NULL for the
+ * height-only callers (bounds, heights without normals): one expression
+ * for n in both, so the same bits. */
+static inline double plod__gnoise_kernel(const double p[3], uint64_t seed, double g[3])
 {
     double fx = plod__floor(p[0]), fy = plod__floor(p[1]), fz = plod__floor(p[2]);
     double x = p[0] - fx, y = p[1] - fy, z = p[2] - fz;
     uint64_t base = (uint64_t)(int64_t)fx * PLOD__HX + (uint64_t)(int64_t)fy * PLOD__HY +
                     (uint64_t)(int64_t)fz * PLOD__HZ + seed;
-    double val[8];
-    for (int c = 0; c < 8; c++) {
-        int cx = c & 1, cy = (c >> 1) & 1, cz = (c >> 2) & 1;
-        uint64_t h = plod__mix_fast(base + (cx ? PLOD__HX : 0) + (cy ? PLOD__HY : 0) +
-                                    (cz ? PLOD__HZ : 0));
-        const signed char *q = plod__grad[h >> 60];
-        val[c] = q[0] * (x - cx) + q[1] * (y - cy) + q[2] * (z - cz);
-    }
+    /* corners a..h = 000 100 010 110 001 101 011 111 */
+    const signed char *q0 = plod__grad[plod__mix_fast(base) >> 60];
+    const signed char *q1 = plod__grad[plod__mix_fast(base + PLOD__HX) >> 60];
+    const signed char *q2 = plod__grad[plod__mix_fast(base + PLOD__HY) >> 60];
+    const signed char *q3 = plod__grad[plod__mix_fast(base + PLOD__HX + PLOD__HY) >> 60];
+    const signed char *q4 = plod__grad[plod__mix_fast(base + PLOD__HZ) >> 60];
+    const signed char *q5 = plod__grad[plod__mix_fast(base + PLOD__HX + PLOD__HZ) >> 60];
+    const signed char *q6 = plod__grad[plod__mix_fast(base + PLOD__HY + PLOD__HZ) >> 60];
+    const signed char *q7 =
+        plod__grad[plod__mix_fast(base + PLOD__HX + PLOD__HY + PLOD__HZ) >> 60];
+    double x1 = x - 1, y1 = y - 1, z1 = z - 1;
+    double val0 = q0[0] * x + q0[1] * y + q0[2] * z;
+    double val1 = q1[0] * x1 + q1[1] * y + q1[2] * z;
+    double val2 = q2[0] * x + q2[1] * y1 + q2[2] * z;
+    double val3 = q3[0] * x1 + q3[1] * y1 + q3[2] * z;
+    double val4 = q4[0] * x + q4[1] * y + q4[2] * z1;
+    double val5 = q5[0] * x1 + q5[1] * y + q5[2] * z1;
+    double val6 = q6[0] * x + q6[1] * y1 + q6[2] * z1;
+    double val7 = q7[0] * x1 + q7[1] * y1 + q7[2] * z1;
     double ux = x * x * x * (x * (x * 6.0 - 15.0) + 10.0);
     double uy = y * y * y * (y * (y * 6.0 - 15.0) + 10.0);
     double uz = z * z * z * (z * (z * 6.0 - 15.0) + 10.0);
-    double k0 = val[0], k1 = val[1] - val[0], k2 = val[2] - val[0], k3 = val[4] - val[0];
-    double k4 = val[0] - val[1] - val[2] + val[3];
-    double k5 = val[0] - val[2] - val[4] + val[6];
-    double k6 = val[0] - val[1] - val[4] + val[5];
-    double k7 = -val[0] + val[1] + val[2] - val[3] + val[4] - val[5] - val[6] + val[7];
+    double k0 = val0, k1 = val1 - val0, k2 = val2 - val0, k3 = val4 - val0;
+    double k4 = val0 - val1 - val2 + val3;
+    double k5 = val0 - val2 - val4 + val6;
+    double k6 = val0 - val1 - val4 + val5;
+    double k7 = -val0 + val1 + val2 - val3 + val4 - val5 - val6 + val7;
     double n = k0 + k1 * ux + k2 * uy + k3 * uz + k4 * ux * uy + k5 * uy * uz + k6 * uz * ux +
                k7 * ux * uy * uz;
-    if (n > 1.0 || n < -1.0)
+    if (g) {
+        double dx = 30.0 * x * x * (x * (x - 2.0) + 1.0);
+        double dy = 30.0 * y * y * (y * (y - 2.0) + 1.0);
+        double dz = 30.0 * z * z * (z * (z - 2.0) + 1.0);
+        for (int a = 0; a < 3; a++) {
+            int g0 = q0[a], g1 = q1[a] - q0[a], g2 = q2[a] - q0[a], g3 = q4[a] - q0[a];
+            int g4 = q0[a] - q1[a] - q2[a] + q3[a];
+            int g5 = q0[a] - q2[a] - q4[a] + q6[a];
+            int g6 = q0[a] - q1[a] - q4[a] + q5[a];
+            int g7 = -q0[a] + q1[a] + q2[a] - q3[a] + q4[a] - q5[a] - q6[a] + q7[a];
+            g[a] = (double)g0 + (double)g1 * ux + (double)g2 * uy + (double)g3 * uz +
+                   (double)g4 * ux * uy + (double)g5 * uy * uz + (double)g6 * uz * ux +
+                   (double)g7 * ux * uy * uz;
+        }
+        g[0] += dx * (k1 + k4 * uy + k6 * uz + k7 * uy * uz);
+        g[1] += dy * (k2 + k5 * uz + k4 * ux + k7 * uz * ux);
+        g[2] += dz * (k3 + k6 * ux + k5 * uy + k7 * ux * uy);
+    }
+    if (n > 1.0 || n < -1.0) {
+        if (g)
+            g[0] = g[1] = g[2] = 0.0;
         n = n > 0.0 ? 1.0 : -1.0;
+    }
     return n;
 }
 
@@ -272,62 +263,125 @@ static double plod__crater(const double p[3], const double centre[3], double rad
 
 /* ---- the field ------------------------------------------------------------- */
 
-static void plod__lattice(const plod__octave *o, const double dir[3], double p[3])
+static inline void plod__lattice(const plod__octave *o, const double dir[3], double p[3])
 {
     for (int a = 0; a < 3; a++)
         p[a] = o->m[a][0] * dir[0] + o->m[a][1] * dir[1] + o->m[a][2] * dir[2] + o->offset[a];
 }
 
 /* lattice gradient -> direction gradient (M^T g), scaled, added to acc */
-static void plod__add_gradient(const plod__octave *o, const double g[3], double scale,
+static inline void plod__add_gradient(const plod__octave *o, const double g[3], double scale,
                                double acc[3])
 {
     for (int a = 0; a < 3; a++)
         acc[a] += scale * (o->m[0][a] * g[0] + o->m[1][a] * g[1] + o->m[2][a] * g[2]);
 }
 
+/* The running state of N and its gradient along the octaves at one
+ * direction. */
+typedef struct plod__noise_state {
+    double sum;
+    double weight;     /* ridged: the previous octave's signal, clamped */
+    double acc[3];     /* gradient, metres per unit of direction */
+    double dweight[3]; /* gradient of weight, per unit of direction */
+} plod__noise_state;
+
+static inline void plod__noise_start(plod__noise_state *st)
+{
+    st->sum = 0.0;
+    st->weight = 1.0;
+    for (int a = 0; a < 3; a++)
+        st->acc[a] = st->dweight[a] = 0.0;
+}
+
+/* Octave o's term at dir into st: its value into the sum when add_sum,
+ * its gradient when gradient (dweight kept only then).  Every caller
+ * (one point or a batch, with or without the gradient) runs this one
+ * sequence of operations per octave, so they agree bit for bit. */
+static inline void plod__octave_step(const plod_detail *detail, const plod__octave *o,
+                                     int ridged, const double dir[3], int add_sum,
+                                     int gradient, plod__noise_state *st)
+{
+    double p[3], g[3];
+    plod__lattice(o, dir, p);
+    if (o->noise_weight != 0.0) {
+        double n = plod__gnoise_kernel(p, o->seed, gradient ? g : NULL);
+        if (!ridged) {
+            if (add_sum)
+                st->sum += o->noise_weight * n;
+            if (gradient)
+                plod__add_gradient(o, g, o->noise_weight, st->acc);
+        } else if (!gradient) {
+            double an = n < 0.0 ? -n : n;
+            double s = (1.0 - an) * (1.0 - an);
+            if (add_sum)
+                st->sum += o->noise_weight * st->weight * (s - 0.5);
+            double next = PLOD__RIDGE_GAIN * s;
+            st->weight = next >= 1.0 ? 1.0 : next;
+        } else {
+            /* signal s = (1 - |n|)^2 in [0, 1]; term w (s - 1/2) */
+            double an = n < 0.0 ? -n : n, sign = n < 0.0 ? -1.0 : 1.0;
+            double s = (1.0 - an) * (1.0 - an);
+            double ds = -2.0 * (1.0 - an) * sign; /* per unit of n */
+            double a = o->noise_weight, weight = st->weight;
+            if (add_sum)
+                st->sum += a * weight * (s - 0.5);
+            double dl[3] = {a * weight * ds * g[0], a * weight * ds * g[1],
+                            a * weight * ds * g[2]}; /* lattice units */
+            plod__add_gradient(o, dl, 1.0, st->acc);
+            for (int k = 0; k < 3; k++) /* dweight is per unit of direction */
+                st->acc[k] += a * (s - 0.5) * st->dweight[k];
+            /* next weight: clamp(gain s, 0, 1) */
+            double next = PLOD__RIDGE_GAIN * s;
+            if (next >= 1.0) {
+                st->weight = 1.0;
+                st->dweight[0] = st->dweight[1] = st->dweight[2] = 0.0;
+            } else {
+                st->weight = next;
+                double dd[3] = {0.0, 0.0, 0.0};
+                double dsg[3] = {PLOD__RIDGE_GAIN * ds * g[0], PLOD__RIDGE_GAIN * ds * g[1],
+                                 PLOD__RIDGE_GAIN * ds * g[2]};
+                plod__add_gradient(o, dsg, 1.0, dd);
+                memcpy(st->dweight, dd, sizeof dd);
+            }
+        }
+    }
+    if (o->crater_weight != 0.0) {
+        double cp[3] = {p[0] + 0.5, p[1] + 0.5, p[2] + 0.5}; /* its own cells */
+        double centre[3] = {o->offset[0] + 0.5, o->offset[1] + 0.5, o->offset[2] + 0.5};
+        double value = plod__crater(cp, centre, o->frequency, o->crater_seed,
+                                    detail->params.crater_density, g);
+        if (value != 0.0) {
+            if (add_sum)
+                st->sum += o->crater_weight * value;
+            if (gradient)
+                plod__add_gradient(o, g, o->crater_weight, st->acc);
+        }
+    }
+}
+
 /* plod_detail_noise without the gradient: the same sum, bit for bit. */
 static double plod__noise_value(const plod_detail *detail, const double dir[3], int octaves)
 {
-    double sum = 0.0;
     int ridged = detail->params.style == PLOD_DETAIL_MOUNTAINS;
-    double weight = 1.0;
-    for (int i = 0; i < octaves; i++) {
-        const plod__octave *o = &detail->octaves[i];
-        double p[3], g[3];
-        plod__lattice(o, dir, p);
-        if (o->noise_weight != 0.0) {
-            double n = plod__gnoise_value(p, o->seed);
-            if (!ridged) {
-                sum += o->noise_weight * n;
-            } else {
-                double an = n < 0.0 ? -n : n;
-                double s = (1.0 - an) * (1.0 - an);
-                sum += o->noise_weight * weight * (s - 0.5);
-                double next = PLOD__RIDGE_GAIN * s;
-                weight = next >= 1.0 ? 1.0 : next;
-            }
-        }
-        if (o->crater_weight != 0.0) {
-            double cp[3] = {p[0] + 0.5, p[1] + 0.5, p[2] + 0.5};
-            double centre[3] = {o->offset[0] + 0.5, o->offset[1] + 0.5, o->offset[2] + 0.5};
-            double value = plod__crater(cp, centre, o->frequency, o->crater_seed,
-                                        detail->params.crater_density, g);
-            if (value != 0.0)
-                sum += o->crater_weight * value;
-        }
-    }
-    return sum;
+    plod__noise_state st;
+    plod__noise_start(&st);
+    for (int i = 0; i < octaves; i++)
+        plod__octave_step(detail, &detail->octaves[i], ridged, dir, 1, 0, &st);
+    return st.sum;
+}
+
+static int plod__unit_range(const double dir[3])
+{
+    return fabs(dir[0]) <= 2.0 && fabs(dir[1]) <= 2.0 && fabs(dir[2]) <= 2.0;
 }
 
 double plod_detail_noise(const plod_detail *detail, const double dir[3], int octaves,
                          double gradient[3])
 {
-    double acc[3] = {0.0, 0.0, 0.0};
-    double sum = 0.0;
     if (octaves > detail->count)
         octaves = detail->count;
-    if (!(fabs(dir[0]) <= 2.0 && fabs(dir[1]) <= 2.0 && fabs(dir[2]) <= 2.0)) {
+    if (!plod__unit_range(dir)) {
         if (gradient) /* not a unit direction (NaN): no lattice to read */
             gradient[0] = gradient[1] = gradient[2] = NAN;
         return NAN;
@@ -335,57 +389,341 @@ double plod_detail_noise(const plod_detail *detail, const double dir[3], int oct
     if (!gradient)
         return plod__noise_value(detail, dir, octaves);
     int ridged = detail->params.style == PLOD_DETAIL_MOUNTAINS;
-    double weight = 1.0, dweight[3] = {0.0, 0.0, 0.0}; /* ridged: previous signal */
-    for (int i = 0; i < octaves; i++) {
-        const plod__octave *o = &detail->octaves[i];
-        double p[3], g[3];
-        plod__lattice(o, dir, p);
-        if (o->noise_weight != 0.0) {
-            double n = plod__gnoise(p, o->seed, g);
-            if (!ridged) {
-                sum += o->noise_weight * n;
-                plod__add_gradient(o, g, o->noise_weight, acc);
-            } else {
-                /* signal s = (1 - |n|)^2 in [0, 1]; term w (s - 1/2) */
-                double an = n < 0.0 ? -n : n, sign = n < 0.0 ? -1.0 : 1.0;
-                double s = (1.0 - an) * (1.0 - an);
-                double ds = -2.0 * (1.0 - an) * sign; /* per unit of n */
-                double a = o->noise_weight;
-                sum += a * weight * (s - 0.5);
-                double dl[3] = {a * weight * ds * g[0], a * weight * ds * g[1],
-                                a * weight * ds * g[2]}; /* lattice units */
-                plod__add_gradient(o, dl, 1.0, acc);
-                for (int k = 0; k < 3; k++) /* dweight is per unit of direction */
-                    acc[k] += a * (s - 0.5) * dweight[k];
-                /* next weight: clamp(gain s, 0, 1) */
-                double next = PLOD__RIDGE_GAIN * s;
-                if (next >= 1.0) {
-                    weight = 1.0;
-                    dweight[0] = dweight[1] = dweight[2] = 0.0;
-                } else {
-                    weight = next;
-                    double dd[3] = {0.0, 0.0, 0.0};
-                    double dsg[3] = {PLOD__RIDGE_GAIN * ds * g[0], PLOD__RIDGE_GAIN * ds * g[1],
-                                     PLOD__RIDGE_GAIN * ds * g[2]};
-                    plod__add_gradient(o, dsg, 1.0, dd);
-                    memcpy(dweight, dd, sizeof dd);
-                }
-            }
-        }
-        if (o->crater_weight != 0.0) {
-            double cp[3] = {p[0] + 0.5, p[1] + 0.5, p[2] + 0.5}; /* its own cells */
-            double centre[3] = {o->offset[0] + 0.5, o->offset[1] + 0.5, o->offset[2] + 0.5};
-            double value = plod__crater(cp, centre, o->frequency, o->crater_seed,
-                                        detail->params.crater_density, g);
-            if (value != 0.0) {
-                sum += o->crater_weight * value;
-                plod__add_gradient(o, g, o->crater_weight, acc);
-            }
+    plod__noise_state st;
+    plod__noise_start(&st);
+    for (int i = 0; i < octaves; i++)
+        plod__octave_step(detail, &detail->octaves[i], ridged, dir, 1, 1, &st);
+    memcpy(gradient, st.acc, sizeof st.acc);
+    return st.sum;
+}
+
+/* ---- the field at a batch of directions ------------------------------------ */
+
+/* Octave by octave across a batch of directions, each step a loop over the
+ * batch's lanes in structure-of-arrays form: the arithmetic (lattice
+ * point, fade, blend, gradient, ridged weights) compiles to SIMD, the
+ * lattice hashes stay scalar.  Per lane the operations are those of
+ * plod__octave_step in its order (lanes past their octave count are
+ * masked, not computed differently), so every lane is bit for bit
+ * plod_detail_noise. */
+#define PLOD__LANES 64
+
+/* The lane loops' selects are if-converted into SIMD only where the
+ * compiler may evaluate both arms of a floating-point select (no traps:
+ * the values are the same either way) and vectorises loops: GCC's -O2 does
+ * neither, so these functions ask for it (fp-contract stays off: no fused
+ * multiply-adds, the same roundings as the point path).  Where the
+ * processor has AVX2, GCC on Linux also builds a 4-lane version, chosen
+ * at load time; its results are the same bits (IEEE double arithmetic,
+ * no FMA). */
+#if defined(__GNUC__) && !defined(__clang__)
+#define PLOD__LANE_LOOPS \
+    __attribute__((optimize("O3", "no-trapping-math", "fp-contract=off")))
+#define PLOD__LANE_INLINE static inline __attribute__((always_inline))
+#if defined(__x86_64__) && defined(__linux__) && !defined(PLOD_DETAIL_NO_CLONES)
+#define PLOD__LANE_CLONES __attribute__((target_clones("avx2", "default")))
+#endif
+#endif
+#ifndef PLOD__LANE_LOOPS
+#define PLOD__LANE_LOOPS
+#define PLOD__LANE_INLINE static inline
+#endif
+#ifndef PLOD__LANE_CLONES
+#define PLOD__LANE_CLONES
+#endif
+
+typedef struct plod__lanes {
+    int count; /* lanes in use, rounded up to a multiple of 4 (idle ones masked) */
+    double dir[3][PLOD__LANES];
+    double value_count[PLOD__LANES], gradient_count[PLOD__LANES]; /* octaves */
+    double p[3][PLOD__LANES];    /* lattice point */
+    double frac[3][PLOD__LANES]; /* position inside the lattice cell */
+    double q[8][3][PLOD__LANES]; /* the 8 corners' gradients */
+    double n[PLOD__LANES], g[3][PLOD__LANES];
+    double sum[PLOD__LANES], weight[PLOD__LANES];
+    double acc[3][PLOD__LANES], dweight[3][PLOD__LANES];
+} plod__lanes;
+
+/* floor() of |x| < 2^51, exact, branch-free: round to an integer by
+ * adding and removing 2^52, step down where that rounded up */
+PLOD__LANE_INLINE double plod__floor_exact(double x)
+{
+    double big = x < 0.0 ? -4503599627370496.0 : 4503599627370496.0;
+    double r = (x + big) - big;
+    return r > x ? r - 1.0 : r;
+}
+
+/* lane k of octave o's gradient noise (n, and g when gradient): the
+ * arithmetic of plod__gnoise_kernel after the hashes, the corners'
+ * gradients read from the lanes */
+PLOD__LANE_INLINE void plod__lane_blend(plod__lanes *l, int k, int gradient)
+{
+    double x = l->frac[0][k], y = l->frac[1][k], z = l->frac[2][k];
+    double x1 = x - 1, y1 = y - 1, z1 = z - 1;
+    double val0 = l->q[0][0][k] * x + l->q[0][1][k] * y + l->q[0][2][k] * z;
+    double val1 = l->q[1][0][k] * x1 + l->q[1][1][k] * y + l->q[1][2][k] * z;
+    double val2 = l->q[2][0][k] * x + l->q[2][1][k] * y1 + l->q[2][2][k] * z;
+    double val3 = l->q[3][0][k] * x1 + l->q[3][1][k] * y1 + l->q[3][2][k] * z;
+    double val4 = l->q[4][0][k] * x + l->q[4][1][k] * y + l->q[4][2][k] * z1;
+    double val5 = l->q[5][0][k] * x1 + l->q[5][1][k] * y + l->q[5][2][k] * z1;
+    double val6 = l->q[6][0][k] * x + l->q[6][1][k] * y1 + l->q[6][2][k] * z1;
+    double val7 = l->q[7][0][k] * x1 + l->q[7][1][k] * y1 + l->q[7][2][k] * z1;
+    double ux = x * x * x * (x * (x * 6.0 - 15.0) + 10.0);
+    double uy = y * y * y * (y * (y * 6.0 - 15.0) + 10.0);
+    double uz = z * z * z * (z * (z * 6.0 - 15.0) + 10.0);
+    double k0 = val0, k1 = val1 - val0, k2 = val2 - val0, k3 = val4 - val0;
+    double k4 = val0 - val1 - val2 + val3;
+    double k5 = val0 - val2 - val4 + val6;
+    double k6 = val0 - val1 - val4 + val5;
+    double k7 = -val0 + val1 + val2 - val3 + val4 - val5 - val6 + val7;
+    double n = k0 + k1 * ux + k2 * uy + k3 * uz + k4 * ux * uy + k5 * uy * uz + k6 * uz * ux +
+               k7 * ux * uy * uz;
+    int clamp = (n > 1.0) | (n < -1.0);
+    l->n[k] = clamp ? (n > 0.0 ? 1.0 : -1.0) : n;
+    if (!gradient)
+        return;
+    double dx = 30.0 * x * x * (x * (x - 2.0) + 1.0);
+    double dy = 30.0 * y * y * (y * (y - 2.0) + 1.0);
+    double dz = 30.0 * z * z * (z * (z - 2.0) + 1.0);
+#define PLOD__AXIS_GRADIENT(a)                                                                  \
+    double q0##a = l->q[0][a][k], q1##a = l->q[1][a][k], q2##a = l->q[2][a][k],                \
+           q3##a = l->q[3][a][k], q4##a = l->q[4][a][k], q5##a = l->q[5][a][k],                \
+           q6##a = l->q[6][a][k], q7##a = l->q[7][a][k];                                       \
+    double g##a = q0##a + (q1##a - q0##a) * ux + (q2##a - q0##a) * uy + (q4##a - q0##a) * uz + \
+                  (q0##a - q1##a - q2##a + q3##a) * ux * uy +                                  \
+                  (q0##a - q2##a - q4##a + q6##a) * uy * uz +                                  \
+                  (q0##a - q1##a - q4##a + q5##a) * uz * ux +                                  \
+                  (-q0##a + q1##a + q2##a - q3##a + q4##a - q5##a - q6##a + q7##a) * ux * uy * uz;
+    PLOD__AXIS_GRADIENT(0)
+    PLOD__AXIS_GRADIENT(1)
+    PLOD__AXIS_GRADIENT(2)
+#undef PLOD__AXIS_GRADIENT
+    g0 += dx * (k1 + k4 * uy + k6 * uz + k7 * uy * uz);
+    g1 += dy * (k2 + k5 * uz + k4 * ux + k7 * uz * ux);
+    g2 += dz * (k3 + k6 * ux + k5 * uy + k7 * ux * uy);
+    l->g[0][k] = clamp ? 0.0 : g0;
+    l->g[1][k] = clamp ? 0.0 : g1;
+    l->g[2][k] = clamp ? 0.0 : g2;
+}
+
+/* octave o's gradient noise at every lane (n, and g when gradient) */
+PLOD__LANE_CLONES PLOD__LANE_LOOPS static void plod__lanes_noise(plod__lanes *l, const plod__octave *o,
+                                                           int gradient)
+{
+    double m00 = o->m[0][0], m01 = o->m[0][1], m02 = o->m[0][2], m10 = o->m[1][0],
+           m11 = o->m[1][1], m12 = o->m[1][2], m20 = o->m[2][0], m21 = o->m[2][1],
+           m22 = o->m[2][2], o0 = o->offset[0], o1 = o->offset[1], o2 = o->offset[2];
+    for (int k = 0; k < l->count; k++) {
+        double d0 = l->dir[0][k], d1 = l->dir[1][k], d2 = l->dir[2][k];
+        double p0 = m00 * d0 + m01 * d1 + m02 * d2 + o0;
+        double p1 = m10 * d0 + m11 * d1 + m12 * d2 + o1;
+        double p2 = m20 * d0 + m21 * d1 + m22 * d2 + o2;
+        l->p[0][k] = p0, l->p[1][k] = p1, l->p[2][k] = p2;
+        l->frac[0][k] = p0 - plod__floor_exact(p0);
+        l->frac[1][k] = p1 - plod__floor_exact(p1);
+        l->frac[2][k] = p2 - plod__floor_exact(p2);
+    }
+    for (int k = 0; k < l->count; k++) {
+        /* the cell's integer corner: p - frac is the floor, exactly */
+        uint64_t base = (uint64_t)(int64_t)(l->p[0][k] - l->frac[0][k]) * PLOD__HX +
+                        (uint64_t)(int64_t)(l->p[1][k] - l->frac[1][k]) * PLOD__HY +
+                        (uint64_t)(int64_t)(l->p[2][k] - l->frac[2][k]) * PLOD__HZ + o->seed;
+        for (int c = 0; c < 8; c++) {
+            uint64_t h = base + ((c & 1) ? PLOD__HX : 0) + ((c & 2) ? PLOD__HY : 0) +
+                         ((c & 4) ? PLOD__HZ : 0);
+            const double *q = plod__grad_double[plod__mix_fast(h) >> 60];
+            l->q[c][0][k] = q[0], l->q[c][1][k] = q[1], l->q[c][2][k] = q[2];
         }
     }
     if (gradient)
-        memcpy(gradient, acc, sizeof acc);
-    return sum;
+        for (int k = 0; k < l->count; k++)
+            plod__lane_blend(l, k, 1);
+    else
+        for (int k = 0; k < l->count; k++)
+            plod__lane_blend(l, k, 0);
+}
+
+/* lane k: octave i's noise term into the sum (i < its value count) and
+ * gradient (i < its gradient count): plod__octave_step's operations, as
+ * selects */
+PLOD__LANE_INLINE void plod__lane_accumulate(plod__lanes *l, int k, const plod__octave *o,
+                                            double at, int ridged, int gradient)
+{
+    double a = o->noise_weight;
+    int add_sum = at < l->value_count[k];
+    int add_gradient = gradient ? at < l->gradient_count[k] : 0;
+    double n = l->n[k];
+    double g0 = l->g[0][k], g1 = l->g[1][k], g2 = l->g[2][k];
+    if (!ridged) {
+        l->sum[k] = add_sum ? l->sum[k] + a * n : l->sum[k];
+        if (!gradient)
+            return;
+        double d0 = a * (o->m[0][0] * g0 + o->m[1][0] * g1 + o->m[2][0] * g2);
+        double d1 = a * (o->m[0][1] * g0 + o->m[1][1] * g1 + o->m[2][1] * g2);
+        double d2 = a * (o->m[0][2] * g0 + o->m[1][2] * g1 + o->m[2][2] * g2);
+        l->acc[0][k] = add_gradient ? l->acc[0][k] + d0 : l->acc[0][k];
+        l->acc[1][k] = add_gradient ? l->acc[1][k] + d1 : l->acc[1][k];
+        l->acc[2][k] = add_gradient ? l->acc[2][k] + d2 : l->acc[2][k];
+        return;
+    }
+    int active = add_sum | add_gradient;
+    double an = n < 0.0 ? -n : n, sign = n < 0.0 ? -1.0 : 1.0;
+    double s = (1.0 - an) * (1.0 - an);
+    double weight = l->weight[k];
+    l->sum[k] = add_sum ? l->sum[k] + a * weight * (s - 0.5) : l->sum[k];
+    double next = PLOD__RIDGE_GAIN * s;
+    int saturated = next >= 1.0;
+    l->weight[k] = active ? (saturated ? 1.0 : next) : weight;
+    if (!gradient)
+        return;
+    double ds = -2.0 * (1.0 - an) * sign;
+    double t0 = a * weight * ds * g0, t1 = a * weight * ds * g1, t2 = a * weight * ds * g2;
+    double s0 = PLOD__RIDGE_GAIN * ds * g0, s1 = PLOD__RIDGE_GAIN * ds * g1,
+           s2 = PLOD__RIDGE_GAIN * ds * g2;
+    double term = a * (s - 0.5);
+#define PLOD__RIDGED_AXIS(c)                                                                    \
+    {                                                                                          \
+        double acc = l->acc[c][k] +                                                            \
+                     1.0 * (o->m[0][c] * t0 + o->m[1][c] * t1 + o->m[2][c] * t2);              \
+        acc += term * l->dweight[c][k];                                                        \
+        double dd = 0.0 + 1.0 * (o->m[0][c] * s0 + o->m[1][c] * s1 + o->m[2][c] * s2);        \
+        l->acc[c][k] = add_gradient ? acc : l->acc[c][k];                                      \
+        l->dweight[c][k] = add_gradient ? (saturated ? 0.0 : dd) : l->dweight[c][k];           \
+    }
+    PLOD__RIDGED_AXIS(0)
+    PLOD__RIDGED_AXIS(1)
+    PLOD__RIDGED_AXIS(2)
+#undef PLOD__RIDGED_AXIS
+}
+
+PLOD__LANE_CLONES PLOD__LANE_LOOPS static void
+plod__lanes_accumulate(plod__lanes *l, const plod__octave *o, int ridged, int i, int gradient)
+{
+    double at = (double)i;
+    if (ridged && gradient)
+        for (int k = 0; k < l->count; k++)
+            plod__lane_accumulate(l, k, o, at, 1, 1);
+    else if (ridged)
+        for (int k = 0; k < l->count; k++)
+            plod__lane_accumulate(l, k, o, at, 1, 0);
+    else if (gradient)
+        for (int k = 0; k < l->count; k++)
+            plod__lane_accumulate(l, k, o, at, 0, 1);
+    else
+        for (int k = 0; k < l->count; k++)
+            plod__lane_accumulate(l, k, o, at, 0, 0);
+}
+
+static const double plod__idle_dir[3] = {1.0, 0.0, 0.0};
+
+void plod_detail_noise_n(const plod_detail *detail, size_t n, const double *dirs,
+                         const int *octaves, const int *gradient_octaves, double *sums,
+                         double *gradients)
+{
+    int ridged = detail->params.style == PLOD_DETAIL_MOUNTAINS;
+    plod__lanes lanes, *l = &lanes;
+    int depth_of[PLOD__LANES], lane_of[PLOD__LANES], depth[PLOD__LANES];
+    int per_depth[PLOD_DETAIL_MAX_OCTAVES + 2];
+    for (size_t first = 0; first < n; first += PLOD__LANES) {
+        int count = (int)(n - first < PLOD__LANES ? n - first : PLOD__LANES);
+        int deepest = 0, deepest_gradient = 0;
+        /* lanes deepest first (a counting sort on the octaves to evaluate),
+         * so that the lanes still going at an octave are a prefix */
+        memset(per_depth, 0, sizeof per_depth);
+        for (int k = 0; k < count; k++) {
+            size_t at = first + (size_t)k;
+            int v = octaves[at] < detail->count ? octaves[at] : detail->count;
+            int g = !gradients ? 0
+                               : (gradient_octaves[at] < detail->count ? gradient_octaves[at]
+                                                                       : detail->count);
+            v = v > 0 ? v : 0;
+            g = g > 0 ? g : 0;
+            if (!plod__unit_range(dirs + 3 * at))
+                v = g = 0; /* NaN below */
+            depth_of[k] = v > g ? v : g;
+            per_depth[depth_of[k]]++;
+        }
+        for (int d = detail->count, start = 0; d >= 0; d--) {
+            int here = per_depth[d];
+            per_depth[d] = start;
+            start += here;
+        }
+        for (int k = 0; k < count; k++)
+            lane_of[per_depth[depth_of[k]]++] = k;
+        int padded = (count + 3) & ~3;
+        for (int k = 0; k < padded; k++) {
+            int v = 0, g = 0;
+            const double *dir = plod__idle_dir; /* idle lanes: masked, any lattice point */
+            if (k < count) {
+                size_t at = first + (size_t)lane_of[k];
+                v = octaves[at] < detail->count ? octaves[at] : detail->count;
+                g = !gradients ? 0
+                               : (gradient_octaves[at] < detail->count ? gradient_octaves[at]
+                                                                       : detail->count);
+                if (plod__unit_range(dirs + 3 * at))
+                    dir = dirs + 3 * at;
+                else
+                    v = g = 0;
+            }
+            for (int a = 0; a < 3; a++)
+                l->dir[a][k] = dir[a];
+            l->value_count[k] = v;
+            l->gradient_count[k] = g;
+            depth[k] = k < count ? depth_of[lane_of[k]] : 0;
+            deepest = depth[k] > deepest ? depth[k] : deepest;
+            deepest_gradient = g > deepest_gradient ? g : deepest_gradient;
+            l->sum[k] = 0.0;
+            l->weight[k] = 1.0;
+            for (int a = 0; a < 3; a++)
+                l->acc[a][k] = l->dweight[a][k] = 0.0;
+        }
+        int active = count;
+        for (int i = 0; i < deepest; i++) {
+            while (active > 0 && depth[active - 1] <= i)
+                active--;
+            l->count = (active + 3) & ~3;
+            const plod__octave *o = &detail->octaves[i];
+            int gradient = i < deepest_gradient; /* a lane wants it */
+            if (o->noise_weight != 0.0) {
+                plod__lanes_noise(l, o, gradient);
+                plod__lanes_accumulate(l, o, ridged, i, gradient);
+            }
+            if (o->crater_weight == 0.0)
+                continue;
+            for (int k = 0; k < active; k++) { /* craters: lane by lane */
+                int add_sum = i < l->value_count[k], add_gradient = i < l->gradient_count[k];
+                if (!add_sum && !add_gradient)
+                    continue;
+                double cp[3] = {l->p[0][k] + 0.5, l->p[1][k] + 0.5, l->p[2][k] + 0.5}, g[3];
+                if (o->noise_weight == 0.0) /* the lattice point was not computed */
+                    for (int a = 0; a < 3; a++)
+                        cp[a] = o->m[a][0] * l->dir[0][k] + o->m[a][1] * l->dir[1][k] +
+                                o->m[a][2] * l->dir[2][k] + o->offset[a] + 0.5;
+                double centre[3] = {o->offset[0] + 0.5, o->offset[1] + 0.5,
+                                    o->offset[2] + 0.5};
+                double value = plod__crater(cp, centre, o->frequency, o->crater_seed,
+                                            detail->params.crater_density, g);
+                if (value == 0.0)
+                    continue;
+                if (add_sum)
+                    l->sum[k] += o->crater_weight * value;
+                if (add_gradient) {
+                    double acc[3] = {l->acc[0][k], l->acc[1][k], l->acc[2][k]};
+                    plod__add_gradient(o, g, o->crater_weight, acc);
+                    for (int a = 0; a < 3; a++)
+                        l->acc[a][k] = acc[a];
+                }
+            }
+        }
+        for (int k = 0; k < count; k++) {
+            size_t at = first + (size_t)lane_of[k];
+            int unit = plod__unit_range(dirs + 3 * at);
+            sums[at] = unit ? l->sum[k] : NAN;
+            if (gradients)
+                for (int a = 0; a < 3; a++)
+                    gradients[3 * at + a] = unit ? l->acc[a][k] : NAN;
+        }
+    }
 }
 
 int plod_detail_octaves_for_cell(const plod_detail *detail, double cell)

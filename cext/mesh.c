@@ -687,27 +687,33 @@ static void plod__compute_vertices(const plod__emitter *e, const plod_mesh_secto
             lon_ref = plod__atan2(cy, cx);
     }
 
-    enum { ROW = (1 << PLOD_MAX_TEMPLATE_LEVEL) + 1 };
-    double dirs[3 * ROW], heights[ROW], normals[3 * ROW], detail[ROW];
-    int octaves[ROW], normal_octaves[ROW], band[4];
+    /* rows are sampled in groups of up to GROUP vertices (a whole sector at
+     * the usual template levels): the surface's batched sampling and the
+     * detail field's SIMD lanes want long batches */
+    enum { ROW = (1 << PLOD_MAX_TEMPLATE_LEVEL) + 1, GROUP = ROW + 160 };
+    double dirs[3 * GROUP], heights[GROUP], normals[3 * GROUP], detail[GROUP];
+    int octaves[GROUP], normal_octaves[GROUP], band[4];
     if (e->banded)
         plod__detail_bands(e, corners, n, band);
     if (block)
         for (int c = 0; c < 3; c++)
             block->corner_band[c] = -1;
     size_t v = vbase, b = 0;
-    for (int i = 0; i <= n; i++) {
-        /* a row at a time: directions, then the planet's batched sampling */
-        int row = n - i + 1;
-        for (int j = 0; j < row; j++) {
-            int k[3] = {n - i - j, j, i};
-            plod__vertex_direction(corners, k, inv_n, dirs + 3 * j);
-            if (e->banded) {
-                octaves[j] = plod__vertex_band(e, k, band, dirs + 3 * j, normal_octaves + j);
-                if (block && (k[0] == n || k[1] == n || k[2] == n)) /* a corner */
-                    block->corner_band[k[0] == n ? 0 : (k[1] == n ? 1 : 2)] = normal_octaves[j];
+    for (int i = 0; i <= n;) {
+        /* whole rows at a time: directions, then the surface's batched sampling */
+        int row = 0;
+        for (; i <= n && row + (n - i + 1) <= GROUP; i++)
+            for (int j = 0; j <= n - i; j++, row++) {
+                int k[3] = {n - i - j, j, i};
+                double *dir = dirs + 3 * row;
+                plod__vertex_direction(corners, k, inv_n, dir);
+                if (e->banded) {
+                    octaves[row] = plod__vertex_band(e, k, band, dir, normal_octaves + row);
+                    if (block && (k[0] == n || k[1] == n || k[2] == n)) /* a corner */
+                        block->corner_band[k[0] == n ? 0 : (k[1] == n ? 1 : 2)] =
+                            normal_octaves[row];
+                }
             }
-        }
         e->surface->ops->sample_n(e->surface->self, (size_t)row, dirs,
                                   e->banded ? octaves : NULL,
                                   e->banded ? normal_octaves : NULL, heights,

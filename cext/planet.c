@@ -166,30 +166,23 @@ static void plod__difference_normal(const plod_planet *planet, const double dir[
         normal[c] = v[c] * inv_len;
 }
 
-/* The detail field on top of the map's height and normal at dir: height
- * += m N (first `octaves` octaves); the normal, if wanted, is rebuilt from
- * the map normal's slope plus N's analytic slope:
- * n ~ (R + h) d - grad_t h_map - m grad_t N. */
-static void plod__add_detail(const plod_planet *planet, const double dir[3], double m,
-                             int octaves, int normal_octaves, double *height, double *normal,
-                             double *detail)
+/* The field's directions are unit: callers' directions (unit by
+ * contract, any length from Python) are renormalised, one rounding. */
+static void plod__unit_dir(const double dir[3], double unit[3])
 {
-    if (!(m != 0.0) || octaves <= 0)
-        return; /* sea (m = 0) or NaN map: unchanged (and *detail 0) */
-    /* the field lives on the unit sphere: callers' directions (unit by
-     * contract, any length from Python) are renormalised, one rounding */
     double len2 = dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2];
     double inv = 1.0 / sqrt(len2);
-    double unit[3] = {dir[0] * inv, dir[1] * inv, dir[2] * inv};
-    dir = unit;
-    double g[3];
-    double noise;
-    if (normal && normal_octaves != octaves) { /* the slope of fewer octaves */
-        noise = plod_detail_noise(planet->detail, dir, octaves, NULL);
-        (void)plod_detail_noise(planet->detail, dir, normal_octaves, g);
-    } else {
-        noise = plod_detail_noise(planet->detail, dir, octaves, normal ? g : NULL);
-    }
+    unit[0] = dir[0] * inv, unit[1] = dir[1] * inv, unit[2] = dir[2] * inv;
+}
+
+/* The detail term m N (N evaluated at the unit direction dir, g its
+ * gradient) on top of the map's height and normal: height += m N; the
+ * normal, if wanted, is rebuilt from the map normal's slope plus N's
+ * analytic slope: n ~ (R + h) d - grad_t h_map - m grad_t N. */
+static void plod__apply_detail(const plod_planet *planet, const double dir[3], double m,
+                               double noise, const double g[3], double *height,
+                               double *normal, double *detail)
+{
     double h_map = *height;
     *height = h_map + m * noise;
     if (detail)
@@ -208,6 +201,22 @@ static void plod__add_detail(const plod_planet *planet, const double dir[3], dou
     double inv_len = 1.0 / sqrt(vlen2);
     for (int c = 0; c < 3; c++)
         normal[c] = v[c] * inv_len;
+}
+
+/* The detail field on top of the map's height and normal at dir (first
+ * `octaves` octaves for the height, `normal_octaves` for the normal's
+ * slope); nothing where m is 0 (sea) or NaN. */
+static void plod__add_detail(const plod_planet *planet, const double dir[3], double m,
+                             int octaves, int normal_octaves, double *height, double *normal,
+                             double *detail)
+{
+    if (!(m != 0.0) || octaves <= 0)
+        return; /* sea (m = 0) or NaN map: unchanged (and *detail 0) */
+    double unit[3], g[3], noise;
+    plod__unit_dir(dir, unit);
+    plod_detail_noise_n(planet->detail, 1, unit, &octaves, &normal_octaves, &noise,
+                        normal ? g : NULL);
+    plod__apply_detail(planet, unit, m, noise, g, height, normal, detail);
 }
 
 static int plod__all_octaves(const plod_planet *planet)
@@ -377,6 +386,9 @@ void plod_planet_surface_detail_n(const plod_planet *planet, size_t n, const dou
     const plod_cubemap *mod = planet->detail ? plod_detail_modulation(planet->detail) : NULL;
     int faces[CHUNK];
     double u[CHUNK], v[CHUNK], modulation[CHUNK];
+    double unit[3 * CHUNK], scale[CHUNK], noise[CHUNK], gradient[3 * CHUNK];
+    size_t index[CHUNK];
+    int band_live[CHUNK], normal_band_live[CHUNK];
     double sample[4 * CHUNK], normal_sample[3 * CHUNK]; /* maps have 1..4 channels */
     size_t height_channels = (size_t)plod_cubemap_channels(planet->heightmap);
     for (size_t first = 0; first < n; first += CHUNK) {
@@ -409,12 +421,28 @@ void plod_planet_surface_detail_n(const plod_planet *planet, size_t n, const dou
             continue;
         if (mod)
             plod_cubemap_sample_face_n(mod, count, faces, u, v, modulation);
+        /* the points with detail (land), their field in one batch */
+        size_t live = 0;
         for (size_t i = 0; i < count; i++) {
             size_t at = first + i;
             double m = !mod ? 1.0 : (faces[i] < 0 ? NAN : modulation[i]);
-            plod__add_detail(planet, dirs + 3 * at, m, octaves ? octaves[at] : all,
-                             normal_octaves ? normal_octaves[at] : all, heights + at,
-                             normals ? normals + 3 * at : NULL, detail ? detail + at : NULL);
+            int band = octaves ? octaves[at] : all;
+            if (!(m != 0.0) || band <= 0)
+                continue; /* sea (m = 0) or NaN map: unchanged (and detail 0) */
+            plod__unit_dir(dirs + 3 * at, unit + 3 * live);
+            index[live] = at;
+            scale[live] = m;
+            band_live[live] = band;
+            normal_band_live[live] = normal_octaves ? normal_octaves[at] : all;
+            live++;
+        }
+        plod_detail_noise_n(planet->detail, live, unit, band_live, normal_band_live, noise,
+                            normals ? gradient : NULL);
+        for (size_t j = 0; j < live; j++) {
+            size_t at = index[j];
+            plod__apply_detail(planet, unit + 3 * j, scale[j], noise[j], gradient + 3 * j,
+                               heights + at, normals ? normals + 3 * at : NULL,
+                               detail ? detail + at : NULL);
         }
     }
 }

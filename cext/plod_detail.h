@@ -102,6 +102,13 @@ uint64_t plod_detail_stamp(const plod_detail *detail);
  * the tangent plane for the slope per radian). */
 double plod_detail_noise(const plod_detail *detail, const double dir[3], int octaves,
                          double gradient[3]);
+/* plod_detail_noise at n directions (dirs: 3 n doubles): sums[k] bit for
+ * bit plod_detail_noise(dirs + 3 k, octaves[k], NULL) and, when gradients
+ * is not NULL, gradients + 3 k that of plod_detail_noise(dirs + 3 k,
+ * gradient_octaves[k], gradient); one pass over the octaves for both. */
+void plod_detail_noise_n(const plod_detail *detail, size_t n, const double *dirs,
+                         const int *octaves, const int *gradient_octaves, double *sums,
+                         double *gradients);
 /* Octaves a mesh with cells of `cell` metres resolves: those of
  * wavelength >= PLOD_DETAIL_CELLS_PER_WAVE * cell. */
 #define PLOD_DETAIL_CELLS_PER_WAVE 3.0

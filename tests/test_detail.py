@@ -312,6 +312,30 @@ def test_heights_are_the_same_with_and_without_normals(planetlod, style):
 
 
 @pytest.mark.parametrize("style", ["hills", "mountains", "craters"])
+def test_batched_surface_is_the_point_path_on_a_map(planetlod, style):
+    """surface() over many directions evaluates the field a batch at a
+    time, octave by octave across SIMD lanes; every point's height and
+    normal are those of surface() at that point alone, bit for bit (land,
+    sea, every style and the crater layer)."""
+    planet = earth_planet(planetlod, dict(style=style, amplitude=800.0, seed=7, craters=1.0,
+                                          smallest=0.05))
+    rng = np.random.default_rng(21)
+    # clusters of nearby directions (as a sector's vertices) and scattered ones
+    centres = rng.normal(size=(40, 3))
+    centres /= np.linalg.norm(centres, axis=1)[:, None]
+    near = np.array([centres[k % 40] + 1e-6 * (1 + k % 50) * rng.normal(size=3)
+                     for k in range(1500)])
+    dirs = np.concatenate([near, rng.normal(size=(500, 3))])
+    flat = dirs.reshape(-1).tolist()
+    heights, normals = planet.surface(flat)
+    normals = list(normals)
+    for k in range(0, len(dirs), 3):
+        h, n = planet.surface(flat[3 * k:3 * k + 3])
+        assert (h[0], list(n)) == (heights[k], normals[3 * k:3 * k + 3]), k
+    assert np.std(list(heights)) > 10.0
+
+
+@pytest.mark.parametrize("style", ["hills", "mountains", "craters"])
 def test_styles_on_a_map_free_body(planetlod, style):
     """Without a map the field alone makes the relief (modulation 1); the
     crater style digs bowls: its lowest points sit deeper below the mean

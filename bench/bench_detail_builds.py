@@ -1,0 +1,181 @@
+#!/usr/bin/env python3
+"""Two builds of planetlod side by side in one process, frame by frame: the
+detail field's emission (cold and flyby, the Earth preset along
+bench_refine.py's descent, as bench_detail.py) and an artist's viewport
+refresh with the GPU preview (refine with hysteresis + mesh() +
+surface.preview_data, per planet preset, as bench_viewport_detail.py).
+
+    /usr/bin/python3 bench/bench_detail_builds.py --base DIR [--new DIR]
+        [--frames 48] [--viewport-frames 16] [--threads 2]
+        [--planets EARTH,MOON,MARS,ASTEROID] [--quality PREVIEW]
+
+--base and --new are folders holding a planetlod build (the new one
+defaults to this checkout).  Both modules are loaded into one process
+(each its own copy of the library), and every frame runs the base, then
+the new build, so load from other tasks falls on both alike.  Per measure:
+the median and mean over the frames of each build and the median of the
+per-frame ratios base / new.  Not a test: figures only.
+"""
+import argparse
+import importlib.machinery
+import importlib.util
+import math
+import os
+import statistics
+import sys
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(ROOT, "bench"))
+bench_refine = None  # imported after the builds: it imports planetlod itself
+
+R = 6371000.0
+
+
+def load_build(folder):
+    path = os.path.join(os.path.abspath(folder), "planetlod.abi3.so")
+    loader = importlib.machinery.ExtensionFileLoader("planetlod", path)
+    spec = importlib.util.spec_from_file_location("planetlod", path, loader=loader)
+    module = importlib.util.module_from_spec(spec)
+    loader.exec_module(module)
+    return module
+
+
+def load_addon_module(name):
+    path = os.path.join(ROOT, "addon", "planet_lod", name + ".py")
+    spec = importlib.util.spec_from_file_location("plod_" + name, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def data_path(name):
+    for folder in (os.path.join(ROOT, "data"), os.path.join(ROOT, "..", "shared", "data")):
+        if os.path.exists(os.path.join(folder, name)):
+            return os.path.join(folder, name)
+    raise FileNotFoundError(name)
+
+
+def camera(lod, m):
+    return lod.Camera(m, lens=50.0, sensor_width=36.0, resolution_x=1920, resolution_y=1080,
+                      clip_start=0.1, clip_end=1e10)
+
+
+def report(title, unit, figures, higher_is_better):
+    base, new = figures["base"], figures["new"]
+    ratios = [(n / b if higher_is_better else b / n) for b, n in zip(base, new) if b > 0 and n > 0]
+    print(f"{title:<44} {unit:>10}: base median {statistics.median(base):9.2f} "
+          f"mean {statistics.mean(base):9.2f} | new median {statistics.median(new):9.2f} "
+          f"mean {statistics.mean(new):9.2f} | speed-up per frame, median "
+          f"{statistics.median(ratios):5.2f}x")
+
+
+def emission(builds, presets, args):
+    detail = presets.detail_settings("EARTH")
+    planets = {name: lod.Planet(R, heightmap=data_path("earth-topology.png"),
+                                height_scale=8848.0, sea_level=0.0, detail=detail)
+               for name, lod in builds.items()}
+    for p in planets.values():
+        p.reserve(1 << 16)
+        p.mesh_cache_max_bytes = 1 << 30
+    top = planets["base"].height_range()[1]
+    path = bench_refine.descent(args.frames, terrain_top=top)
+    cold = {name: [] for name in builds}
+    flyby = {name: [] for name in builds}
+    for _alt, m in path:
+        for name, lod in builds.items():
+            p = planets[name]
+            p.refine(camera(lod, m), template_level=4, max_level=48)
+            t0 = time.perf_counter()
+            mesh = p.mesh(threads=args.threads, cache=False)
+            t1 = time.perf_counter()
+            p.mesh(threads=args.threads)
+            t2 = time.perf_counter()
+            cold[name].append(mesh.vertex_count / (t1 - t0) / 1e6)
+            flyby[name].append(mesh.vertex_count / (t2 - t1) / 1e6)
+    print(f"Earth preset's detail, {args.frames}-frame descent, 1 px, template level 4, "
+          f"{args.threads} threads")
+    report("emission, cold (mesh(cache=False))", "M vert/s", cold, True)
+    report("emission, flyby (sector cache)", "M vert/s", flyby, True)
+
+
+def viewport(builds, presets, surface, args):
+    print(f"\nviewport refresh with the GPU preview (refine with hysteresis + mesh() + "
+          f"preview_data), {args.viewport_frames}-frame descents from 3 radii to 2 m")
+    for key in args.planets.split(","):
+        s = presets.PLANETS[key]
+        for quality in args.quality.split(","):
+            q = presets.QUALITY[quality]
+            level = 0  # as bench_viewport_detail.py: 4^level <= density
+            while 4 ** (level + 1) <= int(q["template_density"]) and level < 7:
+                level += 1
+            planets = {}
+            for name, lod in builds.items():
+                kw = dict(projection=s["projection"].lower(), height_scale=s["height_scale"],
+                          detail=presets.detail_kwargs(s))
+                if s["heightmap"]:
+                    kw["heightmap"] = data_path(s["heightmap"])
+                if s["use_sea_level"]:
+                    kw["sea_level"] = s["sea_level"]
+                planets[name] = lod.Planet(s["radius"], **kw)
+                planets[name].reserve(1 << 14)
+            top = planets["base"].height_range()[1]
+            ms = {name: [] for name in builds}
+            for k, (_alt, m) in enumerate(descent_for(s["radius"], top, args.viewport_frames)):
+                for name, lod in builds.items():
+                    p = planets[name]
+                    t0 = time.perf_counter()
+                    p.refine(camera(lod, m), max_pixel_error=q["max_pixel_error"],
+                             budget=q["budget"], template_level=level, hysteresis=True)
+                    visible = p.mesh(template_level=level, threads=args.threads)
+                    surface.preview_data(visible, (0.0, 0.0, 0.0), p.radius)
+                    ms[name].append((time.perf_counter() - t0) * 1e3)
+            report(f"{key} {quality}", "ms", ms, False)
+            for name in builds:
+                print(f"{'':<44} {name:>10}: slowest {max(ms[name]):7.1f} ms, over 50 ms "
+                      f"{sum(1 for x in ms[name] if x > 50.0)} of {len(ms[name])}")
+
+
+def descent_for(radius, top, frames):
+    """bench_viewport_detail.py's cameras: bench_refine's descent scaled to
+    the planet, altitudes from 3 radii down to 2 m."""
+    def alt_t(alt):
+        return (math.log(2e7) - math.log(alt)) / (math.log(2e7) - math.log(2.0))
+    out = []
+    for alt, m in bench_refine.descent(frames, terrain_top=0.0):
+        eye = [m[i][3] for i in range(3)]
+        d = [x / math.sqrt(sum(y * y for y in eye)) for x in eye]
+        a = math.exp(math.log(3.0 * radius) * (1 - alt_t(alt)) + math.log(2.0) * alt_t(alt))
+        for i in range(3):
+            m[i][3] = d[i] * (radius + top + a)
+        out.append((a, m))
+    return out
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--base", required=True, help="folder of the base build")
+    parser.add_argument("--new", default=ROOT, help="folder of the new build")
+    parser.add_argument("--frames", type=int, default=48)
+    parser.add_argument("--viewport-frames", type=int, default=16)
+    parser.add_argument("--threads", type=int, default=2)
+    parser.add_argument("--planets", default="EARTH,MOON,MARS,ASTEROID")
+    parser.add_argument("--quality", default="PREVIEW")
+    parser.add_argument("--skip", default="", help="'emission' or 'viewport'")
+    args = parser.parse_args()
+    global bench_refine
+    builds = {"base": load_build(args.base), "new": load_build(args.new)}
+    import bench_refine as descent_module
+    bench_refine = descent_module
+    for name, lod in builds.items():
+        print(f"{name}: {lod.__file__}")
+    presets = load_addon_module("presets")
+    surface = load_addon_module("surface")
+    if args.skip != "emission":
+        emission(builds, presets, args)
+    if args.skip != "viewport":
+        viewport(builds, presets, surface, args)
+
+
+if __name__ == "__main__":
+    main()
