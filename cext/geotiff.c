@@ -272,7 +272,8 @@ static int plod__tiff_georef(plod_georef *geo, const plod__tiff *t, unsigned lon
         int bytes_size = (int)plod__tiff_type_bytes(data_type[k][1]);
         for (unsigned long long i = 0; i < data_count[k][0] && !corrupt; i++) {
             unsigned long long at = plod__tiff_uint(t, data_at[k] + i * at_size, at_size);
-            unsigned long long bytes = plod__tiff_uint(t, data_bytes[k] + i * bytes_size, bytes_size);
+            unsigned long long bytes =
+                plod__tiff_uint(t, data_bytes[k] + i * bytes_size, bytes_size);
             corrupt = at > t->size || bytes > t->size - at;
         }
     }
@@ -301,7 +302,8 @@ plod_status plod_georef_read(plod_georef *geo, const char *path, char *message,
     unsigned char head[16];
     plod_status status = PLOD_OK;
     size_t got = fread(head, 1, sizeof head, t.file);
-    int tiff = got >= 4 && ((head[0] == 'I' && head[1] == 'I') || (head[0] == 'M' && head[1] == 'M'));
+    int tiff = got >= 4 && ((head[0] == 'I' && head[1] == 'I') ||
+                            (head[0] == 'M' && head[1] == 'M'));
     if (tiff) {
         t.big_endian = head[0] == 'M';
         unsigned magic = (unsigned)plod__tiff_uint(&t, head + 2, 2);

@@ -367,8 +367,8 @@ int plod_py_insets_arg(PyObject *list, double feather, plod_insets **out)
     if (!seq) {
         PyErr_Clear();
         plod_py_raise_detail(PLOD_ERR_BAD_PARAM, context,
-                             "insets must be a list of .hgt paths or dicts(path, west, south, "
-                             "east, north[, raw, scale, offset])");
+                             "insets must be a list of .hgt or GeoTIFF paths or dicts(path, "
+                             "west, south, east, north[, raw, scale, offset])");
         return -1;
     }
     Py_ssize_t count = PyList_Size(seq);

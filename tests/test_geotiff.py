@@ -13,8 +13,9 @@ TIFF_TYPES = {"<i2": (16, 2), "<u2": (16, 1), "<f4": (32, 3), "<i4": (32, 2)}
 
 
 def write_geotiff(path, grid, scale=None, tiepoint=None, transform=None, geokeys=None,
-                  nodata=None, byteorder="<"):
-    """A one-strip, one-sample TIFF with GeoTIFF tags, in either byte order."""
+                  nodata=None, byteorder="<", big_tiff=False):
+    """A one-strip, one-sample TIFF (or BigTIFF) with GeoTIFF tags, in either
+    byte order."""
     grid = np.asarray(grid)
     bits, sample_format = TIFF_TYPES[grid.dtype.newbyteorder("<").str]
     height, width = grid.shape
@@ -47,10 +48,12 @@ def write_geotiff(path, grid, scale=None, tiepoint=None, transform=None, geokeys
     if nodata is not None:
         add(42113, 2, str(nodata))
     entries.sort()
-    extra_at = 8 + 2 + 12 * len(entries) + 4
+    inline, entry, count_fmt, offset_fmt = (8, 20, "Q", "Q") if big_tiff else (4, 12, "H", "I")
+    head_size = 16 if big_tiff else 8
+    extra_at = head_size + struct.calcsize(count_fmt) + entry * len(entries) + inline
     extra, offsets = b"", {}
     for tag, _, _, payload in entries:
-        if len(payload) > 4:
+        if len(payload) > inline:
             offsets[tag] = extra_at + len(extra)
             extra += payload + b"\0" * (len(payload) % 2)
     pixels_at = extra_at + len(extra)
@@ -58,12 +61,16 @@ def write_geotiff(path, grid, scale=None, tiepoint=None, transform=None, geokeys
     for tag, typ, count, payload in entries:
         if tag == 273:
             payload = struct.pack(byteorder + "I", pixels_at)
-        if len(payload) > 4:
-            table += struct.pack(byteorder + "HHII", tag, typ, count, offsets[tag])
+        head = struct.pack(byteorder + "HH" + ("Q" if big_tiff else "I"), tag, typ, count)
+        if len(payload) > inline:
+            table += head + struct.pack(byteorder + offset_fmt, offsets[tag])
         else:
-            table += struct.pack(byteorder + "HHI", tag, typ, count) + payload.ljust(4, b"\0")
-    head = (b"II" if byteorder == "<" else b"MM") + struct.pack(byteorder + "HI", 42, 8)
-    data = head + struct.pack(byteorder + "H", len(entries)) + table + b"\0" * 4 + extra + pixels
+            table += head + payload.ljust(inline, b"\0")
+    order = b"II" if byteorder == "<" else b"MM"
+    head = order + (struct.pack(byteorder + "HHHQ", 43, 8, 0, head_size) if big_tiff
+                    else struct.pack(byteorder + "HI", 42, head_size))
+    data = (head + struct.pack(byteorder + count_fmt, len(entries)) + table + b"\0" * inline +
+            extra + pixels)
     with open(path, "wb") as f:
         f.write(data)
     return str(path)
@@ -139,7 +146,9 @@ def test_tags_place_the_tile_as_an_explicit_box(planetlod, base, tmp_path):
     x0, y0 = area_tiepoint(6, 45)[3:5]
     matrix = write_geotiff(tmp_path / "matrix.tif", grid, geokeys=WGS84,
                            transform=(STEP, 0, 0, x0, 0, -STEP, 0, y0, 0, 0, 0, 0, 0, 0, 0, 1))
-    for path in (big, matrix):
+    bigtiff = write_geotiff(tmp_path / "bigtiff.tif", grid, scale=(STEP, STEP, 0.0),
+                            tiepoint=area_tiepoint(6, 45), geokeys=WGS84, big_tiff=True)
+    for path in (big, matrix, bigtiff):
         assert np.array_equal(heights(planet(planetlod, base, [path]), points), reference)
 
 
