@@ -293,6 +293,7 @@ plod_status plod_georef_read(plod_georef *geo, const char *path, char *message,
     memset(geo, 0, sizeof *geo);
     struct stat info;
     plod__tiff t = {0};
+    errno = 0;
     if (stat(path, &info) != 0 || !S_ISREG(info.st_mode) || !(t.file = fopen(path, "rb"))) {
         plod__geo_message(message, message_size, "cannot open '%s': %s", path,
                           errno ? strerror(errno) : "not a regular file");

@@ -259,6 +259,8 @@ def test_truncated_or_corrupt_files_are_errors(planetlod, base, tmp_path):
         path.write_bytes(data[:cut])
         with pytest.raises(planetlod.ImageError, match="corrupt|truncated|not a readable"):
             planet(planetlod, base, [str(path)])
+    with pytest.raises(planetlod.FileError, match="missing.tif"):
+        planet(planetlod, base, [str(tmp_path / "missing.tif")])
     # an offset beyond the file's end in a tag that places the raster
     broken = bytearray(data)
     at = data.index(struct.pack("<HHI", 33550, 12, 3))
