@@ -138,7 +138,54 @@ bool plod__exr_header_plausible(const char *path, long long file_size)
     return plausible;
 }
 
-plod_status plod__read(plod_image *image, const char *path, size_t max_pixels,
+/* Integer samples of a native buffer as f32 holding their values. */
+bool plod__integers_to_float(OIIO::TypeDesc format, const void *native, size_t count,
+                             float *out)
+{
+    switch (format.basetype) {
+    case OIIO::TypeDesc::UINT8:
+        for (size_t i = 0; i < count; i++) out[i] = (float)((const uint8_t *)native)[i];
+        return true;
+    case OIIO::TypeDesc::INT8:
+        for (size_t i = 0; i < count; i++) out[i] = (float)((const int8_t *)native)[i];
+        return true;
+    case OIIO::TypeDesc::UINT16:
+        for (size_t i = 0; i < count; i++) out[i] = (float)((const uint16_t *)native)[i];
+        return true;
+    case OIIO::TypeDesc::INT16:
+        for (size_t i = 0; i < count; i++) out[i] = (float)((const int16_t *)native)[i];
+        return true;
+    case OIIO::TypeDesc::UINT32:
+        for (size_t i = 0; i < count; i++) out[i] = (float)((const uint32_t *)native)[i];
+        return true;
+    case OIIO::TypeDesc::INT32:
+        for (size_t i = 0; i < count; i++) out[i] = (float)((const int32_t *)native)[i];
+        return true;
+    default:
+        return false;
+    }
+}
+
+/* Reads the first subimage as f32 values as stored (integers not
+ * normalised). */
+bool plod__read_stored(OIIO::ImageInput &input, float *pixels)
+{
+    const OIIO::ImageSpec &spec = input.spec();
+    unsigned char base = spec.format.basetype;
+    bool integer = base == OIIO::TypeDesc::UINT8 || base == OIIO::TypeDesc::INT8 ||
+                   base == OIIO::TypeDesc::UINT16 || base == OIIO::TypeDesc::INT16 ||
+                   base == OIIO::TypeDesc::UINT32 || base == OIIO::TypeDesc::INT32;
+    if (!spec.channelformats.empty() || !integer) /* floats keep their values anyway */
+        return plod__read_pixels(input, OIIO::TypeDesc::FLOAT, pixels);
+    std::unique_ptr<char[]> native(new (std::nothrow) char[spec.image_bytes(true)]);
+    if (!native)
+        return false;
+    return input.read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UNKNOWN, native.get()) &&
+           plod__integers_to_float(spec.format, native.get(),
+                                   (size_t)spec.image_pixels() * (size_t)spec.nchannels, pixels);
+}
+
+plod_status plod__read(plod_image *image, const char *path, size_t max_pixels, bool stored,
                        char *message, size_t message_size)
 {
     struct stat info;
@@ -215,7 +262,9 @@ plod_status plod__read(plod_image *image, const char *path, size_t max_pixels,
     }
 
     plod_texel_type type = PLOD_TEXEL_F32;
-    if (spec.format == OIIO::TypeDesc::UINT8)
+    if (stored)
+        type = PLOD_TEXEL_F32;
+    else if (spec.format == OIIO::TypeDesc::UINT8)
         type = PLOD_TEXEL_U8;
     else if (spec.format == OIIO::TypeDesc::UINT16)
         type = PLOD_TEXEL_U16;
@@ -230,7 +279,8 @@ plod_status plod__read(plod_image *image, const char *path, size_t max_pixels,
     }
     bool ok;
     try { /* decoders throw (OpenEXR, bad_alloc): never leak the pixels */
-        ok = plod__read_pixels(*input, plod__oiio_type(type), loaded.pixels);
+        ok = stored ? plod__read_stored(*input, (float *)loaded.pixels)
+                    : plod__read_pixels(*input, plod__oiio_type(type), loaded.pixels);
     } catch (...) {
         plod_image_free(&loaded);
         throw;
@@ -338,8 +388,8 @@ void plod_image_free(plod_image *image)
     image->pixels = nullptr;
 }
 
-plod_status plod_image_read(plod_image *image, const char *path, size_t max_pixels,
-                            char *message, size_t message_size)
+static plod_status plod__read_entry(plod_image *image, const char *path, size_t max_pixels,
+                                    bool stored, char *message, size_t message_size)
 {
     plod__set_message(message, message_size, "");
     if (!image || !path)
@@ -353,7 +403,7 @@ plod_status plod_image_read(plod_image *image, const char *path, size_t max_pixe
         return plod_image_read_raw(image, path, &format, max_pixels, message, message_size);
     }
     try {
-        return plod__read(image, path, max_pixels, message, message_size);
+        return plod__read(image, path, max_pixels, stored, message, message_size);
     } catch (const std::bad_alloc &) {
         plod__set_message(message, message_size, std::string("out of memory reading '") + path + "'");
         return PLOD_ERR_NO_MEMORY;
@@ -365,6 +415,18 @@ plod_status plod_image_read(plod_image *image, const char *path, size_t max_pixe
         plod__set_message(message, message_size, std::string("reading '") + path + "' failed");
         return PLOD_ERR_BAD_IMAGE;
     }
+}
+
+plod_status plod_image_read(plod_image *image, const char *path, size_t max_pixels,
+                            char *message, size_t message_size)
+{
+    return plod__read_entry(image, path, max_pixels, false, message, message_size);
+}
+
+plod_status plod_image_read_stored(plod_image *image, const char *path, size_t max_pixels,
+                                   char *message, size_t message_size)
+{
+    return plod__read_entry(image, path, max_pixels, true, message, message_size);
 }
 
 plod_status plod_image_write(const plod_image *image, const char *path, char *message,

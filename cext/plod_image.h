@@ -49,6 +49,14 @@ plod_status plod_image_read(plod_image *image, const char *path,
 plod_status plod_image_write(const plod_image *image, const char *path,
                              char *message, size_t message_size);
 
+/* Like plod_image_read, but samples as stored: every integer type (u8,
+ * u16, i16, u32, i32) becomes f32 holding its integer values (a DEM's
+ * metres), floats f32; never normalised.  For height data whose values are
+ * physical quantities (GeoTIFF DEMs).  .hgt/.r16/.raw paths as
+ * plod_image_read. */
+plod_status plod_image_read_stored(plod_image *image, const char *path, size_t max_pixels,
+                                   char *message, size_t message_size);
+
 /* ---- reading an image a band of rows at a time (maps over max_pixels) ---- */
 typedef struct plod_image_rows plod_image_rows; /* opaque */
 /* Opens `path` with OpenImageIO for reading rows of channel 0 (u8/u16 kept,
@@ -103,6 +111,47 @@ int plod_hgt_origin(const char *path, int *lon, int *lat);
  * in an unsigned file): the image becomes f32 holding the signed integer
  * values.  f32 images are left as they are. */
 plod_status plod_image_reinterpret_signed(plod_image *image);
+
+/* ---- GeoTIFF georeferencing (geotiff.c) -------------------------------- */
+/* What the first image directory of a TIFF says about its placement.
+ * Returned by plod_georef_read; zero members: the tag or key is absent. */
+typedef struct plod_georef {
+    int present;          /* any georeferencing tag or GeoKeyDirectory */
+    int has_scale;        /* ModelPixelScale: scale[0..2] (x, y, z per pixel) */
+    double scale[3];
+    int tiepoint_count;   /* ModelTiepoint: the first in tiepoint (I, J, K, X, Y, Z) */
+    double tiepoint[6];
+    int has_transform;    /* ModelTransformation: row-major 4 x 4 */
+    double transform[16];
+    int has_keys;         /* a GeoKeyDirectory; its keys below */
+    int model_type;       /* GTModelTypeGeoKey: 1 projected, 2 geographic, 3 geocentric */
+    int raster_type;      /* GTRasterTypeGeoKey: 1 PixelIsArea (also when 0), 2 PixelIsPoint */
+    int geographic_type;  /* GeographicTypeGeoKey: EPSG code (4326 WGS 84) */
+    int angular_units;    /* GeogAngularUnitsGeoKey: EPSG code (9102 degree) */
+    int projected_type;   /* ProjectedCSTypeGeoKey: EPSG code */
+    int has_nodata;       /* GDAL_NODATA: samples equal to nodata are voids */
+    double nodata;
+} plod_georef;
+
+/* Reads the georeferencing of a classic or BigTIFF file (either byte
+ * order).  A file that is not a TIFF, or a TIFF without these tags: PLOD_OK
+ * with geo->present 0.  PLOD_ERR_IO for a missing file, PLOD_ERR_BAD_IMAGE
+ * for a TIFF whose directory or tag values lie beyond its end or have the
+ * wrong type (a truncated or corrupt file); never reads past the file. */
+plod_status plod_georef_read(plod_georef *geo, const char *path, char *message,
+                             size_t message_size);
+/* The box {west, south, east, north} in degrees of the sample centres of a
+ * width x height raster (the corner samples, pixel is point, as
+ * plod_inset_desc wants it): PixelIsArea shifts the tiepoint half a pixel
+ * east and south, PixelIsPoint does not.  Rounded to 1e-9 degrees.
+ * Supported: geographic lon/lat in degrees, WGS 84 (EPSG:4326; NAD83 4269
+ * and ETRS89 4258 taken as WGS 84), one tiepoint with ModelPixelScale or a
+ * ModelTransformation without rotation, north up.  Anything else (a
+ * projected or geocentric CRS, no CRS named, a rotated transform, several
+ * tiepoints, south-up): PLOD_ERR_BAD_IMAGE naming what is unsupported;
+ * PLOD_ERR_BAD_PARAM when geo->present is 0. */
+plod_status plod_georef_box(const plod_georef *geo, int width, int height, double box[4],
+                            char *message, size_t message_size);
 
 #ifdef __cplusplus
 }

@@ -314,6 +314,49 @@ static int plod__number_item(PyObject *dict, const char *key, double *out, int r
     return isfinite(v) ? 0 : -1;
 }
 
+/* A GeoTIFF inset's box from its tags into `box`, and its no-data samples
+ * (channel 0) made voids.  A `given` box must agree with the tags to 1 %
+ * of a sample spacing on every side (it is then used as given); otherwise
+ * PLOD_ERR_BAD_PARAM names both. */
+static plod_status plod__georef_place(const plod_georef *geo, plod_image *image,
+                                      const double *given, double box[4], const char *path,
+                                      Py_ssize_t i, char *message, size_t message_size)
+{
+    double tagged[4];
+    char why[PLOD__MESSAGE];
+    plod_status s = plod_georef_box(geo, image->width, image->height, tagged, why, sizeof why);
+    if (s != PLOD_OK) {
+        snprintf(message, message_size, "inset %zd ('%.200s'): %s", i, path, why);
+        return s;
+    }
+    if (given) {
+        double dx = (tagged[2] - tagged[0]) / (image->width > 1 ? image->width - 1 : 1);
+        double dy = (tagged[3] - tagged[1]) / (image->height > 1 ? image->height - 1 : 1);
+        for (int k = 0; k < 4; k++)
+            if (!(fabs(given[k] - tagged[k]) <= 0.01 * (k % 2 ? dy : dx))) {
+                snprintf(message, message_size,
+                         "inset %zd ('%.200s'): the box given (west %.9g, south %.9g, east "
+                         "%.9g, north %.9g) disagrees with the file's GeoTIFF placement of its "
+                         "sample centres (%.9g, %.9g, %.9g, %.9g, Pixel%s); leave the box out "
+                         "to place it by its tags",
+                         i, path, given[0], given[1], given[2], given[3], tagged[0], tagged[1],
+                         tagged[2], tagged[3], geo->raster_type == 2 ? "IsPoint" : "IsArea");
+                return PLOD_ERR_BAD_PARAM;
+            }
+    } else {
+        memcpy(box, tagged, sizeof tagged);
+    }
+    if (geo->has_nodata && image->type == PLOD_TEXEL_F32) {
+        float nodata = (float)geo->nodata;
+        float *v = image->pixels;
+        size_t n = (size_t)image->width * (size_t)image->height;
+        for (size_t t = 0; t < n; t++)
+            if (v[t * (size_t)image->channels] == nodata)
+                v[t * (size_t)image->channels] = NAN;
+    }
+    return PLOD_OK;
+}
+
 int plod_py_insets_arg(PyObject *list, double feather, plod_insets **out)
 {
     const char *context = "Planet insets";
@@ -324,15 +367,15 @@ int plod_py_insets_arg(PyObject *list, double feather, plod_insets **out)
     if (!seq) {
         PyErr_Clear();
         plod_py_raise_detail(PLOD_ERR_BAD_PARAM, context,
-                             "insets must be a list of .hgt paths or dicts(path, west, south, "
-                             "east, north[, raw, scale, offset])");
+                             "insets must be a list of .hgt or GeoTIFF paths or dicts(path, "
+                             "west, south, east, north[, raw, scale, offset])");
         return -1;
     }
     Py_ssize_t count = PyList_Size(seq);
     plod_inset_desc *descs = calloc(count ? (size_t)count : 1, sizeof *descs);
     float **grids = calloc(count ? (size_t)count : 1, sizeof *grids);
     int result = -1;
-    char message[PLOD__MESSAGE];
+    char message[2 * PLOD__MESSAGE]; /* room for a path and the reason */
     if (!descs || !grids) {
         PyErr_NoMemory();
         goto done;
@@ -340,22 +383,26 @@ int plod_py_insets_arg(PyObject *list, double feather, plod_insets **out)
     for (Py_ssize_t i = 0; i < count; i++) {
         PyObject *item = PyList_GetItem(seq, i); /* borrowed */
         PyObject *path_obj = item, *raw = Py_None, *owned = NULL;
-        double west = 0, south = 0, east = 0, north = 0, scale = 1.0, offset = 0.0;
-        int is_dict = PyDict_Check(item);
+        double box[4] = {0, 0, 0, 0}, scale = 1.0, offset = 0.0; /* west south east north */
+        int is_dict = PyDict_Check(item), box_keys = 0;
         if (is_dict) {
+            static const char *const sides[4] = {"west", "south", "east", "north"};
             path_obj = PyDict_GetItemString(item, "path");
             raw = PyDict_GetItemString(item, "raw");
             if (!raw)
                 raw = Py_None;
-            if (!path_obj || plod__number_item(item, "west", &west, 1) < 0 ||
-                plod__number_item(item, "south", &south, 1) < 0 ||
-                plod__number_item(item, "east", &east, 1) < 0 ||
-                plod__number_item(item, "north", &north, 1) < 0 ||
-                plod__number_item(item, "scale", &scale, 0) < 0 ||
-                plod__number_item(item, "offset", &offset, 0) < 0) {
+            int bad = !path_obj || plod__number_item(item, "scale", &scale, 0) < 0 ||
+                      plod__number_item(item, "offset", &offset, 0) < 0;
+            for (int k = 0; k < 4 && !bad; k++) {
+                int has = PyMapping_HasKeyString(item, sides[k]);
+                box_keys += has;
+                bad = has && plod__number_item(item, sides[k], &box[k], 1) < 0;
+            }
+            if (bad || (box_keys != 0 && box_keys != 4)) {
                 snprintf(message, sizeof message,
                          "inset %zd: a dict needs path and finite west, south, east, north "
-                         "(degrees; optional raw, scale, offset)", i);
+                         "(degrees; all four, or none for a GeoTIFF placed by its tags; "
+                         "optional raw, scale, offset)", i);
                 plod_py_raise_detail(PLOD_ERR_BAD_PARAM, context, message);
                 goto done;
             }
@@ -367,33 +414,47 @@ int plod_py_insets_arg(PyObject *list, double feather, plod_insets **out)
             goto done;
         }
         const char *path = PyBytes_AsString(owned);
-        if (!is_dict) {
-            int lon, lat;
-            if (!plod_hgt_origin(path, &lon, &lat)) {
-                snprintf(message, sizeof message,
-                         "inset %zd ('%.200s'): a bare path must be an SRTM tile named like "
-                         "N45E006.hgt; give other grids as dict(path, west, south, east, north)",
-                         i, path);
-                Py_DECREF(owned);
-                plod_py_raise_detail(PLOD_ERR_BAD_PARAM, context, message);
-                goto done;
-            }
-            west = lon, east = lon + 1.0, south = lat, north = lat + 1.0;
-        }
         plod_py_read_options options;
         if (plod_py_read_options_arg(raw, 0, &options, context) < 0) {
             Py_DECREF(owned);
             goto done;
         }
+        plod_georef geo = {0};
+        plod_status s = PLOD_OK;
+        if (!options.has_raw && !plod_raw_is_raw_path(path)) {
+            Py_BEGIN_ALLOW_THREADS
+            s = plod_georef_read(&geo, path, message, sizeof message);
+            Py_END_ALLOW_THREADS
+        }
+        int lon, lat, hgt_name = !is_dict && plod_hgt_origin(path, &lon, &lat);
+        if (s == PLOD_OK && !hgt_name && !box_keys && !geo.present) {
+            snprintf(message, sizeof message,
+                     "inset %zd ('%.200s'): %s; give other grids as dict(path, west, south, "
+                     "east, north)",
+                     i, path,
+                     options.has_raw ? "a raw grid carries no placement"
+                     : is_dict ? "not a GeoTIFF with georeferencing"
+                               : "a bare path must be an SRTM tile named like N45E006.hgt or a "
+                                 "GeoTIFF with georeferencing");
+            s = PLOD_ERR_BAD_PARAM;
+        }
+        if (hgt_name)
+            box[0] = lon, box[1] = lat, box[2] = lon + 1.0, box[3] = lat + 1.0;
         plod_image image = {0};
-        plod_status s;
-        Py_BEGIN_ALLOW_THREADS
-        s = options.has_raw ? plod_image_read_raw(&image, path, &options.raw, 0, message,
-                                                  sizeof message)
-                            : plod_image_read(&image, path, 0, message, sizeof message);
-        Py_END_ALLOW_THREADS
+        if (s == PLOD_OK) {
+            Py_BEGIN_ALLOW_THREADS
+            s = options.has_raw ? plod_image_read_raw(&image, path, &options.raw, 0, message,
+                                                      sizeof message)
+                : geo.present   ? plod_image_read_stored(&image, path, 0, message, sizeof message)
+                                : plod_image_read(&image, path, 0, message, sizeof message);
+            Py_END_ALLOW_THREADS
+        }
+        if (s == PLOD_OK && geo.present)
+            s = plod__georef_place(&geo, &image, box_keys ? box : NULL, box, path, i, message,
+                                   sizeof message);
         Py_DECREF(owned);
         if (s != PLOD_OK) {
+            plod_image_free(&image);
             plod_py_raise_detail(s, context, message);
             goto done;
         }
@@ -405,8 +466,8 @@ int plod_py_insets_arg(PyObject *list, double feather, plod_insets **out)
             PyErr_NoMemory();
             goto done;
         }
-        descs[i].west = west, descs[i].south = south, descs[i].east = east;
-        descs[i].north = north;
+        descs[i].west = box[0], descs[i].south = box[1], descs[i].east = box[2];
+        descs[i].north = box[3];
         descs[i].metres = grids[i];
     }
     plod_status s = plod_insets_create(out, descs, (size_t)count, feather, message,

@@ -84,7 +84,7 @@ int plod_py_read_options_arg(PyObject *raw, int is_signed, plod_py_read_options 
  * other object. */
 const plod_tiles *plod_py_tiled_map_get(PyObject *obj);
 int plod_py_init_heightdata(PyObject *module);
-/* Planet(insets=...): a list of .hgt paths or dicts(path, west, south, east,
+/* Planet(insets=...): a list of .hgt or GeoTIFF paths or dicts(path, west, south, east,
  * north[, raw, scale, offset]); *out NULL for None.  -1 with an exception. */
 int plod_py_insets_arg(PyObject *list, double feather, plod_insets **out);
 

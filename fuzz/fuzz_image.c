@@ -1,5 +1,6 @@
 /* fuzz_image.c -- libFuzzer harness for image decoding (cext/image_io.cpp,
- * the OpenImageIO bridge; cext/image_raw.c, headerless grids) and the
+ * the OpenImageIO bridge; cext/image_raw.c, headerless grids;
+ * cext/geotiff.c, GeoTIFF georeferencing) and the
  * CubeResampler (cext/resample.c).
  *
  * Input layout: [format][projection/filter][cube size][flags] file-bytes...
@@ -162,6 +163,28 @@ static void fuzz__use_tiles(plod_tiles *tiles, fuzz_input *in)
     (void)source.ops->sample(source.self, axis);
 }
 
+/* A TIFF's georeferencing (geotiff.c): a status and a terminated message
+ * for any bytes; a box, when one comes, ordered and finite. */
+static void fuzz__use_georef(const char *path, fuzz_input *in)
+{
+    plod_georef geo;
+    char why[256];
+    plod_status s = plod_georef_read(&geo, path, why, sizeof why);
+    FUZZ_CHECK(memchr(why, '\0', sizeof why) != NULL, "georef message not terminated");
+    FUZZ_CHECK(s == PLOD_OK || s == PLOD_ERR_BAD_IMAGE || s == PLOD_ERR_NO_MEMORY,
+               "georef status %d (%s)", s, why);
+    if (s != PLOD_OK || !geo.present)
+        return;
+    int width = fuzz_range(in, 1, 5000), height = fuzz_range(in, 1, 5000);
+    double box[4];
+    s = plod_georef_box(&geo, width, height, box, why, sizeof why);
+    FUZZ_CHECK(memchr(why, '\0', sizeof why) != NULL, "georef box message not terminated");
+    FUZZ_CHECK(s == PLOD_OK || s == PLOD_ERR_BAD_IMAGE, "georef box status %d (%s)", s, why);
+    if (s == PLOD_OK)
+        FUZZ_CHECK(!(box[0] > box[2]) && !(box[1] > box[3]),
+                   "georef box %g %g %g %g not ordered", box[0], box[1], box[2], box[3]);
+}
+
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
     fuzz_input in = {data, size};
@@ -197,6 +220,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 
     plod_image image = {0};
     char message[256];
+    fuzz__use_georef(path, &tail);
+
     /* A small pixel cap keeps each execution cheap; absurd headers must be
      * refused by the cap before any allocation. */
     size_t max_pixels = (flags & 1) ? 4096 : 1u << 18;
@@ -212,6 +237,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                                             plod_raw_sample_bytes(raw.type) == in.size),
                    "raw %dx%d type %d read from %zu bytes", raw.width, raw.height, raw.type,
                    in.size);
+    } else if (size_code & 0x80) { /* as stored, as GeoTIFF insets read their samples */
+        s = plod_image_read_stored(&image, path, max_pixels, message, sizeof message);
+        FUZZ_CHECK(s != PLOD_OK || image.type == PLOD_TEXEL_F32 || plod_raw_is_raw_path(path),
+                   "stored read gave type %d", image.type);
     } else {
         s = plod_image_read(&image, path, max_pixels, message, sizeof message);
     }
