@@ -92,7 +92,7 @@ void plod_lonlat_cap_range(const double axis[3], double angle, int width, int he
                            plod_range_uv_fn range_uv, const void *context, double *lo,
                            double *hi, double *texels);
 
-/* ---- tiled equirectangular maps ----------------------------------------- */
+/* ---- tiled equirectangular maps (heighttiles.c) ------------------------- */
 typedef struct plod_tiles plod_tiles; /* opaque */
 
 #define PLOD_TILES_DEFAULT_TILE 128

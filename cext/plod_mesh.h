@@ -56,8 +56,9 @@ typedef struct plod_mesh_sector {
 } plod_mesh_sector;
 
 /* Returns 1 if sector `index` (0..count-1) is emitted and then fills
- * *sector unless it is NULL (the counting pass passes NULL), 0 to skip it.
- * Called concurrently from several threads: must be reentrant. */
+ * *sector unless it is NULL (the counting pass, on the calling thread,
+ * passes NULL), 0 to skip it.  Called concurrently from several threads:
+ * must be reentrant. */
 typedef int (*plod_mesh_sector_fn)(const void *context, size_t index,
                                    plod_mesh_sector *sector);
 
@@ -98,6 +99,8 @@ typedef struct plod_mesh_cache_stats {
 
 #define PLOD_MESH_CACHE_DEFAULT_BYTES ((size_t)256 << 20)
 
+/* An empty cache; PLOD_ERR_NULL or PLOD_ERR_NO_MEMORY (*out NULL then).
+ * The other calls accept NULL (no-op; statistics zero). */
 plod_status plod_mesh_cache_create(plod_mesh_cache **out, size_t max_bytes);
 void plod_mesh_cache_destroy(plod_mesh_cache *cache);
 void plod_mesh_cache_clear(plod_mesh_cache *cache);
@@ -199,9 +202,10 @@ size_t plod_mesh_count_sectors(const plod_mesh_sector_source *sectors);
  * cache's table (a failed allocation emits uncached or empties the cache,
  * never fails the emission).  Buffers must hold the bounds for the emitted
  * sector count.  Returns PLOD_ERR_NULL, PLOD_ERR_BAD_PARAM (level, threads,
- * morph parameters, too many vertices), PLOD_ERR_BAD_COORD (a sector with
+ * the planet's radius, morph parameters, too many vertices),
+ * PLOD_ERR_BAD_COORD (a non-finite origin or eye, or a sector with
  * non-finite or degenerate corners; output then partial).  Counts may be
- * NULL. */
+ * NULL; they are 0 on failure. */
 plod_status plod_mesh_emit(const plod_mesh_params *params,
                            const plod_mesh_sector_source *sectors,
                            const plod_surface_source *surface, const plod_mesh_buffers *out,
@@ -216,8 +220,10 @@ plod_status plod_mesh_emit_array(const plod_mesh_params *params,
 /* ---- instanced form (GPU path) ---------------------------------------------
  * Per emitted sector: corners 9 floats (unit directions), level 1 float,
  * morph 1 float (the morph factor at the sector's centroid on the surface,
- * its height from `surface`).  Any output may be NULL; no allocation.
- * *instance_count gets the number written. */
+ * its height from `surface`).  Any output may be NULL; no allocation; one
+ * thread.  *instance_count (may be NULL) gets the number written.  Statuses
+ * as plod_mesh_emit (PLOD_ERR_BAD_COORD stops at the bad sector, earlier
+ * instances written). */
 plod_status plod_mesh_instances(const plod_mesh_params *params,
                                 const plod_mesh_sector_source *sectors,
                                 const plod_surface_source *surface, float *corners,

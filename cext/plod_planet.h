@@ -63,9 +63,10 @@ int plod_planet_insets_range_cap(const plod_planet *planet, const double axis[3]
 
 /* Validates fields: finite numbers, radius range, projection
  * (PLOD_ERR_BAD_PROJECTION, also for a height map in another one), no NaN
- * texels in the height map (PLOD_ERR_BAD_IMAGE), height ranges that keep
- * the terrain outside the centre, a complete height source, a normal map
- * and detail field made for this planet.  PLOD_ERR_BAD_PARAM otherwise.
+ * texels in the height map and a finite global range of the height source
+ * (PLOD_ERR_BAD_IMAGE), height ranges that keep the terrain outside the
+ * centre, a complete height source, a normal map and detail field made for
+ * this planet.  PLOD_ERR_NULL for NULL, PLOD_ERR_BAD_PARAM otherwise.
  * The height map's pyramid is not checked (see `heightmap`). */
 plod_status plod_planet_check(const plod_planet *planet);
 /* The planet's own numbers, checkable before any height data is read:
@@ -78,8 +79,10 @@ plod_status plod_planet_check_numbers(const plod_planet *planet, char *message,
  * any is refused (plod_planet_check, plod_session_create): NaN heights
  * would reach the emitted vertices. */
 size_t plod_planet_nan_count(const plod_planet *planet);
-/* The normal map of planet's height map (plod_cubemap_build_normals with
- * its radius and height_scale), for planet->normalmap; caller owns *out. */
+/* The normal map of planet's height map (plod_cubemap_build_normals for
+ * the sphere of radius + height_offset and height_scale), for
+ * planet->normalmap; caller owns *out.  PLOD_ERR_NULL without a height
+ * map; else plod_cubemap_build_normals' statuses. */
 plod_status plod_planet_build_normals(const plod_planet *planet, plod_cubemap **out);
 /* Height in metres above `radius` at a unit direction: the map's plus the
  * detail field's (every octave). */

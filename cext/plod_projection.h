@@ -49,7 +49,7 @@ const char *plod_projection_name(plod_projection projection);
 /* 1 for the cube projections (6 faces), 0 for CAR. */
 int plod_projection_is_cube(plod_projection projection);
 
-/* ---- direction <-> face coordinates (used by cubemap, refine, mesh) ---- */
+/* ---- direction <-> face coordinates (cube maps, LOD tree, emission) ---- */
 /* dir need not be unit length but must be finite and non-zero.
  * Writes face in [0,5] and u, v in [-1, 1].  Directions exactly on a face
  * edge go to the lowest-numbered face containing them (canonical face). */
