@@ -42,7 +42,8 @@ size_t plod_template_triangle_count(int template_level);
 /* Barycentric weights (corner 0, 1, 2) per template vertex into `out`
  * (3 * vertex_count floats, exact).  PLOD_ERR_BAD_PARAM for a bad level. */
 plod_status plod_template_barycentrics(float *out, int template_level);
-/* Template triangles into `out` (3 * triangle_count int32 indices). */
+/* Template triangles into `out` (3 * triangle_count int32 indices).  Both:
+ * PLOD_ERR_NULL, PLOD_ERR_BAD_PARAM for a bad level. */
 plod_status plod_template_triangles(int32_t *out, int template_level);
 
 /* ---- sectors as the emitter sees them ----------------------------------- */

@@ -21,6 +21,8 @@
 extern "C" {
 #endif
 
+/* ---- sectors ------------------------------------------------------------ */
+
 #define PLOD_MAX_LEVEL 52   /* deepest bisection level supported */
 
 /* Value-type sector (<= 64 bytes).  Corners are dyadic face coordinates
@@ -46,6 +48,8 @@ enum {
     PLOD_SECTOR_OVER_BUDGET = 1u << 3,
     PLOD_SECTOR_SEA = 1u << 4        /* all heights at sea level */
 };
+
+/* ---- parameters and statistics --------------------------------------------- */
 
 typedef enum plod_criterion {
     PLOD_CRITERION_PIXEL_ERROR = 0, /* screen-space error in pixels */
@@ -113,6 +117,8 @@ typedef struct plod_refine_stats {
     unsigned frame;               /* refine frame counter (sector.birth) */
 } plod_refine_stats;
 
+/* ---- the refiner: create / destroy, one frame, queries ---------------------- */
+
 typedef struct plod_refiner plod_refiner; /* opaque */
 
 /* The planet (and its height map) is borrowed and must outlive the refiner.
@@ -160,6 +166,8 @@ const uint32_t *plod_refiner_visible(const plod_refiner *refiner, size_t *count)
 void plod_sector_corners(const plod_planet *planet, const plod_sector *sector,
                          double corners[3][3]);
 
+/* ---- memory, invariants ------------------------------------------------------ */
+
 /* Bytes held by the refiner (sector records, per-leaf bounds and corners,
  * edge table, internal-node table, split queue, visible order), capacities
  * included; 0 for NULL. */
@@ -172,6 +180,8 @@ size_t plod_refiner_memory_bytes(const plod_refiner *refiner);
  * fails, PLOD_ERR_NULL, or PLOD_ERR_NO_MEMORY (its scratch array); O(leaves
  * + nodes).  For tests. */
 plod_status plod_refiner_check(const plod_refiner *refiner);
+
+/* ---- clip range (bound.c) ----------------------------------------------------- */
 
 /* Horizon-distance correction: recommended clip range for a camera. */
 void plod_recommended_clip(const plod_planet *planet, const plod_camera *camera,
