@@ -154,7 +154,15 @@ void plod_mesh_origin(const plod_surface_source *surface, double radius,
  * pixels_per_radian / d > max_pixel_error, so scale = base side^2 *
  * pixels_per_radian / (8 R 4^t max_pixel_error), rate 1 (relief makes the
  * refiner split earlier than this predicts; the ramp is an approximation).
- * Orthographic cameras: scale 0 (no morph).  Returns the scale. */
+ * Either scale is then multiplied by 2^(bias / rate), bias 0.8 levels on
+ * the cube and 1.3 for CAR: the refiner measures distance to a bounding
+ * cap and forced splits refine further, and the shift puts the measured
+ * median sector level mid-ramp.  Base side: the longest corner chord of a
+ * level-0 sector extrapolated back from deep levels (radius * 2 sqrt 2
+ * sqrt(pi / 6) on the cube, radius * sqrt 2 sqrt pi for CAR).
+ * Orthographic cameras, NULL arguments, a bad template level or a
+ * non-positive split_border / max_pixel_error: scale 0 (no morph).
+ * Returns the scale. */
 double plod_mesh_set_morph_scale(plod_mesh_params *params,
                                  const plod_camera *camera,
                                  const plod_refine_params *refine_params);
