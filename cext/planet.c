@@ -97,9 +97,6 @@ static inline double plod__metres(const plod_planet *planet, double value)
     return planet->height_offset != 0.0 ? height + planet->height_offset : height;
 }
 
-/* Unit normal of the displaced surface d*(R+h(d)) from central differences
- * of h along a tangent frame chosen from d alone, one texel apart:
- * n ~ r d - h1 t1 - h2 t2 with h1, h2 in metres per radian. */
 /* The data's texel as an angle (radians) at dir; 0 without data.  An
  * inset's where it counts (finer data). */
 static double plod__texel_angle(const plod_planet *planet, const double dir[3])
@@ -125,6 +122,9 @@ double plod_planet_texel_size(const plod_planet *planet, const double dir[3])
     return angle > 0.0 ? angle * planet->radius : INFINITY;
 }
 
+/* Unit normal of the displaced surface d*(R+h(d)) from central differences
+ * of h along a tangent frame chosen from d alone, one texel apart:
+ * n ~ r d - h1 t1 - h2 t2 with h1, h2 in metres per radian. */
 static void plod__difference_normal(const plod_planet *planet, const double dir[3],
                                     double r, double normal[3])
 {

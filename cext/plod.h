@@ -12,6 +12,9 @@
  *   plod_refine.h      HRTMR split/merge refinement
  *   plod_mesh.h        sector templates and buffer emission
  *   plod_session.h     one planet's per-frame state: refine, then emit
+ * Internal to the core, not included here: plod_bound.h (sector bounds,
+ * the visibility and error tests) and plod_lodtree.h (the LOD tree under
+ * plod_refine.h's refiner).
  */
 #ifndef PLOD_H
 #define PLOD_H

@@ -45,11 +45,14 @@ typedef struct plod_camera {
                                   depth (perspective) or metres (ortho) */
 } plod_camera;
 
-/* PLOD_ERR_BAD_CAMERA for non-finite values, a singular matrix, lens <= 0,
- * zero resolution, ortho_scale <= 0, clip_start >= clip_end ... */
+/* PLOD_ERR_NULL; PLOD_ERR_BAD_CAMERA for non-finite values, a singular or
+ * projective matrix, lens or sensor <= 0 (perspective), ortho_scale <= 0
+ * (orthographic), resolution or pixel aspect <= 0, clip_start <= 0,
+ * clip_start >= clip_end, an unknown sensor fit, or a view whose derived
+ * values are not finite.  On failure *camera may be partly written. */
 plod_status plod_camera_init(plod_camera *camera, const plod_camera_desc *desc);
-/* Blender's defaults (lens 50, 36x24 sensor, AUTO fit, 1920x1080, clip
- * 0.1..1000) with an identity matrix. */
+/* Blender's defaults (lens 50, 36x24 sensor, AUTO fit, ortho scale 7,
+ * 1920x1080, clip 0.1..1000) with an identity matrix. */
 void plod_camera_desc_default(plod_camera_desc *desc);
 
 /* 1 if `point` is inside the camera's frustum (all 6 planes). */

@@ -40,8 +40,10 @@ typedef struct plod_cubemap plod_cubemap; /* opaque */
 #define PLOD_CUBEMAP_MAX_SIZE 32768
 #define PLOD_CUBEMAP_MAX_MAP_SIZE 16384
 
-/* size in [1, PLOD_CUBEMAP_MAX_SIZE], channels in [1, 4]; texels zeroed.  *out is NULL on
- * failure.  Release with plod_cubemap_destroy (NULL is a no-op). */
+/* size in [1, PLOD_CUBEMAP_MAX_SIZE], channels in [1, 4]; texels zeroed.
+ * PLOD_ERR_NULL, PLOD_ERR_BAD_PROJECTION, PLOD_ERR_BAD_PARAM,
+ * PLOD_ERR_NO_MEMORY; *out is NULL on failure.  Release with
+ * plod_cubemap_destroy (NULL is a no-op). */
 plod_status plod_cubemap_create(plod_cubemap **out, plod_projection projection,
                                 int size, int channels, plod_texel_type type);
 void plod_cubemap_destroy(plod_cubemap *cubemap);
@@ -63,7 +65,8 @@ int plod_cubemap_face_height(const plod_cubemap *cubemap);
 /* Edge adjacency (cube maps only), derived at creation from the
  * projection's face frames: edge 0 is u = -1, 1 u = +1, 2 v = -1, 3 v = +1.
  * Face `face`'s edge `edge` is the neighbour's edge `neighbour_edge`; the
- * along-edge texel index k there is k (flip 0) or size-1-k (flip 1). */
+ * along-edge texel index k there is k (flip 0) or size-1-k (flip 1).
+ * PLOD_ERR_NULL; PLOD_ERR_BAD_PARAM for a CAR map or a bad face or edge. */
 plod_status plod_cubemap_neighbour(const plod_cubemap *cubemap, int face,
                                    int edge, int *neighbour_face,
                                    int *neighbour_edge, int *flip);
@@ -121,24 +124,26 @@ void plod_cubemap_sample_pair_n(const plod_cubemap *a, const plod_cubemap *b, si
  * every texel centre of `heights` (channel 0), from central differences of
  * the displaced texel-centre points (neighbours across face edges, or the
  * CAR wrap, as in sampling).  *out: a new map of the same projection and
- * size, 3 channels u16, n = 2 * sample - 1 (renormalise after sampling).
+ * size, 3 channels u16, n = 2 * sample - 1 (renormalise after sampling);
+ * caller owns it.  PLOD_ERR_NULL, PLOD_ERR_BAD_PARAM (radius not finite
+ * and > 0, height_scale not finite), PLOD_ERR_NO_MEMORY.
  * Meshes sample it at each vertex instead of differencing heights there. */
 plod_status plod_cubemap_build_normals(plod_cubemap **out, const plod_cubemap *heights,
                                        double radius, double height_scale);
 
 /* ---- min/max pyramid (culling bounds) ----------------------------------- */
 /* Builds the min/max pyramid of channel 0 (idempotent; call again after
- * editing texels). */
+ * editing texels).  PLOD_ERR_NULL or PLOD_ERR_NO_MEMORY. */
 plod_status plod_cubemap_build_pyramid(plod_cubemap *cubemap);
 /* Conservative bounds of channel 0 (normalised as sampling) over the face
  * rectangle [u0,u1]x[v0,v1] (clamped to the face), including every texel a
- * bilinear sample inside it can touch.  Requires the pyramid. */
+ * bilinear sample inside it can touch.  Requires the pyramid.  For CAR
+ * maps (u, v) are as in plod_cubemap_sample_face.  Bad arguments give the
+ * global range. */
 void plod_cubemap_range(const plod_cubemap *cubemap, int face, double u0,
                         double v0, double u1, double v1, double *min_value,
                         double *max_value);
-/* For CAR maps (u, v) are as in plod_cubemap_sample_face.  Bad arguments
- * give the global range. */
-/* Bounds over the whole map (channel 0). */
+/* Bounds over the whole map (channel 0).  Requires the pyramid. */
 void plod_cubemap_global_range(const plod_cubemap *cubemap, double *min_value,
                                double *max_value);
 /* Non-zero when the pyramid is built and no face was opened for writing

@@ -79,8 +79,9 @@ void plod_detail_params_init(plod_detail_params *params);
 
 /* Builds the field for `planet` (radius, projection, height map, height
  * scale and sea level are read now; the planet's own `detail` is ignored):
- * octave tables and the modulation map.  Bad parameters:
- * PLOD_ERR_BAD_PARAM.  Release with plod_detail_destroy. */
+ * octave tables and the modulation map.  PLOD_ERR_NULL, PLOD_ERR_BAD_PARAM
+ * for bad parameters, PLOD_ERR_NO_MEMORY; *out is NULL on failure.
+ * Release with plod_detail_destroy (NULL: no-op). */
 plod_status plod_detail_create(plod_detail **out, const plod_detail_params *params,
                                const plod_planet *planet);
 void plod_detail_destroy(plod_detail *detail);

@@ -92,7 +92,7 @@ void plod_lonlat_cap_range(const double axis[3], double angle, int width, int he
                            plod_range_uv_fn range_uv, const void *context, double *lo,
                            double *hi, double *texels);
 
-/* ---- tiled equirectangular maps ----------------------------------------- */
+/* ---- tiled equirectangular maps (heighttiles.c) ------------------------- */
 typedef struct plod_tiles plod_tiles; /* opaque */
 
 #define PLOD_TILES_DEFAULT_TILE 128
@@ -104,13 +104,18 @@ typedef struct plod_tiles plod_tiles; /* opaque */
  * scanline by scanline: no size cap).  Channel 0 only; i16 grids become
  * f32 integer values.  `is_signed`: u8/u16 samples are two's complement
  * (stored as f32).  The file is written to a temporary name and renamed,
- * so a cancelled or failed build leaves nothing.  progress may be NULL. */
+ * so a cancelled or failed build leaves nothing.  progress may be NULL.
+ * `tile`: a power of two in 16..4096, 0 = PLOD_TILES_DEFAULT_TILE.
+ * PLOD_ERR_NULL, PLOD_ERR_BAD_PARAM (tile size), the reading errors of
+ * plod_image_read, PLOD_ERR_IO (writing), PLOD_ERR_CANCELLED,
+ * PLOD_ERR_NO_MEMORY; `message` (may be NULL) explains. */
 plod_status plod_tiles_build(const char *source, const plod_raw_format *raw, int is_signed,
                              const char *tiles_path, int tile, plod_progress_fn progress,
                              void *user, char *message, size_t message_size);
 /* Opens a tile file; cache_bytes (0 = default) bounds the tiles held in
  * memory (at least 16 tiles).  PLOD_ERR_IO / PLOD_ERR_BAD_IMAGE with a
- * message for a missing, truncated or foreign file. */
+ * message for a missing, truncated or foreign file; PLOD_ERR_NULL,
+ * PLOD_ERR_NO_MEMORY.  *out is NULL on failure. */
 plod_status plod_tiles_open(plod_tiles **out, const char *tiles_path, size_t cache_bytes,
                             char *message, size_t message_size);
 void plod_tiles_destroy(plod_tiles *tiles);
@@ -159,7 +164,8 @@ typedef struct plod_insets plod_insets; /* opaque */
 /* Copies the grids.  `feather`: the blend border's width as a fraction of
  * each inset's smaller side (0..0.5); edges shared with another inset are
  * not feathered.  Overlapping insets are refused (PLOD_ERR_BAD_PARAM, the
- * message names both). */
+ * message names both), as are bad boxes, sizes or feathers
+ * (PLOD_ERR_BAD_PARAM); PLOD_ERR_NULL, PLOD_ERR_NO_MEMORY. */
 plod_status plod_insets_create(plod_insets **out, const plod_inset_desc *descs, size_t count,
                                double feather, char *message, size_t message_size);
 void plod_insets_destroy(plod_insets *insets);

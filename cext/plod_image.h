@@ -24,8 +24,9 @@ typedef struct plod_image {
     void *pixels;
 } plod_image;
 
-/* Allocates zeroed pixels; rejects sizes over 2^31 texels per side product
- * limits (PLOD_ERR_NO_MEMORY / PLOD_ERR_BAD_PARAM). */
+/* Allocates zeroed pixels and sets the fields.  PLOD_ERR_NULL;
+ * PLOD_ERR_BAD_PARAM for a non-positive size, channels outside 1..4, an
+ * unknown type or more than 2^31 texels; PLOD_ERR_NO_MEMORY. */
 plod_status plod_image_alloc(plod_image *image, int width, int height,
                              int channels, plod_texel_type type);
 void plod_image_free(plod_image *image);
@@ -35,9 +36,10 @@ size_t plod_image_texel_bytes(plod_texel_type type);
  * and the headerless height grids below by extension: .hgt (SRTM), .r16 and
  * .raw (16-bit little-endian, square or 2:1, as plod_raw_guess finds).
  * Pixel type kept as u8/u16/f32 (other types converted to f32).
- * Errors: PLOD_ERR_IO (missing/unreadable), PLOD_ERR_BAD_IMAGE (corrupt,
- * zero size, > max_pixels; max_pixels 0 = PLOD_IMAGE_DEFAULT_MAX_PIXELS),
- * more than 4 channels).  Never throws.  `message` (may be NULL) receives a
+ * Errors: PLOD_ERR_NULL, PLOD_ERR_IO (missing/unreadable),
+ * PLOD_ERR_BAD_IMAGE (corrupt, zero size, more than 4 channels,
+ * > max_pixels; max_pixels 0 = PLOD_IMAGE_DEFAULT_MAX_PIXELS),
+ * PLOD_ERR_NO_MEMORY.  Never throws.  `message` (may be NULL) receives a
  * NUL-terminated explanation of up to message_size bytes. */
 plod_status plod_image_read(plod_image *image, const char *path,
                             size_t max_pixels, char *message,
@@ -65,7 +67,9 @@ plod_status plod_image_rows_open(plod_image_rows **out, const char *path, int *w
                                  int *height, plod_texel_type *type, char *message,
                                  size_t message_size);
 /* Rows [y0, y1) (top to bottom) of channel 0 into `pixels` (width * (y1 -
- * y0) texels of the type open reported).  PLOD_ERR_BAD_IMAGE if corrupt. */
+ * y0) texels of the type open reported).  PLOD_ERR_NULL, PLOD_ERR_BAD_PARAM
+ * for rows outside the image, PLOD_ERR_BAD_IMAGE if corrupt,
+ * PLOD_ERR_NO_MEMORY. */
 plod_status plod_image_rows_read(plod_image_rows *rows, int y0, int y1, void *pixels,
                                  char *message, size_t message_size);
 void plod_image_rows_close(plod_image_rows *rows);

@@ -150,7 +150,8 @@ void plod_lodtree_compact(plod_lodtree *tree);
 
 /* ---- invariants ------------------------------------------------------------------ */
 
-/* plod_refiner_check's tests (plod_refine.h); PLOD_OK or PLOD_ERR_BAD_PARAM. */
+/* plod_refiner_check's tests (plod_refine.h); PLOD_OK, PLOD_ERR_BAD_PARAM
+ * when one fails, or PLOD_ERR_NO_MEMORY (its scratch array). */
 plod_status plod_lodtree_check(const plod_lodtree *tree);
 
 #ifdef __cplusplus

@@ -42,7 +42,8 @@ size_t plod_template_triangle_count(int template_level);
 /* Barycentric weights (corner 0, 1, 2) per template vertex into `out`
  * (3 * vertex_count floats, exact).  PLOD_ERR_BAD_PARAM for a bad level. */
 plod_status plod_template_barycentrics(float *out, int template_level);
-/* Template triangles into `out` (3 * triangle_count int32 indices). */
+/* Template triangles into `out` (3 * triangle_count int32 indices).  Both:
+ * PLOD_ERR_NULL, PLOD_ERR_BAD_PARAM for a bad level. */
 plod_status plod_template_triangles(int32_t *out, int template_level);
 
 /* ---- sectors as the emitter sees them ----------------------------------- */
@@ -56,8 +57,9 @@ typedef struct plod_mesh_sector {
 } plod_mesh_sector;
 
 /* Returns 1 if sector `index` (0..count-1) is emitted and then fills
- * *sector unless it is NULL (the counting pass passes NULL), 0 to skip it.
- * Called concurrently from several threads: must be reentrant. */
+ * *sector unless it is NULL (the counting pass, on the calling thread,
+ * passes NULL), 0 to skip it.  Called concurrently from several threads:
+ * must be reentrant. */
 typedef int (*plod_mesh_sector_fn)(const void *context, size_t index,
                                    plod_mesh_sector *sector);
 
@@ -98,6 +100,8 @@ typedef struct plod_mesh_cache_stats {
 
 #define PLOD_MESH_CACHE_DEFAULT_BYTES ((size_t)256 << 20)
 
+/* An empty cache; PLOD_ERR_NULL or PLOD_ERR_NO_MEMORY (*out NULL then).
+ * The other calls accept NULL (no-op; statistics zero). */
 plod_status plod_mesh_cache_create(plod_mesh_cache **out, size_t max_bytes);
 void plod_mesh_cache_destroy(plod_mesh_cache *cache);
 void plod_mesh_cache_clear(plod_mesh_cache *cache);
@@ -150,7 +154,15 @@ void plod_mesh_origin(const plod_surface_source *surface, double radius,
  * pixels_per_radian / d > max_pixel_error, so scale = base side^2 *
  * pixels_per_radian / (8 R 4^t max_pixel_error), rate 1 (relief makes the
  * refiner split earlier than this predicts; the ramp is an approximation).
- * Orthographic cameras: scale 0 (no morph).  Returns the scale. */
+ * Either scale is then multiplied by 2^(bias / rate), bias 0.8 levels on
+ * the cube and 1.3 for CAR: the refiner measures distance to a bounding
+ * cap and forced splits refine further, and the shift puts the measured
+ * median sector level mid-ramp.  Base side: the longest corner chord of a
+ * level-0 sector extrapolated back from deep levels (radius * 2 sqrt 2
+ * sqrt(pi / 6) on the cube, radius * sqrt 2 sqrt pi for CAR).
+ * Orthographic cameras, NULL arguments, a bad template level or a
+ * non-positive split_border / max_pixel_error: scale 0 (no morph).
+ * Returns the scale. */
 double plod_mesh_set_morph_scale(plod_mesh_params *params,
                                  const plod_camera *camera,
                                  const plod_refine_params *refine_params);
@@ -199,9 +211,10 @@ size_t plod_mesh_count_sectors(const plod_mesh_sector_source *sectors);
  * cache's table (a failed allocation emits uncached or empties the cache,
  * never fails the emission).  Buffers must hold the bounds for the emitted
  * sector count.  Returns PLOD_ERR_NULL, PLOD_ERR_BAD_PARAM (level, threads,
- * morph parameters, too many vertices), PLOD_ERR_BAD_COORD (a sector with
+ * the planet's radius, morph parameters, too many vertices),
+ * PLOD_ERR_BAD_COORD (a non-finite origin or eye, or a sector with
  * non-finite or degenerate corners; output then partial).  Counts may be
- * NULL. */
+ * NULL; they are 0 on failure. */
 plod_status plod_mesh_emit(const plod_mesh_params *params,
                            const plod_mesh_sector_source *sectors,
                            const plod_surface_source *surface, const plod_mesh_buffers *out,
@@ -216,8 +229,10 @@ plod_status plod_mesh_emit_array(const plod_mesh_params *params,
 /* ---- instanced form (GPU path) ---------------------------------------------
  * Per emitted sector: corners 9 floats (unit directions), level 1 float,
  * morph 1 float (the morph factor at the sector's centroid on the surface,
- * its height from `surface`).  Any output may be NULL; no allocation.
- * *instance_count gets the number written. */
+ * its height from `surface`).  Any output may be NULL; no allocation; one
+ * thread.  *instance_count (may be NULL) gets the number written.  Statuses
+ * as plod_mesh_emit (PLOD_ERR_BAD_COORD stops at the bad sector, earlier
+ * instances written). */
 plod_status plod_mesh_instances(const plod_mesh_params *params,
                                 const plod_mesh_sector_source *sectors,
                                 const plod_surface_source *surface, float *corners,

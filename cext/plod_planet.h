@@ -51,21 +51,14 @@ typedef struct plod_planet {
                                    one inset sample apart */
 } plod_planet;
 
-/* Metres per texel of the planet's height data at a unit direction (a
- * cube map: its texel at the face centre; a height source: its
- * texel_angle there), INFINITY without data.  Detail starts below it. */
-double plod_planet_texel_size(const plod_planet *planet, const double dir[3]);
-
-/* Metres bounds of the planet's insets under a spherical cap (the blended
- * heights lie between the global data's and these); 0 when none meets it. */
-int plod_planet_insets_range_cap(const plod_planet *planet, const double axis[3],
-                                 double angle, double *min_m, double *max_m);
+/* ---- validation and set-up -------------------------------------------------- */
 
 /* Validates fields: finite numbers, radius range, projection
  * (PLOD_ERR_BAD_PROJECTION, also for a height map in another one), no NaN
- * texels in the height map (PLOD_ERR_BAD_IMAGE), height ranges that keep
- * the terrain outside the centre, a complete height source, a normal map
- * and detail field made for this planet.  PLOD_ERR_BAD_PARAM otherwise.
+ * texels in the height map and a finite global range of the height source
+ * (PLOD_ERR_BAD_IMAGE), height ranges that keep the terrain outside the
+ * centre, a complete height source, a normal map and detail field made for
+ * this planet.  PLOD_ERR_NULL for NULL, PLOD_ERR_BAD_PARAM otherwise.
  * The height map's pyramid is not checked (see `heightmap`). */
 plod_status plod_planet_check(const plod_planet *planet);
 /* The planet's own numbers, checkable before any height data is read:
@@ -78,9 +71,18 @@ plod_status plod_planet_check_numbers(const plod_planet *planet, char *message,
  * any is refused (plod_planet_check, plod_session_create): NaN heights
  * would reach the emitted vertices. */
 size_t plod_planet_nan_count(const plod_planet *planet);
-/* The normal map of planet's height map (plod_cubemap_build_normals with
- * its radius and height_scale), for planet->normalmap; caller owns *out. */
+/* The normal map of planet's height map (plod_cubemap_build_normals for
+ * the sphere of radius + height_offset and height_scale), for
+ * planet->normalmap; caller owns *out.  PLOD_ERR_NULL without a height
+ * map; else plod_cubemap_build_normals' statuses. */
 plod_status plod_planet_build_normals(const plod_planet *planet, plod_cubemap **out);
+
+/* ---- heights and normals ---------------------------------------------------- */
+
+/* Metres per texel of the planet's height data at a unit direction (a
+ * cube map: its texel at the face centre; a height source: its
+ * texel_angle there), INFINITY without data.  Detail starts below it. */
+double plod_planet_texel_size(const plod_planet *planet, const double dir[3]);
 /* Height in metres above `radius` at a unit direction: the map's plus the
  * detail field's (every octave). */
 double plod_planet_height(const plod_planet *planet, const double dir[3]);
@@ -120,24 +122,31 @@ void plod_planet_surface_detail_n(const plod_planet *planet, size_t n, const dou
  * stamp are the detail field's (both NULL without one).  Valid while
  * `planet` lives; reads its fields at each call. */
 plod_surface_source plod_planet_surface_source(const plod_planet *planet);
-/* Global height bounds in metres, the detail field's included (0, 0
- * without a map or detail). */
+
+/* ---- height bounds ---------------------------------------------------------- */
+
+/* Global height bounds in metres: the height map's or the height
+ * source's, widened by the insets' and the detail field's (0, 0 without
+ * any of them). */
 void plod_planet_height_range(const plod_planet *planet, double *min_m,
                               double *max_m);
 /* Conservative bounds of the height MAP's part in metres over the face
- * rectangle [u0,u1]x[v0,v1] (clamped to the face; CAR: the octahedral
- * square is bounded through the map's global range).  Without a map: 0,
- * 0.  The detail field's part: plod_planet_detail_range_uv. */
+ * rectangle [u0,u1]x[v0,v1] (clamped to the face).  Without a cube map
+ * (a height source or no data) and for CAR (the octahedral square is not
+ * how the map is addressed): the global range of the map or source and
+ * the insets (0, 0 without any).  The detail field's part:
+ * plod_planet_detail_range_uv. */
 void plod_planet_height_range_uv(const plod_planet *planet, int face, double u0,
                                  double v0, double u1, double v1, double *min_m,
                                  double *max_m);
-/* Conservative bounds of the height MAP's part in metres over the
- * spherical cap of unit centre `axis` and angular radius `angle`
- * (radians), for a CAR map:
+/* Conservative bounds of the height data's part in metres (map or
+ * source; not the insets, not the detail field) over the spherical cap of
+ * unit centre `axis` and angular radius `angle` (radians).  A CAR map:
  * through the cap's longitude/latitude box (the whole longitude range
- * when the cap holds a pole).  *texels: the box's larger side in map
- * texels (for sub-texel refinements).  Cube maps and no map: as
- * plod_planet_height_range, *texels = INFINITY. */
+ * when the cap holds a pole), *texels the box's larger side in map texels
+ * (for sub-texel refinements).  A height source: its range_cap (and its
+ * *texels).  A cube map: the map's global range; no data: 0, 0; both
+ * with *texels = INFINITY. */
 void plod_planet_height_range_cap(const plod_planet *planet, const double axis[3],
                                   double angle, double *min_m, double *max_m,
                                   double *texels);
@@ -151,6 +160,10 @@ void plod_planet_detail_range_uv(const plod_planet *planet, int face, double u0,
 void plod_planet_detail_range_cap(const plod_planet *planet, const double axis[3],
                                   double angle, double *min_m, double *max_m,
                                   double modulation[2]);
+/* Metres bounds of the planet's insets under a spherical cap (the blended
+ * heights lie between the global data's and these); 0 when none meets it. */
+int plod_planet_insets_range_cap(const plod_planet *planet, const double axis[3],
+                                 double angle, double *min_m, double *max_m);
 /* The detail field's modulation at a unit direction (sampled where the
  * height map samples; 1 without a map, 0 without detail). */
 double plod_planet_modulation(const plod_planet *planet, const double dir[3]);

@@ -49,15 +49,18 @@ const char *plod_projection_name(plod_projection projection);
 /* 1 for the cube projections (6 faces), 0 for CAR. */
 int plod_projection_is_cube(plod_projection projection);
 
-/* ---- direction <-> face coordinates (used by cubemap, refine, mesh) ---- */
+/* ---- direction <-> face coordinates (cube maps, LOD tree, emission) ---- */
 /* dir need not be unit length but must be finite and non-zero.
  * Writes face in [0,5] and u, v in [-1, 1].  Directions exactly on a face
- * edge go to the lowest-numbered face containing them (canonical face). */
+ * edge go to the lowest-numbered face containing them (canonical face).
+ * PLOD_ERR_NULL, PLOD_ERR_BAD_PROJECTION, PLOD_ERR_BAD_COORD. */
 plod_status plod_dir_to_face(plod_projection projection, const double dir[3],
                              int *face, double *u, double *v);
 /* u, v in [-1, 1] (finite); writes a unit direction.  For CAR, face must be 0
  * and (u, v) is the octahedral square.  Bit-identical results for the same
- * point reached from two faces: the point is canonicalised first. */
+ * point reached from two faces: the point is canonicalised first.
+ * PLOD_ERR_NULL, PLOD_ERR_BAD_PROJECTION, PLOD_ERR_BAD_PARAM (face),
+ * PLOD_ERR_BAD_COORD (u or v outside [-1, 1] or NaN). */
 plod_status plod_face_to_dir(plod_projection projection, int face, double u,
                              double v, double dir[3]);
 /* The frame of cube face `face` (the one table of them, the same for every
@@ -70,8 +73,9 @@ plod_status plod_face_frame(int face, int frame[3][3]);
 /* Vectorised forms over n points; dirs is 3n doubles (x, y, z per point).
  * stat may be NULL; otherwise stat[i] gets each point's status.  Failed
  * points get face -1 and NaN u, v (resp. NaN directions).  Returns PLOD_OK
- * if every point succeeded, else the first failure's status.  These are the
- * hot paths (no per-point call overhead beyond the inline kernels). */
+ * if every point succeeded, else the first failure's status (PLOD_ERR_NULL
+ * or PLOD_ERR_BAD_PROJECTION before any point).  These are the hot paths
+ * (no per-point call overhead beyond the inline kernels). */
 plod_status plod_dir_to_face_n(plod_projection projection, size_t n,
                                const double *dirs, int *faces, double *u,
                                double *v, int *stat);

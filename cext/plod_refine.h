@@ -8,8 +8,8 @@
  * bisection with forced splits across the split edge (conforming); merge =
  * a diamond of 4 sectors back into 2.  Incremental from frame to frame.
  * Implemented by lodtree.c (the tree: ids, stores, split and merge,
- * invariants) and lodupdate.c (one frame's passes), over the bounds and
- * tests of bound.c.
+ * invariants; plod_sector_corners) and lodupdate.c (one frame's passes),
+ * over the bounds and tests of bound.c (also plod_recommended_clip).
  */
 #ifndef PLOD_REFINE_H
 #define PLOD_REFINE_H
@@ -20,6 +20,8 @@
 #ifdef __cplusplus
 extern "C" {
 #endif
+
+/* ---- sectors ------------------------------------------------------------ */
 
 #define PLOD_MAX_LEVEL 52   /* deepest bisection level supported */
 
@@ -47,6 +49,8 @@ enum {
     PLOD_SECTOR_SEA = 1u << 4        /* all heights at sea level */
 };
 
+/* ---- parameters and statistics --------------------------------------------- */
+
 typedef enum plod_criterion {
     PLOD_CRITERION_PIXEL_ERROR = 0, /* screen-space error in pixels */
     PLOD_CRITERION_SIDE_DISTANCE    /* Gasiński: side / distance borders */
@@ -56,7 +60,8 @@ typedef struct plod_refine_params {
     plod_criterion criterion;
     double max_pixel_error;  /* pixels, default 1 */
     double split_border;     /* side/distance, default 0.5 */
-    double merge_border;     /* default 0.25; used only with hysteresis */
+    double merge_border;     /* default 0.25, in (0, split_border]; used
+                                only with hysteresis */
     int hysteresis;          /* 0 (renders): the result is a function of the
                                 camera and parameters alone, whatever frames
                                 came before.  1 (viewport): a split node
@@ -82,9 +87,10 @@ typedef struct plod_refine_params {
     int backface_culling;
     int frustum_culling;
     int skip_sea;            /* drop PLOD_SECTOR_SEA sectors from visible */
-    size_t max_sectors;      /* hard cap on leaves (memory bound); default
-                                PLOD_DEFAULT_MAX_SECTORS; when reached the
-                                split pass stops (stats.truncated) */
+    size_t max_sectors;      /* hard cap on leaves (memory bound), >= 12;
+                                default PLOD_DEFAULT_MAX_SECTORS; when
+                                reached the split pass stops
+                                (stats.truncated) */
     int threads;             /* 1..PLOD_REFINE_MAX_THREADS, default 1: threads
                                 that evaluate the leaves' predicates and
                                 flags of large sector sets (>= 8192 leaves;
@@ -111,9 +117,13 @@ typedef struct plod_refine_stats {
     unsigned frame;               /* refine frame counter (sector.birth) */
 } plod_refine_stats;
 
+/* ---- the refiner: create / destroy, one frame, queries ---------------------- */
+
 typedef struct plod_refiner plod_refiner; /* opaque */
 
-/* The planet (and its height map) is borrowed and must outlive the refiner. */
+/* The planet (and its height map) is borrowed and must outlive the refiner.
+ * *out is NULL on failure: PLOD_ERR_NULL, plod_planet_check's statuses,
+ * PLOD_ERR_NO_MEMORY.  Destroy with plod_refiner_destroy (NULL: no-op). */
 plod_status plod_refiner_create(plod_refiner **out, const plod_planet *planet);
 void plod_refiner_destroy(plod_refiner *refiner);
 /* Room for `sectors` leaf sectors (their internal nodes, edges, split
@@ -122,7 +132,8 @@ void plod_refiner_destroy(plod_refiner *refiner);
  * in fresh pages, until the set exceeds it: a planet's first descent then
  * runs at steady-state cost.  Never shrinks (reset
  * keeps the capacity).  PLOD_ERR_BAD_PARAM above PLOD_REFINER_MAX_RESERVE,
- * PLOD_ERR_NO_MEMORY (the refiner unchanged but usable) if it cannot. */
+ * PLOD_ERR_NO_MEMORY (the leaves unchanged, the refiner usable) if it
+ * cannot; PLOD_ERR_NULL for a NULL refiner. */
 #define PLOD_REFINER_MAX_RESERVE ((size_t)1 << 26)
 plod_status plod_refiner_reserve(plod_refiner *refiner, size_t sectors);
 /* Back to the base sectors. */
@@ -130,7 +141,14 @@ void plod_refiner_reset(plod_refiner *refiner);
 /* One frame: merge pass, split pass, culling; fills stats (may be NULL).
  * Without hysteresis the leaves, their flags and plod_refiner_visible()
  * equal those of a fresh refiner's first update at this camera, unless
- * max_sectors truncated either (stats.truncated). */
+ * max_sectors truncated either (stats.truncated).  Returns PLOD_ERR_NULL,
+ * PLOD_ERR_BAD_PARAM (a parameter outside the ranges above; nothing
+ * changed), PLOD_ERR_BAD_CAMERA (eye not finite or at the planet's centre;
+ * nothing changed) or PLOD_ERR_NO_MEMORY (the visible order or the budget
+ * cut could not be allocated: the leaves are this frame's, stats are not
+ * written and the visible list is not to be used until a successful
+ * update).  The split pass itself never fails: when memory runs out it
+ * stops as at max_sectors. */
 plod_status plod_refiner_update(plod_refiner *refiner, const plod_camera *camera,
                                 const plod_refine_params *params,
                                 plod_refine_stats *stats);
@@ -148,15 +166,22 @@ const uint32_t *plod_refiner_visible(const plod_refiner *refiner, size_t *count)
 void plod_sector_corners(const plod_planet *planet, const plod_sector *sector,
                          double corners[3][3]);
 
+/* ---- memory, invariants ------------------------------------------------------ */
+
 /* Bytes held by the refiner (sector records, per-leaf bounds and corners,
- * edge table, internal-node table), capacities included. */
+ * edge table, internal-node table, split queue, visible order), capacities
+ * included; 0 for NULL. */
 size_t plod_refiner_memory_bytes(const plod_refiner *refiner);
 
 /* Verifies the internal invariants (edge table matches the leaves, every
  * edge shared by two leaves within one level, internal nodes = leaves -
- * base sectors, cached corners equal to fresh ones).  PLOD_OK or
- * PLOD_ERR_BAD_PARAM; O(count). For tests. */
+ * base sectors, parent and diamond-partner links, cached corners and
+ * heights equal to fresh ones).  PLOD_OK, PLOD_ERR_BAD_PARAM when one
+ * fails, PLOD_ERR_NULL, or PLOD_ERR_NO_MEMORY (its scratch array); O(leaves
+ * + nodes).  For tests. */
 plod_status plod_refiner_check(const plod_refiner *refiner);
+
+/* ---- clip range (bound.c) ----------------------------------------------------- */
 
 /* Horizon-distance correction: recommended clip range for a camera. */
 void plod_recommended_clip(const plod_planet *planet, const plod_camera *camera,

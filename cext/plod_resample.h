@@ -21,11 +21,10 @@ typedef enum plod_filter {
  * (then PLOD_ERR_CANCELLED and the cube map content is unspecified). */
 typedef int (*plod_progress_fn)(void *user, double fraction);
 
-plod_status plod_filter_from_name(const char *name, plod_filter *out);
-
 /* "nearest", "bilinear", "bicubic"; PLOD_ERR_BAD_PARAM otherwise.
  * Bicubic is Catmull-Rom clamped per channel to the min/max of the central
  * 2x2 source taps (no overshoot; all-zero 2x2 footprints stay 0). */
+plod_status plod_filter_from_name(const char *name, plod_filter *out);
 
 /* Fills every texel of `cubemap` (already created with the wanted size,
  * channels, type and projection, cube or CAR) from the CAR image `source`
@@ -40,8 +39,8 @@ plod_status plod_resample_car_to_cube(plod_cubemap *cubemap,
                                       const plod_image *source,
                                       plod_filter filter,
                                       plod_progress_fn progress, void *user);
-/* Same with an explicit thread count (1..16); the result is identical for
- * every thread count. */
+/* Same with an explicit thread count (clamped to 1..16); the result is
+ * identical for every thread count. */
 plod_status plod_resample_car_to_cube_threads(plod_cubemap *cubemap,
                                               const plod_image *source,
                                               plod_filter filter, int threads,

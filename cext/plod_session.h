@@ -30,7 +30,8 @@
  * the session (and around its use of the pointers those calls return).
  * The calls do not take it themselves, so a caller that owns the session
  * alone (a benchmark, a fuzzer) pays nothing.  Emission and refinement run
- * their own threads inside one call.
+ * their own threads inside one call.  Every call but plod_session_destroy
+ * needs a session (no NULL check).
  */
 #ifndef PLOD_SESSION_H
 #define PLOD_SESSION_H
@@ -50,9 +51,10 @@ typedef struct plod_session plod_session; /* opaque */
 /* Checks the planet (plod_planet_check), builds the detail field when
  * `detail` is not NULL, and the refiner at the base sectors.  On failure
  * *out is NULL and `message` (may be NULL) says which part was refused:
- * PLOD_ERR_BAD_IMAGE for height data with NaN texels
- * (plod_planet_nan_count), PLOD_ERR_BAD_PARAM for bad detail parameters or
- * a bad planet, PLOD_ERR_NO_MEMORY.  The mesh cache budget starts at
+ * PLOD_ERR_NULL for a NULL out or planet, PLOD_ERR_BAD_IMAGE for height
+ * data with NaN texels (plod_planet_nan_count), plod_planet_check's
+ * statuses for a bad planet, PLOD_ERR_BAD_PARAM for bad detail parameters,
+ * PLOD_ERR_NO_MEMORY.  The mesh cache budget starts at
  * PLOD_MESH_CACHE_DEFAULT_BYTES. */
 plod_status plod_session_create(plod_session **out, const plod_planet *planet,
                                 const plod_detail_params *detail, char *message,
@@ -82,8 +84,9 @@ const plod_refine_stats *plod_session_refine_stats(const plod_session *session);
 /* ---- per frame --------------------------------------------------------------- */
 
 /* plod_refiner_update; on success the camera, parameters and statistics
- * become the session's last (stats may be NULL).  On failure the session
- * keeps the previous frame's. */
+ * become the session's last (stats may be NULL).  On failure the last
+ * camera, parameters and statistics stay the previous frame's; the
+ * refiner's leaves are as plod_refiner_update leaves them. */
 plod_status plod_session_refine(plod_session *session, const plod_camera *camera,
                                 const plod_refine_params *params, plod_refine_stats *stats);
 /* Back to the base sectors; forgets the last camera. */
@@ -94,7 +97,9 @@ plod_status plod_session_reserve(plod_session *session, size_t sectors);
 /* Builds the normal map of the planet's height map once (a no-op without a
  * height map or with one already, the caller's included); emissions and
  * plod_planet_surface on the session's planet then sample normals instead
- * of differencing heights.  PLOD_ERR_NO_MEMORY. */
+ * of differencing heights.  PLOD_ERR_NO_MEMORY, or
+ * plod_cubemap_build_normals' PLOD_ERR_BAD_PARAM for a radius + height
+ * offset that is not positive. */
 plod_status plod_session_build_normals(plod_session *session);
 
 /* ---- emission ------------------------------------------------------------------ */
@@ -115,13 +120,14 @@ size_t plod_session_sector_count(const plod_session *session, int visible_only);
  * `params` (params->planet and params->cache are replaced by the session's
  * planet and, when use_cache, its cache, created on first use).  Buffers
  * and counts as plod_mesh_emit; size them with plod_session_sector_count.
- * PLOD_ERR_NO_MEMORY when the cache cannot be created; else
- * plod_mesh_emit's statuses. */
+ * PLOD_ERR_NULL for NULL params, PLOD_ERR_NO_MEMORY when the cache cannot
+ * be created; else plod_mesh_emit's statuses. */
 plod_status plod_session_emit(plod_session *session, const plod_mesh_params *params,
                               int visible_only, int use_cache,
                               const plod_mesh_buffers *out, size_t *vertex_count,
                               size_t *triangle_count);
-/* plod_mesh_instances over the visible sectors, in the same order. */
+/* plod_mesh_instances over the visible sectors, in the same order (never
+ * cached); PLOD_ERR_NULL for NULL params, else its statuses. */
 plod_status plod_session_instances(plod_session *session, const plod_mesh_params *params,
                                    float *corners, float *levels, float *morph,
                                    size_t *instance_count);

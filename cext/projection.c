@@ -16,6 +16,11 @@
  *     (x0, y0) = (0, 2), (0, 0), (2, 0), (4, 0), (6, 0), (0, -2)
  * so face 4 spans x in [225, 315] (WCSLIB's s2x convention); the inverse also
  * accepts x in [-135, -45] for face 4 (WCSLIB's x2s wraps x < -45 by +360).
+ *
+ * Gasiński's thesis: K. Gasiński, "Porównanie metod wizualizacji terenu w
+ * czasie rzeczywistym" (comparison of real-time terrain visualisation
+ * methods), master's thesis, Gdańsk University of Technology, 2010, chapter
+ * 3 (quad-sphere and cube-sphere formulas).
  */
 #include "plod_projection.h"
 
@@ -158,11 +163,11 @@ PLOD__HOT void plod__tsc_inv(double u, double v, double *xi, double *eta,
 /*   inverse  chi = f(u, v), psi = f(v, u),                                  */
 /*     f(X, Y) = X + X (1 - X^2) sum_{j<=6} sum_{i<=6-j} P_ij X^2i Y^2j,     */
 /*   then the TSC inverse of (chi, psi).  Constants: Calabretta & Greisen    */
-/*   2002 (the thesis prints psi^2i where psi^2j is meant).  The pair is an  */
-/*   approximation: the sphere round trip errs by up to 2.2e-4 rad (0.0125   */
-/*   deg, 2.9e-4 of a face unit; median 2.7e-5 rad), the same as WCSLIB's    */
-/*   own cscs2x -> cscx2s (measured in the tests and the bench).  Evaluated  */
-/*   in double precision.                                                    */
+/*   2002 (Gasiński's thesis, 3.7.2, prints psi^2i where psi^2j is meant).   */
+/*   The pair is an approximation: the sphere round trip errs by up to       */
+/*   2.2e-4 rad (0.0125 deg, 2.9e-4 of a face unit; median 2.7e-5 rad),      */
+/*   the same as WCSLIB's own cscs2x -> cscx2s (measured in the tests and    */
+/*   the bench).  Evaluated in double precision.                             */
 /* ======================================================================== */
 
 PLOD__HOT double plod__csc_F(double a, double b)
@@ -459,7 +464,7 @@ PLOD__HOT void plod__cube_face_to_dir(plod_projection projection, int face,
 /* and normalised: the octant edges (u = 0, v = 0, the border) come out     */
 /* bit-identical from either side.  Rows of constant s are latitude circles */
 /* of 4s (or 4s') unit lengths, so geometry crowds towards the poles like   */
-/* the thesis's CAR quad-sphere.                                            */
+/* the CAR quad-sphere of Gasiński's thesis.                                */
 /* ======================================================================== */
 
 PLOD__HOT void plod__car_face_to_dir(double u, double v, double d[3])

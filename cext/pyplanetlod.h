@@ -35,7 +35,7 @@ static inline void plod_py_free(PyObject *self)
     free_slot(self);
 }
 
-/* ---- exported buffers ----------------------------------------------------
+/* ---- exported buffers (pymodule.c) ---------------------------------------
  * planetlod.Buffer: a 1-D, C-contiguous, read-write buffer that honours
  * PyBUF_SIMPLE|PyBUF_FORMAT (Blender's foreach_set accepts it, a memoryview
  * does not), supports len(), indexing and .tolist().  format is one struct
@@ -49,18 +49,18 @@ PyObject *plod_py_buffer_steal(char format, size_t count, void *data);
 /* Storage pointer of a planetlod.Buffer (NULL + TypeError otherwise). */
 void *plod_py_buffer_data(PyObject *buffer, size_t *count, char *format);
 
-/* ---- errors --------------------------------------------------------------
+/* ---- errors (pymodule.c) -------------------------------------------------
  * Raises the exception for `status` ("context: message") and returns NULL.
  * Mapping: argument errors -> planetlod.InvalidArgument (a ValueError),
  * PLOD_ERR_IO -> planetlod.FileError (an OSError), PLOD_ERR_BAD_IMAGE ->
  * planetlod.ImageError (a ValueError), PLOD_ERR_NO_MEMORY -> MemoryError,
- * PLOD_ERR_CANCELLED -> planetlod.Cancelled.  All but MemoryError derive
- * from planetlod.PlanetLODError. */
+ * PLOD_ERR_CANCELLED -> planetlod.Cancelled (PLOD_OK: SystemError, a
+ * caller bug).  All but MemoryError derive from planetlod.PlanetLODError. */
 PyObject *plod_py_raise(plod_status status, const char *context);
 PyObject *plod_py_raise_detail(plod_status status, const char *context,
                                const char *detail);
 
-/* ---- argument helpers ---------------------------------------------------- */
+/* ---- argument helpers (pymodule.c) ----------------------------------------- */
 /* Projection from a Python str; InvalidArgument listing valid names. */
 int plod_py_projection_arg(PyObject *name, plod_projection *out);
 /* Reads a float64 sequence or buffer into a new malloc'ed array. */

@@ -638,7 +638,7 @@ def test_recommended_clip(planetlod, earth):
 def test_recommended_clip_of_a_camera_near_float_limits(planetlod):
     """Fuzz finding: at 1e200 m the squared distance overflowed, and an
     infinite clearance times a wide view's zero corner factor gave a NaN near
-    clip.  Now a positive near, and a far beyond it."""
+    clip.  Expected: a positive near, and a far beyond it."""
     for coord in (1e200, 1e300):
         for lens in (50.0, 1e-300):
             m = [1, 0, 0, coord, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]

@@ -514,7 +514,7 @@ def test_exr_with_oversized_attribute_refused(planetlod, tmp_path):
                                   "sgi-rle-overflow.sgi"])
 def test_sgi_is_refused_before_decoding(planetlod, name):
     """Three fuzz findings in OpenImageIO 2.4's SGI reader on corrupt files: it
-    throws after the pixels were allocated (they leaked; now freed for any
+    throws after the pixels were allocated (they must be freed for any
     decoder that throws), news a negative RLE length, and writes past the
     caller's buffer.  SGI is refused by name before any pixel is read, so
     none of them reaches Blender's heap (fuzz/repro/)."""

@@ -48,7 +48,7 @@ def write_float_tiff(path, width, height, value):
 
 
 def bad_heightmaps(folder):
-    """{case: path} of every bad height map the issue lists (the missing one absent)."""
+    """{case: path} of every bad height map the robustness tests use (the missing one absent)."""
     os.makedirs(folder, exist_ok=True)
     paths = {"missing": os.path.join(folder, "missing.png")}
     zero = paths["zero-byte"] = os.path.join(folder, "zero.png")
