@@ -11,14 +11,14 @@ bl_info = {
 
 if "bpy" in locals():  # script reload (F3 > Reload Scripts)
     import importlib
-    for _name in ("compat", "core", "presets", "props", "materials", "live", "operators", "render",
+    for _name in ("compat", "core", "props", "materials", "live", "operators", "render",
                   "draw", "framing", "ui"):
         if _name in locals():
             importlib.reload(locals()[_name])
 
 import bpy  # noqa: E402
 
-from . import compat, core, presets, props, materials, live, operators, render, draw, framing, ui  # noqa: E402,E501
+from . import compat, core, props, materials, live, operators, render, draw, framing, ui  # noqa: E402,E501
 
 _modules = (props, operators, render, ui, draw, live)
 

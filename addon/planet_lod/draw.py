@@ -271,7 +271,7 @@ def draw_callback():
     # where the depth buffer cannot tell them apart
     gpu.state.face_culling_set('BACK')
     try:
-        for obj in live.planets(scene):
+        for obj in live.planet_objects(scene):
             s = obj.planet_lod
             st = live.RUNTIME.get(obj.name_full)
             if st is None or not obj.visible_get():

@@ -31,7 +31,8 @@ import numpy
 from bpy.app.handlers import persistent
 from mathutils import Matrix
 
-from . import atmosphere, compat, core, materials, surface
+from . import atmosphere, compat, core, materials
+from .core import flyby, planets, surface
 
 RUNTIME = {}
 REFRESH_INTERVAL_S = 0.1   # during navigation the detail follows at this rate
@@ -87,7 +88,7 @@ def check_settings(obj):
     right away; the refresh reports everything else."""
     st = state(obj)
     try:
-        core.check_heightmap(obj.planet_lod.as_dict().get("heightmap"))
+        planets.check_heightmap(obj.planet_lod.as_dict().get("heightmap"))
     except OSError as exc:
         st.error = str(exc)
     else:
@@ -95,7 +96,7 @@ def check_settings(obj):
             st.error = ""
 
 
-def planets(scene):
+def planet_objects(scene):
     return [o for o in scene.objects if o.type == 'MESH' and o.planet_lod.enabled]
 
 
@@ -274,7 +275,7 @@ def view_clip(obj, planet, params):
     range, with a clip start of a tenth of the height above the ground below the
     camera where the camera is lower than the highest peak (the thesis's clip
     start is then ~0) and at most a million times shorter than the clip end."""
-    near, far = planet.recommended_clip(core.make_camera(params))
+    near, far = planet.recommended_clip(planets.make_camera(params))
     eye = [row[3] for row in params["matrix_world"][:3]]
     distance = sum(c * c for c in eye) ** 0.5
     if distance > 0.0:
@@ -289,10 +290,10 @@ def fit_view_clips(scene):
     """Fits each 3D view's clip range to the planets it shows (those with Viewport
     Clip to Horizon on); views looking through the camera use its clip range."""
     targets = []
-    for obj in planets(scene):
+    for obj in planet_objects(scene):
         if obj.planet_lod.view_clip_from_horizon and obj.visible_get():
             try:
-                targets.append((obj, core.build_planet(obj.planet_lod.as_dict())))
+                targets.append((obj, planets.build_planet(obj.planet_lod.as_dict())))
             except core.native_errors():
                 continue
     if not targets:
@@ -348,13 +349,13 @@ def apply_camera_clip(scene, depsgraph=None, cam_matrix=None):
     if cam is None or cam.type != 'CAMERA':
         return None
     near = far = None
-    for obj in planets(scene):
+    for obj in planet_objects(scene):
         if not obj.planet_lod.clip_from_horizon:
             continue
         try:
-            planet = core.build_planet(obj.planet_lod.as_dict())
+            planet = planets.build_planet(obj.planet_lod.as_dict())
             params = camera_params_from_object(obj, cam, scene, depsgraph, cam_matrix)
-            n, f = planet.recommended_clip(core.make_camera(params))
+            n, f = planet.recommended_clip(planets.make_camera(params))
         except core.native_errors():
             continue
         n, f = n * _scale(obj), f * _scale(obj)
@@ -404,7 +405,7 @@ def refresh(obj, scene, params=None, build_mesh=False, for_render=False):
 def _refresh_locked(obj, scene, params, build_mesh, for_render):
     st = state(obj)
     settings = obj.planet_lod.as_dict()
-    planet = core.build_planet(settings)
+    planet = planets.build_planet(settings)
     if params is None:
         # the render camera's frustum ends at its clip end: fit that first
         clip = apply_camera_clip(scene) if for_render else None
@@ -419,14 +420,14 @@ def _refresh_locked(obj, scene, params, build_mesh, for_render):
     try:
         frozen = obj.planet_lod.freeze_lod and st.frozen_camera is not None and not for_render
         if not frozen:
-            camera = core.make_camera(params)
+            camera = planets.make_camera(params)
             # without hysteresis (renders) the sector set and the order meshes
             # are emitted in depend on this camera only, never on earlier frames
-            stats = core.refine(planet, camera, settings, hysteresis=not for_render)
+            stats = planets.refine(planet, camera, settings, hysteresis=not for_render)
             if build_mesh or preview:  # refuse before the mesh (or anything in bpy) is touched
-                core.check_mesh_size(stats, settings["template_level"])
+                planets.check_mesh_size(stats, settings["template_level"])
             st.stats = stats
-            inside = core.camera_inside(planet, params["matrix_world"])
+            inside = planets.camera_inside(planet, params["matrix_world"])
             if for_render:
                 st.render_warning = (INSIDE_RENDER if inside else "")
             else:
@@ -488,7 +489,7 @@ def write_mesh(obj, mesh):
 
     Vertices are written relative to the anchor (floating origin), below-sea
     ground lifted to the sea surface, with the per-vertex attributes the
-    materials shade with (surface.py), among them the core's normals
+    materials shade with (planetlod/surface.py), among them the core's normals
     (`planet_normal`: both sides of a sector border get the same normal).
     The normals go in as an attribute, not as custom split normals: those
     cost a Python sequence per vertex and a split-normal evaluation per
@@ -532,7 +533,7 @@ def refresh_for_render(scene, depsgraph=None, clip=True):
     results = {}
     if clip is True:  # also when the LOD is cached (a setting was toggled)
         clip = apply_camera_clip(scene, depsgraph)
-    for obj in planets(scene):
+    for obj in planet_objects(scene):
         try:
             params = _with_clip(lod_camera_params(obj, scene, for_render=True,
                                                   depsgraph=depsgraph), clip)
@@ -576,7 +577,7 @@ def place_geo_object(obj, scene=None, depsgraph=None):
     base = None
     try:
         if geo.altitude_reference == 'GROUND':
-            planet = core.build_planet(s.as_dict())
+            planet = planets.build_planet(s.as_dict())
             sea = s.sea_level if s.use_sea_level else None
             base = ((lambda d: max(planet.height(*d), sea)) if sea is not None
                     else (lambda d: planet.height(*d)))
@@ -585,7 +586,7 @@ def place_geo_object(obj, scene=None, depsgraph=None):
     except core.native_errors() as exc:
         state(planet_obj).error = str(exc)
         return
-    pose = core.geo_pose(s.radius, geo.longitude, geo.latitude, east=geo.east,
+    pose = flyby.geo_pose(s.radius, geo.longitude, geo.latitude, east=geo.east,
                          north=geo.north, altitude=geo.altitude, heading=geo.heading,
                          pitch=geo.pitch, roll=geo.roll, base_height=base)
     render.place_in_planet_space(obj, planet_obj, pose, floating_origin=geo.floating_origin)
@@ -642,7 +643,7 @@ def _tick_locked():
         apply_camera_clip(scene)
     except (ReferenceError, AttributeError):
         pass
-    for obj in planets(scene):
+    for obj in planet_objects(scene):
         s = obj.planet_lod
         if not s.live_update:
             continue
@@ -752,12 +753,12 @@ def on_render_finished(*_args):
 @persistent
 def on_load_post(*_args):
     RUNTIME.clear()
-    core.forget_planets()
+    planets.forget_planets()
     scene = bpy.context.scene
     if scene is None or core.native is None:
         return
     compat.update_after_load()
-    for obj in planets(scene):  # rebuild geometry for the saved camera
+    for obj in planet_objects(scene):  # rebuild geometry for the saved camera
         try:
             refresh(obj, scene, build_mesh=True, for_render=True)
         except core.native_errors() as exc:
@@ -777,7 +778,7 @@ def on_depsgraph_update(scene, depsgraph=None):
         return
     for update in depsgraph.updates:
         if isinstance(update.id, bpy.types.Object) and update.is_updated_transform:
-            for obj in planets(scene):
+            for obj in planet_objects(scene):
                 if update.id.original in (obj, camera_object(obj, scene),
                                           render_camera(scene)):
                     state(obj).dirty = True

@@ -62,7 +62,7 @@ def cube_to_equirect(path, projection, max_width=2048, progress=None):
     (the same lookup the heights use).  progress(fraction) is called per row."""
     from . import core
     module = core.native_or_raise()
-    cube = module.CubeMap.from_image(path, projection=core.PROJECTION_IDS[projection])
+    cube = module.CubeMap.from_image(path, projection=core.planets.PROJECTION_IDS[projection])
     width = min(max_width, 4 * cube.size)
     height = width // 2
     sample = cube.sample

@@ -6,7 +6,8 @@ import bpy
 from bl_operators.presets import AddPresetBase
 from bpy.props import BoolProperty, EnumProperty, StringProperty
 
-from . import core, live, presets
+from . import core, live
+from .core import planets, presets
 
 
 def _report_missing(op):
@@ -26,7 +27,7 @@ def _planet(context):
 def _validate(settings):
     """Builds the native planet for a settings dict (raises on bad input) so that
     nothing is created or changed in the scene when the input is bad."""
-    core.build_planet(settings)
+    planets.build_planet(settings)
 
 
 class PLOD_OT_planet_add(bpy.types.Operator):
@@ -71,7 +72,7 @@ class PLOD_OT_planet_add(bpy.types.Operator):
             settings.preset = self.preset
             settings.quality = self.quality
             _validate(settings.as_dict())
-            planet = core.build_planet(settings.as_dict())
+            planet = planets.build_planet(settings.as_dict())
             context.collection.objects.link(obj)
             obj.location = context.scene.cursor.location
             context.view_layer.update()
@@ -116,7 +117,7 @@ class PLOD_OT_planet_add(bpy.types.Operator):
     @staticmethod
     def _top(obj, planet=None):
         """Radius of the ball holding the planet's highest peak, in scene units."""
-        planet = planet or core.build_planet(obj.planet_lod.as_dict())
+        planet = planet or planets.build_planet(obj.planet_lod.as_dict())
         return ((obj.planet_lod.radius + max(planet.height_range()[1], 0.0))
                 * max(obj.matrix_world.to_scale()))
 

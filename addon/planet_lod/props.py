@@ -3,7 +3,7 @@ import bpy
 from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty,
                        PointerProperty, StringProperty)
 
-from . import presets
+from .core import planets, presets
 
 PROJECTION_ITEMS = [
     ("QSC", "QSC", "Quadrilateralized spherical cube (equal-area)"),
@@ -205,7 +205,7 @@ class PLOD_PG_settings(bpy.types.PropertyGroup):
                                       description="Scales the atmosphere's scattering")
 
     def as_dict(self):
-        """The plain settings dict core.py works with (absolute file paths)."""
+        """The plain settings dict planetlod.planets works with (absolute file paths)."""
         return {
             "projection": self.projection, "radius": self.radius,
             "heightmap": bpy.path.abspath(self.heightmap) if self.heightmap else "",
@@ -275,8 +275,7 @@ class PLOD_PG_geo(bpy.types.PropertyGroup):
 
 
 def template_level(settings):
-    from . import core
-    return core.template_level_from_density(int(settings.template_density))
+    return planets.template_level_from_density(int(settings.template_density))
 
 
 SETTING_NAMES = [name for name in PLOD_PG_settings.__annotations__]

@@ -1,7 +1,7 @@
 """Flybys: the camera path, frame-by-frame rendering with stats CSV and a contact sheet.
 
 The flyby camera carries custom properties (planet name, path length, skim
-height); the frame_change_pre handler places it with core.flyby_pose(), a pure
+height); the frame_change_pre handler places it with flyby.flyby_pose(), a pure
 function of the frame number, so any sub-range renders exactly the frames of
 the full path (render-farm splits).
 """
@@ -15,6 +15,8 @@ from bpy.props import IntProperty, StringProperty, FloatProperty
 from mathutils import Matrix
 
 from . import core, live
+from .core import flyby, planets
+from .core import report as flyby_report  # `report` is the progress callback here
 
 FLYBY_KEY = "planet_lod_flyby"
 
@@ -39,7 +41,7 @@ def _ground_height(planet_obj):
     """Terrain height (m) under a unit direction, from the native planet (no heights: None);
     over the sea (land below it, e.g. detail on a low coast), the sea surface."""
     try:
-        planet = core.build_planet(planet_obj.planet_lod.as_dict())
+        planet = planets.build_planet(planet_obj.planet_lod.as_dict())
     except core.native_errors():
         return None
     s = planet_obj.planet_lod
@@ -55,7 +57,7 @@ def place_camera(cam, scene, frame):
         return
     s = planet_obj.planet_lod
     ground_height = _ground_height(planet_obj)
-    pose = core.flyby_pose(frame, cam["planet_lod_path_frames"], s.radius,
+    pose = flyby.flyby_pose(frame, cam["planet_lod_path_frames"], s.radius,
                            skim_height=cam["planet_lod_skim_height"],
                            ground_height=ground_height)
     place_in_planet_space(cam, planet_obj, pose)
@@ -181,7 +183,7 @@ def _render_frames(scene, planet_obj, first, last, out_dir, path_frames, report)
     t_start = time.perf_counter()
     try:
         with open(csv_path, "w") as csv:
-            csv.write(",".join(core.CSV_FIELDS) + "\n")
+            csv.write(",".join(flyby_report.CSV_FIELDS) + "\n")
             for index, frame in enumerate(frames):
                 scene.frame_set(frame)  # handlers: place camera, refine, rebuild mesh
                 st = live.state(planet_obj)
@@ -204,7 +206,7 @@ def _render_frames(scene, planet_obj, first, last, out_dir, path_frames, report)
                     row["camera_ground_m"] = round(ground(tuple(local[i][3] / distance
                                                                 for i in range(3))), 3)
                 rows.append(row)
-                csv.write(core.csv_row(row) + "\n")
+                csv.write(flyby_report.csv_row(row) + "\n")
                 csv.flush()
                 if wm:
                     wm.progress_update(index + 1)
@@ -231,7 +233,7 @@ def contact_sheet(paths, out_path, thumb_width=160):
     bpy.data.images.remove(first)
     tw = min(thumb_width, w0)
     th = max(1, round(h0 * tw / w0))
-    sw, sh, places = core.contact_sheet_layout(len(paths), tw, th)
+    sw, sh, places = flyby_report.contact_sheet_layout(len(paths), tw, th)
     pixels = [0.08, 0.08, 0.08, 1.0] * (sw * sh)
     for path, (x, y) in zip(paths, places):
         image = bpy.data.images.load(path)
@@ -278,7 +280,7 @@ class PLOD_OT_flyby(bpy.types.Operator):
             self.report({'ERROR'}, core.native_error)
             return {'CANCELLED'}
         try:
-            first, last = core.parse_frames(self.frames)
+            first, last = flyby_report.parse_frames(self.frames)
             out_dir = bpy.path.abspath(self.directory)
             rows = render_flyby(context.scene, context.object, first, last, out_dir,
                                 self.path_frames)

@@ -4,6 +4,7 @@ shows it, and how it renders; problems are shown at the top."""
 import bpy
 
 from . import core, draw, live
+from .core import planets
 from .operators import PLOD_MT_planet_presets, PLOD_MT_quality_presets
 
 
@@ -177,7 +178,7 @@ class PLOD_PT_lod(PLOD_PT_planet_sub, bpy.types.Panel):
         col.prop(s, "budget", text="Budget")
         col.prop(s, "max_level", text="Depth")
         if s.max_level == 0:
-            col.label(text=f"Automatic: {core.max_level(s.as_dict())} levels")
+            col.label(text=f"Automatic: {planets.max_level(s.as_dict())} levels")
         col = layout.column(heading="Skip")
         col.prop(s, "backface", text="Far Side")
         col.prop(s, "frustum", text="Off-Screen")
