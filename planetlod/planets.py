@@ -5,7 +5,7 @@ limit and the mesh-size guard."""
 import math
 import os
 
-from . import presets, require_native
+from . import FileError, InvalidArgument, presets, require_native
 
 PROJECTION_IDS = {"QSC": "qsc", "TSC": "tsc", "CSC": "csc", "SPHERIFIED": "spherified",
                   "CAR": "car"}
@@ -29,15 +29,15 @@ def planet_key(settings):
 
 
 def check_heightmap(path):
-    """Raises OSError with a clear message for a path that cannot be a map."""
+    """Raises FileError with a clear message for a path that cannot be a map."""
     if not path:
         return
     if not os.path.exists(path):
-        raise FileNotFoundError(f"height map not found: {path}")
+        raise FileError(f"height map not found: {path}")
     if os.path.isdir(path):
-        raise IsADirectoryError(f"height map is a folder: {path}")
+        raise FileError(f"height map is a folder: {path}")
     if os.path.getsize(path) == 0:
-        raise OSError(f"height map is empty (0 bytes): {path}")
+        raise FileError(f"height map is empty (0 bytes): {path}")
 
 
 # Sectors a planet allocates (and touches) when it is built: a 1 px LOD at
@@ -108,10 +108,10 @@ MAX_MESH_TRIANGLES = 1 << 24
 
 
 def check_mesh_size(stats, template_level):
-    """Raises ValueError when the refined LOD would emit more than MAX_MESH_TRIANGLES."""
+    """Raises InvalidArgument when the refined LOD would emit more than MAX_MESH_TRIANGLES."""
     triangles = stats["visible"] * 4 ** template_level
     if triangles > MAX_MESH_TRIANGLES:
-        raise ValueError(
+        raise InvalidArgument(
             f"the LOD would build {triangles:,} triangles ({stats['visible']:,} sectors x "
             f"{4 ** template_level} per sector), more than the limit of "
             f"{MAX_MESH_TRIANGLES:,}: lower the template density or the sector budget")

@@ -2,6 +2,8 @@
 contact sheet's layout, and the frame ranges it is given."""
 import math
 
+from . import InvalidArgument
+
 CSV_FIELDS = ("frame", "sectors_total", "sectors_after_backface", "sectors_after_frustum",
               "sectors_after_budget", "triangles", "vertices", "splits", "merges", "max_level",
               "refine_us", "mesh_ms", "render_s", "camera_altitude_m", "camera_ground_m",
@@ -28,14 +30,15 @@ def contact_sheet_layout(count, thumb_w, thumb_h, columns=None, gap=2):
 
 
 def parse_frames(text):
-    """'1-120' or '7' -> (first, last); raises ValueError."""
+    """'1-120' or '7' -> (first, last); raises InvalidArgument."""
     parts = text.split("-")
-    if len(parts) == 1:
-        first = last = int(parts[0])
-    elif len(parts) == 2:
-        first, last = int(parts[0]), int(parts[1])
-    else:
-        raise ValueError(f"bad frame range {text!r} (want A-B)")
+    if len(parts) > 2:
+        raise InvalidArgument(f"bad frame range {text!r} (want A-B)")
+    try:
+        numbers = [int(part) for part in parts]
+    except ValueError as exc:  # int()'s own message, as a domain error
+        raise InvalidArgument(str(exc)) from None
+    first, last = numbers[0], numbers[-1]
     if first < 0 or last < first:
-        raise ValueError(f"bad frame range {text!r}")
+        raise InvalidArgument(f"bad frame range {text!r}")
     return first, last

@@ -47,6 +47,13 @@ def _import_package():
 
 planetlod = _import_package()
 from planetlod import flyby, planets, presets, report, surface  # noqa: E402,F401
+from planetlod import Cancelled, FileError, ImageError, PlanetLODError  # noqa: E402,F401
+
+# What operators and handlers report to the artist instead of raising: the
+# package's domain error (bad input, unreadable files, cancelled work) and the
+# core out of memory for a map or mesh too large (MemoryError, cext/API.md).
+# Anything else is a programming error and surfaces as a traceback.
+REPORTED_ERRORS = (PlanetLODError, MemoryError)
 
 
 def load_native():
@@ -67,16 +74,8 @@ def load_native():
 def native_or_raise():
     module = load_native()
     if module is None:
-        raise RuntimeError(native_error)
+        raise PlanetLODError(native_error)
     return module
-
-
-def native_errors():
-    """Exception classes that mean bad user input (reported, never raised to the UI)."""
-    errs = [OSError, ValueError, MemoryError, RuntimeError]
-    if native is not None:
-        errs.insert(0, native.PlanetLODError)
-    return tuple(errs)
 
 
 # ---- resources -------------------------------------------------------------

@@ -89,7 +89,7 @@ def check_settings(obj):
     st = state(obj)
     try:
         planets.check_heightmap(obj.planet_lod.as_dict().get("heightmap"))
-    except OSError as exc:
+    except core.FileError as exc:
         st.error = str(exc)
     else:
         if st.error.startswith("height map"):
@@ -294,7 +294,7 @@ def fit_view_clips(scene):
         if obj.planet_lod.view_clip_from_horizon and obj.visible_get():
             try:
                 targets.append((obj, planets.build_planet(obj.planet_lod.as_dict())))
-            except core.native_errors():
+            except core.REPORTED_ERRORS:
                 continue
     if not targets:
         return
@@ -312,7 +312,7 @@ def fit_view_clips(scene):
             for obj, planet in targets:
                 try:
                     n, f = view_clip(obj, planet, camera_params_from_view(obj, (space, region, r3d)))
-                except core.native_errors():
+                except core.REPORTED_ERRORS:
                     continue
                 near = n if near is None else min(near, n)
                 far = f if far is None else max(far, f)
@@ -356,7 +356,7 @@ def apply_camera_clip(scene, depsgraph=None, cam_matrix=None):
             planet = planets.build_planet(obj.planet_lod.as_dict())
             params = camera_params_from_object(obj, cam, scene, depsgraph, cam_matrix)
             n, f = planet.recommended_clip(planets.make_camera(params))
-        except core.native_errors():
+        except core.REPORTED_ERRORS:
             continue
         n, f = n * _scale(obj), f * _scale(obj)
         near = n if near is None else min(near, n)
@@ -397,7 +397,7 @@ def forget_removed():
 
 def refresh(obj, scene, params=None, build_mesh=False, for_render=False):
     """Refines `obj` for its LOD camera; optionally rebuilds its mesh.  Raises
-    core.native_errors() on bad input (callers report them)."""
+    core.REPORTED_ERRORS on bad input (callers report them)."""
     with _lock:
         return _refresh_locked(obj, scene, params, build_mesh, for_render)
 
@@ -411,7 +411,7 @@ def _refresh_locked(obj, scene, params, build_mesh, for_render):
         clip = apply_camera_clip(scene) if for_render else None
         params = _with_clip(lod_camera_params(obj, scene, for_render=for_render), clip)
     if params is None:
-        raise RuntimeError(NO_CAMERA)
+        raise core.PlanetLODError(NO_CAMERA)
     # the preview draws the surface the render gets (heights with the detail,
     # morphing, the sea, the core's normals, relative to the anchor), of the
     # viewport's LOD only: a render's never leaks in
@@ -545,7 +545,7 @@ def refresh_for_render(scene, depsgraph=None, clip=True):
             results[obj.name] = refresh(obj, scene, params=params, build_mesh=True,
                                         for_render=True)
             st.render_key = key
-        except core.native_errors() as exc:
+        except core.REPORTED_ERRORS as exc:
             state(obj).error = str(exc)
             print(f"planet_lod: {obj.name}: {exc}")
     return results
@@ -583,7 +583,7 @@ def place_geo_object(obj, scene=None, depsgraph=None):
                     else (lambda d: planet.height(*d)))
         elif geo.altitude_reference == 'SEA' and s.use_sea_level:
             base = (lambda d: s.sea_level)
-    except core.native_errors() as exc:
+    except core.REPORTED_ERRORS as exc:
         state(planet_obj).error = str(exc)
         return
     pose = flyby.geo_pose(s.radius, geo.longitude, geo.latitude, east=geo.east,
@@ -665,7 +665,7 @@ def _tick_locked():
         st.refreshed_at = now
         try:
             refresh(obj, scene, params=params, build_mesh=not s.gpu_preview)
-        except core.native_errors() as exc:
+        except core.REPORTED_ERRORS as exc:
             st.error, st.dirty = str(exc), False
         _redraw_views()
         break  # one planet per tick keeps the UI responsive
@@ -761,7 +761,7 @@ def on_load_post(*_args):
     for obj in planet_objects(scene):  # rebuild geometry for the saved camera
         try:
             refresh(obj, scene, build_mesh=True, for_render=True)
-        except core.native_errors() as exc:
+        except core.REPORTED_ERRORS as exc:
             state(obj).error = str(exc)
             print(f"planet_lod: {obj.name}: {exc}")
 

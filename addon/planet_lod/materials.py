@@ -14,7 +14,7 @@ from array import array
 
 import bpy
 
-from . import compat
+from . import compat, core
 
 PLANET_PREFIX = "PlanetLOD "
 LEVELS_NAME = "PlanetLOD levels"
@@ -43,7 +43,14 @@ def _find_image(path):
 
 
 def _load_image(path):
-    return _find_image(path) or bpy.data.images.load(bpy.path.abspath(path), check_existing=True)
+    """The image of a map the artist chose; one Blender cannot read is a FileError."""
+    image = _find_image(path)
+    if image is not None:
+        return image
+    try:
+        return bpy.data.images.load(bpy.path.abspath(path), check_existing=True)
+    except RuntimeError as exc:  # Blender's "cannot read image"
+        raise core.FileError(str(exc)) from exc
 
 
 def is_cross_layout(width, height):
@@ -60,7 +67,6 @@ def cube_to_equirect(path, projection, max_width=2048, progress=None):
     """(width, height, RGBA floats bottom row first) of the equirectangular image
     of a cross-layout cube map in `projection`, sampled with planetlod.CubeMap
     (the same lookup the heights use).  progress(fraction) is called per row."""
-    from . import core
     module = core.native_or_raise()
     cube = module.CubeMap.from_image(path, projection=core.planets.PROJECTION_IDS[projection])
     width = min(max_width, 4 * cube.size)
@@ -293,7 +299,10 @@ def _height_image(path):
         return None
     image = next((i for i in bpy.data.images if i.get(HEIGHT_IMAGE_KEY) == path), None)
     if image is None:
-        image = bpy.data.images.load(path, check_existing=False)
+        try:
+            image = bpy.data.images.load(path, check_existing=False)
+        except RuntimeError as exc:  # Blender's "cannot read image"
+            raise core.FileError(str(exc)) from exc
         image[HEIGHT_IMAGE_KEY] = path
         image.colorspace_settings.name = 'Non-Color'
     if is_cross_layout(*image.size):

@@ -62,7 +62,7 @@ class PLOD_OT_planet_add(bpy.types.Operator):
         undo = []  # puts back what framing changed when the planet is not added
         try:
             if values["color_map"] and not os.path.isfile(values["color_map"]):
-                raise FileNotFoundError(f"colour map not found: {values['color_map']}")
+                raise core.FileError(f"colour map not found: {values['color_map']}")
             mesh = bpy.data.meshes.new(presets.PLANETS[self.preset]["label"].split(" ")[0])
             obj = bpy.data.objects.new(mesh.name, mesh)
             settings = obj.planet_lod
@@ -85,7 +85,7 @@ class PLOD_OT_planet_add(bpy.types.Operator):
                 materials.ensure(obj)
             from . import atmosphere  # the planet's sky becomes the scene's world
             atmosphere.ensure_world(obj, context.scene, assign=True)
-        except core.native_errors() as exc:
+        except core.REPORTED_ERRORS as exc:
             for step in reversed(undo):
                 step()
             if obj is not None:
@@ -108,7 +108,7 @@ class PLOD_OT_planet_add(bpy.types.Operator):
             try:
                 live.fit_view_clips(context.scene)
                 live.refresh(obj, context.scene)
-            except core.native_errors() as exc:
+            except core.REPORTED_ERRORS as exc:
                 live.state(obj).error = str(exc)
         for message in messages:
             self.report({'INFO'}, message)
@@ -156,7 +156,7 @@ class PLOD_OT_planet_refresh(bpy.types.Operator):
         try:
             stats = live.refresh(obj, context.scene, build_mesh=self.build_mesh,
                                  for_render=self.for_render)
-        except core.native_errors() as exc:
+        except core.REPORTED_ERRORS as exc:
             live.state(obj).error = str(exc)
             self.report({'ERROR'}, f"{obj.name}: {exc}")
             return {'CANCELLED'}
@@ -194,7 +194,7 @@ class PLOD_OT_planet_apply_mesh(bpy.types.Operator):
             copy.matrix_world = obj.matrix_world
             for collection in obj.users_collection:
                 collection.objects.link(copy)
-        except core.native_errors() as exc:
+        except core.REPORTED_ERRORS as exc:
             self.report({'ERROR'}, f"{obj.name}: {exc}")
             return {'CANCELLED'}
         finally:
@@ -231,7 +231,7 @@ class PLOD_OT_planet_apply_preset(bpy.types.Operator):
         trial.update({k: v for k, v in values.items() if k in trial})
         try:
             _validate(trial)
-        except core.native_errors() as exc:
+        except core.REPORTED_ERRORS as exc:
             self.report({'ERROR'}, f"Preset not applied: {exc}")
             return {'CANCELLED'}
         obj.planet_lod.assign(values)
@@ -268,7 +268,7 @@ class PLOD_OT_set_heightmap(bpy.types.Operator):
         trial["heightmap"] = bpy.path.abspath(self.filepath)
         try:
             _validate(trial)
-        except core.native_errors() as exc:
+        except core.REPORTED_ERRORS as exc:
             self.report({'ERROR'}, f"Height map not loaded: {exc}")
             return {'CANCELLED'}
         obj.planet_lod.heightmap = self.filepath

@@ -42,7 +42,7 @@ def _ground_height(planet_obj):
     over the sea (land below it, e.g. detail on a low coast), the sea surface."""
     try:
         planet = planets.build_planet(planet_obj.planet_lod.as_dict())
-    except core.native_errors():
+    except core.REPORTED_ERRORS:
         return None
     s = planet_obj.planet_lod
     if s.use_sea_level:
@@ -100,7 +100,10 @@ def _log(message):
 def render_flyby(scene, planet_obj, first, last, out_dir, path_frames, report=_log):
     """Renders frames first..last of the flyby to out_dir/frame_####.png; writes
     stats.csv and contact_sheet.png.  Returns the list of per-frame stat dicts."""
-    os.makedirs(out_dir, exist_ok=True)
+    try:
+        os.makedirs(out_dir, exist_ok=True)
+    except OSError as exc:  # the artist's output folder
+        raise core.FileError(str(exc)) from exc
     saved = _SceneState(scene, planet_obj)
     try:
         saved.add_sun(planet_obj)
@@ -182,18 +185,22 @@ def _render_frames(scene, planet_obj, first, last, out_dir, path_frames, report)
         wm.progress_begin(0, len(frames))
     t_start = time.perf_counter()
     try:
-        with open(csv_path, "w") as csv:
+        try:
+            csv = open(csv_path, "w")
+        except OSError as exc:  # the artist's output folder
+            raise core.FileError(str(exc)) from exc
+        with csv:
             csv.write(",".join(flyby_report.CSV_FIELDS) + "\n")
             for index, frame in enumerate(frames):
                 scene.frame_set(frame)  # handlers: place camera, refine, rebuild mesh
                 st = live.state(planet_obj)
                 if st.error:
-                    raise RuntimeError(st.error)
+                    raise core.PlanetLODError(st.error)
                 path = os.path.join(out_dir, f"frame_{frame:04d}.png")
                 scene.render.filepath = path
                 t0 = time.perf_counter()
                 if 'CANCELLED' in bpy.ops.render.render(write_still=True):
-                    raise RuntimeError(f"flyby cancelled at frame {frame}")
+                    raise core.Cancelled(f"flyby cancelled at frame {frame}")
                 row = dict(st.stats)
                 row["frame"] = frame
                 row["render_s"] = round(time.perf_counter() - t0, 3)
@@ -284,7 +291,7 @@ class PLOD_OT_flyby(bpy.types.Operator):
             out_dir = bpy.path.abspath(self.directory)
             rows = render_flyby(context.scene, context.object, first, last, out_dir,
                                 self.path_frames)
-        except core.native_errors() as exc:
+        except core.REPORTED_ERRORS as exc:
             self.report({'ERROR'}, f"Flyby failed: {exc}")
             return {'CANCELLED'}
         self.report({'INFO'}, f"Flyby: {len(rows)} frames in {out_dir}")
