@@ -53,7 +53,7 @@ def datablocks():
 def main(argv):
     args = parse(argv)
     flyby.enable_addon()
-    from planet_lod import live, render
+    from planet_lod import live, placement
     scene = bpy.context.scene
     for obj in list(bpy.data.objects):
         bpy.data.objects.remove(obj)
@@ -68,7 +68,7 @@ def main(argv):
     planet = bpy.context.object
     half = max(2, args.frames // 2)
     scene.frame_start, scene.frame_end = 1, half
-    render.ensure_flyby_camera(scene, planet, half)
+    placement.ensure_flyby_camera(scene, planet, half)
     budget = planet.planet_lod.budget
 
     failures, rows = [], []

@@ -1,7 +1,6 @@
 """Refreshing planets: LOD cameras, refinement, mesh (re)build, timers, handlers.
 
-Runtime state lives in RUNTIME keyed by object name (never a bpy reference, so
-undo/redo and file loads cannot leave dangling pointers).
+Runtime state lives in runtime.py.
 
 Threads: the viewport refresh (the `tick` timer) and most handlers run on
 Blender's main thread, but an animation render started from the UI (Ctrl F12)
@@ -21,7 +20,6 @@ calls the frame_change handlers from the render job's thread.  So:
     handlers that write data from the render thread.
 """
 import hashlib
-import math
 import threading
 import time
 from array import array
@@ -31,10 +29,12 @@ import numpy
 from bpy.app.handlers import persistent
 from mathutils import Matrix
 
-from . import atmosphere, compat, core, materials
+from . import atmosphere, compat, core, materials, placement
 from .core import flyby, planets, surface
+from .runtime import (ANCHOR_KEY, RUNTIME, PlanetState, anchor, existing_state,  # noqa: F401
+                      forget_removed, mark_dirty, planet_objects, set_anchor, state,
+                      to_planet_space)
 
-RUNTIME = {}
 REFRESH_INTERVAL_S = 0.1   # during navigation the detail follows at this rate
 TICK_S = 0.05
 _lock = threading.RLock()   # one refresh at a time, across threads
@@ -44,42 +44,6 @@ _renders = 0                # renders in progress (render_init .. complete/cance
 
 def _in_refresh():
     return getattr(_local, "busy", False)
-
-
-class PlanetState:
-    def __init__(self):
-        self.dirty = True
-        self.geometry_dirty = True
-        self.material_dirty = True
-        self.signature = None
-        self.changed_at = 0.0
-        self.stats = {}
-        self.error = ""
-        self.warning = ""          # the viewport's camera is inside the planet
-        self.render_warning = ""   # the render camera is inside the planet
-        self.refreshed_at = time.monotonic()  # of the last viewport refresh
-        self.preview = None        # surface.PreviewData the GPU preview draws
-        self.preview_key = None    # what it was emitted from
-        self.gpu_version = 0       # bumped when the preview changes
-        self.frozen_camera = None  # (matrix_world planet space, params) while frozen
-        self.mesh_hash = ""
-        self.render_key = None     # camera + settings of the last render refresh
-
-
-def state(obj):
-    st = RUNTIME.get(obj.name_full)
-    if st is None:
-        st = RUNTIME[obj.name_full] = PlanetState()
-    return st
-
-
-def mark_dirty(obj, geometry=False, material=False):
-    if obj is None:
-        return
-    st = state(obj)
-    st.dirty = True
-    st.geometry_dirty |= geometry
-    st.material_dirty |= material
 
 
 def check_settings(obj):
@@ -94,10 +58,6 @@ def check_settings(obj):
     else:
         if st.error.startswith("height map"):
             st.error = ""
-
-
-def planet_objects(scene):
-    return [o for o in scene.objects if o.type == 'MESH' and o.planet_lod.enabled]
 
 
 # ---- cameras ----------------------------------------------------------------
@@ -134,50 +94,6 @@ def _evaluated(obj, depsgraph):
         return obj.evaluated_get(depsgraph)
     except (ReferenceError, RuntimeError):
         return obj
-
-
-# ---- floating origin ------------------------------------------------------------
-# The planet object's local space is planet space shifted by the *anchor*, a
-# float64 planet-space point kept as an ID property (ID properties are double;
-# Blender's transforms, vertices and float properties are float32).  The
-# add-on moves the anchor to the render camera (flyby, geo-placed cameras), so
-# the camera sits at the world origin and the surface around it is written
-# with small float32 coordinates: millimetres stay millimetres in the space
-# Cycles and EEVEE render.  Without an anchor (0, 0, 0) local space is planet
-# space.
-
-ANCHOR_KEY = "planet_lod_anchor"
-
-
-def anchor(obj):
-    """The planet-space point at the planet object's local origin (float64)."""
-    value = obj.get(ANCHOR_KEY)
-    try:
-        point = tuple(float(v) for v in value)
-    except (TypeError, ValueError):
-        return (0.0, 0.0, 0.0)
-    if len(point) != 3 or not all(math.isfinite(v) for v in point):
-        return (0.0, 0.0, 0.0)
-    return point
-
-
-def set_anchor(obj, point):
-    """Moves the anchor; True when it changed (the mesh must then be rewritten)."""
-    point = [float(v) for v in point]
-    if list(anchor(obj)) == point:
-        return False
-    obj[ANCHOR_KEY] = point
-    return True
-
-
-def to_planet_space(obj, matrix_world):
-    """Row-major 4x4 (lists of float64) of a world matrix in planet space: the
-    float32 product stays small near the anchor, the anchor is added in float64."""
-    local = obj.matrix_world.inverted_safe() @ matrix_world
-    rows = [list(row) for row in local]
-    for i, a in enumerate(anchor(obj)):
-        rows[i][3] += a
-    return rows
 
 
 def camera_params_from_object(obj, cam, scene, depsgraph=None, cam_matrix=None):
@@ -387,14 +303,6 @@ INSIDE_RENDER = ("the render camera is inside the planet (below the terrain): mo
                  "to render the planet")
 
 
-def forget_removed():
-    """Drops the runtime state of planets deleted since (a scheduled refresh of a
-    deleted planet then finds nothing to do)."""
-    alive = {obj.name_full for obj in bpy.data.objects}
-    for name in [n for n in RUNTIME if n not in alive]:
-        del RUNTIME[name]
-
-
 def refresh(obj, scene, params=None, build_mesh=False, for_render=False):
     """Refines `obj` for its LOD camera; optionally rebuilds its mesh.  Raises
     core.REPORTED_ERRORS on bad input (callers report them)."""
@@ -506,15 +414,13 @@ def write_mesh(obj, mesh):
     sea_level = s.sea_level if s.use_sea_level else None
     data = surface.vertex_data(mesh, anchor(obj), s.radius, sea_level)
     me.vertices.foreach_set("co", data.positions)
-    _set_attribute(me, NORMAL_ATTRIBUTE, 'FLOAT_VECTOR', 'POINT', "vector", data.normals)
+    _set_attribute(me, surface.NORMAL_ATTRIBUTE, 'FLOAT_VECTOR', 'POINT', "vector", data.normals)
     _set_attribute(me, "planet_uv", 'FLOAT2', 'POINT', "vector", mesh.uv)
     _set_attribute(me, "sector_level", 'INT', 'FACE', "value", mesh.sector_level)
     for name, values in data.attributes.items():
         _set_attribute(me, name, 'FLOAT', 'POINT', "value", values)
     me.update()
 
-
-NORMAL_ATTRIBUTE = "planet_normal"
 
 
 def _set_attribute(me, name, data_type, domain, field, values):
@@ -568,7 +474,6 @@ def place_geo_objects(scene, depsgraph=None):
 
 
 def place_geo_object(obj, scene=None, depsgraph=None):
-    from . import render
     geo = _evaluated(obj, depsgraph).planet_lod_geo
     planet_obj = obj.planet_lod_geo.planet
     if not geo.enabled or planet_obj is None or not planet_obj.planet_lod.enabled:
@@ -589,7 +494,7 @@ def place_geo_object(obj, scene=None, depsgraph=None):
     pose = flyby.geo_pose(s.radius, geo.longitude, geo.latitude, east=geo.east,
                          north=geo.north, altitude=geo.altitude, heading=geo.heading,
                          pitch=geo.pitch, roll=geo.roll, base_height=base)
-    render.place_in_planet_space(obj, planet_obj, pose, floating_origin=geo.floating_origin)
+    placement.place_in_planet_space(obj, planet_obj, pose, floating_origin=geo.floating_origin)
     if geo.floating_origin:
         for other in _geo_objects(scene) if scene is not None else ():
             if other is not obj and other.planet_lod_geo.planet == planet_obj \
@@ -683,8 +588,7 @@ def _redraw_views():
 
 @persistent
 def on_frame_change_pre(scene, depsgraph=None):
-    from . import render
-    render.place_flyby_cameras(scene)
+    placement.place_flyby_cameras(scene)
     # the clip range before the frame is evaluated: set after (frame_change_post),
     # an animation render (-a) would render this frame with the previous one's
     if not _in_refresh() and core.native is not None:
@@ -799,7 +703,7 @@ HANDLERS = (
 )
 
 
-def register():
+def add_handlers():
     for handler_list, fn in HANDLERS:
         if fn not in handler_list:
             handler_list.append(fn)
@@ -807,7 +711,7 @@ def register():
         bpy.app.timers.register(tick, first_interval=TICK_S, persistent=True)
 
 
-def unregister():
+def remove_handlers():
     if bpy.app.timers.is_registered(tick):
         bpy.app.timers.unregister(tick)
     for handler_list, fn in HANDLERS:

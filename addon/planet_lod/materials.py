@@ -14,7 +14,9 @@ from array import array
 
 import bpy
 
-from . import compat, core
+from . import atmosphere, compat, core, runtime
+from . import nodes as node_maths
+from .core import surface
 
 PLANET_PREFIX = "PlanetLOD "
 LEVELS_NAME = "PlanetLOD levels"
@@ -169,16 +171,6 @@ def color_image(settings, create=True):
     return converted
 
 
-DETAIL_PERIOD = 50000.0  # metres: detail texture coordinates wrap here (4 mm float32 steps)
-
-
-def detail_offset(anchor):
-    """The anchor modulo DETAIL_PERIOD: object coordinates plus this are planet
-    coordinates shifted by a whole number of periods, small and precise near
-    the camera, so the ground's detail texture stays put as the anchor moves."""
-    return tuple(a - DETAIL_PERIOD * math.floor(a / DETAIL_PERIOD) for a in anchor)
-
-
 def _attribute(b, name):
     node = b.node("ShaderNodeAttribute")
     node.attribute_type = 'GEOMETRY'
@@ -189,8 +181,7 @@ def _attribute(b, name):
 def shading_normal(b):
     """The core's normal (the mesh's `planet_normal` attribute, object space) in
     world space, normalised: what every planet BSDF shades with."""
-    from .live import NORMAL_ATTRIBUTE
-    normal = _attribute(b, NORMAL_ATTRIBUTE)
+    normal = _attribute(b, surface.NORMAL_ATTRIBUTE)
     transform = b.node("ShaderNodeVectorTransform")
     transform.vector_type = 'NORMAL'
     transform.convert_from = 'OBJECT'
@@ -358,8 +349,6 @@ def _water(b, s, normal):
 
 
 def planet_material(obj):
-    from . import atmosphere
-    from . import nodes as node_maths
     s = obj.planet_lod
     name = PLANET_PREFIX + obj.name
     material = bpy.data.materials.get(name) or bpy.data.materials.new(name)
@@ -454,7 +443,6 @@ def levels_material():
     links.new(scale.outputs[0], fract.inputs[0])
     links.new(fract.outputs[0], ramp.inputs["Fac"])
     links.new(ramp.outputs["Color"], bsdf.inputs["Base Color"])
-    from . import nodes as node_maths
     b = node_maths.Builder(material.node_tree, x0=-700, y0=-300)
     b.link(shading_normal(b), bsdf.inputs["Normal"])
     return material
@@ -469,7 +457,6 @@ def ensure(obj):
         mats.append(material)
     elif mats[0] != material:
         mats[0] = material
-    from . import atmosphere
     atmosphere.ensure_world(obj, None)
     ensure_ocean(obj)
 
@@ -510,5 +497,4 @@ def ensure_ocean(obj):
             bsdf.inputs["Roughness"].default_value = 0.2
         mesh.materials.append(water)
     ocean.scale = (radius, radius, radius)
-    from . import live
-    ocean.location = tuple(-c for c in live.anchor(obj))  # the planet's centre
+    ocean.location = tuple(-c for c in runtime.anchor(obj))  # the planet's centre

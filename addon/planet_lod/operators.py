@@ -6,7 +6,7 @@ import bpy
 from bl_operators.presets import AddPresetBase
 from bpy.props import BoolProperty, EnumProperty, StringProperty
 
-from . import core, live
+from . import atmosphere, core, framing, live, materials
 from .core import planets, presets
 
 
@@ -81,9 +81,8 @@ class PLOD_OT_planet_add(bpy.types.Operator):
             if live.lod_camera_params(obj, context.scene, for_render=True) is not None:
                 live.refresh(obj, context.scene, build_mesh=True, for_render=True)
             else:
-                from . import materials
                 materials.ensure(obj)
-            from . import atmosphere  # the planet's sky becomes the scene's world
+            # the planet's sky becomes the scene's world
             atmosphere.ensure_world(obj, context.scene, assign=True)
         except core.REPORTED_ERRORS as exc:
             for step in reversed(undo):
@@ -102,7 +101,6 @@ class PLOD_OT_planet_add(bpy.types.Operator):
         obj.select_set(True)
         context.view_layer.objects.active = obj
         if self.frame:
-            from . import framing
             framing.frame_views(context.screen, obj, self._top(obj))
         if not bpy.app.background:  # the clip ranges and the preview at once
             try:
@@ -123,7 +121,6 @@ class PLOD_OT_planet_add(bpy.types.Operator):
 
     def _frame(self, context, obj, planet, undo):
         """Camera, views and a sun outside the new planet (see framing.py)."""
-        from . import framing
         top = self._top(obj, planet)
         messages = []
         if self.frame:
@@ -335,20 +332,3 @@ class PLOD_OT_quality_preset_add(AddPresetBase, bpy.types.Operator):
 
 def menu_func(self, context):
     self.layout.operator(PLOD_OT_planet_add.bl_idname, text="Planet", icon='WORLD')
-
-
-classes = (PLOD_OT_planet_add, PLOD_OT_planet_refresh, PLOD_OT_planet_apply_mesh,
-           PLOD_OT_planet_apply_preset, PLOD_OT_set_heightmap, PLOD_MT_planet_presets, PLOD_MT_quality_presets,
-           PLOD_OT_preset_add, PLOD_OT_quality_preset_add)
-
-
-def register():
-    for cls in classes:
-        bpy.utils.register_class(cls)
-    bpy.types.VIEW3D_MT_mesh_add.append(menu_func)
-
-
-def unregister():
-    bpy.types.VIEW3D_MT_mesh_add.remove(menu_func)
-    for cls in reversed(classes):
-        bpy.utils.unregister_class(cls)
