@@ -30,10 +30,14 @@ from bpy.app.handlers import persistent
 from mathutils import Matrix
 
 from . import atmosphere, compat, core, materials, placement
-from .core import flyby, planets, surface
+from .core import flyby, surface
+from .core import planets as planet_settings  # live.planets is the scene's planet objects
 from .runtime import (ANCHOR_KEY, RUNTIME, PlanetState, anchor, existing_state,  # noqa: F401
                       forget_removed, mark_dirty, planet_objects, set_anchor, state,
                       to_planet_space)
+
+# The farm's job type (farm/flamenco/planet_lod.js) calls live.planets(scene).
+planets = planet_objects
 
 REFRESH_INTERVAL_S = 0.1   # during navigation the detail follows at this rate
 TICK_S = 0.05
@@ -52,7 +56,7 @@ def check_settings(obj):
     right away; the refresh reports everything else."""
     st = state(obj)
     try:
-        planets.check_heightmap(obj.planet_lod.as_dict().get("heightmap"))
+        planet_settings.check_heightmap(obj.planet_lod.as_dict().get("heightmap"))
     except core.FileError as exc:
         st.error = str(exc)
     else:
@@ -191,7 +195,7 @@ def view_clip(obj, planet, params):
     range, with a clip start of a tenth of the height above the ground below the
     camera where the camera is lower than the highest peak (the thesis's clip
     start is then ~0) and at most a million times shorter than the clip end."""
-    near, far = planet.recommended_clip(planets.make_camera(params))
+    near, far = planet.recommended_clip(planet_settings.make_camera(params))
     eye = [row[3] for row in params["matrix_world"][:3]]
     distance = sum(c * c for c in eye) ** 0.5
     if distance > 0.0:
@@ -209,7 +213,7 @@ def fit_view_clips(scene):
     for obj in planet_objects(scene):
         if obj.planet_lod.view_clip_from_horizon and obj.visible_get():
             try:
-                targets.append((obj, planets.build_planet(obj.planet_lod.as_dict())))
+                targets.append((obj, planet_settings.build_planet(obj.planet_lod.as_dict())))
             except core.REPORTED_ERRORS:
                 continue
     if not targets:
@@ -269,9 +273,9 @@ def apply_camera_clip(scene, depsgraph=None, cam_matrix=None):
         if not obj.planet_lod.clip_from_horizon:
             continue
         try:
-            planet = planets.build_planet(obj.planet_lod.as_dict())
+            planet = planet_settings.build_planet(obj.planet_lod.as_dict())
             params = camera_params_from_object(obj, cam, scene, depsgraph, cam_matrix)
-            n, f = planet.recommended_clip(planets.make_camera(params))
+            n, f = planet.recommended_clip(planet_settings.make_camera(params))
         except core.REPORTED_ERRORS:
             continue
         n, f = n * _scale(obj), f * _scale(obj)
@@ -313,7 +317,7 @@ def refresh(obj, scene, params=None, build_mesh=False, for_render=False):
 def _refresh_locked(obj, scene, params, build_mesh, for_render):
     st = state(obj)
     settings = obj.planet_lod.as_dict()
-    planet = planets.build_planet(settings)
+    planet = planet_settings.build_planet(settings)
     if params is None:
         # the render camera's frustum ends at its clip end: fit that first
         clip = apply_camera_clip(scene) if for_render else None
@@ -328,14 +332,14 @@ def _refresh_locked(obj, scene, params, build_mesh, for_render):
     try:
         frozen = obj.planet_lod.freeze_lod and st.frozen_camera is not None and not for_render
         if not frozen:
-            camera = planets.make_camera(params)
+            camera = planet_settings.make_camera(params)
             # without hysteresis (renders) the sector set and the order meshes
             # are emitted in depend on this camera only, never on earlier frames
-            stats = planets.refine(planet, camera, settings, hysteresis=not for_render)
+            stats = planet_settings.refine(planet, camera, settings, hysteresis=not for_render)
             if build_mesh or preview:  # refuse before the mesh (or anything in bpy) is touched
-                planets.check_mesh_size(stats, settings["template_level"])
+                planet_settings.check_mesh_size(stats, settings["template_level"])
             st.stats = stats
-            inside = planets.camera_inside(planet, params["matrix_world"])
+            inside = planet_settings.camera_inside(planet, params["matrix_world"])
             if for_render:
                 st.render_warning = (INSIDE_RENDER if inside else "")
             else:
@@ -482,7 +486,7 @@ def place_geo_object(obj, scene=None, depsgraph=None):
     base = None
     try:
         if geo.altitude_reference == 'GROUND':
-            planet = planets.build_planet(s.as_dict())
+            planet = planet_settings.build_planet(s.as_dict())
             sea = s.sea_level if s.use_sea_level else None
             base = ((lambda d: max(planet.height(*d), sea)) if sea is not None
                     else (lambda d: planet.height(*d)))
@@ -657,7 +661,7 @@ def on_render_finished(*_args):
 @persistent
 def on_load_post(*_args):
     RUNTIME.clear()
-    planets.forget_planets()
+    planet_settings.forget_planets()
     scene = bpy.context.scene
     if scene is None or core.native is None:
         return
