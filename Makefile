@@ -35,13 +35,13 @@ fuzz:
 soak:
 	bash tools/install_deps.sh soak
 	bash tools/build.sh
-	$(PYTHON) tools/soak.py --frames 1000
-	$(PYTHON) tools/soak.py --frames 1000 --budget 300 --max-pixel-error 0.5
-	PLANET_LOD_NATIVE=$(CURDIR) $(BLENDER) -b --factory-startup --python-exit-code 1 \
+	$(PYTHON) -m tools.soak --frames 1000
+	$(PYTHON) -m tools.soak --frames 1000 --budget 300 --max-pixel-error 0.5
+	PLANET_LOD_NATIVE=$(CURDIR) PYTHONPATH=$(CURDIR) $(BLENDER) -b --factory-startup --python-exit-code 1 \
 	    --python tools/soak_blender.py -- --frames 200
 
 bench: build
 	bash bench/run_all.sh
 
 clean:
-	rm -rf build fuzz/build fuzz/build-nocmp planetlod*.so
+	rm -rf build fuzz/build fuzz/build-nocmp planetlod*.so planetlod/_native*.so

@@ -1,11 +1,12 @@
-"""Build the `planetlod` C extension.
+"""Build the `planetlod` C extension, `planetlod._native`, inside the
+bpy-free `planetlod` package (which re-exports it).
 
     python3 setup.py build_ext --inplace
 
 The core is C11 (cext/*.c); the OpenImageIO bridge is the one C++ file
 (cext/*.cpp).  Each language gets its own flags.  The module is built against
 the stable ABI of Python 3.11 (Py_LIMITED_API 0x030B0000): the one
-planetlod.abi3.so loads in every CPython from 3.11 on, so one build serves
+planetlod/_native.abi3.so loads in every CPython from 3.11 on, so one build serves
 Debian's Blender 3.4 and Blender 4.2 .. 5.x.  PLANETLOD_SANITIZE=1 builds
 with ASan+UBSan (see the Makefile's `sanitize` target).
 """
@@ -85,7 +86,8 @@ setup(
     name="planetlod",
     version="0.1.0",
     description="Planet LOD core: cube-sphere projections, HRTMR refinement, sector meshes",
-    ext_modules=[Extension("planetlod", sources=sources, include_dirs=include_dirs,
+    packages=["planetlod"],
+    ext_modules=[Extension("planetlod._native", sources=sources, include_dirs=include_dirs,
                            libraries=libraries, extra_link_args=extra_link,
                            define_macros=[("Py_LIMITED_API", LIMITED_API)],
                            py_limited_api=True)],

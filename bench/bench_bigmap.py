@@ -3,7 +3,7 @@
 NASA's global 500 m products; 7.5 GB of samples, 14x the in-memory cap)
 flown along bench_refine.py's descent, through planetlod.TiledMap.
 
-    /usr/bin/python3 bench/bench_bigmap.py [--width 86400] [--frames 240]
+    /usr/bin/python3 -m bench.bench_bigmap [--width 86400] [--frames 240]
         [--cache DIR] [--cache-mb 256] [--template-level 4] [--threads 2]
         [--every 20]
 
@@ -22,14 +22,12 @@ import os
 import sys
 import time
 
+import numpy as np
+
+import planetlod
+from bench.bench_refine import R, cameras
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, ROOT)
-sys.path.insert(0, os.path.join(ROOT, "bench"))
-
-import numpy as np  # noqa: E402
-
-import planetlod  # noqa: E402
-from bench_refine import R, cameras  # noqa: E402
 
 
 def status_kb(field):

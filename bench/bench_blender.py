@@ -1,8 +1,12 @@
 """The Blender hand-off (part 5 of bench/README.md), run inside Blender 3.4:
 
-    blender -b --factory-startup --python bench/bench_blender.py -- \
+    PYTHONPATH=.:addon blender -b --factory-startup --python bench/bench_blender.py -- \
         [--frames 36] [--quality FINAL] [--out bench/results]
-    xvfb-run -a blender --factory-startup --python bench/bench_blender.py -- --gpu ...
+    PYTHONPATH=.:addon xvfb-run -a blender --factory-startup \
+        --python bench/bench_blender.py -- --gpu ...
+
+(from the repository root: PYTHONPATH gives Blender the `bench` package and
+the repository's add-on).
 
 Replays bench/camera_path.csv with the add-on itself (planet added with
 mesh.planet_add, Earth preset): per frame
@@ -32,13 +36,11 @@ import bpy
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
-sys.path.insert(0, HERE)
-sys.path.insert(0, os.path.join(ROOT, "addon"))
 os.environ.setdefault("PLANET_LOD_NATIVE", ROOT)
 
 import numpy as np  # noqa: E402  (Blender bundles numpy)
 
-import camera_path  # noqa: E402
+from bench import camera_path  # noqa: E402
 
 
 def parse():
@@ -85,7 +87,8 @@ def floor_push(me, pre):
 
 
 def gpu_update(draw, planet_obj, planet, template_level, res, st):
-    from planet_lod import live, surface
+    from planet_lod import live
+    from planetlod import surface
     s = planet_obj.planet_lod
     t0 = time.perf_counter()
     visible = planet.mesh(template_level=template_level, morph=s.morph)
@@ -124,7 +127,7 @@ def main():
     planet_obj.planet_lod.lod_camera = 'SCENE'
     settings = planet_obj.planet_lod.as_dict()
     tl = int(settings["template_level"])
-    planet = core.build_planet(settings)
+    planet = core.planets.build_planet(settings)
     floor_me = bpy.data.meshes.new("Floor")
     floor_obj = bpy.data.objects.new("Floor", floor_me)
     scene.collection.objects.link(floor_obj)

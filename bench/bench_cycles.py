@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """LOD + Cycles vs Cycles adaptive subdivision with displacement (part 3 of bench/README.md).
 
-    /usr/bin/python3 bench/bench_cycles.py [--frames 3] [--resolution 320x180]
+    /usr/bin/python3 -m bench.bench_cycles [--frames 3] [--resolution 320x180]
         [--samples 16] [--ref-samples 64] [--out bench/results]
 
 For a few frames of bench/camera_path.csv (orbit over a pole, end of the
@@ -37,7 +37,6 @@ import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
-sys.path.insert(0, HERE)
 EARTH = os.path.join(ROOT, "data", "earth-topology.png")
 HEIGHT_SCALE = 8848.0
 FRAME_TIMES = (23.0, 63.0, 72.0)  # seconds on the 80 s path: over the north pole (800 km), descent, skim
@@ -125,7 +124,7 @@ def _displaced_material(image_path, radius_m):
 
 def render_job(argv):
     from mathutils import Matrix, Vector
-    import camera_path
+    from bench import camera_path
     ap = argparse.ArgumentParser(prog="bench_cycles.py (in Blender)")
     ap.add_argument("--method", choices=("lod", "adaptive", "ref"), required=True)
     ap.add_argument("--t", type=float, required=True)
@@ -174,7 +173,6 @@ def render_job(argv):
     bpy.context.view_layer.update()
     grey = _grey_material()
     if a.method == "lod":
-        sys.path.insert(0, os.path.join(ROOT, "addon"))
         os.environ.setdefault("PLANET_LOD_NATIVE", ROOT)
         import addon_utils
         assert addon_utils.enable("planet_lod", default_set=True, handle_error=None)
@@ -213,9 +211,12 @@ def run_blender(blender, job_args, log_path):
     """(wall seconds, ru_maxrss MB, Cycles 'Peak' MB, render_s) of one Blender render."""
     cmd = ["nice", blender, "-b", "--factory-startup", "--python-exit-code", "1",
            "--python", os.path.abspath(__file__), "--"] + job_args
+    # Blender runs this file by path: the `bench` package and the add-on come
+    # from the repository through PYTHONPATH
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join((ROOT, os.path.join(ROOT, "addon"))))
     t0 = time.perf_counter()
     with open(log_path, "w") as log:
-        proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT)
+        proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, env=env)
         _, status, usage = os.wait4(proc.pid, 0)
     wall = time.perf_counter() - t0
     text = open(log_path).read()

@@ -5,13 +5,14 @@ cold) along bench_refine.py's descent over the Himalaya (20,000 km to 2 m,
 1 px at 1920x1080), on the Earth topology map with the Earth preset's
 detail (ridged mountains).
 
-    /usr/bin/python3 bench/bench_detail.py [--frames 120] [--passes 2]
+    /usr/bin/python3 -m bench.bench_detail [--frames 120] [--passes 2]
                                            [--threads 2] [--level 4]
                                            [--set roughness=0.56,...]
-                                           [--build DIR]
 
---set overrides the preset's detail parameters; --build imports planetlod
-from another build's folder (side-by-side runs of two builds).
+--set overrides the preset's detail parameters.  Another build's package
+(side-by-side runs of two builds): PYTHONPATH=DIR:$PWD /usr/bin/python3 -P
+-m bench.bench_detail, DIR holding that build's planetlod/ (-P: the
+checkout comes only through PYTHONPATH, after DIR).
 
 Refine: the refiner's own timer (refine_us + cull_us) per frame, the best
 of --passes descents after reset() (drops preemption by other tasks);
@@ -24,31 +25,21 @@ only.
 import argparse
 import os
 import statistics
-import sys
 import time
 
+import planetlod
+from planetlod import presets
+
+from bench import bench_refine
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, ROOT)
-sys.path.insert(0, os.path.join(ROOT, "bench"))
-
-if "--build" in sys.argv:  # before the import: another build's module
-    sys.path.insert(0, os.path.abspath(sys.argv[sys.argv.index("--build") + 1]))
-
-import planetlod  # noqa: E402
-import bench_refine  # noqa: E402
 
 R = 6371000.0
 MAP = os.path.join(ROOT, "..", "shared", "data", "earth-topology.png")
 
 
 def earth_detail():
-    """The Earth preset's detail parameters (addon/planet_lod/presets.py,
-    loaded on its own: the package needs bpy)."""
-    import importlib.util
-    path = os.path.join(ROOT, "addon", "planet_lod", "presets.py")
-    spec = importlib.util.spec_from_file_location("plod_presets", path)
-    presets = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(presets)
+    """The Earth preset's detail parameters (planetlod/presets.py)."""
     return presets.detail_settings("EARTH")
 
 
@@ -74,7 +65,6 @@ def main():
     parser.add_argument("--max-level", type=int, default=48)
     parser.add_argument("--skip", default="", help="'refine' or 'emission'")
     parser.add_argument("--set", default="", help="detail overrides: key=value,...")
-    parser.add_argument("--build", default="", help="folder of the planetlod build to use")
     args = parser.parse_args()
 
     detail = earth_detail()

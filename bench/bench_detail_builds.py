@@ -5,7 +5,7 @@ bench_refine.py's descent, as bench_detail.py) and an artist's viewport
 refresh with the GPU preview (refine with hysteresis + mesh() +
 surface.preview_data, per planet preset, as bench_viewport_detail.py).
 
-    /usr/bin/python3 bench/bench_detail_builds.py --base DIR [--new DIR]
+    /usr/bin/python3 -m bench.bench_detail_builds --base DIR [--new DIR]
         [--frames 48] [--viewport-frames 16] [--threads 2]
         [--planets EARTH,MOON,MARS,ASTEROID] [--quality PREVIEW]
 
@@ -22,31 +22,38 @@ import importlib.util
 import math
 import os
 import statistics
-import sys
 import time
 
+from bench import bench_refine
+from planetlod import presets, surface
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, os.path.join(ROOT, "bench"))
-bench_refine = None  # imported after the builds: it imports planetlod itself
 
 R = 6371000.0
 
 
 def load_build(folder):
-    path = os.path.join(os.path.abspath(folder), "planetlod.abi3.so")
-    loader = importlib.machinery.ExtensionFileLoader("planetlod", path)
-    spec = importlib.util.spec_from_file_location("planetlod", path, loader=loader)
-    module = importlib.util.module_from_spec(spec)
-    loader.exec_module(module)
-    return module
+    """The C extension of the checkout or build in `folder`, under a name of
+    its own, so two builds live in one process: the package's
+    planetlod/_native.abi3.so, or an older build's planetlod.abi3.so (a
+    module of its own, before the package)."""
+    folder = os.path.abspath(folder)
+    for relative, name in ((os.path.join("planetlod", "_native.abi3.so"), "_native"),
+                           ("planetlod.abi3.so", "planetlod")):
+        path = os.path.join(folder, relative)
+        if os.path.exists(path):
+            # the init function is named after the module's last component
+            loader = importlib.machinery.ExtensionFileLoader(
+                f"bench_build_{len(LOADED)}.{name}", path)
+            module = importlib.util.module_from_spec(importlib.util.spec_from_loader(
+                loader.name, loader))
+            loader.exec_module(module)
+            LOADED.append(module)
+            return module
+    raise SystemExit(f"no planetlod build in {folder}")
 
 
-def load_addon_module(name):
-    path = os.path.join(ROOT, "addon", "planet_lod", name + ".py")
-    spec = importlib.util.spec_from_file_location("plod_" + name, path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+LOADED = []
 
 
 def data_path(name):
@@ -163,14 +170,9 @@ def main():
     parser.add_argument("--quality", default="PREVIEW")
     parser.add_argument("--skip", default="", help="'emission' or 'viewport'")
     args = parser.parse_args()
-    global bench_refine
     builds = {"base": load_build(args.base), "new": load_build(args.new)}
-    import bench_refine as descent_module
-    bench_refine = descent_module
     for name, lod in builds.items():
         print(f"{name}: {lod.__file__}")
-    presets = load_addon_module("presets")
-    surface = load_addon_module("surface")
     if args.skip != "emission":
         emission(builds, presets, args)
     if args.skip != "viewport":

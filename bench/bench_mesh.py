@@ -1,6 +1,6 @@
 """Mesh emission benchmark: M vertices/s on 1 vs 2 threads, bytes per vertex.
 
-    /usr/bin/python3 bench/bench_mesh.py [--repeat N] [--no-map]
+    /usr/bin/python3 -m bench.bench_mesh [--repeat N] [--no-map]
 
 Refines an Earth-radius planet (sphere, then the Earth topology map resampled
 to a 1024 cube map with 20 km relief scale... heights in metres) for a camera
@@ -18,14 +18,12 @@ import glob
 import os
 import shutil
 import subprocess
-import sys
 import tempfile
 import time
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, ROOT)
+import planetlod
 
-import planetlod  # noqa: E402
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def look_at(eye, target):
@@ -92,8 +90,7 @@ def c_emission(topo):
 def flyby(planet, frames):
     """Planet.mesh() along bench_refine's descent, with and without the
     sector cache, interleaved per frame."""
-    sys.path.insert(0, os.path.join(ROOT, "bench"))
-    import bench_refine
+    from bench import bench_refine
     lo, hi = planet.height_range()
     print(f"\nflyby: bench_refine.py's descent, {frames} frames, 1 px 1920x1080, template "
           "level 4, Planet.mesh() with the sector cache vs without, interleaved")

@@ -4,7 +4,7 @@ visualisation methods on the sphere, master's thesis, Gdańsk University of
 Technology, 2010, chapter 6) plus the LOD-vs-uniform and sea-level-skipping
 comparisons (parts 1, 2, 4 of bench/README.md).
 
-    /usr/bin/python3 bench/bench_path.py [--frames 240] [--smoke] [--out bench/results]
+    /usr/bin/python3 -m bench.bench_path [--frames 240] [--smoke] [--out bench/results]
 
 Replays bench/camera_path.csv (approach, orbit over both poles, descent, skim;
 linear interpolation between keyframes) over an Earth-radius planet with the
@@ -30,16 +30,14 @@ import json
 import math
 import os
 import statistics
-import sys
 import time
+
+import planetlod
+
+from bench import camera_path
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
-sys.path.insert(0, ROOT)
-sys.path.insert(0, HERE)
-
-import planetlod  # noqa: E402
-import camera_path  # noqa: E402
 
 R = camera_path.R_EARTH
 RES = (1280, 720)          # the thesis's resolution

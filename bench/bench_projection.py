@@ -2,7 +2,7 @@
 core through the vectorised C path, plus round-trip errors and cell-area
 ratios for every mapping.  Prints a table; asserts nothing about speed.
 
-    /usr/bin/python3 bench/bench_projection.py [--points N] [--area-n 512]
+    /usr/bin/python3 -m bench.bench_projection [--points N] [--area-n 512]
 
 Throughput is timed (thread CPU time, best of 5) around one Python call over
 a large array, so the per-call overhead (input copy, output allocation) is
@@ -17,18 +17,16 @@ import os
 import platform
 import shutil
 import subprocess
-import sys
 import tempfile
 import time
 
 import numpy as np
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, ROOT)
-sys.path.insert(0, os.path.join(ROOT, "tests"))
+import planetlod
 
-import planetlod  # noqa: E402
-from test_projection import angle_deg, area_ratio, lonlat_to_vec, sphere_points  # noqa: E402
+from tests.test_projection import angle_deg, area_ratio, lonlat_to_vec, sphere_points
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def best_of(fn, repeats=5):

@@ -2,7 +2,7 @@
 """Refine+cull cost per frame along a descent from 20,000 km to 2 m over an
 Earth-radius planet with the Earth topology map (1 px at 1920x1080).
 
-    /usr/bin/python3 bench/bench_refine.py [--frames 240] [--size 0] [--sphere]
+    /usr/bin/python3 -m bench.bench_refine [--frames 240] [--size 0] [--sphere]
                                            [--passes 3] [--threads 1]
 
 Prints a table (every --every frames) and a summary: refine and cull µs
@@ -25,10 +25,9 @@ import statistics
 import sys
 import time
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, ROOT)
+import planetlod
 
-import planetlod  # noqa: E402
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 R = 6371000.0
 

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """CubeResampler benchmark: 4096x2048 equirectangular -> 6 x 1024^2 cube map.
 
-    python3 bench/bench_resample.py [--size 1024] [--repeat 3] [--projection qsc]
+    python3 -m bench.bench_resample [--size 1024] [--repeat 3] [--projection qsc]
 
 Prints the best-of-N resampling time (the C resampler alone, as reported by
 planetlod.resample), and the read and write times, for the Blue Marble RGB map
@@ -16,9 +16,9 @@ import platform
 import sys
 import tempfile
 
+import planetlod
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, ROOT)
-import planetlod  # noqa: E402
 
 TARGET_S = 1.0
 

@@ -36,7 +36,7 @@ def view3d():
 
 def ground_view(planet, r3d, altitude, pitch):
     from planet_lod import core
-    native = core.build_planet(planet.planet_lod.as_dict())
+    native = core.planets.build_planet(planet.planet_lod.as_dict())
     direction = Vector((0.3, -0.8, 0.5)).normalized()
     eye = direction * (planet.planet_lod.radius + native.height(*direction) + altitude)
     east = Vector((0.0, 0.0, 1.0)).cross(direction).normalized()
@@ -50,7 +50,7 @@ def ground_view(planet, r3d, altitude, pitch):
 def measure(planet, scene, move):
     from planet_lod import core, draw, live
     st = live.state(planet)
-    native = core.build_planet(planet.planet_lod.as_dict())
+    native = core.planets.build_planet(planet.planet_lod.as_dict())
     native.reset()
 
     def tick_refresh():  # what the timer does: clip ranges to the horizon, then refresh

@@ -5,11 +5,10 @@ as the viewport refines) plus mesh emission (sector cache on, 2 threads)
 per frame along bench_refine.py's descent scaled to each planet (from 3
 radii to 2 m above its highest map point), with the add-on's viewport
 quality presets (Draft, Preview: template density, pixel error, budget from
-addon/planet_lod/presets.py), 1920x1080.
+planetlod/presets.py), 1920x1080.
 
-    /usr/bin/python3 bench/bench_viewport_detail.py [--frames 48]
+    /usr/bin/python3 -m bench.bench_viewport_detail [--frames 48]
         [--planets EARTH,MOON,MARS,ASTEROID] [--quality DRAFT,PREVIEW]
-        [--build DIR]
 
 Per planet and quality: the slowest refresh (ms), the mean, the refreshes
 over 50 ms, and the vertices of the slowest, for the two refreshes the
@@ -20,37 +19,17 @@ is not included (bench_blender.py measures that hand-off).  Not a test:
 figures only.
 """
 import argparse
-import importlib.util
 import math
 import os
 import statistics
-import sys
 import time
 
+import planetlod
+from planetlod import presets, surface
+
+from bench import bench_refine
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, ROOT)
-sys.path.insert(0, os.path.join(ROOT, "bench"))
-
-if "--build" in sys.argv:  # before the import: another build's module
-    sys.path.insert(0, os.path.abspath(sys.argv[sys.argv.index("--build") + 1]))
-
-import planetlod  # noqa: E402
-import bench_refine  # noqa: E402
-
-
-def load_module(name):
-    path = os.path.join(ROOT, "addon", "planet_lod", name + ".py")
-    spec = importlib.util.spec_from_file_location("plod_" + name, path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-surface = load_module("surface")
-
-
-def load_presets():
-    return load_module("presets")
 
 
 def data_path(name):
@@ -107,9 +86,7 @@ def main():
     parser.add_argument("--planets", default="EARTH,MOON,MARS,ASTEROID")
     parser.add_argument("--quality", default="DRAFT,PREVIEW")
     parser.add_argument("--set", default="", help="detail overrides, e.g. roughness=0.5")
-    parser.add_argument("--build", default="", help="folder of the planetlod build to use")
     args = parser.parse_args()
-    presets = load_presets()
     for item in filter(None, args.set.split(",")):
         name, value = item.split("=")
         for s in presets.PLANETS.values():

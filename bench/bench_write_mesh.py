@@ -1,7 +1,7 @@
 """The Blender mesh hand-off with the core's normals, two ways side by side
 (run inside Blender):
 
-    blender -b --factory-startup --python bench/bench_write_mesh.py -- \
+    PYTHONPATH=addon blender -b --factory-startup --python bench/bench_write_mesh.py -- \
         [--repeats 5] [--altitude 3000] [--resolution 1280x720]
 
 One Earth mesh (3 km above the Alps, the add-on's FINAL quality) is written
@@ -26,7 +26,6 @@ import bpy
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
-sys.path.insert(0, os.path.join(ROOT, "addon"))
 os.environ.setdefault("PLANET_LOD_NATIVE", ROOT)
 
 
@@ -44,7 +43,8 @@ def write_custom_normals(obj, mesh):
     """The hand-off with custom split normals (what the add-on did before it
     wrote the normals as an attribute)."""
     from array import array
-    from planet_lod import compat, live, surface
+    from planet_lod import compat, live
+    from planetlod import surface
     me = obj.data
     nv, nt = mesh.vertex_count, mesh.triangle_count
     if len(me.vertices) != nv or len(me.polygons) != nt:
@@ -102,7 +102,7 @@ def main():
     geo.enabled = True
     scene.camera = cam
     live.refresh_for_render(scene)
-    native = core.build_planet(planet.planet_lod.as_dict())
+    native = core.planets.build_planet(planet.planet_lod.as_dict())
     mesh = native.mesh(template_level=planet.planet_lod.as_dict()["template_level"],
                        morph=planet.planet_lod.morph)
     other = bpy.data.objects.new("Custom", bpy.data.meshes.new("Custom"))

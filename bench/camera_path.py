@@ -11,7 +11,7 @@ is lerped in log space (linear in log-altitude, so a descent over five decades
 needs few keys).  Up = the local vertical.  Blender camera conventions
 (looks down -Z, +Y up).
 
-    /usr/bin/python3 bench/camera_path.py --write   # re-record the CSV
+    /usr/bin/python3 -m bench.camera_path --write   # re-record the CSV
 
 Segments: approach from space (60,000 km -> 800 km), orbit over both poles
 (a full great circle along lon 0 / 180 at 800 km, gaze 30 deg below the
@@ -160,8 +160,6 @@ def write(rows, path=PATH_CSV):
 
 
 if __name__ == "__main__":
-    import sys
-    sys.path.insert(0, os.path.dirname(HERE))
     import planetlod
     earth = planetlod.Planet(R_EARTH, projection="qsc",
                              heightmap=os.path.join(os.path.dirname(HERE), "data",

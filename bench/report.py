@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Plots and the results table of the benchmarks.
 
-    /usr/bin/python3 bench/report.py [--results bench/results] [--command "bench/run_all.sh"]
+    /usr/bin/python3 -m bench.report [--results bench/results] [--command "bench/run_all.sh"]
 
 Reads what bench_path.py, bench_blender.py and bench_cycles.py wrote into
 --results, draws PNGs there (matplotlib, Agg) and rewrites the table in

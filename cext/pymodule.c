@@ -1,4 +1,5 @@
-/* pymodule.c -- the `planetlod` module: initialisation, the exported Buffer
+/* pymodule.c -- the `planetlod._native` module (re-exported by the `planetlod`
+ * package): initialisation, the exported Buffer
  * type, and the single place where plod_status codes become exceptions.
  *
  * Module-level objects (exception classes, the Buffer type) are created once
@@ -439,13 +440,13 @@ static int plod__add_exceptions(PyObject *module)
 
 static struct PyModuleDef plod__module_def = {
     PyModuleDef_HEAD_INIT,
-    .m_name = "planetlod",
+    .m_name = "planetlod._native",
     .m_doc = "Planet LOD core: cube-sphere projections, cube maps, HRTMR "
              "refinement, culling and sector mesh emission.",
     .m_size = -1,
 };
 
-PyMODINIT_FUNC PyInit_planetlod(void)
+PyMODINIT_FUNC PyInit__native(void)
 {
     PyObject *module = PyModule_Create(&plod__module_def);
     if (!module)

@@ -4,7 +4,7 @@
 #ifndef PYPLANETLOD_H
 #define PYPLANETLOD_H
 
-/* The stable ABI of Python 3.11: one planetlod.abi3.so loads in every
+/* The stable ABI of Python 3.11: one planetlod/_native.abi3.so loads in every
  * CPython from 3.11 on (Blender 3.4 with Debian's 3.11, 4.2 .. 5.0 with
  * 3.11, 5.1 with 3.13).  setup.py builds with py_limited_api.  Code here
  * uses only the limited API: no struct access to type objects (tp_alloc and

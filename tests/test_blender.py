@@ -28,8 +28,7 @@ BLENDER = os.environ.get("BLENDER", shutil.which("blender") or "blender")
 SCRIPTS = sorted(os.path.basename(p) for p in glob.glob(os.path.join(BLENDER_TESTS, "test_*.py"))
                  if not p.endswith("test_viewport.py"))
 
-sys.path.insert(0, os.path.join(ROOT, "tools"))
-import blender_versions  # noqa: E402
+from tools import blender_versions  # noqa: E402
 
 BLENDERS = ["blender"] + [blender_versions.label(v) for v in blender_versions.BPY_VERSIONS]
 _chosen = os.environ.get("PLANET_LOD_BLENDERS")

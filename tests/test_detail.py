@@ -370,13 +370,9 @@ def test_bad_detail_arguments(planetlod):
 def test_planet_presets_detail_is_valid(planetlod):
     """Every planet preset turns detail on with parameters the core accepts
     on its own map, and the style fits the body (craters on airless ones)."""
-    import importlib.util
     import os
+    from planetlod import presets
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    spec = importlib.util.spec_from_file_location(
-        "plod_presets_test", os.path.join(root, "addon", "planet_lod", "presets.py"))
-    presets = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(presets)
     styles = {}
     for key, values in presets.PLANETS.items():
         detail = presets.detail_settings(key)

@@ -20,7 +20,6 @@ import shlex
 import shutil
 import struct
 import subprocess
-import sys
 
 import pytest
 
@@ -31,8 +30,7 @@ BLENDER = os.environ.get("BLENDER", shutil.which("blender") or "blender")
 NODE = shutil.which("node") or shutil.which("nodejs")
 needs_node = pytest.mark.skipif(NODE is None, reason="node is not installed (Debian package nodejs; "
                                                      "bash tools/install_deps.sh tests installs it)")
-sys.path.insert(0, FARM)
-import merge_chunks  # noqa: E402
+from farm.flamenco import merge_chunks  # noqa: E402
 
 # Columns that measure time, not what was rendered.
 # How long, and how much incremental work (splits and merges since the frame the

@@ -1,10 +1,8 @@
 """surface.preview_data (what the GPU preview draws) describes the same surface
 as surface.vertex_data (what the planet's Blender mesh gets): the same
 vertices relative to the anchor, the same sea, the same normals; sectors and
-levels as the mesh has them.  bpy-free: surface.py is loaded on its own."""
-import importlib.util
+levels as the mesh has them.  bpy-free: planetlod.surface."""
 import math
-import os
 
 import numpy as np
 import pytest
@@ -12,15 +10,10 @@ import pytest
 from conftest import data_path
 from test_mesh import look_at, refiner_available
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-
 
 @pytest.fixture(scope="module")
 def surface():
-    spec = importlib.util.spec_from_file_location(
-        "plod_surface_test", os.path.join(ROOT, "addon", "planet_lod", "surface.py"))
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    from planetlod import surface as module
     return module
 
 

@@ -416,13 +416,13 @@ def test_zero_size_and_nan_sources(planetlod, tmp_path):
 def test_command_line(tmp_path):
     import subprocess
     import sys
-    tool = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tools",
-                        "planetlod_resample.py")
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     topo = data_path("earth-topology.png")
     out = tmp_path / "cli.png"
 
     def run(*args):
-        r = subprocess.run([sys.executable, tool, *args], capture_output=True, timeout=120)
+        r = subprocess.run([sys.executable, "-m", "tools.planetlod_resample", *args],
+                           capture_output=True, timeout=120, cwd=root)
         r.stderr = r.stderr.decode()  # not text=True: keep the '\r' of the bar
         return r
 
@@ -456,7 +456,6 @@ def test_extension_needs_no_numpy(tmp_path):
     code = f"""
 import sys
 sys.modules['numpy'] = None  # any 'import numpy' now fails
-sys.path.insert(0, {root!r})
 import planetlod
 x, y = planetlod.sphere_to_cube('qsc', [10.0, 20.0], [5.0, -5.0])
 lon, lat = planetlod.cube_to_sphere('qsc', x, y)
@@ -465,7 +464,9 @@ planetlod.resample({data_path('earth-topology.png')!r}, {str(tmp_path / 'n.png')
 cube = planetlod.CubeMap.from_image({str(tmp_path / 'n.png')!r})
 print(cube.size, 'numpy' in sys.modules and sys.modules['numpy'] is not None)
 """
-    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    # -c puts the working directory, the checkout, on sys.path
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60,
+                       cwd=root)
     assert r.returncode == 0, r.stderr
     assert r.stdout.split() == ["16", "False"]
 

@@ -14,9 +14,9 @@ BLENDER = os.environ.get("BLENDER", shutil.which("blender") or "blender")
 
 
 def test_soak_refine_emit_quick():
-    proc = subprocess.run([sys.executable, os.path.join(ROOT, "tools", "soak.py"),
+    proc = subprocess.run([sys.executable, "-m", "tools.soak",
                            "--frames", "100", "--budget", "300", "--max-pixel-error", "0.5"],
-                          capture_output=True, text=True, timeout=300)
+                          capture_output=True, text=True, timeout=300, cwd=ROOT)
     out = proc.stdout + proc.stderr
     assert proc.returncode == 0 and "soak: OK" in out, out[-4000:]
     most = int(re.search(r"most sectors (\d+) \(budget 300\)", out).group(1))
@@ -26,9 +26,9 @@ def test_soak_refine_emit_quick():
 
 def test_soak_detects_growth(tmp_path):
     """The RSS bound is live: a negative allowance must fail the run."""
-    proc = subprocess.run([sys.executable, os.path.join(ROOT, "tools", "soak.py"),
+    proc = subprocess.run([sys.executable, "-m", "tools.soak",
                            "--frames", "20", "--max-growth-mb", "-1000"],
-                          capture_output=True, text=True, timeout=300)
+                          capture_output=True, text=True, timeout=300, cwd=ROOT)
     assert proc.returncode == 1 and "RSS grew" in proc.stdout, proc.stdout[-2000:]
 
 
@@ -37,7 +37,7 @@ def test_soak_blender_quick(tmp_path):
         pytest.fail("blender not found (CI installs it)")
     os.makedirs(tmp_path / "addons")
     os.symlink(os.path.join(ROOT, "addon", "planet_lod"), tmp_path / "addons" / "planet_lod")
-    env = dict(os.environ, BLENDER_USER_SCRIPTS=str(tmp_path))
+    env = dict(os.environ, BLENDER_USER_SCRIPTS=str(tmp_path), PYTHONPATH=ROOT)
     env.setdefault("PLANET_LOD_NATIVE", ROOT)
     proc = subprocess.run([BLENDER, "-b", "--factory-startup", "--python-exit-code", "1",
                            "--python", os.path.join(ROOT, "tools", "soak_blender.py"), "--",

@@ -12,8 +12,8 @@
   (Preferences > Add-ons > Install, then enable "Planet LOD").
 
 Both hold addon/planet_lod (blender_manifest.toml for 4.2+, bl_info for 3.4),
-data/, shaders/, presets/ and the one planetlod.abi3.so (tools/build.sh
-builds it; it loads in every Blender with Python 3.11 or later).
+data/, shaders/, presets/ and the bpy-free planetlod package with the one
+planetlod/_native.abi3.so (tools/build.sh builds it; it loads in every Blender with Python 3.11 or later).
 
 Blender's extension tool: `blender_ext.py` from the newest bpy wheel that
 tools/blender_versions.py installed (it ships inside the wheel, under
@@ -33,8 +33,7 @@ import zipfile
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PACKAGE = os.path.join(REPO, "addon", "planet_lod")
 RESOURCES = ("data", "shaders", "presets")
-sys.path.insert(0, os.path.join(REPO, "tools"))
-import blender_versions  # noqa: E402
+import blender_versions  # noqa: E402  (beside this script: run by path)
 
 
 def die(message):
@@ -67,24 +66,29 @@ def find_blender_ext():
 
 
 def native_module():
-    built = glob.glob(os.path.join(REPO, "planetlod*.abi3.so"))
+    pattern = os.path.join(REPO, "planetlod", "_native*.abi3.so")
+    built = glob.glob(pattern)
     if not built:
         subprocess.run(["bash", os.path.join(REPO, "tools", "build.sh")], check=True)
-        built = glob.glob(os.path.join(REPO, "planetlod*.abi3.so"))
+        built = glob.glob(pattern)
     if not built:
-        die("no planetlod.abi3.so after tools/build.sh")
+        die("no planetlod/_native.abi3.so after tools/build.sh")
     return built[0]
 
 
 def stage(folder):
-    """The package as installed: addon/planet_lod + resources + the native module."""
+    """The package as installed: addon/planet_lod + resources + the bpy-free
+    planetlod package with its native module."""
     target = os.path.join(folder, "planet_lod")
     shutil.copytree(PACKAGE, target, ignore=shutil.ignore_patterns("__pycache__", "*.pyc",
                                                                    "*.so"))
     for name in RESOURCES:
         shutil.copytree(os.path.join(REPO, name), os.path.join(target, name),
                         ignore=shutil.ignore_patterns("README.md", "__pycache__"))
-    shutil.copy2(native_module(), target)
+    package = os.path.join(target, "planetlod")
+    shutil.copytree(os.path.join(REPO, "planetlod"), package,
+                    ignore=shutil.ignore_patterns("__pycache__", "*.pyc", "*.so"))
+    shutil.copy2(native_module(), package)
     return target
 
 

@@ -1,6 +1,6 @@
 """One hash of everything the core outputs along a descent, per planet preset.
 
-    /usr/bin/python3 tools/descent_hash.py [--frames N] [--presets EARTH,MOON,...]
+    /usr/bin/python3 -m tools.descent_hash [--frames N] [--presets EARTH,MOON,...]
 
 Flies bench/bench_refine.py's descent (20,000 km to 2 m, 1 px, 1920x1080)
 over each planet preset (its maps, sea and detail field, and once more with
@@ -15,15 +15,11 @@ change of structure changes no output.
 import argparse
 import hashlib
 import os
-import sys
+
+import planetlod
+from planetlod import presets
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, ROOT)
-sys.path.insert(0, os.path.join(ROOT, "bench"))
-sys.path.insert(0, os.path.join(ROOT, "addon", "planet_lod"))
-
-import planetlod  # noqa: E402
-import presets  # noqa: E402
 
 TIMING_KEYS = ("refine_us", "cull_us", "us", "cpu_us")
 MESH_BUFFERS = ("origin", "positions", "normals", "uv", "triangles", "sector_level",

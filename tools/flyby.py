@@ -10,8 +10,8 @@ no denoising) to DIR/frame_####.png and writes DIR/stats.csv and
 DIR/contact_sheet.png.  Frames are independent: `--frames 31-60` renders the
 same LOD and images as frames 31-60 of a `--frames 1-120` run, so a long flyby
 can be split over a render farm (one job per range).
-Uses the installed add-on `planet_lod` (tools/install_addon.py), else the one in
-this repository.
+Uses the installed add-on `planet_lod` (tools/install_addon.py), or the
+repository's with PYTHONPATH=addon.
 """
 import argparse
 import os
@@ -41,15 +41,11 @@ def parse(argv):
 
 
 def enable_addon():
-    try:
-        mod = addon_utils.enable("planet_lod", default_set=True, handle_error=None)
-    except Exception:  # not installed: use the repository's copy
-        mod = None
+    """The installed add-on, or the repository's when PYTHONPATH names addon/."""
+    mod = addon_utils.enable("planet_lod", default_set=True, handle_error=None)
     if mod is None:
-        sys.path.insert(0, os.path.join(REPO, "addon"))
-        import planet_lod
-        planet_lod.register()
-        mod = planet_lod
+        raise SystemExit("planet_lod: the add-on is not installed: run tools/install_addon.py, "
+                         f"or run Blender with PYTHONPATH={os.path.join(REPO, 'addon')}")
     from planet_lod import core
     if core.load_native() is None:
         raise SystemExit("planet_lod: " + core.native_error)
@@ -77,8 +73,8 @@ def build_scene(args):
             scene.render.threads = args.threads
     sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", 'SUN'))
     from planet_lod import core
-    sun.data.energy = core.FLYBY_SUN_STRENGTH
-    sun.rotation_euler = core.FLYBY_SUN_ROTATION
+    sun.data.energy = core.flyby.FLYBY_SUN_STRENGTH
+    sun.rotation_euler = core.flyby.FLYBY_SUN_ROTATION
     scene.collection.objects.link(sun)
     bpy.ops.mesh.planet_add(preset=args.preset.upper(), quality=args.quality.upper())
     return scene, bpy.context.object
@@ -89,7 +85,7 @@ def main(argv):
     from_t = time.perf_counter()
     enable_addon()
     from planet_lod import core, render
-    first, last = core.parse_frames(args.frames)
+    first, last = core.report.parse_frames(args.frames)
     scene, planet = build_scene(args)
     scene.frame_start, scene.frame_end = 1, args.path_frames
     print(f"planet_lod flyby: {planet.name} frames {first}-{last} of {args.path_frames} "

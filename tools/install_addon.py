@@ -8,12 +8,12 @@ as module `planet_lod`, then enables it.
 1. Asks the Blender for its Python version and its user add-on folder
    (`blender -b --python-expr ...`, or the bpy module's python).
 2. Builds the extension once, against the stable ABI of Python 3.11
-   (planetlod.abi3.so), with a Python 3.11 or later that has setuptools and
+   (planetlod/_native.abi3.so), with a Python 3.11 or later that has setuptools and
    its headers (/usr/bin/python3 on Debian 12): that one binary loads in every
    Blender whose Python is 3.11 or later (Debian's 3.4.1, 4.2 LTS .. 5.x).
    An older Blender Python -> a clear message.
-3. Copies addon/planet_lod plus data/, shaders/, presets/ and the built
-   planetlod.abi3.so into <user addons>/planet_lod, enables the add-on, saves
+3. Copies addon/planet_lod plus data/, shaders/, presets/ and the bpy-free
+   planetlod package with the built module into <user addons>/planet_lod, enables the add-on, saves
    the preferences, and checks from inside Blender that the module imports.
 
 For Blender 4.2 and later the extension package (tools/build_extension.py)
@@ -35,7 +35,7 @@ PROBE = ("import sys, sysconfig, json, bpy; print('PLOD-PROBE ' + json.dumps({"
          "'blender': bpy.app.version_string}))")
 CHECK = ("import addon_utils, bpy, sys; mod = addon_utils.enable('planet_lod', default_set=True, "
          "handle_error=None); from planet_lod import core; m = core.load_native(); "
-         "print('PLOD-CHECK', 'OK ' + str(m.__file__) if m else 'FAIL ' + core.native_error); "
+         "print('PLOD-CHECK', 'OK ' + core.native_path if m else 'FAIL ' + core.native_error); "
          "bpy.ops.wm.save_userpref() if m and SAVE else None")
 
 
@@ -97,10 +97,10 @@ def build(info, python):
     print("install_addon: building:", " ".join(cmd), flush=True)
     if subprocess.run(cmd, cwd=REPO).returncode != 0:
         die("building the planetlod extension failed (see the compiler output above)")
-    built = glob.glob(os.path.join(out, "planetlod*.abi3.so"))
+    built = glob.glob(os.path.join(out, "planetlod", "_native*.abi3.so"))
     if not built:
-        die(f"built {glob.glob(os.path.join(out, 'planetlod*')) or 'nothing'}, "
-            "expected planetlod.abi3.so")
+        die(f"built {glob.glob(os.path.join(out, 'planetlod', '*')) or 'nothing'}, "
+            "expected planetlod/_native.abi3.so")
     return built[0]
 
 
@@ -117,7 +117,11 @@ def install(info, module_path):
         if os.path.isdir(src):
             shutil.copytree(src, os.path.join(target, folder),
                             ignore=shutil.ignore_patterns("README.md"))
-    shutil.copy2(module_path, os.path.join(target, os.path.basename(module_path)))
+    # the bpy-free package beside the add-on's modules, with the module just built
+    package = os.path.join(target, "planetlod")
+    shutil.copytree(os.path.join(REPO, "planetlod"), package,
+                    ignore=shutil.ignore_patterns("__pycache__", "*.so"))
+    shutil.copy2(module_path, os.path.join(package, os.path.basename(module_path)))
     return target
 
 

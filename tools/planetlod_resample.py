@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Resample an equirectangular (plate carree) map into a cube map.
 
-    python3 tools/planetlod_resample.py INPUT OUTPUT [--projection qsc]
+    python3 -m tools.planetlod_resample INPUT OUTPUT [--projection qsc]
         [--size 1024] [--filter bilinear] [--format r16] [--layout cross|faces]
 
 OUTPUT's extension picks the file type (.png, .tif, .exr, .jpg ...).  With
@@ -17,13 +17,14 @@ import time
 import warnings
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, ROOT)
 
 try:
     import planetlod
-except ImportError as exc:  # not built yet
-    sys.exit(f"planetlod_resample: cannot import the planetlod extension ({exc}); build it first "
-             f"with: cd {ROOT} && python3 setup.py build_ext --inplace")
+    planetlod.require_native()
+except ImportError as exc:  # not built yet, or not run from the checkout
+    sys.exit(f"planetlod_resample: cannot import the planetlod extension ({exc}); build it "
+             f"with: cd {ROOT} && bash tools/build.sh, and run this as "
+             "python3 -m tools.planetlod_resample from there")
 
 
 class ProgressBar:

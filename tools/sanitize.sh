@@ -35,6 +35,9 @@ bash tools/build.sh
 echo "sanitize: building ASan+UBSan extension into $BUILD/lib"
 PLANETLOD_SANITIZE=1 "$PYTHON" setup.py -q build_ext --force \
     --build-lib "$BUILD/lib" --build-temp "$BUILD/tmp"
+# the package's Python modules beside the sanitized module (build_ext builds
+# only the extension)
+cp planetlod/*.py "$BUILD/lib/planetlod/"
 
 LIBASAN=$(gcc -print-file-name=libasan.so)
 [ -e "$LIBASAN" ] || { echo "sanitize: libasan not found (gcc $(gcc -dumpversion))" >&2; exit 2; }
@@ -58,18 +61,21 @@ export PYTHONFAULTHANDLER=1
 export PLANET_LOD_BLENDERS=${PLANET_LOD_BLENDERS:-blender}
 
 set +e -o pipefail
-(LD_PRELOAD="$LIBASAN $LIBSTDCXX" "$PYTHON" - "$BUILD/lib" "$@" <<'PY'
+# -P: no working directory on sys.path, so the sanitized package (first on
+# PYTHONPATH) is the one imported, not the checkout's.
+(LD_PRELOAD="$LIBASAN $LIBSTDCXX" PYTHONPATH="$BUILD/lib" "$PYTHON" -P - "$BUILD/lib" "$@" <<'PY'
 import os
 import sys
 
 build_lib = sys.argv[1]
-sys.path.insert(0, build_lib)
 import planetlod  # noqa: E402  the sanitized build, cached for conftest
 
-if not os.path.realpath(planetlod.__file__).startswith(os.path.realpath(build_lib)):
-    sys.exit(f"sanitize: imported {planetlod.__file__}, not the sanitized build")
-print(f"sanitize: testing {planetlod.__file__}", flush=True)
+native = planetlod.require_native().__file__
+if not os.path.realpath(native).startswith(os.path.realpath(build_lib)):
+    sys.exit(f"sanitize: imported {native}, not the sanitized build")
+print(f"sanitize: testing {native}", flush=True)
 os.environ.pop("LD_PRELOAD", None)  # children run uninstrumented
+os.environ.pop("PYTHONPATH", None)  # and import the checkout's build
 
 import pytest  # noqa: E402
 

@@ -1,11 +1,11 @@
 #!/usr/bin/env python3
 """Soak test of the refine/emit path in C (planetlod, no Blender).
 
-    /usr/bin/python3 tools/soak.py                    # 1000 frames, Earth, budget 8000
-    /usr/bin/python3 tools/soak.py --frames 100       # the quick version pytest runs
+    /usr/bin/python3 -m tools.soak                    # 1000 frames, Earth, budget 8000
+    /usr/bin/python3 -m tools.soak --frames 100       # the quick version pytest runs
 
 Flies the add-on's deterministic flyby path (orbit -> descent -> skim at 5 m;
-core.flyby_pose) down and back up: the first half of --frames goes down the
+planetlod.flyby.flyby_pose) down and back up: the first half of --frames goes down the
 path, the second half comes back, so the second half revisits every LOD state
 of the first and any memory kept per frame shows up as growth.  Each frame:
 Camera -> refine (with hysteresis, as the viewport) -> mesh (sector meshes,
@@ -18,22 +18,12 @@ the end exceeds the RSS after the warm-up (the first half) by more than
 --max-growth-mb, or when a frame breaks the budget.
 """
 import argparse
-import importlib.util
 import math
 import os
 import sys
 import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-
-
-def load_core():
-    """addon/planet_lod/core.py without importing the add-on package (bpy)."""
-    path = os.path.join(ROOT, "addon", "planet_lod", "core.py")
-    spec = importlib.util.spec_from_file_location("plod_core_soak", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def rss_kib():
@@ -64,9 +54,8 @@ def parse(argv):
 
 def main(argv=None):
     args = parse(argv)
-    sys.path.insert(0, ROOT)
     import planetlod
-    core = load_core()
+    from planetlod import flyby
     width, height = (int(v) for v in args.resolution.split("x"))
     half = max(2, args.frames // 2)
     every = args.every or max(1, args.frames // 10)
@@ -83,7 +72,7 @@ def main(argv=None):
         # down the path (1..half), then back up (half..1)
         frame = index + 1 if index < half else 2 * half - index
         frame = min(max(frame, 1), half)
-        pose = core.flyby_pose(frame, half, args.radius, ground_height=ground)
+        pose = flyby.flyby_pose(frame, half, args.radius, ground_height=ground)
         camera = planetlod.Camera(matrix_world=[list(r) for r in pose], lens=24.0,
                                   resolution_x=width, resolution_y=height,
                                   clip_start=0.05, clip_end=args.radius * 6.0)

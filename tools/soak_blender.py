@@ -1,6 +1,9 @@
 """Soak test of the add-on inside Blender (headless, no rendering):
 
-    blender -b --factory-startup --python tools/soak_blender.py -- --frames 200
+    PYTHONPATH=. blender -b --factory-startup --python tools/soak_blender.py -- --frames 200
+
+(from the repository root: Blender runs the file by path, PYTHONPATH gives
+it the `tools` package.)
 
 Adds the Earth preset and the flyby camera, then steps scene.frame_set() over
 the flyby path down and back (first half of --frames down the path, second
@@ -12,7 +15,7 @@ their orphans (zero users).  Exits 1 (via --python-exit-code 1) when a
 datablock count or orphan count changes after the first frame, a frame has
 more sectors than the budget or a refresh error, or the RSS at the end exceeds
 the RSS after the warm-up (first half) by more than --max-growth-mb.
-Uses the installed add-on `planet_lod`, else the one in this repository.
+Uses the installed add-on `planet_lod`, or the repository's with PYTHONPATH=addon.
 """
 import argparse
 import os
@@ -22,9 +25,8 @@ import time
 import bpy
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, os.path.join(REPO, "tools"))
-import flyby  # noqa: E402  (enable_addon)
-from soak import rss_kib  # noqa: E402
+from tools import flyby  # noqa: E402  (enable_addon)
+from tools.soak import rss_kib  # noqa: E402
 
 KINDS = ("meshes", "images", "materials", "objects", "cameras")
 
@@ -51,7 +53,7 @@ def datablocks():
 def main(argv):
     args = parse(argv)
     flyby.enable_addon()
-    from planet_lod import live, render
+    from planet_lod import live, placement
     scene = bpy.context.scene
     for obj in list(bpy.data.objects):
         bpy.data.objects.remove(obj)
@@ -66,7 +68,7 @@ def main(argv):
     planet = bpy.context.object
     half = max(2, args.frames // 2)
     scene.frame_start, scene.frame_end = 1, half
-    render.ensure_flyby_camera(scene, planet, half)
+    placement.ensure_flyby_camera(scene, planet, half)
     budget = planet.planet_lod.budget
 
     failures, rows = [], []

@@ -25,6 +25,7 @@ import struct
 
 import bpy
 
+from . import runtime
 from . import nodes as node_maths
 
 WORLD_PREFIX = "PlanetLOD sky "
@@ -251,16 +252,14 @@ def _set_inputs(tree, values):
 def update(obj, scene, camera_matrix):
     """Writes the camera (planet space, from the LOD camera's row-major matrix),
     the sun and the anchor into the planet's material and sky world."""
-    from . import live
     camera = tuple(camera_matrix[i][3] for i in range(3))
     sun, strength = sun_of(scene)
     if sun is None:  # no sun lamp: light the sky from above the camera
         length = math.sqrt(sum(c * c for c in camera)) or 1.0
         sun = tuple(c / length for c in camera)
-    from .materials import detail_offset
-    anchor = live.anchor(obj)
+    anchor = runtime.anchor(obj)
     values = {"plod_camera": camera, "plod_sun": sun, "plod_anchor": anchor,
-              "plod_sun_strength": strength, "plod_detail_offset": detail_offset(anchor)}
+              "plod_sun_strength": strength, "plod_detail_offset": runtime.detail_offset(anchor)}
     for material in obj.data.materials:
         if material is not None and material.use_nodes:
             _set_inputs(material.node_tree, values)

@@ -26,7 +26,7 @@ import numpy as np
 from gpu_extras.batch import batch_for_shader
 from mathutils import Matrix, Vector
 
-from . import atmosphere, compat, core, live, materials
+from . import atmosphere, compat, core, materials, runtime
 
 # The ground's colour: the render material's elevation ramp (and water on
 # the sea), the colour map, or the sector levels' colours.
@@ -199,7 +199,7 @@ def draw_planet(obj, st, region_data):
     _ensure_batch(res, st)
     _ensure_color(res, s)
     to_planet = obj.matrix_world.inverted_safe()
-    anchor = Vector(live.anchor(obj))
+    anchor = Vector(runtime.anchor(obj))
     eye = to_planet @ region_data.view_matrix.inverted().translation + anchor
     sun, strength = atmosphere.sun_of(bpy.context.scene)
     if sun is not None:
@@ -250,7 +250,7 @@ def draw_frustum(obj, st):
     params = st.frozen_camera
     if not params:
         return
-    world = obj.matrix_world @ Matrix.Translation(-Vector(live.anchor(obj)))
+    world = obj.matrix_world @ Matrix.Translation(-Vector(runtime.anchor(obj)))
     coords = [tuple(world @ p) for p in frustum_lines(params, obj.planet_lod.radius * 4.0)]
     shader = gpu.shader.from_builtin(compat.UNIFORM_COLOR_SHADER)
     batch = batch_for_shader(shader, 'LINES', {"pos": coords})
@@ -271,9 +271,9 @@ def draw_callback():
     # where the depth buffer cannot tell them apart
     gpu.state.face_culling_set('BACK')
     try:
-        for obj in live.planets(scene):
+        for obj in runtime.planet_objects(scene):
             s = obj.planet_lod
-            st = live.RUNTIME.get(obj.name_full)
+            st = runtime.existing_state(obj)
             if st is None or not obj.visible_get():
                 continue
             if s.gpu_preview:
@@ -288,13 +288,13 @@ def draw_callback():
         gpu.state.depth_test_set('NONE')
 
 
-def register():
+def add_draw_handler():
     global _handle
     if _handle is None and not bpy.app.background:
         _handle = bpy.types.SpaceView3D.draw_handler_add(draw_callback, (), 'WINDOW', 'POST_VIEW')
 
 
-def unregister():
+def remove_draw_handler():
     global _handle, _shader_error
     if _handle is not None:
         bpy.types.SpaceView3D.draw_handler_remove(_handle, 'WINDOW')

@@ -1,7 +1,6 @@
 """Refreshing planets: LOD cameras, refinement, mesh (re)build, timers, handlers.
 
-Runtime state lives in RUNTIME keyed by object name (never a bpy reference, so
-undo/redo and file loads cannot leave dangling pointers).
+Runtime state lives in runtime.py.
 
 Threads: the viewport refresh (the `tick` timer) and most handlers run on
 Blender's main thread, but an animation render started from the UI (Ctrl F12)
@@ -21,7 +20,6 @@ calls the frame_change handlers from the render job's thread.  So:
     handlers that write data from the render thread.
 """
 import hashlib
-import math
 import threading
 import time
 from array import array
@@ -31,9 +29,16 @@ import numpy
 from bpy.app.handlers import persistent
 from mathutils import Matrix
 
-from . import atmosphere, compat, core, materials, surface
+from . import atmosphere, compat, core, materials, placement
+from .core import flyby, surface
+from .core import planets as planet_settings  # live.planets is the scene's planet objects
+from .runtime import (ANCHOR_KEY, RUNTIME, PlanetState, anchor, existing_state,  # noqa: F401
+                      forget_removed, mark_dirty, planet_objects, set_anchor, state,
+                      to_planet_space)
 
-RUNTIME = {}
+# The farm's job type (farm/flamenco/planet_lod.js) calls live.planets(scene).
+planets = planet_objects
+
 REFRESH_INTERVAL_S = 0.1   # during navigation the detail follows at this rate
 TICK_S = 0.05
 _lock = threading.RLock()   # one refresh at a time, across threads
@@ -45,58 +50,18 @@ def _in_refresh():
     return getattr(_local, "busy", False)
 
 
-class PlanetState:
-    def __init__(self):
-        self.dirty = True
-        self.geometry_dirty = True
-        self.material_dirty = True
-        self.signature = None
-        self.changed_at = 0.0
-        self.stats = {}
-        self.error = ""
-        self.warning = ""          # the viewport's camera is inside the planet
-        self.render_warning = ""   # the render camera is inside the planet
-        self.refreshed_at = time.monotonic()  # of the last viewport refresh
-        self.preview = None        # surface.PreviewData the GPU preview draws
-        self.preview_key = None    # what it was emitted from
-        self.gpu_version = 0       # bumped when the preview changes
-        self.frozen_camera = None  # (matrix_world planet space, params) while frozen
-        self.mesh_hash = ""
-        self.render_key = None     # camera + settings of the last render refresh
-
-
-def state(obj):
-    st = RUNTIME.get(obj.name_full)
-    if st is None:
-        st = RUNTIME[obj.name_full] = PlanetState()
-    return st
-
-
-def mark_dirty(obj, geometry=False, material=False):
-    if obj is None:
-        return
-    st = state(obj)
-    st.dirty = True
-    st.geometry_dirty |= geometry
-    st.material_dirty |= material
-
-
 def check_settings(obj):
     """Checks what can be checked at once when a setting changes (a height map
     path that is missing, a folder or empty), so the panel shows the reason
     right away; the refresh reports everything else."""
     st = state(obj)
     try:
-        core.check_heightmap(obj.planet_lod.as_dict().get("heightmap"))
-    except OSError as exc:
+        planet_settings.check_heightmap(obj.planet_lod.as_dict().get("heightmap"))
+    except core.FileError as exc:
         st.error = str(exc)
     else:
         if st.error.startswith("height map"):
             st.error = ""
-
-
-def planets(scene):
-    return [o for o in scene.objects if o.type == 'MESH' and o.planet_lod.enabled]
 
 
 # ---- cameras ----------------------------------------------------------------
@@ -133,50 +98,6 @@ def _evaluated(obj, depsgraph):
         return obj.evaluated_get(depsgraph)
     except (ReferenceError, RuntimeError):
         return obj
-
-
-# ---- floating origin ------------------------------------------------------------
-# The planet object's local space is planet space shifted by the *anchor*, a
-# float64 planet-space point kept as an ID property (ID properties are double;
-# Blender's transforms, vertices and float properties are float32).  The
-# add-on moves the anchor to the render camera (flyby, geo-placed cameras), so
-# the camera sits at the world origin and the surface around it is written
-# with small float32 coordinates: millimetres stay millimetres in the space
-# Cycles and EEVEE render.  Without an anchor (0, 0, 0) local space is planet
-# space.
-
-ANCHOR_KEY = "planet_lod_anchor"
-
-
-def anchor(obj):
-    """The planet-space point at the planet object's local origin (float64)."""
-    value = obj.get(ANCHOR_KEY)
-    try:
-        point = tuple(float(v) for v in value)
-    except (TypeError, ValueError):
-        return (0.0, 0.0, 0.0)
-    if len(point) != 3 or not all(math.isfinite(v) for v in point):
-        return (0.0, 0.0, 0.0)
-    return point
-
-
-def set_anchor(obj, point):
-    """Moves the anchor; True when it changed (the mesh must then be rewritten)."""
-    point = [float(v) for v in point]
-    if list(anchor(obj)) == point:
-        return False
-    obj[ANCHOR_KEY] = point
-    return True
-
-
-def to_planet_space(obj, matrix_world):
-    """Row-major 4x4 (lists of float64) of a world matrix in planet space: the
-    float32 product stays small near the anchor, the anchor is added in float64."""
-    local = obj.matrix_world.inverted_safe() @ matrix_world
-    rows = [list(row) for row in local]
-    for i, a in enumerate(anchor(obj)):
-        rows[i][3] += a
-    return rows
 
 
 def camera_params_from_object(obj, cam, scene, depsgraph=None, cam_matrix=None):
@@ -274,7 +195,7 @@ def view_clip(obj, planet, params):
     range, with a clip start of a tenth of the height above the ground below the
     camera where the camera is lower than the highest peak (the thesis's clip
     start is then ~0) and at most a million times shorter than the clip end."""
-    near, far = planet.recommended_clip(core.make_camera(params))
+    near, far = planet.recommended_clip(planet_settings.make_camera(params))
     eye = [row[3] for row in params["matrix_world"][:3]]
     distance = sum(c * c for c in eye) ** 0.5
     if distance > 0.0:
@@ -289,11 +210,11 @@ def fit_view_clips(scene):
     """Fits each 3D view's clip range to the planets it shows (those with Viewport
     Clip to Horizon on); views looking through the camera use its clip range."""
     targets = []
-    for obj in planets(scene):
+    for obj in planet_objects(scene):
         if obj.planet_lod.view_clip_from_horizon and obj.visible_get():
             try:
-                targets.append((obj, core.build_planet(obj.planet_lod.as_dict())))
-            except core.native_errors():
+                targets.append((obj, planet_settings.build_planet(obj.planet_lod.as_dict())))
+            except core.REPORTED_ERRORS:
                 continue
     if not targets:
         return
@@ -311,7 +232,7 @@ def fit_view_clips(scene):
             for obj, planet in targets:
                 try:
                     n, f = view_clip(obj, planet, camera_params_from_view(obj, (space, region, r3d)))
-                except core.native_errors():
+                except core.REPORTED_ERRORS:
                     continue
                 near = n if near is None else min(near, n)
                 far = f if far is None else max(far, f)
@@ -348,14 +269,14 @@ def apply_camera_clip(scene, depsgraph=None, cam_matrix=None):
     if cam is None or cam.type != 'CAMERA':
         return None
     near = far = None
-    for obj in planets(scene):
+    for obj in planet_objects(scene):
         if not obj.planet_lod.clip_from_horizon:
             continue
         try:
-            planet = core.build_planet(obj.planet_lod.as_dict())
+            planet = planet_settings.build_planet(obj.planet_lod.as_dict())
             params = camera_params_from_object(obj, cam, scene, depsgraph, cam_matrix)
-            n, f = planet.recommended_clip(core.make_camera(params))
-        except core.native_errors():
+            n, f = planet.recommended_clip(planet_settings.make_camera(params))
+        except core.REPORTED_ERRORS:
             continue
         n, f = n * _scale(obj), f * _scale(obj)
         near = n if near is None else min(near, n)
@@ -386,17 +307,9 @@ INSIDE_RENDER = ("the render camera is inside the planet (below the terrain): mo
                  "to render the planet")
 
 
-def forget_removed():
-    """Drops the runtime state of planets deleted since (a scheduled refresh of a
-    deleted planet then finds nothing to do)."""
-    alive = {obj.name_full for obj in bpy.data.objects}
-    for name in [n for n in RUNTIME if n not in alive]:
-        del RUNTIME[name]
-
-
 def refresh(obj, scene, params=None, build_mesh=False, for_render=False):
     """Refines `obj` for its LOD camera; optionally rebuilds its mesh.  Raises
-    core.native_errors() on bad input (callers report them)."""
+    core.REPORTED_ERRORS on bad input (callers report them)."""
     with _lock:
         return _refresh_locked(obj, scene, params, build_mesh, for_render)
 
@@ -404,13 +317,13 @@ def refresh(obj, scene, params=None, build_mesh=False, for_render=False):
 def _refresh_locked(obj, scene, params, build_mesh, for_render):
     st = state(obj)
     settings = obj.planet_lod.as_dict()
-    planet = core.build_planet(settings)
+    planet = planet_settings.build_planet(settings)
     if params is None:
         # the render camera's frustum ends at its clip end: fit that first
         clip = apply_camera_clip(scene) if for_render else None
         params = _with_clip(lod_camera_params(obj, scene, for_render=for_render), clip)
     if params is None:
-        raise RuntimeError(NO_CAMERA)
+        raise core.PlanetLODError(NO_CAMERA)
     # the preview draws the surface the render gets (heights with the detail,
     # morphing, the sea, the core's normals, relative to the anchor), of the
     # viewport's LOD only: a render's never leaks in
@@ -419,14 +332,14 @@ def _refresh_locked(obj, scene, params, build_mesh, for_render):
     try:
         frozen = obj.planet_lod.freeze_lod and st.frozen_camera is not None and not for_render
         if not frozen:
-            camera = core.make_camera(params)
+            camera = planet_settings.make_camera(params)
             # without hysteresis (renders) the sector set and the order meshes
             # are emitted in depend on this camera only, never on earlier frames
-            stats = core.refine(planet, camera, settings, hysteresis=not for_render)
+            stats = planet_settings.refine(planet, camera, settings, hysteresis=not for_render)
             if build_mesh or preview:  # refuse before the mesh (or anything in bpy) is touched
-                core.check_mesh_size(stats, settings["template_level"])
+                planet_settings.check_mesh_size(stats, settings["template_level"])
             st.stats = stats
-            inside = core.camera_inside(planet, params["matrix_world"])
+            inside = planet_settings.camera_inside(planet, params["matrix_world"])
             if for_render:
                 st.render_warning = (INSIDE_RENDER if inside else "")
             else:
@@ -488,7 +401,7 @@ def write_mesh(obj, mesh):
 
     Vertices are written relative to the anchor (floating origin), below-sea
     ground lifted to the sea surface, with the per-vertex attributes the
-    materials shade with (surface.py), among them the core's normals
+    materials shade with (planetlod/surface.py), among them the core's normals
     (`planet_normal`: both sides of a sector border get the same normal).
     The normals go in as an attribute, not as custom split normals: those
     cost a Python sequence per vertex and a split-normal evaluation per
@@ -505,15 +418,13 @@ def write_mesh(obj, mesh):
     sea_level = s.sea_level if s.use_sea_level else None
     data = surface.vertex_data(mesh, anchor(obj), s.radius, sea_level)
     me.vertices.foreach_set("co", data.positions)
-    _set_attribute(me, NORMAL_ATTRIBUTE, 'FLOAT_VECTOR', 'POINT', "vector", data.normals)
+    _set_attribute(me, surface.NORMAL_ATTRIBUTE, 'FLOAT_VECTOR', 'POINT', "vector", data.normals)
     _set_attribute(me, "planet_uv", 'FLOAT2', 'POINT', "vector", mesh.uv)
     _set_attribute(me, "sector_level", 'INT', 'FACE', "value", mesh.sector_level)
     for name, values in data.attributes.items():
         _set_attribute(me, name, 'FLOAT', 'POINT', "value", values)
     me.update()
 
-
-NORMAL_ATTRIBUTE = "planet_normal"
 
 
 def _set_attribute(me, name, data_type, domain, field, values):
@@ -532,7 +443,7 @@ def refresh_for_render(scene, depsgraph=None, clip=True):
     results = {}
     if clip is True:  # also when the LOD is cached (a setting was toggled)
         clip = apply_camera_clip(scene, depsgraph)
-    for obj in planets(scene):
+    for obj in planet_objects(scene):
         try:
             params = _with_clip(lod_camera_params(obj, scene, for_render=True,
                                                   depsgraph=depsgraph), clip)
@@ -544,7 +455,7 @@ def refresh_for_render(scene, depsgraph=None, clip=True):
             results[obj.name] = refresh(obj, scene, params=params, build_mesh=True,
                                         for_render=True)
             st.render_key = key
-        except core.native_errors() as exc:
+        except core.REPORTED_ERRORS as exc:
             state(obj).error = str(exc)
             print(f"planet_lod: {obj.name}: {exc}")
     return results
@@ -567,7 +478,6 @@ def place_geo_objects(scene, depsgraph=None):
 
 
 def place_geo_object(obj, scene=None, depsgraph=None):
-    from . import render
     geo = _evaluated(obj, depsgraph).planet_lod_geo
     planet_obj = obj.planet_lod_geo.planet
     if not geo.enabled or planet_obj is None or not planet_obj.planet_lod.enabled:
@@ -576,19 +486,19 @@ def place_geo_object(obj, scene=None, depsgraph=None):
     base = None
     try:
         if geo.altitude_reference == 'GROUND':
-            planet = core.build_planet(s.as_dict())
+            planet = planet_settings.build_planet(s.as_dict())
             sea = s.sea_level if s.use_sea_level else None
             base = ((lambda d: max(planet.height(*d), sea)) if sea is not None
                     else (lambda d: planet.height(*d)))
         elif geo.altitude_reference == 'SEA' and s.use_sea_level:
             base = (lambda d: s.sea_level)
-    except core.native_errors() as exc:
+    except core.REPORTED_ERRORS as exc:
         state(planet_obj).error = str(exc)
         return
-    pose = core.geo_pose(s.radius, geo.longitude, geo.latitude, east=geo.east,
+    pose = flyby.geo_pose(s.radius, geo.longitude, geo.latitude, east=geo.east,
                          north=geo.north, altitude=geo.altitude, heading=geo.heading,
                          pitch=geo.pitch, roll=geo.roll, base_height=base)
-    render.place_in_planet_space(obj, planet_obj, pose, floating_origin=geo.floating_origin)
+    placement.place_in_planet_space(obj, planet_obj, pose, floating_origin=geo.floating_origin)
     if geo.floating_origin:
         for other in _geo_objects(scene) if scene is not None else ():
             if other is not obj and other.planet_lod_geo.planet == planet_obj \
@@ -642,7 +552,7 @@ def _tick_locked():
         apply_camera_clip(scene)
     except (ReferenceError, AttributeError):
         pass
-    for obj in planets(scene):
+    for obj in planet_objects(scene):
         s = obj.planet_lod
         if not s.live_update:
             continue
@@ -664,7 +574,7 @@ def _tick_locked():
         st.refreshed_at = now
         try:
             refresh(obj, scene, params=params, build_mesh=not s.gpu_preview)
-        except core.native_errors() as exc:
+        except core.REPORTED_ERRORS as exc:
             st.error, st.dirty = str(exc), False
         _redraw_views()
         break  # one planet per tick keeps the UI responsive
@@ -682,8 +592,7 @@ def _redraw_views():
 
 @persistent
 def on_frame_change_pre(scene, depsgraph=None):
-    from . import render
-    render.place_flyby_cameras(scene)
+    placement.place_flyby_cameras(scene)
     # the clip range before the frame is evaluated: set after (frame_change_post),
     # an animation render (-a) would render this frame with the previous one's
     if not _in_refresh() and core.native is not None:
@@ -752,15 +661,15 @@ def on_render_finished(*_args):
 @persistent
 def on_load_post(*_args):
     RUNTIME.clear()
-    core.forget_planets()
+    planet_settings.forget_planets()
     scene = bpy.context.scene
     if scene is None or core.native is None:
         return
     compat.update_after_load()
-    for obj in planets(scene):  # rebuild geometry for the saved camera
+    for obj in planet_objects(scene):  # rebuild geometry for the saved camera
         try:
             refresh(obj, scene, build_mesh=True, for_render=True)
-        except core.native_errors() as exc:
+        except core.REPORTED_ERRORS as exc:
             state(obj).error = str(exc)
             print(f"planet_lod: {obj.name}: {exc}")
 
@@ -777,7 +686,7 @@ def on_depsgraph_update(scene, depsgraph=None):
         return
     for update in depsgraph.updates:
         if isinstance(update.id, bpy.types.Object) and update.is_updated_transform:
-            for obj in planets(scene):
+            for obj in planet_objects(scene):
                 if update.id.original in (obj, camera_object(obj, scene),
                                           render_camera(scene)):
                     state(obj).dirty = True
@@ -798,7 +707,7 @@ HANDLERS = (
 )
 
 
-def register():
+def add_handlers():
     for handler_list, fn in HANDLERS:
         if fn not in handler_list:
             handler_list.append(fn)
@@ -806,7 +715,7 @@ def register():
         bpy.app.timers.register(tick, first_interval=TICK_S, persistent=True)
 
 
-def unregister():
+def remove_handlers():
     if bpy.app.timers.is_registered(tick):
         bpy.app.timers.unregister(tick)
     for handler_list, fn in HANDLERS:

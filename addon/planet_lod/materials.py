@@ -14,7 +14,9 @@ from array import array
 
 import bpy
 
-from . import compat
+from . import atmosphere, compat, core, runtime
+from . import nodes as node_maths
+from .core import surface
 
 PLANET_PREFIX = "PlanetLOD "
 LEVELS_NAME = "PlanetLOD levels"
@@ -43,7 +45,14 @@ def _find_image(path):
 
 
 def _load_image(path):
-    return _find_image(path) or bpy.data.images.load(bpy.path.abspath(path), check_existing=True)
+    """The image of a map the artist chose; one Blender cannot read is a FileError."""
+    image = _find_image(path)
+    if image is not None:
+        return image
+    try:
+        return bpy.data.images.load(bpy.path.abspath(path), check_existing=True)
+    except RuntimeError as exc:  # Blender's "cannot read image"
+        raise core.FileError(str(exc)) from exc
 
 
 def is_cross_layout(width, height):
@@ -60,9 +69,8 @@ def cube_to_equirect(path, projection, max_width=2048, progress=None):
     """(width, height, RGBA floats bottom row first) of the equirectangular image
     of a cross-layout cube map in `projection`, sampled with planetlod.CubeMap
     (the same lookup the heights use).  progress(fraction) is called per row."""
-    from . import core
     module = core.native_or_raise()
-    cube = module.CubeMap.from_image(path, projection=core.PROJECTION_IDS[projection])
+    cube = module.CubeMap.from_image(path, projection=core.planets.PROJECTION_IDS[projection])
     width = min(max_width, 4 * cube.size)
     height = width // 2
     sample = cube.sample
@@ -163,16 +171,6 @@ def color_image(settings, create=True):
     return converted
 
 
-DETAIL_PERIOD = 50000.0  # metres: detail texture coordinates wrap here (4 mm float32 steps)
-
-
-def detail_offset(anchor):
-    """The anchor modulo DETAIL_PERIOD: object coordinates plus this are planet
-    coordinates shifted by a whole number of periods, small and precise near
-    the camera, so the ground's detail texture stays put as the anchor moves."""
-    return tuple(a - DETAIL_PERIOD * math.floor(a / DETAIL_PERIOD) for a in anchor)
-
-
 def _attribute(b, name):
     node = b.node("ShaderNodeAttribute")
     node.attribute_type = 'GEOMETRY'
@@ -183,8 +181,7 @@ def _attribute(b, name):
 def shading_normal(b):
     """The core's normal (the mesh's `planet_normal` attribute, object space) in
     world space, normalised: what every planet BSDF shades with."""
-    from .live import NORMAL_ATTRIBUTE
-    normal = _attribute(b, NORMAL_ATTRIBUTE)
+    normal = _attribute(b, surface.NORMAL_ATTRIBUTE)
     transform = b.node("ShaderNodeVectorTransform")
     transform.vector_type = 'NORMAL'
     transform.convert_from = 'OBJECT'
@@ -356,7 +353,10 @@ def _height_image(path):
         return None
     image = next((i for i in bpy.data.images if i.get(HEIGHT_IMAGE_KEY) == path), None)
     if image is None:
-        image = bpy.data.images.load(path, check_existing=False)
+        try:
+            image = bpy.data.images.load(path, check_existing=False)
+        except RuntimeError as exc:  # Blender's "cannot read image"
+            raise core.FileError(str(exc)) from exc
         image[HEIGHT_IMAGE_KEY] = path
         image.colorspace_settings.name = 'Non-Color'
     if is_cross_layout(*image.size):
@@ -412,8 +412,6 @@ def _water(b, s, normal):
 
 
 def planet_material(obj):
-    from . import atmosphere
-    from . import nodes as node_maths
     s = obj.planet_lod
     name = PLANET_PREFIX + obj.name
     material = bpy.data.materials.get(name) or bpy.data.materials.new(name)
@@ -508,7 +506,6 @@ def levels_material():
     links.new(scale.outputs[0], fract.inputs[0])
     links.new(fract.outputs[0], ramp.inputs["Fac"])
     links.new(ramp.outputs["Color"], bsdf.inputs["Base Color"])
-    from . import nodes as node_maths
     b = node_maths.Builder(material.node_tree, x0=-700, y0=-300)
     b.link(shading_normal(b), bsdf.inputs["Normal"])
     return material
@@ -523,7 +520,6 @@ def ensure(obj):
         mats.append(material)
     elif mats[0] != material:
         mats[0] = material
-    from . import atmosphere
     atmosphere.ensure_world(obj, None)
     ensure_ocean(obj)
 
@@ -564,5 +560,4 @@ def ensure_ocean(obj):
             bsdf.inputs["Roughness"].default_value = 0.2
         mesh.materials.append(water)
     ocean.scale = (radius, radius, radius)
-    from . import live
-    ocean.location = tuple(-c for c in live.anchor(obj))  # the planet's centre
+    ocean.location = tuple(-c for c in runtime.anchor(obj))  # the planet's centre

@@ -6,7 +6,8 @@ import bpy
 from bl_operators.presets import AddPresetBase
 from bpy.props import BoolProperty, EnumProperty, StringProperty
 
-from . import core, live, presets
+from . import atmosphere, core, framing, live, materials
+from .core import planets, presets
 
 
 def _report_missing(op):
@@ -26,7 +27,7 @@ def _planet(context):
 def _validate(settings):
     """Builds the native planet for a settings dict (raises on bad input) so that
     nothing is created or changed in the scene when the input is bad."""
-    core.build_planet(settings)
+    planets.build_planet(settings)
 
 
 class PLOD_OT_planet_add(bpy.types.Operator):
@@ -61,7 +62,7 @@ class PLOD_OT_planet_add(bpy.types.Operator):
         undo = []  # puts back what framing changed when the planet is not added
         try:
             if values["color_map"] and not os.path.isfile(values["color_map"]):
-                raise FileNotFoundError(f"colour map not found: {values['color_map']}")
+                raise core.FileError(f"colour map not found: {values['color_map']}")
             mesh = bpy.data.meshes.new(presets.PLANETS[self.preset]["label"].split(" ")[0])
             obj = bpy.data.objects.new(mesh.name, mesh)
             settings = obj.planet_lod
@@ -71,7 +72,7 @@ class PLOD_OT_planet_add(bpy.types.Operator):
             settings.preset = self.preset
             settings.quality = self.quality
             _validate(settings.as_dict())
-            planet = core.build_planet(settings.as_dict())
+            planet = planets.build_planet(settings.as_dict())
             context.collection.objects.link(obj)
             obj.location = context.scene.cursor.location
             context.view_layer.update()
@@ -80,11 +81,10 @@ class PLOD_OT_planet_add(bpy.types.Operator):
             if live.lod_camera_params(obj, context.scene, for_render=True) is not None:
                 live.refresh(obj, context.scene, build_mesh=True, for_render=True)
             else:
-                from . import materials
                 materials.ensure(obj)
-            from . import atmosphere  # the planet's sky becomes the scene's world
+            # the planet's sky becomes the scene's world
             atmosphere.ensure_world(obj, context.scene, assign=True)
-        except core.native_errors() as exc:
+        except core.REPORTED_ERRORS as exc:
             for step in reversed(undo):
                 step()
             if obj is not None:
@@ -101,13 +101,12 @@ class PLOD_OT_planet_add(bpy.types.Operator):
         obj.select_set(True)
         context.view_layer.objects.active = obj
         if self.frame:
-            from . import framing
             framing.frame_views(context.screen, obj, self._top(obj))
         if not bpy.app.background:  # the clip ranges and the preview at once
             try:
                 live.fit_view_clips(context.scene)
                 live.refresh(obj, context.scene)
-            except core.native_errors() as exc:
+            except core.REPORTED_ERRORS as exc:
                 live.state(obj).error = str(exc)
         for message in messages:
             self.report({'INFO'}, message)
@@ -116,13 +115,12 @@ class PLOD_OT_planet_add(bpy.types.Operator):
     @staticmethod
     def _top(obj, planet=None):
         """Radius of the ball holding the planet's highest peak, in scene units."""
-        planet = planet or core.build_planet(obj.planet_lod.as_dict())
+        planet = planet or planets.build_planet(obj.planet_lod.as_dict())
         return ((obj.planet_lod.radius + max(planet.height_range()[1], 0.0))
                 * max(obj.matrix_world.to_scale()))
 
     def _frame(self, context, obj, planet, undo):
         """Camera, views and a sun outside the new planet (see framing.py)."""
-        from . import framing
         top = self._top(obj, planet)
         messages = []
         if self.frame:
@@ -155,7 +153,7 @@ class PLOD_OT_planet_refresh(bpy.types.Operator):
         try:
             stats = live.refresh(obj, context.scene, build_mesh=self.build_mesh,
                                  for_render=self.for_render)
-        except core.native_errors() as exc:
+        except core.REPORTED_ERRORS as exc:
             live.state(obj).error = str(exc)
             self.report({'ERROR'}, f"{obj.name}: {exc}")
             return {'CANCELLED'}
@@ -193,7 +191,7 @@ class PLOD_OT_planet_apply_mesh(bpy.types.Operator):
             copy.matrix_world = obj.matrix_world
             for collection in obj.users_collection:
                 collection.objects.link(copy)
-        except core.native_errors() as exc:
+        except core.REPORTED_ERRORS as exc:
             self.report({'ERROR'}, f"{obj.name}: {exc}")
             return {'CANCELLED'}
         finally:
@@ -230,7 +228,7 @@ class PLOD_OT_planet_apply_preset(bpy.types.Operator):
         trial.update({k: v for k, v in values.items() if k in trial})
         try:
             _validate(trial)
-        except core.native_errors() as exc:
+        except core.REPORTED_ERRORS as exc:
             self.report({'ERROR'}, f"Preset not applied: {exc}")
             return {'CANCELLED'}
         obj.planet_lod.assign(values)
@@ -267,7 +265,7 @@ class PLOD_OT_set_heightmap(bpy.types.Operator):
         trial["heightmap"] = bpy.path.abspath(self.filepath)
         try:
             _validate(trial)
-        except core.native_errors() as exc:
+        except core.REPORTED_ERRORS as exc:
             self.report({'ERROR'}, f"Height map not loaded: {exc}")
             return {'CANCELLED'}
         obj.planet_lod.heightmap = self.filepath
@@ -334,20 +332,3 @@ class PLOD_OT_quality_preset_add(AddPresetBase, bpy.types.Operator):
 
 def menu_func(self, context):
     self.layout.operator(PLOD_OT_planet_add.bl_idname, text="Planet", icon='WORLD')
-
-
-classes = (PLOD_OT_planet_add, PLOD_OT_planet_refresh, PLOD_OT_planet_apply_mesh,
-           PLOD_OT_planet_apply_preset, PLOD_OT_set_heightmap, PLOD_MT_planet_presets, PLOD_MT_quality_presets,
-           PLOD_OT_preset_add, PLOD_OT_quality_preset_add)
-
-
-def register():
-    for cls in classes:
-        bpy.utils.register_class(cls)
-    bpy.types.VIEW3D_MT_mesh_add.append(menu_func)
-
-
-def unregister():
-    bpy.types.VIEW3D_MT_mesh_add.remove(menu_func)
-    for cls in reversed(classes):
-        bpy.utils.unregister_class(cls)

@@ -3,7 +3,8 @@ import bpy
 from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty,
                        PointerProperty, StringProperty)
 
-from . import presets
+from . import atmosphere, live
+from .core import planets, presets
 
 PROJECTION_ITEMS = [
     ("QSC", "QSC", "Quadrilateralized spherical cube (equal-area)"),
@@ -17,19 +18,16 @@ TEMPLATE_ITEMS = [(str(4 ** k), f"{4 ** k}", f"{4 ** k} triangles per terrain pa
 
 
 def _changed(self, context):
-    from . import live
     live.mark_dirty(self.id_data, geometry=False)
 
 
 def _geometry_changed(self, context):
-    from . import live
     live.check_settings(self.id_data)  # a bad path shows in the panel at once
     # the material depends on radius/height scale (ramp) and projection (cube colour maps)
     live.mark_dirty(self.id_data, geometry=True, material=True)
 
 
 def _material_changed(self, context):
-    from . import live
     live.mark_dirty(self.id_data, geometry=False, material=True)
 
 
@@ -40,13 +38,7 @@ def _preview_changed(self, context):
     _changed(self, context)
 
 
-def _atmosphere_items():
-    from .atmosphere import ATMOSPHERE_ITEMS
-    return ATMOSPHERE_ITEMS
-
-
 def _camera_clip_changed(self, context):
-    from . import live
     live.apply_camera_clip(context.scene)
     _changed(self, context)
 
@@ -198,14 +190,14 @@ class PLOD_PG_settings(bpy.types.PropertyGroup):
                                                      "clipped planet)")
     quality: EnumProperty(name="Quality", items=presets.QUALITY_ITEMS, default="PREVIEW")
     atmosphere: EnumProperty(name="Atmosphere", default="NONE", update=_material_changed,
-                             items=_atmosphere_items(),
+                             items=atmosphere.ATMOSPHERE_ITEMS,
                              description="Sky and aerial perspective (the planet's world)")
     atmosphere_density: FloatProperty(name="Air density", default=1.0, min=0.0, max=100.0,
                                       soft_max=10.0, update=_material_changed,
                                       description="Scales the atmosphere's scattering")
 
     def as_dict(self):
-        """The plain settings dict core.py works with (absolute file paths)."""
+        """The plain settings dict planetlod.planets works with (absolute file paths)."""
         return {
             "projection": self.projection, "radius": self.radius,
             "heightmap": bpy.path.abspath(self.heightmap) if self.heightmap else "",
@@ -229,7 +221,6 @@ class PLOD_PG_settings(bpy.types.PropertyGroup):
 
 
 def _geo_changed(self, context):
-    from . import live
     live.place_geo_object(self.id_data, context.scene if context else None)
 
 
@@ -275,24 +266,7 @@ class PLOD_PG_geo(bpy.types.PropertyGroup):
 
 
 def template_level(settings):
-    from . import core
-    return core.template_level_from_density(int(settings.template_density))
+    return planets.template_level_from_density(int(settings.template_density))
 
 
 SETTING_NAMES = [name for name in PLOD_PG_settings.__annotations__]
-
-classes = (PLOD_PG_settings, PLOD_PG_geo)
-
-
-def register():
-    for cls in classes:
-        bpy.utils.register_class(cls)
-    bpy.types.Object.planet_lod = PointerProperty(type=PLOD_PG_settings)
-    bpy.types.Object.planet_lod_geo = PointerProperty(type=PLOD_PG_geo)
-
-
-def unregister():
-    del bpy.types.Object.planet_lod_geo
-    del bpy.types.Object.planet_lod
-    for cls in reversed(classes):
-        bpy.utils.unregister_class(cls)

@@ -1,7 +1,7 @@
 """Flybys: the camera path, frame-by-frame rendering with stats CSV and a contact sheet.
 
 The flyby camera carries custom properties (planet name, path length, skim
-height); the frame_change_pre handler places it with core.flyby_pose(), a pure
+height); the frame_change_pre handler places it with flyby.flyby_pose(), a pure
 function of the frame number, so any sub-range renders exactly the frames of
 the full path (render-farm splits).
 """
@@ -12,83 +12,9 @@ import time
 
 import bpy
 from bpy.props import IntProperty, StringProperty, FloatProperty
-from mathutils import Matrix
 
-from . import core, live
-
-FLYBY_KEY = "planet_lod_flyby"
-
-
-def ensure_flyby_camera(scene, planet_obj, path_frames, skim_height=5.0):
-    name = "Flyby " + planet_obj.name
-    cam = bpy.data.objects.get(name)
-    if cam is None or cam.type != 'CAMERA':
-        data = bpy.data.cameras.new(name)
-        data.lens = 24.0
-        cam = bpy.data.objects.new(name, data)
-        scene.collection.objects.link(cam)
-    cam[FLYBY_KEY] = planet_obj.name
-    cam["planet_lod_path_frames"] = int(path_frames)
-    cam["planet_lod_skim_height"] = float(skim_height)
-    scene.camera = cam
-    place_camera(cam, scene, scene.frame_current)
-    return cam
-
-
-def _ground_height(planet_obj):
-    """Terrain height (m) under a unit direction, from the native planet (no heights: None);
-    over the sea (land below it, e.g. detail on a low coast), the sea surface."""
-    try:
-        planet = core.build_planet(planet_obj.planet_lod.as_dict())
-    except core.native_errors():
-        return None
-    s = planet_obj.planet_lod
-    if s.use_sea_level:
-        sea = float(s.sea_level)
-        return lambda d: max(planet.height(*d), sea)
-    return lambda d: planet.height(*d)
-
-
-def place_camera(cam, scene, frame):
-    planet_obj = bpy.data.objects.get(cam.get(FLYBY_KEY, ""))
-    if planet_obj is None:
-        return
-    s = planet_obj.planet_lod
-    ground_height = _ground_height(planet_obj)
-    pose = core.flyby_pose(frame, cam["planet_lod_path_frames"], s.radius,
-                           skim_height=cam["planet_lod_skim_height"],
-                           ground_height=ground_height)
-    place_in_planet_space(cam, planet_obj, pose)
-    location = [row[3] for row in pose[:3]]
-    distance = math.sqrt(sum(c * c for c in location))
-    ground = ground_height(tuple(c / distance for c in location)) if ground_height else 0.0
-    # clip start from the height above the *terrain* (not the radius; the
-    # ocean sphere covers ground below sea level): the lowest ray of the frame
-    # meets the ground about 1.5 heights away
-    above_ground = max(distance - s.radius - max(ground, 0.0), 0.0)
-    cam.data.clip_start = max(0.05, min(above_ground * 0.1, s.radius * 0.01))
-    cam.data.clip_end = s.radius * 6.0
-
-
-def place_in_planet_space(obj, planet_obj, pose, floating_origin=True):
-    """Puts `obj` at `pose` (row-major 4x4, planet space, float64).  With
-    floating_origin the planet's anchor moves to the pose's location first, so
-    the object lands at the planet object's origin (the world origin for a
-    planet at the origin) and everything near it keeps float32 precision."""
-    location = [row[3] for row in pose[:3]]
-    if floating_origin and live.set_anchor(planet_obj, location):
-        live.mark_dirty(planet_obj)
-    a = live.anchor(planet_obj)
-    local = Matrix([list(row[:3]) + [row[3] - a[i]] for i, row in enumerate(pose[:3])]
-                   + [[0.0, 0.0, 0.0, 1.0]])
-    obj.matrix_world = planet_obj.matrix_world @ local
-
-
-def place_flyby_cameras(scene):
-    for obj in scene.objects:
-        if obj.type == 'CAMERA' and obj.get(FLYBY_KEY):
-            place_camera(obj, scene, scene.frame_current)
-
+from . import core, live, placement
+from .core import report as flyby_report  # `report` is the progress callback here
 
 def _log(message):
     print(message, flush=True)
@@ -98,7 +24,10 @@ def _log(message):
 def render_flyby(scene, planet_obj, first, last, out_dir, path_frames, report=_log):
     """Renders frames first..last of the flyby to out_dir/frame_####.png; writes
     stats.csv and contact_sheet.png.  Returns the list of per-frame stat dicts."""
-    os.makedirs(out_dir, exist_ok=True)
+    try:
+        os.makedirs(out_dir, exist_ok=True)
+    except OSError as exc:  # the artist's output folder
+        raise core.FileError(str(exc)) from exc
     saved = _SceneState(scene, planet_obj)
     try:
         saved.add_sun(planet_obj)
@@ -136,8 +65,8 @@ class _SceneState:
                for o in scene.objects):
             return
         sun = bpy.data.objects.new("Flyby Sun", bpy.data.lights.new("Flyby Sun", 'SUN'))
-        sun.data.energy = core.FLYBY_SUN_STRENGTH
-        sun.rotation_euler = core.FLYBY_SUN_ROTATION
+        sun.data.energy = core.flyby.FLYBY_SUN_STRENGTH
+        sun.rotation_euler = core.flyby.FLYBY_SUN_ROTATION
         scene.collection.objects.link(sun)
         self.sun_name = sun.name
 
@@ -170,7 +99,7 @@ class _SceneState:
 
 
 def _render_frames(scene, planet_obj, first, last, out_dir, path_frames, report):
-    ensure_flyby_camera(scene, planet_obj, path_frames)
+    placement.ensure_flyby_camera(scene, planet_obj, path_frames)
     wm = bpy.context.window_manager
     rows = []
     csv_path = os.path.join(out_dir, "stats.csv")
@@ -180,18 +109,22 @@ def _render_frames(scene, planet_obj, first, last, out_dir, path_frames, report)
         wm.progress_begin(0, len(frames))
     t_start = time.perf_counter()
     try:
-        with open(csv_path, "w") as csv:
-            csv.write(",".join(core.CSV_FIELDS) + "\n")
+        try:
+            csv = open(csv_path, "w")
+        except OSError as exc:  # the artist's output folder
+            raise core.FileError(str(exc)) from exc
+        with csv:
+            csv.write(",".join(flyby_report.CSV_FIELDS) + "\n")
             for index, frame in enumerate(frames):
                 scene.frame_set(frame)  # handlers: place camera, refine, rebuild mesh
                 st = live.state(planet_obj)
                 if st.error:
-                    raise RuntimeError(st.error)
+                    raise core.PlanetLODError(st.error)
                 path = os.path.join(out_dir, f"frame_{frame:04d}.png")
                 scene.render.filepath = path
                 t0 = time.perf_counter()
                 if 'CANCELLED' in bpy.ops.render.render(write_still=True):
-                    raise RuntimeError(f"flyby cancelled at frame {frame}")
+                    raise core.Cancelled(f"flyby cancelled at frame {frame}")
                 row = dict(st.stats)
                 row["frame"] = frame
                 row["render_s"] = round(time.perf_counter() - t0, 3)
@@ -199,12 +132,12 @@ def _render_frames(scene, planet_obj, first, last, out_dir, path_frames, report)
                 local = live.to_planet_space(planet_obj, cam.matrix_world)
                 distance = math.sqrt(sum(local[i][3] ** 2 for i in range(3)))
                 row["camera_altitude_m"] = round(distance - planet_obj.planet_lod.radius, 3)
-                ground = _ground_height(planet_obj)
+                ground = placement.terrain_height(planet_obj)
                 if ground is not None:  # the terrain under the camera (the sea: <= sea level)
                     row["camera_ground_m"] = round(ground(tuple(local[i][3] / distance
                                                                 for i in range(3))), 3)
                 rows.append(row)
-                csv.write(core.csv_row(row) + "\n")
+                csv.write(flyby_report.csv_row(row) + "\n")
                 csv.flush()
                 if wm:
                     wm.progress_update(index + 1)
@@ -231,7 +164,7 @@ def contact_sheet(paths, out_path, thumb_width=160):
     bpy.data.images.remove(first)
     tw = min(thumb_width, w0)
     th = max(1, round(h0 * tw / w0))
-    sw, sh, places = core.contact_sheet_layout(len(paths), tw, th)
+    sw, sh, places = flyby_report.contact_sheet_layout(len(paths), tw, th)
     pixels = [0.08, 0.08, 0.08, 1.0] * (sw * sh)
     for path, (x, y) in zip(paths, places):
         image = bpy.data.images.load(path)
@@ -278,25 +211,12 @@ class PLOD_OT_flyby(bpy.types.Operator):
             self.report({'ERROR'}, core.native_error)
             return {'CANCELLED'}
         try:
-            first, last = core.parse_frames(self.frames)
+            first, last = flyby_report.parse_frames(self.frames)
             out_dir = bpy.path.abspath(self.directory)
             rows = render_flyby(context.scene, context.object, first, last, out_dir,
                                 self.path_frames)
-        except core.native_errors() as exc:
+        except core.REPORTED_ERRORS as exc:
             self.report({'ERROR'}, f"Flyby failed: {exc}")
             return {'CANCELLED'}
         self.report({'INFO'}, f"Flyby: {len(rows)} frames in {out_dir}")
         return {'FINISHED'}
-
-
-classes = (PLOD_OT_flyby,)
-
-
-def register():
-    for cls in classes:
-        bpy.utils.register_class(cls)
-
-
-def unregister():
-    for cls in reversed(classes):
-        bpy.utils.unregister_class(cls)

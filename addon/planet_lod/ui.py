@@ -3,7 +3,8 @@ made: the planet itself, its surface, its level of detail, how the viewport
 shows it, and how it renders; problems are shown at the top."""
 import bpy
 
-from . import core, draw, live
+from . import core, draw, runtime
+from .core import planets
 from .operators import PLOD_MT_planet_presets, PLOD_MT_quality_presets
 
 
@@ -33,7 +34,7 @@ def _wrapped(layout, text, icon, width=40):
 def problems(obj):
     """(errors, warnings) the panel shows for a planet: what failed and what looks wrong."""
     errors, warnings = [], []
-    st = live.RUNTIME.get(obj.name_full)
+    st = runtime.existing_state(obj)
     if st is not None:
         if st.error:
             errors.append(st.error)
@@ -177,7 +178,7 @@ class PLOD_PT_lod(PLOD_PT_planet_sub, bpy.types.Panel):
         col.prop(s, "budget", text="Budget")
         col.prop(s, "max_level", text="Depth")
         if s.max_level == 0:
-            col.label(text=f"Automatic: {core.max_level(s.as_dict())} levels")
+            col.label(text=f"Automatic: {planets.max_level(s.as_dict())} levels")
         col = layout.column(heading="Skip")
         col.prop(s, "backface", text="Far Side")
         col.prop(s, "frustum", text="Off-Screen")
@@ -226,7 +227,7 @@ class PLOD_PT_stats(PLOD_PT_planet_sub, bpy.types.Panel):
     bl_options = {'DEFAULT_CLOSED'}
 
     def draw(self, context):
-        st = live.RUNTIME.get(context.object.name_full)
+        st = runtime.existing_state(context.object)
         col = self.layout.column(align=True)
         if st is None or not st.stats:
             col.label(text="Not refined yet")
@@ -283,17 +284,3 @@ class PLOD_PT_geo(bpy.types.Panel):
         col.prop(geo, "pitch")
         col.prop(geo, "roll")
         layout.prop(geo, "floating_origin")
-
-
-classes = (PLOD_PT_planet, PLOD_PT_surface, PLOD_PT_detail, PLOD_PT_lod, PLOD_PT_display,
-           PLOD_PT_render, PLOD_PT_stats, PLOD_PT_geo)
-
-
-def register():
-    for cls in classes:
-        bpy.utils.register_class(cls)
-
-
-def unregister():
-    for cls in reversed(classes):
-        bpy.utils.unregister_class(cls)

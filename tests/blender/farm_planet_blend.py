@@ -22,7 +22,7 @@ import bpy
 
 blend_path, job_type_path, evaluated_path, moved_map_path = sys.argv[sys.argv.index("--") + 1:]
 addon_utils.enable("planet_lod", default_set=True, handle_error=None)
-from planet_lod import render  # noqa: E402  (needs the add-on enabled)
+from planet_lod import placement  # noqa: E402  (needs the add-on enabled)
 
 scene = bpy.context.scene
 for obj in list(bpy.data.objects):
@@ -41,7 +41,7 @@ scene.collection.objects.link(sun)
 bpy.ops.mesh.planet_add(preset='EARTH', quality='DRAFT')
 planet = bpy.context.object
 scene.frame_start, scene.frame_end = 1, 8
-render.ensure_flyby_camera(scene, planet, 8)
+placement.ensure_flyby_camera(scene, planet, 8)
 bpy.ops.wm.save_as_mainfile(filepath=blend_path)
 
 job_type = json.load(open(job_type_path))

@@ -181,8 +181,8 @@ class PanelRecorder:
     the exceptions (Blender itself only prints them)."""
 
     def __init__(self):
-        from planet_lod import ui
-        self.classes = list(ui.classes)
+        import planet_lod
+        self.classes = [cls for cls in planet_lod.classes if issubclass(cls, bpy.types.Panel)]
         self.draws = {cls.__name__: 0 for cls in self.classes}
         self.errors = []
         for cls in self.classes:

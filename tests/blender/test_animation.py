@@ -65,7 +65,7 @@ def main():
     import math
     from planet_lod import core
     radius = planet.planet_lod.radius
-    low, high = core.build_planet(planet.planet_lod.as_dict()).height_range()
+    low, high = core.planets.build_planet(planet.planet_lod.as_dict()).height_range()
     top = radius + high
     rho = radius + min(low, 0.0)  # the occluder: below the radius with detail
     for frame in (1, 3):

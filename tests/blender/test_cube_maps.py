@@ -44,9 +44,9 @@ def main():
     cube_planet = bpy.context.object
     assert len(cube_planet.data.polygons) > 0
     # heights from the cube map agree with those of the equirectangular original
-    equirect = core.build_planet(dict(cube_planet.planet_lod.as_dict(),
+    equirect = core.planets.build_planet(dict(cube_planet.planet_lod.as_dict(),
                                       heightmap=core.data_path("earth-topology.png")))
-    cubed = core.build_planet(cube_planet.planet_lod.as_dict())
+    cubed = core.planets.build_planet(cube_planet.planet_lod.as_dict())
     diffs, land = [], 0
     for lat in range(-60, 75, 15):
         for lon in range(-180, 180, 20):

@@ -1,4 +1,6 @@
 """Add-on enables and disables cleanly, registers its operators and property."""
+import os
+
 import addon_utils
 import bpy
 
@@ -9,7 +11,8 @@ def main():
     lib.enable()
     from planet_lod import core
     # the one abi3 build loads in every supported Blender's Python
-    assert core.native_path.endswith(".abi3.so"), core.native_path
+    assert core.native_path.endswith(os.path.join("planetlod", "_native.abi3.so")), \
+        core.native_path
     print(f"planet_lod: Blender {bpy.app.version_string}, {core.native_path}")
     assert hasattr(bpy.types.Object, "planet_lod")
     assert hasattr(bpy.ops.mesh, "planet_add")

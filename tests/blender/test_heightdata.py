@@ -25,12 +25,12 @@ def main():
     moon = bpy.context.object
     s = moon.planet_lod
     assert (s.height_offset, s.height_signed) == (0.0, False)
-    base = core.build_planet(s.as_dict())
+    base = core.planets.build_planet(s.as_dict())
     lo, hi = base.height_range()
     before = mesh_radii(moon)
 
     s.height_offset = -2500.0
-    planet = core.build_planet(s.as_dict())
+    planet = core.planets.build_planet(s.as_dict())
     assert planet.height_offset == -2500.0
     assert planet.height_range() == (lo - 2500.0, hi - 2500.0)
     assert bpy.ops.object.planet_refresh() == {'FINISHED'}
@@ -43,7 +43,7 @@ def main():
     # an unsigned map read as signed: integer values (metres with scale 1)
     s.height_scale = 0.5
     s.height_signed = True
-    signed = core.build_planet(s.as_dict())
+    signed = core.planets.build_planet(s.as_dict())
     lo, hi = signed.height_range()
     assert lo < -2500.0 and -32768 * 0.5 - 2500.0 <= lo and hi <= 32767 * 0.5 - 2500.0, (lo, hi)
     assert bpy.ops.object.planet_refresh() == {'FINISHED'}

@@ -12,7 +12,8 @@ def scene_state():
 
 def main():
     lib.enable()
-    from planet_lod import live, presets
+    from planet_lod import live
+    from planetlod import presets
     lib.clear_scene()
     scene = bpy.context.scene
     scene.render.resolution_x, scene.render.resolution_y = 320, 180
@@ -50,14 +51,15 @@ def main():
     # Max Depth set by hand is kept
     from mathutils import Vector
     from planet_lod import core
-    assert earth.planet_lod.max_level == 0 and core.max_level(earth.planet_lod.as_dict()) == 48
+    assert earth.planet_lod.max_level == 0
+    assert core.planets.max_level(earth.planet_lod.as_dict()) == 48
     assert bpy.ops.mesh.planet_add(preset='ASTEROID', quality='DRAFT') == {'FINISHED'}
     rock = bpy.context.object
     settings = rock.planet_lod.as_dict()
-    auto = core.max_level(settings)
+    auto = core.planets.max_level(settings)
     assert 30 <= auto <= 40, auto
     up = Vector((0.3, -0.8, 0.5)).normalized()
-    ground = rock.planet_lod.radius + core.build_planet(settings).height(*up)
+    ground = rock.planet_lod.radius + core.planets.build_planet(settings).height(*up)
     east = Vector((0.0, 0.0, 1.0)).cross(up).normalized()
     cam.location = up * (ground + 2.0)
     cam.rotation_euler = (east - 0.3 * up).to_track_quat('-Z', 'Y').to_euler()

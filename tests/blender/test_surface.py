@@ -124,7 +124,7 @@ def check_detail(planet):
           f"{(detail != 0).mean() * 100:.0f} % of the vertices")
     assert detail.min() < -10.0 and detail.max() > 100.0, (detail.min(), detail.max())
     settings = dict(planet.planet_lod.as_dict(), use_detail=False)
-    plain = core.build_planet(settings)
+    plain = core.planets.build_planet(settings)
     co, _, _ = mesh_arrays(planet)
     pick = numpy.arange(0, len(co), max(1, len(co) // 500))
     points = co[pick].astype(numpy.float64) + numpy.array(live.anchor(planet))
@@ -162,7 +162,7 @@ def main():
     # precision: vertices within 1 km of the camera vs the float64 surface
     # (the map's: with detail, vertices keep the octaves their cells resolve)
     earth.planet_lod.use_detail = False
-    native = core.build_planet(earth.planet_lod.as_dict())
+    native = core.planets.build_planet(earth.planet_lod.as_dict())
     cam.planet_lod_geo.altitude = 5.0
     live.refresh_for_render(scene)
     world = world_vertices(earth)

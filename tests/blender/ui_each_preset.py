@@ -32,7 +32,7 @@ def fly_to_ground(planet, r3d, up=SOMEWHERE, altitude=ALTITUDE):
     east, pitched so the horizon sits HORIZON_ABOVE_CENTRE degrees above the
     view's centre."""
     from planet_lod import core
-    native = core.build_planet(planet.planet_lod.as_dict())
+    native = core.planets.build_planet(planet.planet_lod.as_dict())
     ground = planet.planet_lod.radius + native.height(*up)
     eye = up * (ground + altitude)
     dip = math.degrees(math.acos(ground / (ground + altitude)))
@@ -138,7 +138,7 @@ def frame_and_render(name, planet, st):
 
 def test():
     lib.enable()
-    from planet_lod import presets
+    from planetlod import presets
     space = ui.clean_view()
     r3d = space.region_3d
     scene = bpy.context.scene

@@ -36,7 +36,7 @@ def ground_view(planet, altitude, pitch):
     """Points the viewport from `altitude` metres above the ground, `pitch`
     degrees below the horizon, heading east, upright."""
     from planet_lod import core
-    native = core.build_planet(planet.planet_lod.as_dict())
+    native = core.planets.build_planet(planet.planet_lod.as_dict())
     direction = Vector((0.3, -0.8, 0.5)).normalized()
     eye = direction * (planet.planet_lod.radius + native.height(*direction) + altitude)
     east = Vector((0.0, 0.0, 1.0)).cross(direction).normalized()

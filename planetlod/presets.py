@@ -1,7 +1,7 @@
 """Planet and quality presets (bpy-free data; applied by operators and preset files)."""
 
 # Per planet: settings to assign to object.planet_lod; file names are looked up
-# with core.data_path().  Radii in metres; height_scale = metres per unit of
+# with the data_path the caller passes.  Radii in metres; height_scale = metres per unit of
 # normalised map height (maps are 0..1).
 PLANETS = {
     "EARTH": dict(label="Earth", radius=6371000.0, heightmap="earth-topology.png",

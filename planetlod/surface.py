@@ -31,6 +31,8 @@ try:
 except ImportError:  # pragma: no cover - Blender ships numpy
     numpy = None
 
+# The core's shading normal, object space (a POINT FLOAT_VECTOR attribute).
+NORMAL_ATTRIBUTE = "planet_normal"
 ATTRIBUTES = ("planet_height", "planet_sea_depth", "planet_sea", "planet_slope",
               "planet_latitude", "planet_detail")
 

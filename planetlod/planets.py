@@ -1,0 +1,160 @@
+"""Planets and refinement from a settings dict (the add-on's object settings,
+or a preset's): the planet a set of settings builds (cached by the settings
+that define its geometry), the refinement's keyword arguments, the depth
+limit and the mesh-size guard."""
+import math
+import os
+
+from . import FileError, InvalidArgument, presets, require_native
+
+PROJECTION_IDS = {"QSC": "qsc", "TSC": "tsc", "CSC": "csc", "SPHERIFIED": "spherified",
+                  "CAR": "car"}
+
+_planet_cache = {}
+
+
+def planet_key(settings):
+    """The settings that define the planet's geometry (not the LOD)."""
+    path = settings.get("heightmap") or ""
+    stamp = None
+    if path and os.path.exists(path):
+        st = os.stat(path)
+        stamp = (st.st_size, st.st_mtime_ns)
+    detail = presets.detail_kwargs(settings)
+    return (settings["projection"], float(settings["radius"]), path, stamp,
+            float(settings["height_scale"]), float(settings.get("height_offset", 0.0)),
+            bool(settings.get("height_signed", False)),
+            float(settings["sea_level"]) if settings.get("use_sea_level") else None,
+            tuple(sorted(detail.items())) if detail else None)
+
+
+def check_heightmap(path):
+    """Raises FileError with a clear message for a path that cannot be a map."""
+    if not path:
+        return
+    if not os.path.exists(path):
+        raise FileError(f"height map not found: {path}")
+    if os.path.isdir(path):
+        raise FileError(f"height map is a folder: {path}")
+    if os.path.getsize(path) == 0:
+        raise FileError(f"height map is empty (0 bytes): {path}")
+
+
+# Sectors a planet allocates (and touches) when it is built: a 1 px LOD at
+# 1920x1080 peaks near 7,000 over the Earth map, so the first flight over a
+# new planet does not grow arrays mid-frame (about 11 MB, 3 ms, once).
+RESERVE_SECTORS = 16384
+
+
+def build_planet(settings):
+    """A native Planet for these settings (cached by planet_key).  Raises on bad input."""
+    module = require_native()
+    key = planet_key(settings)
+    planet = _planet_cache.get(key)
+    if planet is not None:
+        return planet
+    check_heightmap(settings.get("heightmap"))
+    kwargs = {"projection": PROJECTION_IDS[settings["projection"]],
+              "height_scale": float(settings["height_scale"]),
+              "height_offset": float(settings.get("height_offset", 0.0))}
+    if settings.get("heightmap"):
+        kwargs["heightmap"] = settings["heightmap"]
+        kwargs["height_signed"] = bool(settings.get("height_signed", False))
+    if settings.get("use_sea_level"):
+        kwargs["sea_level"] = float(settings["sea_level"])
+    detail = presets.detail_kwargs(settings)
+    if detail:
+        kwargs["detail"] = detail
+    planet = module.Planet(float(settings["radius"]), **kwargs)
+    planet.reserve(RESERVE_SECTORS)
+    if len(_planet_cache) > 8:
+        _planet_cache.clear()
+    _planet_cache[key] = planet
+    return planet
+
+
+def forget_planets():
+    _planet_cache.clear()
+
+
+def make_camera(params):
+    """params: dict of planetlod.Camera keyword arguments (matrix_world in planet space)."""
+    return require_native().Camera(**params)
+
+
+def refine(planet, camera, settings, hysteresis=False):
+    """Refines `planet` for `camera`; returns the stats dict plus 'triangles'.
+    hysteresis=False (renders) makes the LOD a function of the camera alone."""
+    template_level = int(settings["template_level"])
+    kwargs = dict(criterion="pixel" if settings["criterion"] == "PIXEL" else "side_distance",
+                  max_pixel_error=float(settings["max_pixel_error"]),
+                  split_border=float(settings["split_border"]),
+                  merge_border=float(settings["merge_border"]),
+                  hysteresis=bool(hysteresis),
+                  template_level=template_level, max_level=max_level(settings),
+                  budget=int(settings["budget"]), backface=bool(settings["backface"]),
+                  frustum=bool(settings["frustum"]),
+                  skip_sea=bool(settings.get("use_sea_level") and settings.get("skip_sea")))
+    stats = dict(planet.refine(camera, **kwargs))
+    stats["triangles"] = planet.visible_count * 4 ** template_level
+    stats["visible"] = planet.visible_count
+    return stats
+
+
+# Most triangles one mesh build may emit.  Template density x sectors can ask for
+# billions (16384 x a budget of 1e6); past this the build is refused with a clear
+# message instead of exhausting memory inside Blender.
+MAX_MESH_TRIANGLES = 1 << 24
+
+
+def check_mesh_size(stats, template_level):
+    """Raises InvalidArgument when the refined LOD would emit more than MAX_MESH_TRIANGLES."""
+    triangles = stats["visible"] * 4 ** template_level
+    if triangles > MAX_MESH_TRIANGLES:
+        raise InvalidArgument(
+            f"the LOD would build {triangles:,} triangles ({stats['visible']:,} sectors x "
+            f"{4 ** template_level} per sector), more than the limit of "
+            f"{MAX_MESH_TRIANGLES:,}: lower the template density or the sector budget")
+
+
+def camera_inside(planet, matrix_world):
+    """True when the camera (planet-space row-major matrix) is below the terrain."""
+    location = [row[3] for row in matrix_world[:3]]
+    distance = math.sqrt(sum(c * c for c in location))
+    if distance == 0.0:
+        return True
+    ground = planet.radius + planet.height(*(c / distance for c in location))
+    return not distance >= ground  # NaN-safe
+
+
+# The deepest bisection level a planet's settings may ask for.  On a
+# 6,371 km Earth a level-48 patch is 0.6 m across.
+DEEPEST_LEVEL = 48
+
+
+def max_level(settings):
+    """The refinement's depth limit: the settings' Max Depth, or with Max Depth
+    0 (automatic) the level at which a patch's triangles are half the detail's
+    smallest feature, from the planet's size -- 34 levels on a 20 km asteroid
+    with 10 cm detail, the deepest level on an Earth.  Without detail the
+    pixel error and the height map's texels alone stop the refinement."""
+    chosen = int(settings["max_level"])
+    if chosen > 0:
+        return chosen
+    if not settings.get("use_detail"):
+        return DEEPEST_LEVEL
+    smallest = float(settings.get("detail_smallest", 0.1))
+    # a level-0 patch is half a cube face, legs of a quarter great circle;
+    # every two bisections halve them; a template splits a leg 2^level times
+    leg = 0.5 * math.pi * float(settings["radius"])
+    spacing = 0.5 * smallest * 2 ** int(settings["template_level"])
+    level = 2 * math.ceil(math.log2(max(leg / spacing, 1.0)))
+    return max(1, min(DEEPEST_LEVEL, level))
+
+
+def template_level_from_density(triangles):
+    """Template density (1..16384 triangles per sector, a power of 4) -> level 0..7."""
+    level = 0
+    while 4 ** (level + 1) <= triangles and level < 7:
+        level += 1
+    return level
