@@ -245,7 +245,7 @@ def table(summary, handoff, handoff_gpu, cyc, ctx):
             r = [summary.get(f"polar_ratio_car_{c}_{crit}") for c in ("tsc", "csc", "qsc")]
             e = [summary.get(f"equator_ratio_car_{c}_{crit}") for c in ("tsc", "csc", "qsc")]
             lines.append(f"| 1 | CAR / cube triangles over the poles ({crit}; TSC, CSC, QSC) | "
-                         + ", ".join(fmt(v, 2) for v in r) + " | thesis: ~2x |")
+                         + ", ".join(fmt(v, 2) for v in r) + " | Gasiński 2010: ~2x |")
             lines.append(f"| 1 | CAR / cube triangles over the equator ({crit}; TSC, CSC, QSC) | "
                          + ", ".join(fmt(v, 2) for v in e) + " | (control) |")
         p = summary["projections"].get("qsc/pixel", {})

@@ -14,7 +14,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define PLOD__DETAIL_PI PLOD_PI
 /* error table over binades of the cell size: 2^e metres, e in [MIN, MAX] */
 #define PLOD__ERR_EXP_MIN (-48)
 #define PLOD__ERR_EXP_MAX 72
@@ -787,7 +786,7 @@ static double plod__cell_error_exact(const plod_detail *d, double cell)
         } else {
             /* linear interpolation over a cell: ~ a (pi cell / wavelength)^2 / 2 */
             double x = cell / d->octaves[i].wavelength;
-            double f = 0.5 * PLOD__DETAIL_PI * PLOD__DETAIL_PI * x * x;
+            double f = 0.5 * PLOD_PI * PLOD_PI * x * x;
             e += half * (f < 1.0 ? f : 1.0);
         }
     }
@@ -957,8 +956,8 @@ plod_status plod_detail_create(plod_detail **out, const plod_detail_params *para
         if (planet->heightmap) {
             int size = plod_cubemap_size(planet->heightmap);
             double texel_angle = plod_projection_is_cube(planet->projection)
-                                     ? 0.5 * PLOD__DETAIL_PI / size
-                                     : PLOD__DETAIL_PI / size;
+                                     ? 0.5 * PLOD_PI / size
+                                     : PLOD_PI / size;
             largest = 2.0 * texel_angle * planet->radius;
         } else {
             largest = planet->radius / 50.0;

@@ -22,7 +22,6 @@
 
 #include "plod.h"
 
-#define PLOD__PI PLOD_PI
 
 /* ---- templates ----------------------------------------------------------- */
 
@@ -147,8 +146,8 @@ void plod_mesh_origin(const plod_surface_source *surface, double radius,
 static double plod__base_side(const plod_planet *planet)
 {
     double size = planet->projection == PLOD_PROJ_CAR
-                      ? sqrt(2.0) * sqrt(PLOD__PI)
-                      : 2.0 * sqrt(2.0) * sqrt(PLOD__PI / 6.0);
+                      ? sqrt(2.0) * sqrt(PLOD_PI)
+                      : 2.0 * sqrt(2.0) * sqrt(PLOD_PI / 6.0);
     return planet->radius * size;
 }
 
@@ -292,9 +291,9 @@ static double plod__atan2(double y, double x)
     p = p * a2 + 0.9999999804035231;
     double r = p * a;
     if (ay > ax)
-        r = PLOD__PI / 2 - r;
+        r = PLOD_PI / 2 - r;
     if (x < 0.0)
-        r = PLOD__PI - r;
+        r = PLOD_PI - r;
     return y < 0.0 ? -r : r;
 }
 
@@ -736,14 +735,14 @@ static void plod__compute_vertices(const plod__emitter *e, const plod_mesh_secto
                 double lon = lon_ref;
                 if (horizontal > 1e-12) {
                     lon = plod__atan2(dir[1], dir[0]);
-                    if (lon - lon_ref > PLOD__PI)
-                        lon -= 2 * PLOD__PI;
-                    else if (lon - lon_ref < -PLOD__PI)
-                        lon += 2 * PLOD__PI;
+                    if (lon - lon_ref > PLOD_PI)
+                        lon -= 2 * PLOD_PI;
+                    else if (lon - lon_ref < -PLOD_PI)
+                        lon += 2 * PLOD_PI;
                 }
                 double lat = plod__atan2(dir[2], horizontal);
-                uvf[0] = (float)(lon / (2 * PLOD__PI) + 0.5);
-                uvf[1] = (float)(lat / PLOD__PI + 0.5);
+                uvf[0] = (float)(lon / (2 * PLOD_PI) + 0.5);
+                uvf[1] = (float)(lat / PLOD_PI + 0.5);
                 if (out->uv)
                     memcpy(out->uv + 2 * v, uvf, sizeof uvf);
             }

@@ -7,8 +7,16 @@ import os
 
 from . import FileError, InvalidArgument, presets, require_native
 
-PROJECTION_IDS = {"QSC": "qsc", "TSC": "tsc", "CSC": "csc", "SPHERIFIED": "spherified",
-                  "CAR": "car"}
+
+
+def projection_id(key):
+    """The core's name of a settings projection key ('QSC' -> 'qsc'): the
+    extension's PROJECTIONS tuple is the one list of projections."""
+    name = str(key).lower()
+    if name not in require_native().PROJECTIONS:
+        raise InvalidArgument(f"unknown projection {key!r}: one of "
+                              + ", ".join(p.upper() for p in require_native().PROJECTIONS))
+    return name
 
 _planet_cache = {}
 
@@ -54,7 +62,7 @@ def build_planet(settings):
     if planet is not None:
         return planet
     check_heightmap(settings.get("heightmap"))
-    kwargs = {"projection": PROJECTION_IDS[settings["projection"]],
+    kwargs = {"projection": projection_id(settings["projection"]),
               "height_scale": float(settings["height_scale"]),
               "height_offset": float(settings.get("height_offset", 0.0))}
     if settings.get("heightmap"):

@@ -19,7 +19,7 @@ bl_info = {
     "version": (0, 1, 0),
     "blender": (3, 4, 0),
     "location": "View3D > Add > Mesh > Planet; View3D > Sidebar > Planet",
-    "description": "Cube-sphere planets with HRTMR level of detail, GPU preview and flybys",
+    "description": "Cube-sphere planets with view-dependent level of detail, GPU preview and flybys",
     "category": "Add Mesh",
 }
 

@@ -180,7 +180,8 @@ def lod_camera_params(obj, scene, for_render=False, depsgraph=None):
 
 
 # ---- clip ranges ------------------------------------------------------------------
-# The horizon-distance correction (after the source thesis): the nearest
+# The horizon-distance correction (K. Gasiński's HRTMR, master's thesis,
+# Gdańsk University of Technology, 2010): the nearest
 # terrain cannot be closer than the camera's height above the highest peak and
 # nothing beyond the horizon plus the distance at which the highest peak still
 # rises over it can be seen.  Clipping there keeps depth precision where the
@@ -191,9 +192,9 @@ def _scale(obj):
 
 
 def view_clip(obj, planet, params):
-    """(clip_start, clip_end) in scene units for a viewport camera: the thesis's
+    """(clip_start, clip_end) in scene units for a viewport camera: Gasiński's
     range, with a clip start of a tenth of the height above the ground below the
-    camera where the camera is lower than the highest peak (the thesis's clip
+    camera where the camera is lower than the highest peak (his clip
     start is then ~0) and at most a million times shorter than the clip end."""
     near, far = planet.recommended_clip(planet_settings.make_camera(params))
     eye = [row[3] for row in params["matrix_world"][:3]]

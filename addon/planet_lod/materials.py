@@ -70,7 +70,7 @@ def cube_to_equirect(path, projection, max_width=2048, progress=None):
     of a cross-layout cube map in `projection`, sampled with planetlod.CubeMap
     (the same lookup the heights use).  progress(fraction) is called per row."""
     module = core.native_or_raise()
-    cube = module.CubeMap.from_image(path, projection=core.planets.PROJECTION_IDS[projection])
+    cube = module.CubeMap.from_image(path, projection=core.planets.projection_id(projection))
     width = min(max_width, 4 * cube.size)
     height = width // 2
     sample = cube.sample
