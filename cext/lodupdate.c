@@ -634,6 +634,7 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
 
     double t0 = plod__now_us();
     r->tree.frame++;
+    r->order_count = 0; /* a failure below leaves no stale visible list */
     plod__frame f;
     plod__frame_init(&f, r, camera, params, eye_dist);
     plod__refine(r, &f);

@@ -146,8 +146,7 @@ void plod_refiner_reset(plod_refiner *refiner);
  * changed), PLOD_ERR_BAD_CAMERA (eye not finite or at the planet's centre;
  * nothing changed) or PLOD_ERR_NO_MEMORY (the visible order or the budget
  * cut could not be allocated: the leaves are this frame's, stats are not
- * written and the visible list is not to be used until a successful
- * update).  The split pass itself never fails: when memory runs out it
+ * written and the visible list is empty until a successful update).  The split pass itself never fails: when memory runs out it
  * stops as at max_sectors. */
 plod_status plod_refiner_update(plod_refiner *refiner, const plod_camera *camera,
                                 const plod_refine_params *params,
