@@ -93,7 +93,8 @@ static void plod__tighten_subtexel(const plod_planet *planet, plod_bound_corners
  * tighten both around corner 0: m as the map heights are (bilinear, below
  * half a texel), N by plod_detail_local_range over the cap's diameter
  * chord 2 sin(angle) (every point of the sector is within it of corner
- * 0), with the octaves a mesh of the sector drops counted by range.
+ * 0), with the octaves a mesh of the sector drops counted by range;
+ * over an inset widened by the range of the octaves the field keeps there.
  * *mod_max: the modulation bound (the error's scale). */
 static void plod__detail_bound(const plod_planet *planet, const plod_sector *s,
                                plod_bound_corners *memo, const int idx[3], const plod_bound *b,
@@ -126,6 +127,15 @@ static void plod__detail_bound(const plod_planet *planet, const plod_sector *s,
         return; /* a cap past a hemisphere: the region's bounds */
     double nlo, nhi;
     plod_detail_local_range(planet->detail, corner, chord, b->size, &nlo, &nhi);
+    int first = plod_planet_detail_first_octave_cap(planet, b->axis,
+                                                    atan2(b->sin_angle, b->cos_angle));
+    if (first < plod_detail_octave_count(planet->detail)) {
+        /* an inset: there the field blends toward its fine octaves alone */
+        double flo, fhi;
+        plod_detail_tail_range(planet->detail, first, &flo, &fhi);
+        nlo = flo < nlo ? flo : nlo;
+        nhi = fhi > nhi ? fhi : nhi;
+    }
     /* m in [m0, m1] >= 0 times N in [nlo, nhi] */
     double p[4] = {m[0] * nlo, m[0] * nhi, m[1] * nlo, m[1] * nhi};
     double lo = p[0], hi = p[0];

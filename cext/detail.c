@@ -359,13 +359,14 @@ static inline void plod__octave_step(const plod_detail *detail, const plod__octa
     }
 }
 
-/* plod_detail_noise without the gradient: the same sum, bit for bit. */
-static double plod__noise_value(const plod_detail *detail, const double dir[3], int octaves)
+/* plod_detail_noise_from without the gradient: the same sum, bit for bit. */
+static double plod__noise_value(const plod_detail *detail, const double dir[3], int first,
+                                int octaves)
 {
     int ridged = detail->params.style == PLOD_DETAIL_MOUNTAINS;
     plod__noise_state st;
     plod__noise_start(&st);
-    for (int i = 0; i < octaves; i++)
+    for (int i = first; i < octaves; i++)
         plod__octave_step(detail, &detail->octaves[i], ridged, dir, 1, 0, &st);
     return st.sum;
 }
@@ -378,19 +379,26 @@ static int plod__unit_range(const double dir[3])
 double plod_detail_noise(const plod_detail *detail, const double dir[3], int octaves,
                          double gradient[3])
 {
+    return plod_detail_noise_from(detail, dir, 0, octaves, gradient);
+}
+
+double plod_detail_noise_from(const plod_detail *detail, const double dir[3], int first,
+                              int octaves, double gradient[3])
+{
     if (octaves > detail->count)
         octaves = detail->count;
+    first = first > 0 ? first : 0;
     if (!plod__unit_range(dir)) {
         if (gradient) /* not a unit direction (NaN): no lattice to read */
             gradient[0] = gradient[1] = gradient[2] = NAN;
         return NAN;
     }
     if (!gradient)
-        return plod__noise_value(detail, dir, octaves);
+        return plod__noise_value(detail, dir, first, octaves);
     int ridged = detail->params.style == PLOD_DETAIL_MOUNTAINS;
     plod__noise_state st;
     plod__noise_start(&st);
-    for (int i = 0; i < octaves; i++)
+    for (int i = first; i < octaves; i++)
         plod__octave_step(detail, &detail->octaves[i], ridged, dir, 1, 1, &st);
     memcpy(gradient, st.acc, sizeof st.acc);
     return st.sum;
@@ -435,6 +443,7 @@ typedef struct plod__lanes {
     int count; /* lanes in use, rounded up to a multiple of 4 (idle ones masked) */
     double dir[3][PLOD__LANES];
     double value_count[PLOD__LANES], gradient_count[PLOD__LANES]; /* octaves */
+    double first[PLOD__LANES]; /* the lane's first octave (those before it idle) */
     double p[3][PLOD__LANES];    /* lattice point */
     double frac[3][PLOD__LANES]; /* position inside the lattice cell */
     double q[8][3][PLOD__LANES]; /* the 8 corners' gradients */
@@ -549,8 +558,9 @@ PLOD__LANE_INLINE void plod__lane_accumulate(plod__lanes *l, int k, const plod__
                                             double at, int ridged, int gradient)
 {
     double a = o->noise_weight;
-    int add_sum = at < l->value_count[k];
-    int add_gradient = gradient ? at < l->gradient_count[k] : 0;
+    int started = at >= l->first[k];
+    int add_sum = started & (at < l->value_count[k]);
+    int add_gradient = gradient ? started & (at < l->gradient_count[k]) : 0;
     double n = l->n[k];
     double g0 = l->g[0][k], g1 = l->g[1][k], g2 = l->g[2][k];
     if (!ridged) {
@@ -619,6 +629,13 @@ void plod_detail_noise_n(const plod_detail *detail, size_t n, const double *dirs
                          const int *octaves, const int *gradient_octaves, double *sums,
                          double *gradients)
 {
+    plod_detail_noise_from_n(detail, n, dirs, NULL, octaves, gradient_octaves, sums, gradients);
+}
+
+void plod_detail_noise_from_n(const plod_detail *detail, size_t n, const double *dirs,
+                              const int *first_octaves, const int *octaves,
+                              const int *gradient_octaves, double *sums, double *gradients)
+{
     int ridged = detail->params.style == PLOD_DETAIL_MOUNTAINS;
     plod__lanes lanes, *l = &lanes;
     int depth_of[PLOD__LANES], lane_of[PLOD__LANES], depth[PLOD__LANES];
@@ -649,9 +666,9 @@ void plod_detail_noise_n(const plod_detail *detail, size_t n, const double *dirs
         }
         for (int k = 0; k < count; k++)
             lane_of[per_depth[depth_of[k]]++] = k;
-        int padded = (count + 3) & ~3;
+        int padded = (count + 3) & ~3, earliest = detail->count;
         for (int k = 0; k < padded; k++) {
-            int v = 0, g = 0;
+            int v = 0, g = 0, f = 0;
             const double *dir = plod__idle_dir; /* idle lanes: masked, any lattice point */
             if (k < count) {
                 size_t at = first + (size_t)lane_of[k];
@@ -663,7 +680,10 @@ void plod_detail_noise_n(const plod_detail *detail, size_t n, const double *dirs
                     dir = dirs + 3 * at;
                 else
                     v = g = 0;
+                f = first_octaves && first_octaves[at] > 0 ? first_octaves[at] : 0;
+                earliest = f < earliest ? f : earliest;
             }
+            l->first[k] = f;
             for (int a = 0; a < 3; a++)
                 l->dir[a][k] = dir[a];
             l->value_count[k] = v;
@@ -678,6 +698,8 @@ void plod_detail_noise_n(const plod_detail *detail, size_t n, const double *dirs
         }
         int active = count;
         for (int i = 0; i < deepest; i++) {
+            if (i < earliest)
+                continue; /* no lane has started (lanes only ever drop out below) */
             while (active > 0 && depth[active - 1] <= i)
                 active--;
             l->count = (active + 3) & ~3;
@@ -690,7 +712,9 @@ void plod_detail_noise_n(const plod_detail *detail, size_t n, const double *dirs
             if (o->crater_weight == 0.0)
                 continue;
             for (int k = 0; k < active; k++) { /* craters: lane by lane */
-                int add_sum = i < l->value_count[k], add_gradient = i < l->gradient_count[k];
+                int started = i >= l->first[k];
+                int add_sum = started && i < l->value_count[k];
+                int add_gradient = started && i < l->gradient_count[k];
                 if (!add_sum && !add_gradient)
                     continue;
                 double cp[3] = {l->p[0][k] + 0.5, l->p[1][k] + 0.5, l->p[2][k] + 0.5}, g[3];
@@ -738,6 +762,23 @@ void plod_detail_noise_range(const plod_detail *detail, double *lo, double *hi)
 {
     *lo = detail->lo;
     *hi = detail->hi;
+}
+
+int plod_detail_first_octave_below(const plod_detail *detail, double wavelength)
+{
+    /* a hair of tolerance: data of exactly the map's resolution drops nothing */
+    double limit = wavelength * (1.0 + 1e-9);
+    int k = 0;
+    while (k < detail->count && detail->octaves[k].wavelength > limit)
+        k++;
+    return k;
+}
+
+void plod_detail_tail_range(const plod_detail *detail, int first, double *lo, double *hi)
+{
+    first = first < 0 ? 0 : (first > detail->count ? detail->count : first);
+    *lo = detail->tail_lo[first];
+    *hi = detail->tail_hi[first];
 }
 
 void plod_detail_local_range(const plod_detail *detail, const double dir[3], double reach,

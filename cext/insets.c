@@ -22,6 +22,8 @@ typedef struct plod__inset {
     float *metres;                   /* row 0 north */
     int shared[4];                   /* west, east, south, north edge shared */
     double feather;                  /* degrees */
+    double texel_angle;              /* radians: the north-south sample spacing */
+    double mosaic_texel_angle;       /* radians: the coarsest over its mosaic */
     double lo, hi;                   /* metres, NaN-free */
     int blocks_x, blocks_y;
     float *block_lo, *block_hi;      /* per PLOD__INSET_BLOCK^2 block */
@@ -152,11 +154,33 @@ plod_status plod_insets_create(plod_insets **out, const plod_inset_desc *descs, 
             s->hi = t->hi > s->hi ? t->hi : s->hi;
         }
     }
+    for (size_t i = 0; i < count; i++) {
+        plod__inset *t = &s->items[i];
+        t->texel_angle = (t->north - t->south) / (t->height - 1) * PLOD_PI / 180.0;
+        t->mosaic_texel_angle = t->texel_angle;
+    }
     for (size_t i = 0; i < count; i++)
         for (int side = 0; side < 4; side++)
             for (size_t j = 0; j < count; j++)
                 if (j != i && plod__edge_shared(&s->items[i], &s->items[j], side))
                     s->items[i].shared[side] = 1;
+    /* the coarsest spacing over each mosaic: spread along shared edges
+     * (either side's) until nothing changes; at most count rounds */
+    for (int changed = 1; changed;) {
+        changed = 0;
+        for (size_t i = 0; i < count; i++)
+            for (size_t j = 0; j < count; j++) {
+                plod__inset *a = &s->items[i], *b = &s->items[j];
+                if (j == i || !(b->mosaic_texel_angle > a->mosaic_texel_angle))
+                    continue;
+                for (int side = 0; side < 4; side++)
+                    if (plod__edge_shared(a, b, side) || plod__edge_shared(b, a, side)) {
+                        a->mosaic_texel_angle = b->mosaic_texel_angle;
+                        changed = 1;
+                        break;
+                    }
+            }
+    }
     *out = s;
     return PLOD_OK;
 }
@@ -185,8 +209,16 @@ static double plod__smoothstep(double x)
 double plod_insets_blend(const plod_insets *insets, const double dir[3], double base_m,
                          double *texel_angle)
 {
+    return plod_insets_blend_weight(insets, dir, base_m, texel_angle, NULL);
+}
+
+double plod_insets_blend_weight(const plod_insets *insets, const double dir[3], double base_m,
+                                double *texel_angle, plod_inset_weight *where)
+{
     if (texel_angle)
         *texel_angle = 0.0;
+    if (where)
+        where->weight = where->mosaic_texel_angle = 0.0;
     if (!insets || !insets->count)
         return base_m;
     double lon, lat;
@@ -220,10 +252,61 @@ double plod_insets_blend(const plod_insets *insets, const double dir[3], double 
         if (!(value == value))
             return base_m; /* a void: the global data */
         if (texel_angle)
-            *texel_angle = (t->north - t->south) / (t->height - 1) * PLOD_PI / 180.0;
+            *texel_angle = t->texel_angle;
+        if (where) {
+            where->weight = w < 1.0 ? w : 1.0;
+            where->mosaic_texel_angle = t->mosaic_texel_angle;
+        }
         return w >= 1.0 ? value : base_m + w * (value - base_m);
     }
     return base_m;
+}
+
+/* The lon/lat box around a spherical cap (degrees): latitudes lat0..lat1,
+ * longitudes lon +- half_lon (180: all). */
+typedef struct plod__cap_box {
+    double lat0, lat1, lon, half_lon;
+} plod__cap_box;
+
+static plod__cap_box plod__cap_box_of(const double axis[3], double angle)
+{
+    const double deg = 180.0 / PLOD_PI;
+    plod__cap_box box;
+    double lat = asin(fmax(-1.0, fmin(1.0, axis[2]))) * deg;
+    box.lon = atan2(axis[1], axis[0]) * deg;
+    double a = angle * deg;
+    box.lat0 = lat - a, box.lat1 = lat + a;
+    if (!(angle >= 0.0) || angle >= 0.5 * PLOD_PI || box.lat1 >= 90.0 || box.lat0 <= -90.0)
+        box.half_lon = 180.0;
+    else
+        box.half_lon = asin(fmin(1.0, sin(angle) / cos(lat / deg))) * deg;
+    return box;
+}
+
+static int plod__cap_box_meets(const plod__cap_box *box, const plod__inset *t)
+{
+    if (box->lat1 < t->south || box->lat0 > t->north)
+        return 0;
+    double w0 = box->lon - box->half_lon, w1 = box->lon + box->half_lon;
+    int hit = box->half_lon >= 180.0;
+    for (int k = -1; k <= 1 && !hit; k++) /* the box, also shifted across the date line */
+        hit = w0 + 360.0 * k <= t->east && w1 + 360.0 * k >= t->west;
+    return hit;
+}
+
+double plod_insets_mosaic_texel_cap(const plod_insets *insets, const double axis[3],
+                                    double angle)
+{
+    if (!insets || !insets->count)
+        return 0.0;
+    plod__cap_box box = plod__cap_box_of(axis, angle);
+    double widest = 0.0;
+    for (size_t i = 0; i < insets->count; i++) {
+        const plod__inset *t = &insets->items[i];
+        if (plod__cap_box_meets(&box, t) && t->mosaic_texel_angle > widest)
+            widest = t->mosaic_texel_angle;
+    }
+    return widest;
 }
 
 int plod_insets_range_cap(const plod_insets *insets, const double axis[3], double angle,
@@ -231,26 +314,15 @@ int plod_insets_range_cap(const plod_insets *insets, const double axis[3], doubl
 {
     if (!insets || !insets->count)
         return 0;
-    const double deg = 180.0 / PLOD_PI;
-    double lat = asin(fmax(-1.0, fmin(1.0, axis[2]))) * deg;
-    double lon = atan2(axis[1], axis[0]) * deg;
-    double a = angle * deg, lat0 = lat - a, lat1 = lat + a, half_lon;
-    if (!(angle >= 0.0) || angle >= 0.5 * PLOD_PI || lat1 >= 90.0 || lat0 <= -90.0)
-        half_lon = 180.0;
-    else
-        half_lon = asin(fmin(1.0, sin(angle) / cos(lat / deg))) * deg;
+    plod__cap_box box = plod__cap_box_of(axis, angle);
+    double lon = box.lon, half_lon = box.half_lon, lat0 = box.lat0, lat1 = box.lat1;
     double lo = INFINITY, hi = -INFINITY;
     int any = 0;
     for (size_t i = 0; i < insets->count; i++) {
         const plod__inset *t = &insets->items[i];
-        if (lat1 < t->south || lat0 > t->north)
+        if (!plod__cap_box_meets(&box, t))
             continue;
         double w0 = lon - half_lon, w1 = lon + half_lon;
-        int hit = half_lon >= 180.0;
-        for (int k = -1; k <= 1 && !hit; k++) /* the box, also shifted across the date line */
-            hit = w0 + 360.0 * k <= t->east && w1 + 360.0 * k >= t->west;
-        if (!hit)
-            continue;
         any = 1;
         /* the blocks under the box (clamped to the inset), whole inset when wide */
         double x0 = half_lon >= 180.0 ? t->west : fmax(t->west, w0), x1 = half_lon >= 180.0 ? t->east : fmin(t->east, w1);

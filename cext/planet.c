@@ -205,17 +205,42 @@ static void plod__apply_detail(const plod_planet *planet, const double dir[3], d
 
 /* The detail field on top of the map's height and normal at dir (first
  * `octaves` octaves for the height, `normal_octaves` for the normal's
- * slope); nothing where m is 0 (sea) or NaN. */
+ * slope); nothing where m is 0 (sea) or NaN.  Where an inset counts
+ * (inset->weight w > 0) the field starts below its data: N = (1 - w) N_all
+ * + w N_from, N_from the octaves from the first one of wavelength <= two
+ * of the mosaic's samples, started fresh (plod_detail_noise_from); the
+ * same w as the heights' blend, so the field fades in across the
+ * feathered border as the inset's heights fade out.  The normal's slope
+ * blends the same way (w's own slope is left out, as the modulation's). */
 static void plod__add_detail(const plod_planet *planet, const double dir[3], double m,
-                             int octaves, int normal_octaves, double *height, double *normal,
-                             double *detail)
+                             int octaves, int normal_octaves, const plod_inset_weight *inset,
+                             double *height, double *normal, double *detail)
 {
     if (!(m != 0.0) || octaves <= 0)
         return; /* sea (m = 0) or NaN map: unchanged (and *detail 0) */
-    double unit[3], g[3], noise;
+    double unit[3], g[3], noise = 0.0;
     plod__unit_dir(dir, unit);
-    plod_detail_noise_n(planet->detail, 1, unit, &octaves, &normal_octaves, &noise,
-                        normal ? g : NULL);
+    double w = inset && inset->weight > 0.0 ? inset->weight : 0.0;
+    if (w < 1.0)
+        plod_detail_noise_n(planet->detail, 1, unit, &octaves, &normal_octaves, &noise,
+                            normal ? g : NULL);
+    if (w > 0.0) {
+        double from, g_from[3];
+        int first = plod_detail_first_octave_below(
+            planet->detail, 2.0 * inset->mosaic_texel_angle * planet->radius);
+        plod_detail_noise_from_n(planet->detail, 1, unit, &first, &octaves, &normal_octaves,
+                                 &from, normal ? g_from : NULL);
+        if (w >= 1.0) {
+            noise = from;
+            if (normal)
+                memcpy(g, g_from, sizeof g);
+        } else {
+            noise += w * (from - noise);
+            if (normal)
+                for (int c = 0; c < 3; c++)
+                    g[c] += w * (g_from[c] - g[c]);
+        }
+    }
     plod__apply_detail(planet, unit, m, noise, g, height, normal, detail);
 }
 
@@ -240,15 +265,18 @@ static double plod__global_surface(const plod_planet *planet, const double dir[3
                                    double normal[3], int *face, double *u, double *v);
 
 /* The map's height and normal at dir (no detail), insets blended in;
- * *face, *u, *v: where the global map sampled (face -1 without a map). */
+ * *face, *u, *v: where the global map sampled (face -1 without a map);
+ * *inset (may be NULL): where an inset counts (weight 0 elsewhere). */
 static double plod__map_surface(const plod_planet *planet, const double dir[3], double normal[3],
-                                int *face, double *u, double *v)
+                                int *face, double *u, double *v, plod_inset_weight *inset)
 {
+    if (inset)
+        inset->weight = inset->mosaic_texel_angle = 0.0;
     if (!planet->insets)
         return plod__global_surface(planet, dir, normal, face, u, v);
     double base = plod__global_surface(planet, dir, NULL, face, u, v);
     double texel;
-    double height = plod_insets_blend(planet->insets, dir, base, &texel);
+    double height = plod_insets_blend_weight(planet->insets, dir, base, &texel, inset);
     if (normal) {
         normal[0] = dir[0], normal[1] = dir[1], normal[2] = dir[2];
         if (height == height && (planet->heightmap || planet->source || texel > 0.0))
@@ -306,18 +334,19 @@ double plod_planet_map_height(const plod_planet *planet, const double dir[3])
 {
     int face;
     double u, v;
-    return plod__map_surface(planet, dir, NULL, &face, &u, &v);
+    return plod__map_surface(planet, dir, NULL, &face, &u, &v, NULL);
 }
 
 double plod_planet_surface(const plod_planet *planet, const double dir[3], double normal[3])
 {
     int face;
     double u, v;
-    double height = plod__map_surface(planet, dir, normal, &face, &u, &v);
+    plod_inset_weight inset;
+    double height = plod__map_surface(planet, dir, normal, &face, &u, &v, &inset);
     if (planet->detail)
         plod__add_detail(planet, dir, plod__modulation_at(planet, face, u, v),
-                         plod__all_octaves(planet), plod__all_octaves(planet), &height, normal,
-                         NULL);
+                         plod__all_octaves(planet), plod__all_octaves(planet), &inset, &height,
+                         normal, NULL);
     return height;
 }
 
@@ -349,12 +378,14 @@ void plod_planet_surface_detail_n(const plod_planet *planet, size_t n, const dou
             int face;
             double u, v;
             double *normal = normals ? normals + 3 * i : NULL;
-            heights[i] = plod__map_surface(planet, dirs + 3 * i, normal, &face, &u, &v);
+            plod_inset_weight inset;
+            heights[i] =
+                plod__map_surface(planet, dirs + 3 * i, normal, &face, &u, &v, &inset);
             if (planet->detail)
                 plod__add_detail(planet, dirs + 3 * i, plod__modulation_at(planet, face, u, v),
                                  octaves ? octaves[i] : all,
-                                 normal_octaves ? normal_octaves[i] : all, heights + i, normal,
-                                 detail ? detail + i : NULL);
+                                 normal_octaves ? normal_octaves[i] : all, &inset, heights + i,
+                                 normal, detail ? detail + i : NULL);
         }
         return;
     }
@@ -365,7 +396,7 @@ void plod_planet_surface_detail_n(const plod_planet *planet, size_t n, const dou
                                         : 0.0;
             if (planet->detail)
                 plod__add_detail(planet, dirs + 3 * i, 1.0, octaves ? octaves[i] : all,
-                                 normal_octaves ? normal_octaves[i] : all, heights + i,
+                                 normal_octaves ? normal_octaves[i] : all, NULL, heights + i,
                                  normals ? normals + 3 * i : NULL, detail ? detail + i : NULL);
         }
         return;
@@ -374,11 +405,12 @@ void plod_planet_surface_detail_n(const plod_planet *planet, size_t n, const dou
         for (size_t i = 0; i < n; i++) { /* rare (C callers only): point by point */
             int face;
             double u, v;
-            heights[i] = plod__map_surface(planet, dirs + 3 * i, normals + 3 * i, &face, &u, &v);
+            heights[i] =
+                plod__map_surface(planet, dirs + 3 * i, normals + 3 * i, &face, &u, &v, NULL);
             if (planet->detail)
                 plod__add_detail(planet, dirs + 3 * i, plod__modulation_at(planet, face, u, v),
                                  octaves ? octaves[i] : all,
-                                 normal_octaves ? normal_octaves[i] : all, heights + i,
+                                 normal_octaves ? normal_octaves[i] : all, NULL, heights + i,
                                  normals + 3 * i, detail ? detail + i : NULL);
         }
         return;
@@ -532,6 +564,20 @@ static void plod__map_height_range(const plod_planet *planet, double *min_m, dou
             *max_m = hi > *max_m ? hi : *max_m;
         }
     }
+}
+
+int plod_planet_detail_first_octave_cap(const plod_planet *planet, const double axis[3],
+                                        double angle)
+{
+    if (!planet->detail)
+        return 0;
+    int count = plod_detail_octave_count(planet->detail);
+    if (!planet->insets)
+        return count;
+    double texel = plod_insets_mosaic_texel_cap(planet->insets, axis, angle);
+    if (!(texel > 0.0))
+        return count;
+    return plod_detail_first_octave_below(planet->detail, 2.0 * texel * planet->radius);
 }
 
 int plod_planet_insets_range_cap(const plod_planet *planet, const double axis[3],

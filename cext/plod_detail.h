@@ -110,6 +110,27 @@ double plod_detail_noise(const plod_detail *detail, const double dir[3], int oct
 void plod_detail_noise_n(const plod_detail *detail, size_t n, const double *dirs,
                          const int *octaves, const int *gradient_octaves, double *sums,
                          double *gradients);
+/* The field where height data resolves the first `first` octaves (an
+ * inset finer than the global map): octaves first..octaves-1 alone, their
+ * running state starting at `first` as at octave 0 (the ridged weights
+ * unset), so nothing of the coarse octaves' pattern remains; 0 when
+ * octaves <= first.  first 0: plod_detail_noise bit for bit. */
+double plod_detail_noise_from(const plod_detail *detail, const double dir[3], int first,
+                              int octaves, double gradient[3]);
+/* plod_detail_noise_from at n directions, bit for bit per point (as
+ * plod_detail_noise_n; first_octaves NULL: 0 everywhere, which is
+ * plod_detail_noise_n). */
+void plod_detail_noise_from_n(const plod_detail *detail, size_t n, const double *dirs,
+                              const int *first_octaves, const int *octaves,
+                              const int *gradient_octaves, double *sums, double *gradients);
+/* The first octave of wavelength <= `wavelength` metres (the octave count
+ * if none): where data of half that wavelength's texels leaves the field
+ * to start. */
+int plod_detail_first_octave_below(const plod_detail *detail, double wavelength);
+/* Bounds of any partial sum of the octaves from `first` on, started fresh
+ * there or not (plod_detail_noise_from): lo <= 0 <= hi, inside
+ * plod_detail_noise_range. */
+void plod_detail_tail_range(const plod_detail *detail, int first, double *lo, double *hi);
 /* Octaves a mesh with cells of `cell` metres resolves: those of
  * wavelength >= PLOD_DETAIL_CELLS_PER_WAVE * cell. */
 #define PLOD_DETAIL_CELLS_PER_WAVE 3.0

@@ -177,6 +177,23 @@ size_t plod_insets_count(const plod_insets *insets);
  * counts, else 0. */
 double plod_insets_blend(const plod_insets *insets, const double dir[3], double base_m,
                          double *texel_angle);
+/* Where an inset counts at dir, for the detail field: the blend weight w
+ * of plod_insets_blend (0 outside every inset and over voids) and the
+ * coarsest sample spacing (radians) of its mosaic, the insets joined to it
+ * by shared (unfeathered) edges, 0 where w is 0.  One spacing over a
+ * mosaic: the detail that starts below it is continuous across the
+ * mosaic's inner edges. */
+typedef struct plod_inset_weight {
+    double weight;
+    double mosaic_texel_angle;
+} plod_inset_weight;
+/* plod_insets_blend, and *where (may be NULL) as above. */
+double plod_insets_blend_weight(const plod_insets *insets, const double dir[3], double base_m,
+                                double *texel_angle, plod_inset_weight *where);
+/* The largest mosaic sample spacing (radians) of the insets meeting the
+ * cap's lon/lat box, 0 when none does. */
+double plod_insets_mosaic_texel_cap(const plod_insets *insets, const double axis[3],
+                                    double angle);
 /* Metres bounds of the insets' samples under the cap's lon/lat box; 0 when
  * no inset meets it (the blend lies between the global height and these). */
 int plod_insets_range_cap(const plod_insets *insets, const double axis[3], double angle,

@@ -160,6 +160,13 @@ void plod_planet_detail_range_uv(const plod_planet *planet, int face, double u0,
 void plod_planet_detail_range_cap(const plod_planet *planet, const double axis[3],
                                   double angle, double *min_m, double *max_m,
                                   double modulation[2]);
+/* The earliest octave the detail field starts at, where an inset counts,
+ * over the spherical cap: the octaves before it have weight 1 - w there
+ * (plod_planet_surface); the octave count where no inset meets the cap (0
+ * without detail).  The field over the cap lies within the union of its
+ * all-octave bounds and plod_detail_tail_range from this octave. */
+int plod_planet_detail_first_octave_cap(const plod_planet *planet, const double axis[3],
+                                        double angle);
 /* Metres bounds of the planet's insets under a spherical cap (the blended
  * heights lie between the global data's and these); 0 when none meets it. */
 int plod_planet_insets_range_cap(const plod_planet *planet, const double axis[3],
