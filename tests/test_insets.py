@@ -161,3 +161,148 @@ def test_insets_over_a_tiled_map(planetlod, tiles, tmp_path):
     assert planet.height(*direction(6 + 300 / 1200, 46 - 300 / 1200)) == pytest.approx(
         float(grid[300, 300]), abs=1e-6)
     assert planet.height(*direction(30.0, 10.0)) == pytest.approx(20000 / 65535 * 8848.0)
+
+
+# ---- the detail field over insets ---------------------------------------------
+
+INSET_DETAIL = dict(style="mountains", amplitude=300.0, seed=3, smallest=10.0)
+
+
+@pytest.fixture(scope="module")
+def detailed(planetlod, tiles, base):
+    """(with insets and detail, insets alone, detail alone)."""
+    _, paths, _ = tiles
+    kw = dict(heightmap=base, height_scale=65535.0)
+    return (planetlod.Planet(R, insets=paths, detail=INSET_DETAIL, **kw),
+            planetlod.Planet(R, insets=paths, **kw),
+            planetlod.Planet(R, detail=INSET_DETAIL, **kw))
+
+
+def detail_part(with_detail, without, lons, lat):
+    dirs = np.array([direction(lon, lat) for lon in lons]).reshape(-1).tolist()
+    return np.array(with_detail.surface(dirs)[0]) - np.array(without.surface(dirs)[0])
+
+
+def test_detail_starts_below_the_insets_resolution(detailed):
+    """Inside a 3-arc-second inset the field keeps only the octaves below
+    two of its samples: over the global map's wavelengths (a 1 km running
+    mean along the ground) it has next to no amplitude, and all of it lies
+    within the fine octaves' bounds; outside the mosaic the field is the
+    inset-free planet's, bit for bit."""
+    planet, insets_alone, detail_alone = detailed
+    texel = R * math.radians(1 / 1200)
+    step = math.degrees(5.0 / (R * math.cos(math.radians(45.7))))  # 5 m
+    lons = 6.3 + step * np.arange(8192)  # 41 km, past the feather
+    inside = detail_part(planet, insets_alone, lons, 45.7)  # clear of the void
+    outside = detail_part(planet, insets_alone, lons - 1.0, 45.7)
+    mean_1km = np.ones(200) / 200
+    long_inside = np.convolve(inside, mean_1km, mode="valid")
+    long_outside = np.convolve(outside, mean_1km, mode="valid")
+    assert long_outside.std() > 1.0
+    assert long_inside.std() < 2e-3 * long_outside.std()
+    # the octaves a 3" inset keeps: wavelengths <= 2 samples (185 m)
+    info = planet.detail
+    largest = info["finest_wavelength"] * 2 ** (info["octaves"] - 1)
+    first = next(i for i in range(info["octaves"]) if largest / 2 ** i <= 2 * texel)
+    assert largest / 2 ** first > texel
+    kept = sum(INSET_DETAIL["amplitude"] * 0.5 ** i for i in range(first, info["octaves"]))
+    assert np.abs(inside).max() <= kept
+    assert np.abs(inside).std() > 0.0  # finer relief than the data is still there
+    # outside every inset: the detail-only planet's heights, bit for bit
+    # (normals differ: with insets they come from height differences)
+    for lon in (5.5, 8.5, -120.0):
+        dirs = np.array([direction(lon + 1e-3 * k, 45.5) for k in range(64)]).reshape(-1)
+        assert list(planet.surface(dirs.tolist())[0]) == list(
+            detail_alone.surface(dirs.tolist())[0])
+
+
+def test_detail_is_continuous_across_the_insets_border(detailed):
+    """Across the mosaic's feathered west border the field fades from all
+    octaves to the fine ones with the heights' blend: dense samples (0.8 m
+    apart) step by no more than its slope explains, nowhere more than on
+    either side; across the edge the tiles share nothing changes."""
+    planet, insets_alone, _ = detailed
+    lons = np.linspace(5.95, 6.25, 30001)
+    part = detail_part(planet, insets_alone, lons, 45.3)
+    steps = np.abs(np.diff(part))
+    outside = steps[lons[:-1] < 5.999].max()
+    assert steps.max() < 0.05
+    assert steps.max() < 4.0 * outside
+    lons = np.linspace(6.98, 7.02, 5001)
+    steps = np.abs(np.diff(detail_part(planet, insets_alone, lons, 45.3)))
+    assert steps.max() < 0.02
+
+
+def inset_camera(planetlod, eye_height, lon=6.02, lat=45.4):
+    """Looking east, 35 degrees down, from eye_height metres above the radius."""
+    up = np.array(direction(lon, lat))
+    east = np.array([-math.sin(math.radians(lon)), math.cos(math.radians(lon)), 0.0])
+    forward = east * math.cos(math.radians(-35)) + up * math.sin(math.radians(-35))
+    right = np.cross(forward, up)
+    right /= np.linalg.norm(right)
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2] = right, np.cross(right, forward), -forward
+    m[:3, 3] = up * (R + eye_height)
+    return planetlod.Camera(m.tolist(), lens=30.0, clip_end=1e9, resolution_x=480,
+                            resolution_y=270)
+
+
+@pytest.fixture(scope="module")
+def flat_detailed(planetlod, tmp_path_factory):
+    """A flat 1000 m world with a flat 1000 m inset and full modulation:
+    the sector bounds are the detail field's alone."""
+    path = tmp_path_factory.mktemp("flat") / "N45E006.hgt"
+    np.full((1201, 1201), 1000, ">i2").tofile(path)
+    cubemap = planetlod.CubeMap(projection="qsc", size=64, dtype="u16")
+    for face in range(6):
+        cubemap.set_face(face, np.full(64 * 64, 1000, "<u2").tobytes())
+    return planetlod.Planet(R, heightmap=cubemap, height_scale=65535.0, insets=[str(path)],
+                            detail=dict(INSET_DETAIL, plains=1.0))
+
+
+@pytest.mark.parametrize("which", ["tiles", "flat"])
+def test_detail_bounds_hold_over_insets(planetlod, detailed, flat_detailed, which):
+    """Sector bounds hold the detailed surface at many points of sectors
+    over the inset, its feathered border and the global map around it."""
+    planet = detailed[0] if which == "tiles" else flat_detailed
+    ground = 3000.0 if which == "tiles" else 1000.0
+    checked = 0
+    # down to sectors of metres (side-distance splits near the ground),
+    # where the bounds tighten around a corner's coarse octaves
+    views = [(3e5, 6.02, {}), (2e4, 6.02, {}), (3000.0, 6.02, {}), (500.0, 6.02, {})]
+    views += [(altitude, lon, dict(criterion="side_distance", split_border=0.25))
+              for altitude in (100.0, 20.0) for lon in (6.04, 6.4)]
+    for altitude, lon, kw in views:
+        planet.refine(inset_camera(planetlod, ground + altitude, lon=lon, lat=45.3),
+                      max_pixel_error=1.0, **kw)
+        assert planet.check_invariants()
+        corners = np.array(planet.sector_corners().tolist()).reshape(-1, 3, 3)
+        bounds = np.array(planet.sector_heights().tolist()).reshape(-1, 2)
+        rng = np.random.default_rng(int(altitude + 100 * lon))
+        for k in range(len(corners)):
+            points = rng.dirichlet((1.0, 1.0, 1.0), size=40) @ corners[k]
+            points /= np.linalg.norm(points, axis=1)[:, None]
+            h = np.array(planet.surface(points.reshape(-1).tolist())[0])
+            assert h.min() >= bounds[k, 0] - 1e-3 and h.max() <= bounds[k, 1] + 1e-3, k
+            checked += 1
+    assert checked > 1000
+
+
+def test_detail_mesh_over_an_inset_border_is_watertight(planetlod, detailed):
+    """A mesh across the inset's border: shared edge vertices bit-identical
+    (a closed sphere after welding), and the same bytes for 1 and 2
+    threads, cached or not."""
+    from test_mesh import arrays, edge_report
+    planet = detailed[0]
+    hits = 0
+    for k, altitude in enumerate((2e4, 3000.0, 800.0)):
+        planet.refine(inset_camera(planetlod, 3000.0 + altitude, lon=5.99 + 0.002 * k),
+                      backface=False,
+                      frustum=False, max_sectors=60000)
+        base_mesh = planet.mesh(template_level=3, threads=1, cache=False)
+        assert edge_report(*arrays(base_mesh)) == (0, 0, 0, 2), k
+        got = planet.mesh(template_level=3, threads=2, cache=True)
+        for name in ("positions", "normals", "uv", "triangles", "detail"):
+            assert bytes(getattr(base_mesh, name)) == bytes(getattr(got, name)), (k, name)
+        hits += planet.mesh_cache_info["hits"]
+    assert hits > 0
