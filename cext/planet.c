@@ -212,36 +212,118 @@ static void plod__apply_detail(const plod_planet *planet, const double dir[3], d
  * same w as the heights' blend, so the field fades in across the
  * feathered border as the inset's heights fade out.  The normal's slope
  * blends the same way (w's own slope is left out, as the modulation's). */
+/* The octave the field starts at where an inset counts (plod__add_detail). */
+static int plod__inset_first_octave(const plod_planet *planet, const plod_inset_weight *inset)
+{
+    return plod_detail_first_octave_below(planet->detail,
+                                          2.0 * inset->mosaic_texel_angle * planet->radius);
+}
+
+/* N = (1 - w) N_all + w N_from (and its gradient when normal) applied at
+ * the unit direction: the one sequence of operations for the point and
+ * the batched paths.  noise/g: N_all (unused when w >= 1); from/g_from:
+ * N_from (unused when w is 0). */
+static void plod__blend_apply(const plod_planet *planet, const double unit[3], double m,
+                              double w, double noise, const double g_all[3], double from,
+                              const double g_from[3], double *height, double *normal,
+                              double *detail)
+{
+    double g[3] = {0.0, 0.0, 0.0};
+    if (normal)
+        memcpy(g, w >= 1.0 ? g_from : g_all, sizeof g);
+    if (w >= 1.0) {
+        noise = from;
+    } else if (w > 0.0) {
+        noise += w * (from - noise);
+        if (normal)
+            for (int c = 0; c < 3; c++)
+                g[c] += w * (g_from[c] - g[c]);
+    }
+    plod__apply_detail(planet, unit, m, noise, g, height, normal, detail);
+}
+
 static void plod__add_detail(const plod_planet *planet, const double dir[3], double m,
                              int octaves, int normal_octaves, const plod_inset_weight *inset,
                              double *height, double *normal, double *detail)
 {
     if (!(m != 0.0) || octaves <= 0)
         return; /* sea (m = 0) or NaN map: unchanged (and *detail 0) */
-    double unit[3], g[3], noise = 0.0;
+    double unit[3], g[3], noise;
     plod__unit_dir(dir, unit);
     double w = inset && inset->weight > 0.0 ? inset->weight : 0.0;
-    if (w < 1.0)
+    if (!(w > 0.0)) {
         plod_detail_noise_n(planet->detail, 1, unit, &octaves, &normal_octaves, &noise,
                             normal ? g : NULL);
-    if (w > 0.0) {
-        double from, g_from[3];
-        int first = plod_detail_first_octave_below(
-            planet->detail, 2.0 * inset->mosaic_texel_angle * planet->radius);
-        plod_detail_noise_from_n(planet->detail, 1, unit, &first, &octaves, &normal_octaves,
-                                 &from, normal ? g_from : NULL);
-        if (w >= 1.0) {
-            noise = from;
-            if (normal)
-                memcpy(g, g_from, sizeof g);
-        } else {
-            noise += w * (from - noise);
-            if (normal)
-                for (int c = 0; c < 3; c++)
-                    g[c] += w * (g_from[c] - g[c]);
-        }
+        plod__apply_detail(planet, unit, m, noise, g, height, normal, detail);
+        return;
     }
-    plod__apply_detail(planet, unit, m, noise, g, height, normal, detail);
+    double from, g_from[3] = {0.0, 0.0, 0.0};
+    int first = plod__inset_first_octave(planet, inset);
+    noise = 0.0, g[0] = g[1] = g[2] = 0.0;
+    if (w < 1.0)
+        noise = plod_detail_noise(planet->detail, unit, octaves, NULL);
+    if (w < 1.0 && normal)
+        plod_detail_noise(planet->detail, unit, normal_octaves, g);
+    from = plod_detail_noise_from(planet->detail, unit, first, octaves, NULL);
+    if (normal)
+        plod_detail_noise_from(planet->detail, unit, first, normal_octaves, g_from);
+    plod__blend_apply(planet, unit, m, w, noise, g, from, g_from, height, normal, detail);
+}
+
+/* plod__add_detail at a run of points (count <= 64) whose map heights,
+ * normals, modulations and inset weights are known: the field in batches
+ * (all octaves where w < 1, the inset's from its first where w > 0), the
+ * same bits per point. */
+static void plod__add_detail_run(const plod_planet *planet, size_t count, const double *dirs,
+                                 const double *modulation, const int *octaves,
+                                 const int *normal_octaves, const plod_inset_weight *insets,
+                                 double *heights, double *normals, double *detail)
+{
+    enum { RUN = 64 };
+    double unit[3 * RUN], all_unit[3 * RUN], from_unit[3 * RUN];
+    double noise[RUN], g[3 * RUN], from[RUN], g_from[3 * RUN];
+    int all_oct[RUN], all_noct[RUN], from_first[RUN], from_oct[RUN], from_noct[RUN];
+    size_t all_at[RUN], from_at[RUN], live_at[RUN];
+    size_t live = 0, n_all = 0, n_from = 0;
+    for (size_t i = 0; i < count; i++) {
+        if (!(modulation[i] != 0.0) || octaves[i] <= 0)
+            continue;
+        plod__unit_dir(dirs + 3 * i, unit + 3 * live);
+        double w = insets[i].weight > 0.0 ? insets[i].weight : 0.0;
+        if (w < 1.0) {
+            memcpy(all_unit + 3 * n_all, unit + 3 * live, 3 * sizeof(double));
+            all_oct[n_all] = octaves[i], all_noct[n_all] = normal_octaves[i];
+            all_at[live] = n_all++;
+        }
+        if (w > 0.0) {
+            memcpy(from_unit + 3 * n_from, unit + 3 * live, 3 * sizeof(double));
+            from_first[n_from] = plod__inset_first_octave(planet, &insets[i]);
+            from_oct[n_from] = octaves[i], from_noct[n_from] = normal_octaves[i];
+            from_at[live] = n_from++;
+        }
+        live_at[live++] = i;
+    }
+    plod_detail_noise_n(planet->detail, n_all, all_unit, all_oct, all_noct, noise,
+                        normals ? g : NULL);
+    plod_detail_noise_from_n(planet->detail, n_from, from_unit, from_first, from_oct, from_noct,
+                             from, normals ? g_from : NULL);
+    for (size_t j = 0; j < live; j++) {
+        size_t i = live_at[j];
+        double w = insets[i].weight > 0.0 ? insets[i].weight : 0.0;
+        double *normal = normals ? normals + 3 * i : NULL;
+        double *d = detail ? detail + i : NULL;
+        if (!(w > 0.0)) {
+            plod__apply_detail(planet, unit + 3 * j, modulation[i], noise[all_at[j]],
+                               g + 3 * all_at[j], heights + i, normal, d);
+            continue;
+        }
+        static const double zero[3] = {0.0, 0.0, 0.0};
+        double n_all_value = w < 1.0 ? noise[all_at[j]] : 0.0;
+        const double *g_all = w < 1.0 && normals ? g + 3 * all_at[j] : zero;
+        plod__blend_apply(planet, unit + 3 * j, modulation[i], w, n_all_value, g_all,
+                          from[from_at[j]], normals ? g_from + 3 * from_at[j] : zero,
+                          heights + i, normal, d);
+    }
 }
 
 static int plod__all_octaves(const plod_planet *planet)
@@ -373,19 +455,30 @@ void plod_planet_surface_detail_n(const plod_planet *planet, size_t n, const dou
     if (detail)
         memset(detail, 0, n * sizeof *detail);
     int all = plod__all_octaves(planet);
-    if (planet->insets) { /* point by point: blends and difference normals */
-        for (size_t i = 0; i < n; i++) {
-            int face;
-            double u, v;
-            double *normal = normals ? normals + 3 * i : NULL;
-            plod_inset_weight inset;
-            heights[i] =
-                plod__map_surface(planet, dirs + 3 * i, normal, &face, &u, &v, &inset);
+    if (planet->insets) { /* blends and difference normals point by point, detail in runs */
+        plod_inset_weight inset[CHUNK];
+        double modulation[CHUNK];
+        int band[CHUNK], normal_band[CHUNK];
+        for (size_t first = 0; first < n; first += CHUNK) {
+            size_t count = n - first < CHUNK ? n - first : CHUNK;
+            for (size_t k = 0; k < count; k++) {
+                size_t i = first + k;
+                int face;
+                double u, v;
+                double *normal = normals ? normals + 3 * i : NULL;
+                heights[i] =
+                    plod__map_surface(planet, dirs + 3 * i, normal, &face, &u, &v, inset + k);
+                if (!planet->detail)
+                    continue;
+                modulation[k] = plod__modulation_at(planet, face, u, v);
+                band[k] = octaves ? octaves[i] : all;
+                normal_band[k] = normal_octaves ? normal_octaves[i] : all;
+            }
             if (planet->detail)
-                plod__add_detail(planet, dirs + 3 * i, plod__modulation_at(planet, face, u, v),
-                                 octaves ? octaves[i] : all,
-                                 normal_octaves ? normal_octaves[i] : all, &inset, heights + i,
-                                 normal, detail ? detail + i : NULL);
+                plod__add_detail_run(planet, count, dirs + 3 * first, modulation, band,
+                                     normal_band, inset, heights + first,
+                                     normals ? normals + 3 * first : NULL,
+                                     detail ? detail + first : NULL);
         }
         return;
     }

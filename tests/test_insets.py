@@ -306,3 +306,24 @@ def test_detail_mesh_over_an_inset_border_is_watertight(planetlod, detailed):
             assert bytes(getattr(base_mesh, name)) == bytes(getattr(got, name)), (k, name)
         hits += planet.mesh_cache_info["hits"]
     assert hits > 0
+
+
+@pytest.mark.parametrize("style", ["hills", "mountains", "craters"])
+def test_batched_detail_over_insets_is_the_point_path(planetlod, tiles, base, style):
+    """surface() over many directions (inside the tiles, across their
+    feathered border, over the void, on the global map) evaluates the field
+    in batches, each point from its own first octave; every height and
+    normal is that of surface() at the point alone, bit for bit."""
+    _, paths, _ = tiles
+    planet = planetlod.Planet(R, heightmap=base, height_scale=65535.0, insets=paths,
+                              detail=dict(style=style, amplitude=300.0, seed=4, smallest=2.0,
+                                          craters=1.0))
+    rng = np.random.default_rng(17)
+    lons = np.concatenate([rng.uniform(5.9, 8.1, 700), rng.uniform(6.49, 6.51, 100)])
+    lats = np.concatenate([rng.uniform(44.9, 46.1, 700), rng.uniform(45.49, 45.51, 100)])
+    dirs = np.array([direction(lon, lat) for lon, lat in zip(lons, lats)]).reshape(-1).tolist()
+    heights, normals = planet.surface(dirs)
+    normals = list(normals)
+    for k in range(len(lons)):
+        h, n = planet.surface(dirs[3 * k:3 * k + 3])
+        assert (h[0], list(n)) == (heights[k], normals[3 * k:3 * k + 3]), k
