@@ -33,6 +33,9 @@
  *              the power-law size-frequency distribution N(>D) ~ D^-2
  *              of crater populations in equilibrium.
  * `craters` adds the crater layer (weight) to any style.
+ * Where finer data than the height map counts (an inset), the planet
+ * starts the field there at a later octave (plod_detail_noise_from),
+ * blended with the full field by the inset's weight (plod_planet.h).
  *
  * Every octave's unit range holds 0, so partial sums (the meshes'
  * band-limited octaves) stay inside the bounds of the full sum.

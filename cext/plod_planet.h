@@ -81,7 +81,11 @@ plod_status plod_planet_build_normals(const plod_planet *planet, plod_cubemap **
 
 /* Metres per texel of the planet's height data at a unit direction (a
  * cube map: its texel at the face centre; a height source: its
- * texel_angle there), INFINITY without data.  Detail starts below it. */
+ * texel_angle there; an inset's sample spacing where it counts), INFINITY
+ * without data.  Detail starts below it: over an inset the field is
+ * (1 - w) N_all + w N_from, w the inset's blend weight and N_from the
+ * octaves from the first of wavelength <= two of its mosaic's samples
+ * (plod_detail_noise_from), in heights, normals and sector bounds. */
 double plod_planet_texel_size(const plod_planet *planet, const double dir[3]);
 /* Height in metres above `radius` at a unit direction: the map's plus the
  * detail field's (every octave). */
