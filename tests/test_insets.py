@@ -327,3 +327,18 @@ def test_batched_detail_over_insets_is_the_point_path(planetlod, tiles, base, st
     for k in range(len(lons)):
         h, n = planet.surface(dirs[3 * k:3 * k + 3])
         assert (h[0], list(n)) == (heights[k], normals[3 * k:3 * k + 3]), k
+
+
+def test_detail_continuous_across_a_mosaic_of_two_resolutions(planetlod, base, tmp_path):
+    """A 1-arc-second tile beside a 3-arc-second one (a shared, unfeathered
+    edge): the field starts below the mosaic's coarser spacing on both, so
+    it has no step at the edge, and the finer tile reports its own texel."""
+    fine, _ = write_hgt(tmp_path, 6, 45, side=3601)
+    coarse, _ = write_hgt(tmp_path, 7, 45)
+    kw = dict(heightmap=base, height_scale=65535.0, insets=[fine, coarse])
+    planet = planetlod.Planet(R, detail=INSET_DETAIL, **kw)
+    plain = planetlod.Planet(R, **kw)
+    lons = np.linspace(6.999, 7.001, 2001)  # 0.08 m apart
+    steps = np.abs(np.diff(detail_part(planet, plain, lons, 45.3)))
+    assert steps.max() < 0.01
+    assert planet.texel_size(*direction(6.5, 45.3)) == pytest.approx(R * math.radians(1 / 3600))
