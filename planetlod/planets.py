@@ -5,8 +5,7 @@ limit and the mesh-size guard."""
 import math
 import os
 
-from . import FileError, InvalidArgument, presets, require_native
-
+from . import FileError, ImageError, InvalidArgument, presets, require_native
 
 
 def projection_id(key):
@@ -21,15 +20,28 @@ def projection_id(key):
 _planet_cache = {}
 
 
+def _file_stamp(path):
+    """(size, modification time) of a file, None when there is none: a map
+    or inset replaced on disk rebuilds the planet."""
+    if path and os.path.isfile(path):
+        st = os.stat(path)
+        return (st.st_size, st.st_mtime_ns)
+    return None
+
+
+def inset_paths(settings):
+    """The settings' inset files, in order, empty entries left out."""
+    return [str(p) for p in settings.get("insets") or () if p]
+
+
 def planet_key(settings):
     """The settings that define the planet's geometry (not the LOD)."""
     path = settings.get("heightmap") or ""
-    stamp = None
-    if path and os.path.exists(path):
-        st = os.stat(path)
-        stamp = (st.st_size, st.st_mtime_ns)
     detail = presets.detail_kwargs(settings)
-    return (settings["projection"], float(settings["radius"]), path, stamp,
+    insets = tuple((p, _file_stamp(p)) for p in inset_paths(settings))
+    return (settings["projection"], float(settings["radius"]), path, _file_stamp(path),
+            bool(settings.get("heightmap_tiled", False)), insets,
+            float(settings.get("inset_feather", INSET_FEATHER)) if insets else None,
             float(settings["height_scale"]), float(settings.get("height_offset", 0.0)),
             bool(settings.get("height_signed", False)),
             float(settings["sea_level"]) if settings.get("use_sea_level") else None,
@@ -48,6 +60,36 @@ def check_heightmap(path):
         raise FileError(f"height map is empty (0 bytes): {path}")
 
 
+def check_insets(paths):
+    """Raises FileError naming the first inset file that is missing, a folder or empty."""
+    for number, path in enumerate(paths, 1):
+        if not os.path.exists(path):
+            raise FileError(f"inset {number} not found: {path}")
+        if os.path.isdir(path):
+            raise FileError(f"inset {number} is a folder: {path}")
+        if os.path.getsize(path) == 0:
+            raise FileError(f"inset {number} is empty (0 bytes): {path}")
+
+
+# The blend border of insets, as a fraction of an inset's smaller side (the
+# core's default: a 1-degree tile blends over its outer 0.1 degree).
+INSET_FEATHER = 0.1
+
+
+def _over_pixel_limit(exc):
+    """True for the core's refusal of an image with more pixels than it
+    loads into memory (such a map is read through a tile file instead)."""
+    return isinstance(exc, ImageError) and "more than the limit of" in str(exc)
+
+
+def tiled_map(settings):
+    """The settings' height map as an out-of-core TiledMap: its tile file,
+    map path + ".plodtiles", is written next to the map on first use (and
+    again when the map changes); at most 128 MiB of tiles stay in memory."""
+    return require_native().TiledMap(settings["heightmap"],
+                                     signed=bool(settings.get("height_signed", False)))
+
+
 # Sectors a planet allocates (and touches) when it is built: a 1 px LOD at
 # 1920x1080 peaks near 7,000 over the Earth map, so the first flight over a
 # new planet does not grow arrays mid-frame (about 11 MB, 3 ms, once).
@@ -62,18 +104,34 @@ def build_planet(settings):
     if planet is not None:
         return planet
     check_heightmap(settings.get("heightmap"))
+    insets = inset_paths(settings)
+    check_insets(insets)
     kwargs = {"projection": projection_id(settings["projection"]),
               "height_scale": float(settings["height_scale"]),
               "height_offset": float(settings.get("height_offset", 0.0))}
-    if settings.get("heightmap"):
-        kwargs["heightmap"] = settings["heightmap"]
-        kwargs["height_signed"] = bool(settings.get("height_signed", False))
     if settings.get("use_sea_level"):
         kwargs["sea_level"] = float(settings["sea_level"])
     detail = presets.detail_kwargs(settings)
     if detail:
         kwargs["detail"] = detail
-    planet = module.Planet(float(settings["radius"]), **kwargs)
+    if insets:
+        kwargs["insets"] = insets
+        kwargs["inset_feather"] = float(settings.get("inset_feather", INSET_FEATHER))
+    radius = float(settings["radius"])
+    if not settings.get("heightmap"):
+        planet = module.Planet(radius, **kwargs)
+    elif settings.get("heightmap_tiled"):
+        planet = module.Planet(radius, heightmap=tiled_map(settings), **kwargs)
+    else:
+        try:
+            planet = module.Planet(radius, heightmap=settings["heightmap"],
+                                   height_signed=bool(settings.get("height_signed", False)),
+                                   **kwargs)
+        except ImageError as exc:
+            if not _over_pixel_limit(exc):
+                raise
+            # too large to load: read out of core, as the Large Map option does
+            planet = module.Planet(radius, heightmap=tiled_map(settings), **kwargs)
     planet.reserve(RESERVE_SECTORS)
     if len(_planet_cache) > 8:
         _planet_cache.clear()
