@@ -62,13 +62,13 @@ def check_heightmap(path):
 
 def check_insets(paths):
     """Raises FileError naming the first inset file that is missing, a folder or empty."""
-    for number, path in enumerate(paths, 1):
+    for path in paths:
         if not os.path.exists(path):
-            raise FileError(f"inset {number} not found: {path}")
+            raise FileError(f"inset not found: {path}")
         if os.path.isdir(path):
-            raise FileError(f"inset {number} is a folder: {path}")
+            raise FileError(f"inset is a folder: {path}")
         if os.path.getsize(path) == 0:
-            raise FileError(f"inset {number} is empty (0 bytes): {path}")
+            raise FileError(f"inset is empty (0 bytes): {path}")
 
 
 # The blend border of insets, as a fraction of an inset's smaller side (the
@@ -78,7 +78,7 @@ INSET_FEATHER = 0.1
 
 def _over_pixel_limit(exc):
     """True for the core's refusal of an image with more pixels than it
-    loads into memory (such a map is read through a tile file instead)."""
+    loads into memory (such a map needs the tiled, out-of-core reading)."""
     return isinstance(exc, ImageError) and "more than the limit of" in str(exc)
 
 
@@ -130,8 +130,9 @@ def build_planet(settings):
         except ImageError as exc:
             if not _over_pixel_limit(exc):
                 raise
-            # too large to load: read out of core, as the Large Map option does
-            planet = module.Planet(radius, heightmap=tiled_map(settings), **kwargs)
+            # not tiled behind the artist's back: the tile file is as big as the map
+            raise ImageError(f"{exc}: turn on Large Map to read it a piece at a time "
+                             "(through a tile file written next to it)") from exc
     planet.reserve(RESERVE_SECTORS)
     if len(_planet_cache) > 8:
         _planet_cache.clear()

@@ -60,10 +60,10 @@ def test_bad_inset_files_are_clear_errors_and_change_nothing(planetlod, tiles, t
     paths, _ = tiles
     good = planets.build_planet(settings(insets=paths))
     key = planets.planet_key(settings(insets=paths))
-    with pytest.raises(FileError, match="inset 2 not found"):
+    with pytest.raises(FileError, match="inset not found: .*N10E010"):
         planets.build_planet(settings(insets=[paths[0], str(tmp_path / "N10E010.hgt")]))
     (tmp_path / "empty").mkdir()
-    with pytest.raises(FileError, match="inset 1 is a folder"):
+    with pytest.raises(FileError, match="inset is a folder"):
         planets.build_planet(settings(insets=[str(tmp_path / "empty")]))
     with pytest.raises(InvalidArgument, match="overlap"):
         planets.build_planet(settings(insets=[paths[0], paths[0]]))
@@ -117,20 +117,19 @@ def test_large_map_reads_the_map_through_a_tile_file(planetlod, tmp_path):
     assert with_insets.height(*direction(6.3, 45.3)) > 1000.0
 
 
-def test_maps_over_the_memory_limit_are_tiled_automatically(planetlod, tmp_path, monkeypatch):
+def test_maps_over_the_memory_limit_ask_for_the_large_map_option(planetlod, tmp_path,
+                                                                  monkeypatch):
     """The core refuses to load a map of more than 2^28 pixels (a real one is
-    hundreds of megabytes, too big to write here): the refusal is simulated,
-    the fallback is real."""
+    hundreds of megabytes, too big to write here): the refusal is simulated.
+    The message names the option; no tile file is written unasked."""
     world = write_world(tmp_path / "world.r16")
     native = planetlod.require_native()
-    created = []
 
     class RefusingPlanet:
         def __new__(cls, radius, heightmap=None, **kwargs):
             if isinstance(heightmap, str):
                 raise ImageError(f"'{heightmap}' is 86400x43200 pixels, more than the limit "
                                  f"of {1 << 28}")
-            created.append(heightmap)
             return native.Planet(radius, heightmap=heightmap, **kwargs)
 
     class Module:
@@ -139,6 +138,9 @@ def test_maps_over_the_memory_limit_are_tiled_automatically(planetlod, tmp_path,
         PROJECTIONS = native.PROJECTIONS
 
     monkeypatch.setattr(planets, "require_native", lambda: Module)
-    planet = planets.build_planet(settings(heightmap=world, height_scale=1000.0))
-    assert isinstance(created[0], native.TiledMap)
+    with pytest.raises(ImageError, match="more than the limit .*turn on Large Map"):
+        planets.build_planet(settings(heightmap=world, height_scale=1000.0))
+    assert not os.path.exists(world + ".plodtiles")
+    planet = planets.build_planet(settings(heightmap=world, height_scale=1000.0,
+                                           heightmap_tiled=True))
     assert math.isfinite(planet.height(*direction(0.0, 0.0)))
