@@ -4,6 +4,7 @@ that define its geometry), the refinement's keyword arguments, the depth
 limit and the mesh-size guard."""
 import math
 import os
+import re
 
 from . import FileError, ImageError, InvalidArgument, presets, require_native
 
@@ -86,14 +87,47 @@ def tiled_map(settings):
     """The settings' height map as an out-of-core TiledMap: its tile file,
     map path + ".plodtiles", is written next to the map on first use (and
     again when the map changes); at most 128 MiB of tiles stay in memory."""
-    return require_native().TiledMap(settings["heightmap"],
-                                     signed=bool(settings.get("height_signed", False)))
+    tiled = require_native().TiledMap(settings["heightmap"],
+                                      signed=bool(settings.get("height_signed", False)))
+    if tiled.width != 2 * tiled.height:
+        raise InvalidArgument(f"Large Map reads world maps (2:1 equirectangular); "
+                              f"{settings['heightmap']} is {tiled.width}x{tiled.height}")
+    return tiled
 
 
 # Sectors a planet allocates (and touches) when it is built: a 1 px LOD at
 # 1920x1080 peaks near 7,000 over the Earth map, so the first flight over a
 # new planet does not grow arrays mid-frame (about 11 MB, 3 ms, once).
 RESERVE_SECTORS = 16384
+
+
+def _new_planet(module, radius, settings, kwargs):
+    if not settings.get("heightmap"):
+        return module.Planet(radius, **kwargs)
+    if settings.get("heightmap_tiled"):
+        return module.Planet(radius, heightmap=tiled_map(settings), **kwargs)
+    try:
+        return module.Planet(radius, heightmap=settings["heightmap"],
+                             height_signed=bool(settings.get("height_signed", False)),
+                             **kwargs)
+    except ImageError as exc:
+        if not _over_pixel_limit(exc):
+            raise
+        # not tiled behind the artist's back: the tile file is as big as the map
+        raise ImageError(f"{exc}: turn on Large Map to read it a piece at a time "
+                         "(through a tile file written next to it)") from exc
+
+
+def _overlap_by_file(exc, insets):
+    """The core's overlap error names insets by index; the panel names their files."""
+    match = re.search(r"insets (\d+) and (\d+) overlap \(([^)]*)\)", str(exc))
+    if not match or max(int(match.group(1)), int(match.group(2))) >= len(insets):
+        return exc
+    first, second = insets[int(match.group(1))], insets[int(match.group(2))]
+    if os.path.basename(first) != os.path.basename(second):
+        first, second = os.path.basename(first), os.path.basename(second)
+    return InvalidArgument(f"insets {first} and {second} overlap ({match.group(3)}): "
+                           "each area may come from one inset only, remove one of them")
 
 
 def build_planet(settings):
@@ -117,22 +151,13 @@ def build_planet(settings):
     if insets:
         kwargs["insets"] = insets
         kwargs["inset_feather"] = float(settings.get("inset_feather", INSET_FEATHER))
-    radius = float(settings["radius"])
-    if not settings.get("heightmap"):
-        planet = module.Planet(radius, **kwargs)
-    elif settings.get("heightmap_tiled"):
-        planet = module.Planet(radius, heightmap=tiled_map(settings), **kwargs)
-    else:
-        try:
-            planet = module.Planet(radius, heightmap=settings["heightmap"],
-                                   height_signed=bool(settings.get("height_signed", False)),
-                                   **kwargs)
-        except ImageError as exc:
-            if not _over_pixel_limit(exc):
-                raise
-            # not tiled behind the artist's back: the tile file is as big as the map
-            raise ImageError(f"{exc}: turn on Large Map to read it a piece at a time "
-                             "(through a tile file written next to it)") from exc
+    try:
+        planet = _new_planet(module, float(settings["radius"]), settings, kwargs)
+    except InvalidArgument as exc:
+        named = _overlap_by_file(exc, insets)
+        if named is exc:
+            raise
+        raise named from exc
     planet.reserve(RESERVE_SECTORS)
     if len(_planet_cache) > 8:
         _planet_cache.clear()

@@ -4,6 +4,7 @@ planet key that rebuilds a planet when they change, and clear errors for
 bad inset files.  The tiles and maps are generated here."""
 import math
 import os
+import re
 
 import numpy as np
 import pytest
@@ -67,6 +68,12 @@ def test_bad_inset_files_are_clear_errors_and_change_nothing(planetlod, tiles, t
         planets.build_planet(settings(insets=[str(tmp_path / "empty")]))
     with pytest.raises(InvalidArgument, match="overlap"):
         planets.build_planet(settings(insets=[paths[0], paths[0]]))
+    copy = tmp_path / "copy"
+    copy.mkdir()
+    copied, _ = write_hgt(copy, 6, 45)
+    with pytest.raises(InvalidArgument, match=re.escape(f"insets {paths[0]} and {copied} "
+                                                        "overlap (lon 6..7")):
+        planets.build_planet(settings(insets=[paths[0], copied]))
     named_badly = tmp_path / "tile.hgt"
     named_badly.write_bytes(open(paths[0], "rb").read())
     with pytest.raises(InvalidArgument, match="SRTM tile named like"):
@@ -112,6 +119,10 @@ def test_large_map_reads_the_map_through_a_tile_file(planetlod, tmp_path):
     for lon, lat in ((10.0, 20.0), (-120.0, -35.0), (170.0, 60.0)):
         assert tiled.height(*direction(lon, lat)) == pytest.approx(
             in_memory.height(*direction(lon, lat)), abs=0.02 * 8848.0)
+    square = tmp_path / "square.r16"
+    np.zeros((64, 64), "<u2").tofile(square)
+    with pytest.raises(InvalidArgument, match="2:1"):
+        planets.build_planet(settings(heightmap=str(square), heightmap_tiled=True))
     with_insets = planets.build_planet(settings(heightmap=world, heightmap_tiled=True,
                                                 insets=[write_hgt(tmp_path, 6, 45)[0]]))
     assert with_insets.height(*direction(6.3, 45.3)) > 1000.0
