@@ -1,5 +1,6 @@
-"""Regional insets in the add-on: an SRTM tile added to a planet raises its
-mesh where the tile lies and nowhere else; bad inset files (missing, wrong
+"""Regional insets and Large Map in the add-on: an SRTM tile added to a planet
+raises its mesh where the tile lies and nowhere else, over an in-memory or a
+tiled (out-of-core) height map; bad inset files (missing, wrong
 size, overlapping) are reported by the operator and in the panel, and leave
 the planet and its mesh as they were (plod_robustlib.snapshot)."""
 import math
@@ -104,6 +105,19 @@ def main():
         assert bpy.ops.object.planet_refresh() == {'FINISHED'}
         assert not ui.problems(earth)[0], (case, ui.problems(earth))
     assert live.state(earth).error == ""
+
+    # Large Map: the same planet read through a tile file next to a world map
+    world = os.path.join(folder, "world.r16")
+    numpy.full((256, 512), 20000, "<u2").tofile(world)
+    s.heightmap, s.heightmap_tiled = world, True
+    assert bpy.ops.object.planet_refresh() == {'FINISHED'}, live.state(earth).error
+    assert os.path.isfile(world + ".plodtiles")
+    radius, lon, lat = mesh_points(earth)
+    inner = (lon > 6.2) & (lon < 6.8) & (lat > 45.2) & (lat < 45.8)
+    assert inner.sum() > 20 and numpy.abs(radius[inner] - s.radius - TILE_HEIGHT).max() < 5.0
+    outside = ~((lon > 5.98) & (lon < 7.02) & (lat > 44.98) & (lat < 46.02))
+    expected = 20000 / 65535 * s.height_scale
+    assert numpy.abs(radius[outside] - s.radius - expected).max() < 5.0
 
     # removing the tile brings the map's heights back
     assert bpy.ops.object.planet_inset_remove() == {'FINISHED'}
