@@ -30,16 +30,39 @@ def _file_stamp(path):
     return None
 
 
+BOX_SIDES = ("west", "south", "east", "north")
+
+
+def inset_entries(settings):
+    """The settings' insets, in order, empty entries left out, as the core
+    takes them: a path (placed by its SRTM name or GeoTIFF tags) or
+    dict(path=, west=, south=, east=, north=[, scale=]) (degrees of the corner
+    samples; metres per sample value of an image read as 0..1)."""
+    entries = []
+    for entry in settings.get("insets") or ():
+        if isinstance(entry, dict):
+            if entry.get("path"):
+                entries.append(dict(path=str(entry["path"]),
+                                    scale=float(entry.get("scale", 1.0)),
+                                    **{side: float(entry[side]) for side in BOX_SIDES}))
+        elif entry:
+            entries.append(str(entry))
+    return entries
+
+
 def inset_paths(settings):
     """The settings' inset files, in order, empty entries left out."""
-    return [str(p) for p in settings.get("insets") or () if p]
+    return [e["path"] if isinstance(e, dict) else e for e in inset_entries(settings)]
 
 
 def planet_key(settings):
     """The settings that define the planet's geometry (not the LOD)."""
     path = settings.get("heightmap") or ""
     detail = presets.detail_kwargs(settings)
-    insets = tuple((p, _file_stamp(p)) for p in inset_paths(settings))
+    insets = tuple((path, _file_stamp(path),
+                    tuple(entry[side] for side in BOX_SIDES + ("scale",))
+                    if isinstance(entry, dict) else None)
+                   for path, entry in zip(inset_paths(settings), inset_entries(settings)))
     return (settings["projection"], float(settings["radius"]), path, _file_stamp(path),
             bool(settings.get("heightmap_tiled", False)), insets,
             float(settings.get("inset_feather", INSET_FEATHER)) if insets else None,
@@ -119,7 +142,14 @@ def _new_planet(module, radius, settings, kwargs):
 
 
 def _overlap_by_file(exc, insets):
-    """The core's overlap error names insets by index; the panel names their files."""
+    """The core names insets by index and in its API's terms; the panel names
+    their files and its own settings."""
+    unplaced = re.search(r"inset (\d+) \('([^']*)'\): a bare path must be", str(exc))
+    if unplaced:
+        return InvalidArgument(f"inset {unplaced.group(2)} is neither an SRTM tile named by "
+                               "its corner (like N45E006.hgt) nor a GeoTIFF with its "
+                               "longitude and latitude in its tags: give its box (Place by "
+                               "Box)")
     match = re.search(r"insets (\d+) and (\d+) overlap \(([^)]*)\)", str(exc))
     if not match or max(int(match.group(1)), int(match.group(2))) >= len(insets):
         return exc
@@ -149,7 +179,7 @@ def build_planet(settings):
     if detail:
         kwargs["detail"] = detail
     if insets:
-        kwargs["insets"] = insets
+        kwargs["insets"] = inset_entries(settings)
         kwargs["inset_feather"] = float(settings.get("inset_feather", INSET_FEATHER))
     try:
         planet = _new_planet(module, float(settings["radius"]), settings, kwargs)

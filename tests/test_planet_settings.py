@@ -76,7 +76,7 @@ def test_bad_inset_files_are_clear_errors_and_change_nothing(planetlod, tiles, t
         planets.build_planet(settings(insets=[paths[0], copied]))
     named_badly = tmp_path / "tile.hgt"
     named_badly.write_bytes(open(paths[0], "rb").read())
-    with pytest.raises(InvalidArgument, match="SRTM tile named like"):
+    with pytest.raises(InvalidArgument, match=r"tile\.hgt is neither an SRTM tile .*Place by Box"):
         planets.build_planet(settings(insets=[str(named_badly)]))
     short = tmp_path / "N30E030.hgt"
     short.write_bytes(b"\0" * 1000)
@@ -99,6 +99,22 @@ def test_geotiff_inset_placed_by_its_tags(planetlod, tmp_path):
     planet = planets.build_planet(settings(insets=[path]))
     assert planet.height(*direction(10.5, 46.5)) == pytest.approx(3000.0, abs=1e-6)
     assert planet.height(*direction(12.0, 46.5)) == 0.0
+
+
+def test_grid_without_placement_needs_and_takes_a_box(planetlod, tmp_path):
+    grid = np.full((101, 201), 2500, "<i2")
+    path = write_geotiff(tmp_path / "plain.tif", grid)  # no georeferencing tags
+    with pytest.raises(InvalidArgument, match="Place by Box"):
+        planets.build_planet(settings(insets=[path]))
+    box = dict(path=path, west=20.0, south=-10.0, east=22.0, north=-9.0, scale=32767.0)
+    planet = planets.build_planet(settings(insets=[box]))  # 16 bits read as 0..1
+    assert planet.height(*direction(21.0, -9.5)) == pytest.approx(2500.0, abs=0.5)
+    assert planet.height(*direction(23.0, -9.5)) == 0.0
+    moved = planets.build_planet(settings(insets=[dict(box, west=19.0)]))
+    assert moved is not planet and moved.height(*direction(19.5, -9.5)) > 0.0
+    assert planets.build_planet(settings(insets=[dict(box, scale=1.0)])) is not planet
+    assert planets.build_planet(settings(insets=[dict(box, path="")])) is \
+        planets.build_planet(settings())
 
 
 def write_world(path, width=512):
