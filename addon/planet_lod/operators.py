@@ -4,7 +4,7 @@ import os
 
 import bpy
 from bl_operators.presets import AddPresetBase
-from bpy.props import BoolProperty, EnumProperty, IntProperty, StringProperty
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
 
 from . import atmosphere, core, framing, live, materials
 from .core import planets, presets
@@ -280,7 +280,17 @@ class PLOD_OT_inset_add(bpy.types.Operator):
     bl_options = {'REGISTER', 'UNDO'}
 
     filepath: StringProperty(subtype='FILE_PATH')
-    filter_glob: StringProperty(default="*.hgt;*.tif;*.tiff", options={'HIDDEN'})
+    filter_glob: StringProperty(default="*.hgt;*.tif;*.tiff;*.png;*.exr;*.raw;*.r16",
+                                options={'HIDDEN'})
+    use_box: BoolProperty(name="Place by Box", default=False,
+                          description="Give the tile's longitude and latitude yourself (for "
+                                      "images placed by neither their name nor their tags)")
+    west: FloatProperty(name="West", default=0.0, min=-180.0, max=180.0)
+    east: FloatProperty(name="East", default=1.0, min=-180.0, max=180.0)
+    south: FloatProperty(name="South", default=0.0, min=-90.0, max=90.0)
+    north: FloatProperty(name="North", default=1.0, min=-90.0, max=90.0)
+    scale: FloatProperty(name="Height", default=1.0, min=0.0, max=1.0e6,
+                         description="Metres for the brightest value of an 8/16-bit image")
 
     @classmethod
     def poll(cls, context):
@@ -295,14 +305,22 @@ class PLOD_OT_inset_add(bpy.types.Operator):
             return {'CANCELLED'}
         obj = _planet(context)
         trial = obj.planet_lod.as_dict()
-        trial["insets"] = trial["insets"] + [bpy.path.abspath(self.filepath)]
+        box = dict(west=self.west, south=self.south, east=self.east, north=self.north,
+                   scale=self.scale)
+        path = bpy.path.abspath(self.filepath)
+        trial["insets"] = trial["insets"] + [dict(box, path=path) if self.use_box else path]
         try:
             _validate(trial)
         except core.REPORTED_ERRORS as exc:
             self.report({'ERROR'}, f"Inset not added: {exc}")
             return {'CANCELLED'}
         settings = obj.planet_lod
-        settings.insets.add().filepath = self.filepath
+        inset = settings.insets.add()
+        if self.use_box:
+            for name, value in box.items():
+                setattr(inset, name, value)
+            inset.use_box = True
+        inset.filepath = self.filepath
         settings.inset_index = len(settings.insets) - 1
         return {'FINISHED'}
 

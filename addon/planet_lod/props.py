@@ -55,6 +55,35 @@ class PLOD_PG_inset(bpy.types.PropertyGroup):
                                          "the planet: an SRTM tile named by its corner "
                                          "(N45E006.hgt) or a GeoTIFF with its longitude and "
                                          "latitude in its tags (WGS 84 degrees)")
+    use_box: BoolProperty(name="Place by Box", default=False, update=_geometry_changed,
+                          description="Give the tile's longitude and latitude yourself, for "
+                                      "height images placed by neither their name nor their "
+                                      "tags (the box runs through the corner pixels' centres)")
+    west: FloatProperty(name="West", default=0.0, min=-180.0, max=180.0, precision=6,
+                        update=_geometry_changed, description="Longitude of the left edge "
+                                                              "(degrees east)")
+    east: FloatProperty(name="East", default=1.0, min=-180.0, max=180.0, precision=6,
+                        update=_geometry_changed, description="Longitude of the right edge "
+                                                              "(degrees east)")
+    south: FloatProperty(name="South", default=0.0, min=-90.0, max=90.0, precision=6,
+                         update=_geometry_changed, description="Latitude of the bottom edge "
+                                                               "(degrees north)")
+    north: FloatProperty(name="North", default=1.0, min=-90.0, max=90.0, precision=6,
+                         update=_geometry_changed, description="Latitude of the top edge "
+                                                               "(degrees north)")
+    scale: FloatProperty(name="Height", default=1.0, min=0.0, max=1.0e6, soft_max=1.0e4,
+                         update=_geometry_changed,
+                         description="Metres for the brightest value of an 8/16-bit image "
+                                     "(read as 0 to 1); GeoTIFF heights are metres already "
+                                     "and are multiplied by this")
+
+    def as_entry(self):
+        """The inset as planetlod.planets takes it: a path, or the path with its box."""
+        path = bpy.path.abspath(self.filepath) if self.filepath else ""
+        if not self.use_box:
+            return path
+        return dict(path=path, west=self.west, south=self.south, east=self.east,
+                    north=self.north, scale=self.scale)
 
 
 class PLOD_PG_settings(bpy.types.PropertyGroup):
@@ -230,7 +259,7 @@ class PLOD_PG_settings(bpy.types.PropertyGroup):
             "projection": self.projection, "radius": self.radius,
             "heightmap": bpy.path.abspath(self.heightmap) if self.heightmap else "",
             "heightmap_tiled": self.heightmap_tiled,
-            "insets": [bpy.path.abspath(i.filepath) for i in self.insets if i.filepath],
+            "insets": [i.as_entry() for i in self.insets if i.filepath],
             "inset_feather": self.inset_feather,
             "height_scale": self.height_scale, "height_offset": self.height_offset,
             "height_signed": self.height_signed, "use_sea_level": self.use_sea_level,

@@ -124,9 +124,18 @@ class PLOD_PT_surface(PLOD_PT_planet_sub, bpy.types.Panel):
         side = row.column(align=True)
         side.operator("object.planet_inset_add", text="", icon='ADD')
         side.operator("object.planet_inset_remove", text="", icon='REMOVE')
-        if len(s.insets):
-            sub = col.row()
+        if 0 <= s.inset_index < len(s.insets):
+            inset = s.insets[s.inset_index]
+            sub = col.column()
             sub.use_property_split = True
+            sub.prop(inset, "use_box")
+            if inset.use_box:
+                box = sub.column(align=True)
+                box.prop(inset, "west")
+                box.prop(inset, "east")
+                box.prop(inset, "south")
+                box.prop(inset, "north")
+                sub.prop(inset, "scale")
             sub.prop(s, "inset_feather", text="Blend")
         col.label(text="Colour Map")
         col.prop(s, "color_map", text="")

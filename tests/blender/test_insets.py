@@ -106,6 +106,25 @@ def main():
         assert not ui.problems(earth)[0], (case, ui.problems(earth))
     assert live.state(earth).error == ""
 
+    # an image placed by neither name nor tags: refused bare, taken with its box
+    plain = rob.write_grey_png(os.path.join(folder, "plain.png"), 64, 32, value=255)
+    before = rob.snapshot()
+    rob.expect_error("inset_add without box",
+                     lambda: bpy.ops.object.planet_inset_add(filepath=plain), "Place by Box")
+    rob.assert_same(before, rob.snapshot(), "inset_add without box")
+    assert bpy.ops.object.planet_inset_add(filepath=plain, use_box=True, west=20.0, east=22.0,
+                                           south=-10.0, north=-9.0,
+                                           scale=TILE_HEIGHT) == {'FINISHED'}
+    assert s.insets[1].use_box and s.inset_index == 1
+    planet = core.planets.build_planet(s.as_dict())
+    d = (math.cos(math.radians(-9.5)) * math.cos(math.radians(21.0)),
+         math.cos(math.radians(-9.5)) * math.sin(math.radians(21.0)), math.sin(math.radians(-9.5)))
+    assert abs(planet.height(*d) - TILE_HEIGHT) < 1.0, planet.height(*d)
+    s.insets[1].west = 21.5  # moving the box rebuilds the planet
+    assert core.planets.build_planet(s.as_dict()).height(*d) < TILE_HEIGHT - 1000.0
+    assert bpy.ops.object.planet_inset_remove() == {'FINISHED'}
+    assert [i.filepath for i in s.insets] == [tile] and s.inset_index == 0
+
     # Large Map: the same planet read through a tile file next to a world map
     world = os.path.join(folder, "world.r16")
     numpy.full((256, 512), 20000, "<u2").tofile(world)

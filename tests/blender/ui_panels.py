@@ -67,7 +67,9 @@ def test():
     yield from redraw_and_check(recorder, ALL, "height map cleared")
     assert live.state(planet).error == "", live.state(planet).error
     # an inset whose file is missing: the list draws, the panel says why
-    planet.planet_lod.insets.add().filepath = "/nonexistent/N45E006.hgt"
+    inset = planet.planet_lod.insets.add()
+    inset.use_box = True  # its box fields draw too
+    inset.filepath = "/nonexistent/N45E006.hgt"
     yield 0.5
     yield from redraw_and_check(recorder, ALL, "missing inset")
     assert red_pixels("panels_inset_error.png") > clean_red + 200, "inset error not shown"
