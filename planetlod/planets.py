@@ -4,9 +4,9 @@ that define its geometry), the refinement's keyword arguments, the depth
 limit and the mesh-size guard."""
 import math
 import os
+import re
 
-from . import FileError, InvalidArgument, presets, require_native
-
+from . import FileError, ImageError, InvalidArgument, presets, require_native
 
 
 def projection_id(key):
@@ -21,15 +21,51 @@ def projection_id(key):
 _planet_cache = {}
 
 
+def _file_stamp(path):
+    """(size, modification time) of a file, None when there is none: a map
+    or inset replaced on disk rebuilds the planet."""
+    if path and os.path.isfile(path):
+        st = os.stat(path)
+        return (st.st_size, st.st_mtime_ns)
+    return None
+
+
+BOX_SIDES = ("west", "south", "east", "north")
+
+
+def inset_entries(settings):
+    """The settings' insets, in order, empty entries left out, as the core
+    takes them: a path (placed by its SRTM name or GeoTIFF tags) or
+    dict(path=, west=, south=, east=, north=[, scale=]) (degrees of the corner
+    samples; metres per sample value of an image read as 0..1)."""
+    entries = []
+    for entry in settings.get("insets") or ():
+        if isinstance(entry, dict):
+            if entry.get("path"):
+                entries.append(dict(path=str(entry["path"]),
+                                    scale=float(entry.get("scale", 1.0)),
+                                    **{side: float(entry[side]) for side in BOX_SIDES}))
+        elif entry:
+            entries.append(str(entry))
+    return entries
+
+
+def inset_paths(settings):
+    """The settings' inset files, in order, empty entries left out."""
+    return [e["path"] if isinstance(e, dict) else e for e in inset_entries(settings)]
+
+
 def planet_key(settings):
     """The settings that define the planet's geometry (not the LOD)."""
     path = settings.get("heightmap") or ""
-    stamp = None
-    if path and os.path.exists(path):
-        st = os.stat(path)
-        stamp = (st.st_size, st.st_mtime_ns)
     detail = presets.detail_kwargs(settings)
-    return (settings["projection"], float(settings["radius"]), path, stamp,
+    insets = tuple((path, _file_stamp(path),
+                    tuple(entry[side] for side in BOX_SIDES + ("scale",))
+                    if isinstance(entry, dict) else None)
+                   for path, entry in zip(inset_paths(settings), inset_entries(settings)))
+    return (settings["projection"], float(settings["radius"]), path, _file_stamp(path),
+            bool(settings.get("heightmap_tiled", False)), insets,
+            float(settings.get("inset_feather", INSET_FEATHER)) if insets else None,
             float(settings["height_scale"]), float(settings.get("height_offset", 0.0)),
             bool(settings.get("height_signed", False)),
             float(settings["sea_level"]) if settings.get("use_sea_level") else None,
@@ -48,10 +84,80 @@ def check_heightmap(path):
         raise FileError(f"height map is empty (0 bytes): {path}")
 
 
+def check_insets(paths):
+    """Raises FileError naming the first inset file that is missing, a folder or empty."""
+    for path in paths:
+        if not os.path.exists(path):
+            raise FileError(f"inset not found: {path}")
+        if os.path.isdir(path):
+            raise FileError(f"inset is a folder: {path}")
+        if os.path.getsize(path) == 0:
+            raise FileError(f"inset is empty (0 bytes): {path}")
+
+
+# The blend border of insets, as a fraction of an inset's smaller side (the
+# core's default: a 1-degree tile blends over its outer 0.1 degree).
+INSET_FEATHER = 0.1
+
+
+def _over_pixel_limit(exc):
+    """True for the core's refusal of an image with more pixels than it
+    loads into memory (such a map needs the tiled, out-of-core reading)."""
+    return isinstance(exc, ImageError) and "more than the limit of" in str(exc)
+
+
+def tiled_map(settings):
+    """The settings' height map as an out-of-core TiledMap: its tile file,
+    map path + ".plodtiles", is written next to the map on first use (and
+    again when the map changes); at most 128 MiB of tiles stay in memory."""
+    tiled = require_native().TiledMap(settings["heightmap"],
+                                      signed=bool(settings.get("height_signed", False)))
+    if tiled.width != 2 * tiled.height:
+        raise InvalidArgument(f"Large Map reads world maps (2:1 equirectangular); "
+                              f"{settings['heightmap']} is {tiled.width}x{tiled.height}")
+    return tiled
+
+
 # Sectors a planet allocates (and touches) when it is built: a 1 px LOD at
 # 1920x1080 peaks near 7,000 over the Earth map, so the first flight over a
 # new planet does not grow arrays mid-frame (about 11 MB, 3 ms, once).
 RESERVE_SECTORS = 16384
+
+
+def _new_planet(module, radius, settings, kwargs):
+    if not settings.get("heightmap"):
+        return module.Planet(radius, **kwargs)
+    if settings.get("heightmap_tiled"):
+        return module.Planet(radius, heightmap=tiled_map(settings), **kwargs)
+    try:
+        return module.Planet(radius, heightmap=settings["heightmap"],
+                             height_signed=bool(settings.get("height_signed", False)),
+                             **kwargs)
+    except ImageError as exc:
+        if not _over_pixel_limit(exc):
+            raise
+        # not tiled behind the artist's back: the tile file is as big as the map
+        raise ImageError(f"{exc}: turn on Large Map to read it a piece at a time "
+                         "(through a tile file written next to it)") from exc
+
+
+def _overlap_by_file(exc, insets):
+    """The core names insets by index and in its API's terms; the panel names
+    their files and its own settings."""
+    unplaced = re.search(r"inset (\d+) \('([^']*)'\): a bare path must be", str(exc))
+    if unplaced:
+        return InvalidArgument(f"inset {unplaced.group(2)} is neither an SRTM tile named by "
+                               "its corner (like N45E006.hgt) nor a GeoTIFF with its "
+                               "longitude and latitude in its tags: give its box (Place by "
+                               "Box)")
+    match = re.search(r"insets (\d+) and (\d+) overlap \(([^)]*)\)", str(exc))
+    if not match or max(int(match.group(1)), int(match.group(2))) >= len(insets):
+        return exc
+    first, second = insets[int(match.group(1))], insets[int(match.group(2))]
+    if os.path.basename(first) != os.path.basename(second):
+        first, second = os.path.basename(first), os.path.basename(second)
+    return InvalidArgument(f"insets {first} and {second} overlap ({match.group(3)}): "
+                           "each area may come from one inset only, remove one of them")
 
 
 def build_planet(settings):
@@ -62,18 +168,26 @@ def build_planet(settings):
     if planet is not None:
         return planet
     check_heightmap(settings.get("heightmap"))
+    insets = inset_paths(settings)
+    check_insets(insets)
     kwargs = {"projection": projection_id(settings["projection"]),
               "height_scale": float(settings["height_scale"]),
               "height_offset": float(settings.get("height_offset", 0.0))}
-    if settings.get("heightmap"):
-        kwargs["heightmap"] = settings["heightmap"]
-        kwargs["height_signed"] = bool(settings.get("height_signed", False))
     if settings.get("use_sea_level"):
         kwargs["sea_level"] = float(settings["sea_level"])
     detail = presets.detail_kwargs(settings)
     if detail:
         kwargs["detail"] = detail
-    planet = module.Planet(float(settings["radius"]), **kwargs)
+    if insets:
+        kwargs["insets"] = inset_entries(settings)
+        kwargs["inset_feather"] = float(settings.get("inset_feather", INSET_FEATHER))
+    try:
+        planet = _new_planet(module, float(settings["radius"]), settings, kwargs)
+    except InvalidArgument as exc:
+        named = _overlap_by_file(exc, insets)
+        if named is exc:
+            raise
+        raise named from exc
     planet.reserve(RESERVE_SECTORS)
     if len(_planet_cache) > 8:
         _planet_cache.clear()

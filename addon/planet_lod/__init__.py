@@ -37,6 +37,7 @@ from . import (compat, core, nodes, runtime, atmosphere, materials, placement,  
                framing, live, draw, props, operators, render, ui)
 
 classes = (
+    props.PLOD_PG_inset,
     props.PLOD_PG_settings,
     props.PLOD_PG_geo,
     operators.PLOD_OT_planet_add,
@@ -44,11 +45,14 @@ classes = (
     operators.PLOD_OT_planet_apply_mesh,
     operators.PLOD_OT_planet_apply_preset,
     operators.PLOD_OT_set_heightmap,
+    operators.PLOD_OT_inset_add,
+    operators.PLOD_OT_inset_remove,
     operators.PLOD_MT_planet_presets,
     operators.PLOD_MT_quality_presets,
     operators.PLOD_OT_preset_add,
     operators.PLOD_OT_quality_preset_add,
     render.PLOD_OT_flyby,
+    ui.PLOD_UL_insets,
     ui.PLOD_PT_planet,
     ui.PLOD_PT_surface,
     ui.PLOD_PT_detail,

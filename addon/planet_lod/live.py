@@ -52,15 +52,17 @@ def _in_refresh():
 
 def check_settings(obj):
     """Checks what can be checked at once when a setting changes (a height map
-    path that is missing, a folder or empty), so the panel shows the reason
-    right away; the refresh reports everything else."""
+    or inset path that is missing, a folder or empty), so the panel shows the
+    reason right away; the refresh reports everything else."""
     st = state(obj)
+    settings = obj.planet_lod.as_dict()
     try:
-        planet_settings.check_heightmap(obj.planet_lod.as_dict().get("heightmap"))
+        planet_settings.check_heightmap(settings.get("heightmap"))
+        planet_settings.check_insets(planet_settings.inset_paths(settings))
     except core.FileError as exc:
         st.error = str(exc)
     else:
-        if st.error.startswith("height map"):
+        if st.error.startswith(("height map", "inset")):
             st.error = ""
 
 

@@ -4,7 +4,7 @@ import os
 
 import bpy
 from bl_operators.presets import AddPresetBase
-from bpy.props import BoolProperty, EnumProperty, StringProperty
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
 
 from . import atmosphere, core, framing, live, materials
 from .core import planets, presets
@@ -272,6 +272,87 @@ class PLOD_OT_set_heightmap(bpy.types.Operator):
         return {'FINISHED'}
 
 
+class PLOD_OT_inset_add(bpy.types.Operator):
+    """Add a detailed height tile (SRTM .hgt or GeoTIFF) to the active planet; it is
+    placed by its file name or its tags and checked before anything changes"""
+    bl_idname = "object.planet_inset_add"
+    bl_label = "Add Inset"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    filepath: StringProperty(subtype='FILE_PATH')
+    filter_glob: StringProperty(default="*.hgt;*.tif;*.tiff;*.png;*.exr;*.raw;*.r16",
+                                options={'HIDDEN'})
+    use_box: BoolProperty(name="Place by Box", default=False,
+                          description="Give the tile's longitude and latitude yourself (for "
+                                      "images placed by neither their name nor their tags)")
+    west: FloatProperty(name="West", default=0.0, min=-180.0, max=180.0)
+    east: FloatProperty(name="East", default=1.0, min=-180.0, max=180.0)
+    south: FloatProperty(name="South", default=0.0, min=-90.0, max=90.0)
+    north: FloatProperty(name="North", default=1.0, min=-90.0, max=90.0)
+    scale: FloatProperty(name="Height", default=1.0, min=0.0, max=1.0e6,
+                         description="Metres for the brightest value of an 8/16-bit image")
+
+    @classmethod
+    def poll(cls, context):
+        return _planet(context) is not None
+
+    def invoke(self, context, event):
+        context.window_manager.fileselect_add(self)
+        return {'RUNNING_MODAL'}
+
+    def execute(self, context):
+        if _report_missing(self):
+            return {'CANCELLED'}
+        obj = _planet(context)
+        trial = obj.planet_lod.as_dict()
+        box = dict(west=self.west, south=self.south, east=self.east, north=self.north,
+                   scale=self.scale)
+        path = bpy.path.abspath(self.filepath)
+        trial["insets"] = trial["insets"] + [dict(box, path=path) if self.use_box else path]
+        try:
+            _validate(trial)
+        except core.REPORTED_ERRORS as exc:
+            self.report({'ERROR'}, f"Inset not added: {exc}")
+            return {'CANCELLED'}
+        settings = obj.planet_lod
+        inset = settings.insets.add()
+        if self.use_box:
+            for name, value in box.items():
+                setattr(inset, name, value)
+            inset.use_box = True
+        inset.filepath = self.filepath
+        settings.inset_index = len(settings.insets) - 1
+        return {'FINISHED'}
+
+
+class PLOD_OT_inset_remove(bpy.types.Operator):
+    """Remove the selected inset from the active planet"""
+    bl_idname = "object.planet_inset_remove"
+    bl_label = "Remove Inset"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    index: IntProperty(name="Inset", default=-1,
+                       description="Which inset to remove (-1: the selected one)")
+
+    @classmethod
+    def poll(cls, context):
+        obj = _planet(context)
+        return obj is not None and len(obj.planet_lod.insets) > 0
+
+    def execute(self, context):
+        settings = _planet(context).planet_lod
+        index = settings.inset_index if self.index < 0 else self.index
+        if not 0 <= index < len(settings.insets):
+            self.report({'ERROR'}, f"No inset {index + 1}: the planet has "
+                                   f"{len(settings.insets)}")
+            return {'CANCELLED'}
+        settings.insets.remove(index)
+        settings.inset_index = max(0, min(index, len(settings.insets) - 1))
+        live.mark_dirty(_planet(context), geometry=True, material=True)
+        live.check_settings(_planet(context))
+        return {'FINISHED'}
+
+
 # ---- Blender preset menus (bundled presets/ + the user's presets) -------------------
 
 def _preset_dirs(subdir):
@@ -309,7 +390,7 @@ class PLOD_OT_preset_add(AddPresetBase, bpy.types.Operator):
     preset_subdir = "planet_lod"
     preset_defines = ["settings = bpy.context.object.planet_lod"]
     preset_values = ["settings." + name for name in (
-        "projection", "radius", "heightmap", "height_scale", "height_offset", "height_signed",
+        "projection", "radius", "heightmap", "heightmap_tiled", "height_scale", "height_offset", "height_signed",
         "use_sea_level", "sea_level",
         "ocean_sphere", "color_map", "criterion", "max_pixel_error", "split_border",
         "merge_border", "template_density", "budget", "max_level", "backface", "frustum",

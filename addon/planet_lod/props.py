@@ -1,7 +1,7 @@
 """object.planet_lod: every planet setting as a bounded, annotated property."""
 import bpy
-from bpy.props import (BoolProperty, EnumProperty, FloatProperty, IntProperty,
-                       PointerProperty, StringProperty)
+from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty,
+                       IntProperty, PointerProperty, StringProperty)
 
 from . import atmosphere, live
 from .core import planets, presets
@@ -47,6 +47,45 @@ def _camera_poll(self, obj):
     return obj.type == 'CAMERA'
 
 
+class PLOD_PG_inset(bpy.types.PropertyGroup):
+    """One regional inset of a planet: a high-resolution height tile blended
+    over the height map where it lies."""
+    filepath: StringProperty(name="Inset", subtype='FILE_PATH', update=_geometry_changed,
+                             description="A detailed height tile placed where it belongs on "
+                                         "the planet: an SRTM tile named by its corner "
+                                         "(N45E006.hgt) or a GeoTIFF with its longitude and "
+                                         "latitude in its tags (WGS 84 degrees)")
+    use_box: BoolProperty(name="Place by Box", default=False, update=_geometry_changed,
+                          description="Give the tile's longitude and latitude yourself, for "
+                                      "height images placed by neither their name nor their "
+                                      "tags (the box runs through the corner pixels' centres)")
+    west: FloatProperty(name="West", default=0.0, min=-180.0, max=180.0, precision=6,
+                        update=_geometry_changed, description="Longitude of the left edge "
+                                                              "(degrees east)")
+    east: FloatProperty(name="East", default=1.0, min=-180.0, max=180.0, precision=6,
+                        update=_geometry_changed, description="Longitude of the right edge "
+                                                              "(degrees east)")
+    south: FloatProperty(name="South", default=0.0, min=-90.0, max=90.0, precision=6,
+                         update=_geometry_changed, description="Latitude of the bottom edge "
+                                                               "(degrees north)")
+    north: FloatProperty(name="North", default=1.0, min=-90.0, max=90.0, precision=6,
+                         update=_geometry_changed, description="Latitude of the top edge "
+                                                               "(degrees north)")
+    scale: FloatProperty(name="Height", default=1.0, min=0.0, max=1.0e6, soft_max=1.0e4,
+                         update=_geometry_changed,
+                         description="Metres for the brightest value of an 8/16-bit image "
+                                     "(read as 0 to 1); GeoTIFF heights are metres already "
+                                     "and are multiplied by this")
+
+    def as_entry(self):
+        """The inset as planetlod.planets takes it: a path, or the path with its box."""
+        path = bpy.path.abspath(self.filepath) if self.filepath else ""
+        if not self.use_box:
+            return path
+        return dict(path=path, west=self.west, south=self.south, east=self.east,
+                    north=self.north, scale=self.scale)
+
+
 class PLOD_PG_settings(bpy.types.PropertyGroup):
     enabled: BoolProperty(name="Planet", description="This object is a Planet LOD planet",
                           default=False)
@@ -67,6 +106,24 @@ class PLOD_PG_settings(bpy.types.PropertyGroup):
                                             "above the radius",
                                 default=8848.0, min=0.0, max=1.0e6, soft_max=1.0e5,
                                 subtype='DISTANCE', unit='LENGTH', update=_geometry_changed)
+    heightmap_tiled: BoolProperty(name="Large Map", default=False, update=_geometry_changed,
+                                  description="Read the height map a piece at a time instead "
+                                              "of loading it whole, for world maps too big for "
+                                              "memory (such as 86400 x 43200). The first use "
+                                              "writes a tile file next to the map (its name "
+                                              "plus .plodtiles, as big as the map) and keeps at "
+                                              "most 128 MB of it in memory. Needed for maps "
+                                              "over 268 million pixels (the panel says so); "
+                                              "only for world maps (2:1)")
+    insets: CollectionProperty(type=PLOD_PG_inset, name="Insets",
+                               description="Detailed height tiles blended over the height map")
+    inset_index: IntProperty(name="Active Inset", default=0, min=0)
+    inset_feather: FloatProperty(name="Inset Blend", default=planets.INSET_FEATHER,
+                                 min=0.0, max=0.5, subtype='FACTOR', update=_geometry_changed,
+                                 description="Width of the border over which each inset "
+                                             "blends into the height map, as a part of the "
+                                             "inset's size (0: hard edges). Insets that touch "
+                                             "join without a border")
     height_offset: FloatProperty(name="Height offset",
                                  description="Metres added to every map height (a datum: "
                                              "terrain below the radius, a sea floor)",
@@ -201,6 +258,9 @@ class PLOD_PG_settings(bpy.types.PropertyGroup):
         return {
             "projection": self.projection, "radius": self.radius,
             "heightmap": bpy.path.abspath(self.heightmap) if self.heightmap else "",
+            "heightmap_tiled": self.heightmap_tiled,
+            "insets": [i.as_entry() for i in self.insets if i.filepath],
+            "inset_feather": self.inset_feather,
             "height_scale": self.height_scale, "height_offset": self.height_offset,
             "height_signed": self.height_signed, "use_sea_level": self.use_sea_level,
             "sea_level": self.sea_level, "skip_sea": self.skip_sea,
@@ -269,4 +329,6 @@ def template_level(settings):
     return planets.template_level_from_density(int(settings.template_density))
 
 
-SETTING_NAMES = [name for name in PLOD_PG_settings.__annotations__]
+# the settings that are single values (the insets are a list of entries)
+SETTING_NAMES = [name for name in PLOD_PG_settings.__annotations__
+                 if name not in ("insets", "inset_index")]

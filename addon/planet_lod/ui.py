@@ -47,6 +47,14 @@ def problems(obj):
     return errors, warnings
 
 
+class PLOD_UL_insets(bpy.types.UIList):
+    """The planet's regional insets: one detailed height tile per row."""
+
+    def draw_item(self, context, layout, data, item, icon, active_data, active_propname,
+                  index=0):
+        layout.prop(item, "filepath", text="", emboss=False, icon='IMAGE_DATA')
+
+
 class PLOD_PT_base:
     bl_space_type = 'VIEW_3D'
     bl_region_type = 'UI'
@@ -107,6 +115,28 @@ class PLOD_PT_surface(PLOD_PT_planet_sub, bpy.types.Panel):
         row = col.row(align=True)
         row.prop(s, "heightmap", text="")
         row.operator("object.planet_set_heightmap", text="", icon='FILEBROWSER')
+        row = col.row()
+        row.active = bool(s.heightmap)
+        row.prop(s, "heightmap_tiled")
+        col.label(text="Insets")
+        row = col.row()
+        row.template_list("PLOD_UL_insets", "", s, "insets", s, "inset_index", rows=2)
+        side = row.column(align=True)
+        side.operator("object.planet_inset_add", text="", icon='ADD')
+        side.operator("object.planet_inset_remove", text="", icon='REMOVE')
+        if 0 <= s.inset_index < len(s.insets):
+            inset = s.insets[s.inset_index]
+            sub = col.column()
+            sub.use_property_split = True
+            sub.prop(inset, "use_box")
+            if inset.use_box:
+                box = sub.column(align=True)
+                box.prop(inset, "west")
+                box.prop(inset, "east")
+                box.prop(inset, "south")
+                box.prop(inset, "north")
+                sub.prop(inset, "scale")
+            sub.prop(s, "inset_feather", text="Blend")
         col.label(text="Colour Map")
         col.prop(s, "color_map", text="")
         layout.use_property_split = True

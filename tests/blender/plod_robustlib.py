@@ -90,6 +90,7 @@ def snapshot():
         if obj.type == 'MESH' and obj.planet_lod.enabled:
             s = obj.planet_lod
             state["settings " + obj.name] = {n: repr(getattr(s, n)) for n in props.SETTING_NAMES}
+            state["insets " + obj.name] = [inset.filepath for inset in s.insets]
             state["mesh " + obj.name] = _mesh_digest(obj.data)
             state["matrix " + obj.name] = repr(obj.matrix_world)
         if obj.type == 'CAMERA':

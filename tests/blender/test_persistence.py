@@ -1,6 +1,8 @@
-"""Save -> reload keeps every planet setting and rebuilds geometry (load_post);
+"""Save -> reload keeps every planet setting (insets too) and rebuilds geometry (load_post);
 several planets per scene; undo keeps things consistent."""
 import os
+
+import numpy
 
 import bpy
 
@@ -14,6 +16,7 @@ def snapshot(obj):
     for name in props.SETTING_NAMES:
         value = getattr(s, name)
         out[name] = value.name if isinstance(value, bpy.types.ID) else value
+    out["insets"] = [inset.filepath for inset in s.insets]
     return out
 
 
@@ -39,6 +42,10 @@ def main():
     s.sea_level = 12.5
     s.show_levels = True
     s.freeze_lod = True
+    tile = os.path.join(lib.out_dir(), "N45E006.hgt")
+    numpy.full((1201, 1201), 3000, ">i2").tofile(tile)
+    s.insets.add().filepath = tile
+    s.inset_feather = 0.2
     bpy.context.view_layer.objects.active = earth
     assert bpy.ops.object.planet_refresh() == {'FINISHED'}
     before = {o.name: snapshot(o) for o in (earth, moon)}

@@ -1,6 +1,7 @@
 """In the real UI (xvfb): every panel of the add-on's sidebar tab draws without
 error in each state -- no planet, each planet preset, a planet whose height map
-path is wrong -- and the error is shown in the panel (a red box)."""
+path is wrong, one with a missing inset file -- and the error is shown in the
+panel (a red box)."""
 import bpy
 import numpy as np
 
@@ -64,6 +65,19 @@ def test():
     planet.planet_lod.heightmap = ""
     yield 0.8
     yield from redraw_and_check(recorder, ALL, "height map cleared")
+    assert live.state(planet).error == "", live.state(planet).error
+    # an inset whose file is missing: the list draws, the panel says why
+    inset = planet.planet_lod.insets.add()
+    inset.use_box = True  # its box fields draw too
+    inset.filepath = "/nonexistent/N45E006.hgt"
+    yield 0.5
+    yield from redraw_and_check(recorder, ALL, "missing inset")
+    assert red_pixels("panels_inset_error.png") > clean_red + 200, "inset error not shown"
+    assert "inset not found" in live.state(planet).error, live.state(planet).error
+    planet.planet_lod.insets.remove(0)
+    planet.planet_lod.heightmap = ""  # the list's removal checks nothing by itself
+    yield 0.8
+    yield from redraw_and_check(recorder, ALL, "inset removed")
     assert live.state(planet).error == "", live.state(planet).error
 
 
