@@ -17,10 +17,12 @@ FLYBY_ARGS=(--preset earth --frames 1-48 --path-frames 48 --resolution 640x360 -
             --out out/flyby "$@")
 BPY=""
 if [ -z "${BLENDER:-}" ]; then
-    if /usr/bin/python3 tools/blender_versions.py install --newest; then
-        BPY=$(/usr/bin/python3 tools/blender_versions.py newest)
-    else
-        echo "planet_lod: the bpy wheel could not be installed; rendering with Debian's Blender" >&2
+    # install reports a wheel it cannot install and goes on; newest then says
+    # whether any bpy is there (exit 1: none)
+    /usr/bin/python3 tools/blender_versions.py install --newest
+    if ! BPY=$(/usr/bin/python3 tools/blender_versions.py newest); then
+        BPY=""
+        echo "planet_lod: no bpy wheel could be installed; rendering with Debian's Blender" >&2
     fi
 fi
 if [ -n "$BPY" ]; then
