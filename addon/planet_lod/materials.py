@@ -247,8 +247,9 @@ def _ground_types(b, s, base, airless):
     airless bodies; by per-vertex height, slope, latitude and the core's
     detail field (`planet_detail`: its ridges and hollows, which the colour map
     cannot show), textured by noise in planet-anchored coordinates.  The
-    detail field's ridges and hollows show within 300 km of the camera, the
-    ground types within 30 km (the colour map rules beyond).  Returns
+    detail field's ridges and hollows, the land-use regions and the far
+    farmland show within 300 km of the camera, the fields and the other
+    ground types within 30-40 km (the colour map rules beyond).  Returns
     (colour, relief for the bump)."""
     height = b.socket(_attribute(b, "planet_height").outputs["Fac"], vector=False)
     slope = b.socket(_attribute(b, "planet_slope").outputs["Fac"], vector=False)
