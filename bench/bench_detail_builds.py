@@ -25,6 +25,7 @@ import statistics
 import time
 
 from bench import bench_refine
+from bench.bench_viewport_detail import descent_matrices
 from planetlod import presets, surface
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -128,7 +129,7 @@ def viewport(builds, presets, surface, args):
                 planets[name].reserve(1 << 14)
             top = planets["base"].height_range()[1]
             ms = {name: [] for name in builds}
-            for k, (_alt, m) in enumerate(descent_for(s["radius"], top, args.viewport_frames)):
+            for k, (_alt, m) in enumerate(descent_matrices(s["radius"], top, args.viewport_frames)):
                 for name, lod in builds.items():
                     p = planets[name]
                     t0 = time.perf_counter()
@@ -141,22 +142,6 @@ def viewport(builds, presets, surface, args):
             for name in builds:
                 print(f"{'':<44} {name:>10}: slowest {max(ms[name]):7.1f} ms, over 50 ms "
                       f"{sum(1 for x in ms[name] if x > 50.0)} of {len(ms[name])}")
-
-
-def descent_for(radius, top, frames):
-    """bench_viewport_detail.py's cameras: bench_refine's descent scaled to
-    the planet, altitudes from 3 radii down to 2 m."""
-    def alt_t(alt):
-        return (math.log(2e7) - math.log(alt)) / (math.log(2e7) - math.log(2.0))
-    out = []
-    for alt, m in bench_refine.descent(frames, terrain_top=0.0):
-        eye = [m[i][3] for i in range(3)]
-        d = [x / math.sqrt(sum(y * y for y in eye)) for x in eye]
-        a = math.exp(math.log(3.0 * radius) * (1 - alt_t(alt)) + math.log(2.0) * alt_t(alt))
-        for i in range(3):
-            m[i][3] = d[i] * (radius + top + a)
-        out.append((a, m))
-    return out
 
 
 def main():

@@ -60,9 +60,10 @@ def planet_for(presets, key, detail):
     return p
 
 
-def cameras(radius, top, frames):
+def descent_matrices(radius, top, frames):
     """bench_refine's descent (Himalaya, 20,000 km to 2 m) scaled to the
-    planet: the same angles, altitudes from 3 radii down."""
+    planet: the same angles, altitudes from 3 radii down; (altitude, camera
+    matrix) per frame."""
     out = []
     for alt, m in bench_refine.descent(frames, terrain_top=0.0):
         eye = [m[i][3] for i in range(3)]
@@ -70,9 +71,15 @@ def cameras(radius, top, frames):
         a = math.exp(math.log(3.0 * radius) * (1 - alt_t(alt)) + math.log(2.0) * alt_t(alt))
         for i in range(3):
             m[i][3] = d[i] * (radius + top + a)
-        out.append((a, planetlod.Camera(m, lens=50.0, sensor_width=36.0, resolution_x=1920,
-                                        resolution_y=1080, clip_start=0.1, clip_end=1e10)))
+        out.append((a, m))
     return out
+
+
+def cameras(radius, top, frames):
+    """descent_matrices as planetlod cameras (1920x1080)."""
+    return [(a, planetlod.Camera(m, lens=50.0, sensor_width=36.0, resolution_x=1920,
+                                 resolution_y=1080, clip_start=0.1, clip_end=1e10))
+            for a, m in descent_matrices(radius, top, frames)]
 
 
 def alt_t(alt):
