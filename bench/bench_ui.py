@@ -73,6 +73,44 @@ def measure(planet, scene, move):
                 vertices=st.stats.get("preview_vertices"), upload_ms=round(upload, 2))
 
 
+def measure_timer(planet, scene, move):
+    """The timer's own path (live.tick, the refresh in a worker job): the
+    longest tick on the main thread and the time from the view's change to
+    its preview applied, cold (the planet reset) and over 10 moves."""
+    from planet_lod import core, live
+    st = live.state(planet)
+    native = core.planets.build_planet(planet.planet_lod.as_dict())
+    live.wait_for_jobs()
+    native.reset()
+    cache = native.mesh_cache_max_bytes
+    native.mesh_cache_max_bytes = 0  # cold: no sector kept from before
+    native.mesh_cache_max_bytes = cache
+    interval, live.REFRESH_INTERVAL_S = live.REFRESH_INTERVAL_S, 0.0
+    ticks, latencies = [], []
+
+    def until_settled():
+        st.dirty = True
+        start = time.perf_counter()
+        while True:
+            t0 = time.perf_counter()
+            live.tick()
+            ticks.append((time.perf_counter() - t0) * 1000.0)
+            if st.settled():
+                return (time.perf_counter() - start) * 1000.0
+            time.sleep(0.002)  # the event loop's idle time
+    try:
+        cold_latency = until_settled()
+        cold_tick = max(ticks)
+        for _ in range(10):
+            move()
+            latencies.append(until_settled())
+    finally:
+        live.REFRESH_INTERVAL_S = interval
+    return dict(timer_cold_tick_ms=round(cold_tick, 2), timer_cold_latency_ms=round(cold_latency, 1),
+                timer_tick_max_ms=round(max(ticks), 2),
+                timer_latency_ms=round(statistics.median(latencies), 1))
+
+
 def redraw_ms(area, region, n=3):
     """Best of n region redraws (wm.redraw_timer), milliseconds."""
     best = float("inf")
@@ -121,13 +159,14 @@ def run(args):
             r3d.view_rotation = (r3d.view_rotation @ Vector((0.0, 0.0, 1.0))
                                  .rotation_difference(Vector((0.001, 0.0, 1.0)))).normalized()
         rows.append(dict(preset=preset, view="whole planet", **measure(planet, scene, orbit),
+                         **measure_timer(planet, scene, orbit),
                          **draw_costs(planet, scene, area, region)))
         up = ground_view(planet, r3d, 2000.0, 15.0)
 
         def fly():
             r3d.view_location = r3d.view_location + up * 10.0
         rows.append(dict(preset=preset, view="2 km, towards the horizon",
-                         **measure(planet, scene, fly)))
+                         **measure(planet, scene, fly), **measure_timer(planet, scene, fly)))
         print(rows[-2], flush=True)
         print(rows[-1], flush=True)
     os.makedirs(args.out, exist_ok=True)
@@ -139,6 +178,12 @@ def run(args):
         print(f"{r['preset']:9} {r['view']:26} {r['cold_ms']:7.1f} {r['warm_ms']:7.1f} "
               f"{r['warm_max_ms']:7.1f} {r['sectors']:8} {r['drawn']:6} {r['vertices']:9} "
               f"{r['upload_ms']:7.1f}")
+    print("the timer's path (refresh in a worker job), ms: longest main-thread tick cold / "
+          "over all, view change to preview applied cold / warm median")
+    for r in rows:
+        print(f"{r['preset']:9} {r['view']:26} {r['timer_cold_tick_ms']:7.1f} "
+              f"{r['timer_tick_max_ms']:7.1f} {r['timer_cold_latency_ms']:8.1f} "
+              f"{r['timer_latency_ms']:8.1f}")
     print("whole-planet redraw of the viewport region (ms): preview / planet hidden / plain mesh")
     for r in rows:
         if "draw_preview_ms" in r:

@@ -17,7 +17,13 @@ calls the frame_change handlers from the render job's thread.  So:
   * the native Planet has its own lock as well (planetlod), so direct calls
     from other threads cannot corrupt its refiner either;
   * planet_add turns on Render > Lock Interface, which Blender requires for
-    handlers that write data from the render thread.
+    handlers that write data from the render thread;
+  * with the GPU preview the timer runs a planet's refresh (refine and the
+    preview's surface, no bpy) in a SurfaceJob thread that holds `_lock`, and
+    applies its result at a later tick; while a job runs the timer touches no
+    planet (a native call would wait for the job), and a refresh made since the
+    job started (an operator, a render) makes its result stale: dropped, the
+    planet refreshes again.
 """
 import hashlib
 import threading
@@ -332,43 +338,16 @@ def _refresh_locked(obj, scene, params, build_mesh, for_render):
     # viewport's LOD only: a render's never leaks in
     preview = obj.planet_lod.gpu_preview and not bpy.app.background and not for_render
     was_busy, _local.busy = _in_refresh(), True
+    st.serial += 1  # a viewport job started before this refresh is out of date
     try:
-        frozen = obj.planet_lod.freeze_lod and st.frozen_camera is not None and not for_render
-        if not frozen:
-            camera = planet_settings.make_camera(params)
-            # without hysteresis (renders) the sector set and the order meshes
-            # are emitted in depend on this camera only, never on earlier frames
-            stats = planet_settings.refine(planet, camera, settings, hysteresis=not for_render)
-            if build_mesh or preview:  # refuse before the mesh (or anything in bpy) is touched
-                planet_settings.check_mesh_size(stats, settings["template_level"])
-            st.stats = stats
-            inside = planet_settings.camera_inside(planet, params["matrix_world"])
-            if for_render:
-                st.render_warning = (INSIDE_RENDER if inside else "")
-            else:
-                st.frozen_camera = params
-                st.warning = (INSIDE_VIEW if inside else "")
-        s = obj.planet_lod
-        sea_level = s.sea_level if s.use_sea_level else None
-        if preview:
-            # the same sectors in view, in any order (without morphing, which
-            # follows the eye), give the same surface: a view that moves
-            # without a change of what it sees keeps its preview.  (Drawing
-            # every leaf instead, for turns without a refresh, doubled the
-            # vertices to emit: bench_viewport_detail.py)
-            ids = numpy.sort(numpy.frombuffer(planet.sector_ids(visible_only=True),
-                                              numpy.uint64))
-            preview_key = (planet, settings["template_level"], anchor(obj), s.radius, sea_level,
-                           ids.tobytes())
-            if s.morph or preview_key != st.preview_key or st.preview is None:
-                st.preview_key = preview_key
-                visible = planet.mesh(template_level=settings["template_level"], morph=s.morph)
-                st.preview = surface.preview_data(visible, anchor(obj), s.radius, sea_level)
-                st.gpu_version += 1
-            st.stats["preview_vertices"] = st.preview.vertex_count
+        work = _work_for(obj, st, planet, settings, params, for_render,
+                         check_size=build_mesh or preview, preview=preview)
+        work.run()
+        _apply(obj, st, work)
         if build_mesh:
             t0 = time.perf_counter()
-            mesh = planet.mesh(template_level=settings["template_level"], morph=s.morph)
+            mesh = planet.mesh(template_level=settings["template_level"],
+                               morph=obj.planet_lod.morph)
             st.stats["vertices"] = mesh.vertex_count
             st.stats["triangles"] = mesh.triangle_count
             write_mesh(obj, mesh)
@@ -377,15 +356,161 @@ def _refresh_locked(obj, scene, params, build_mesh, for_render):
             st.stats["mesh_ms"] = round((time.perf_counter() - t0) * 1000.0, 3)
             st.mesh_hash = mesh_digest(mesh)
             st.stats["mesh_hash"] = st.mesh_hash
-        if st.material_dirty or build_mesh:
-            materials.ensure(obj)
-            st.material_dirty = False
-        atmosphere.update(obj, scene, params["matrix_world"])  # sky and haze from this camera
-        st.dirty = st.geometry_dirty = False
-        st.error = ""
+        _finish(obj, scene, st, params, build_mesh)
+        st.dirty = False
         return st.stats
     finally:
         _local.busy = was_busy
+
+
+class SurfaceWork:
+    """A refresh's work in the core -- refine for the LOD camera, then the
+    preview's surface when the sectors in view changed -- touching nothing of
+    bpy, so the viewport timer can run it on a worker thread (SurfaceJob)
+    while Blender's UI goes on; the main thread applies the result (_apply)."""
+
+    def __init__(self, planet, settings, params, refine, for_render, check_size, preview):
+        self.planet, self.settings, self.params = planet, settings, params
+        self.refine, self.for_render, self.check_size = refine, for_render, check_size
+        self.preview = preview  # None, or (anchor, radius, sea_level, morph, key, data)
+        self.stats = None       # the refine's stats (None when frozen)
+        self.inside = False     # the LOD camera is below the terrain
+        self.preview_key = None
+        self.preview_data = None  # a new surface.PreviewData, or None when unchanged
+
+    def run(self):
+        planet, settings = self.planet, self.settings
+        if self.refine:
+            camera = planet_settings.make_camera(self.params)
+            # without hysteresis (renders) the sector set and the order meshes
+            # are emitted in depend on this camera only, never on earlier frames
+            stats = planet_settings.refine(planet, camera, settings,
+                                           hysteresis=not self.for_render)
+            if self.check_size:  # refuse before the mesh (or anything in bpy) is touched
+                planet_settings.check_mesh_size(stats, settings["template_level"])
+            self.stats = stats
+            self.inside = planet_settings.camera_inside(planet, self.params["matrix_world"])
+        if self.preview is None:
+            return
+        # the same sectors in view, in any order (without morphing, which
+        # follows the eye), give the same surface: a view that moves
+        # without a change of what it sees keeps its preview.  (Drawing
+        # every leaf instead, for turns without a refresh, doubled the
+        # vertices to emit: bench_viewport_detail.py)
+        origin, radius, sea_level, morph, old_key, old_data = self.preview
+        ids = numpy.sort(numpy.frombuffer(planet.sector_ids(visible_only=True), numpy.uint64))
+        self.preview_key = (planet, settings["template_level"], origin, radius, sea_level,
+                            ids.tobytes())
+        if morph or self.preview_key != old_key or old_data is None:
+            visible = planet.mesh(template_level=settings["template_level"], morph=morph)
+            self.preview_data = surface.preview_data(visible, origin, radius, sea_level)
+
+
+def _work_for(obj, st, planet, settings, params, for_render, check_size, preview):
+    s = obj.planet_lod
+    frozen = s.freeze_lod and st.frozen_camera is not None and not for_render
+    request = None
+    if preview:
+        sea_level = s.sea_level if s.use_sea_level else None
+        request = (anchor(obj), s.radius, sea_level, s.morph, st.preview_key, st.preview)
+    return SurfaceWork(planet, settings, params, refine=not frozen, for_render=for_render,
+                       check_size=check_size, preview=request)
+
+
+def _apply(obj, st, work):
+    """The work's results into the planet's state (main thread)."""
+    if work.stats is not None:
+        st.stats = work.stats
+        if work.for_render:
+            st.render_warning = (INSIDE_RENDER if work.inside else "")
+        else:
+            st.frozen_camera = work.params
+            st.warning = (INSIDE_VIEW if work.inside else "")
+    if work.preview_key is not None:
+        if work.preview_data is not None:
+            st.preview_key, st.preview = work.preview_key, work.preview_data
+            st.gpu_version += 1
+        st.stats["preview_vertices"] = st.preview.vertex_count
+
+
+def _finish(obj, scene, st, params, build_mesh):
+    if st.material_dirty or build_mesh:
+        materials.ensure(obj)
+        st.material_dirty = False
+    atmosphere.update(obj, scene, params["matrix_world"])  # sky and haze from this camera
+    st.geometry_dirty = False
+    st.error = ""
+
+
+class SurfaceJob(threading.Thread):
+    """The viewport's refresh of one planet drawn by the GPU preview, run off
+    Blender's main thread: a refresh at a new place emits every new sector's
+    detail (100-200 ms near the ground), which would stall the UI.  The job
+    holds the refresh lock while it works, so no render refines that planet
+    in between; the timer applies its result when it has finished.  Not a
+    daemon: the interpreter waits for it at exit instead of freeing the planet
+    under it."""
+
+    def __init__(self, name, serial, work, params):
+        super().__init__(name="planet_lod surface " + name)
+        self.serial, self.work, self.params = serial, work, params
+        self.error = None
+
+    def run(self):
+        try:
+            with _lock:
+                self.work.run()
+        except BaseException as exc:  # noqa: BLE001 -- the timer reports or re-raises it
+            self.error = exc
+
+
+def _start_job(obj, scene, st, params):
+    settings = obj.planet_lod.as_dict()
+    planet = planet_settings.build_planet(settings)
+    work = _work_for(obj, st, planet, settings, params, for_render=False, check_size=True,
+                     preview=True)
+    st.serial += 1
+    st.job = SurfaceJob(obj.name_full, st.serial, work, params)
+    st.dirty = False  # a change while the job runs marks the planet dirty again
+    st.job.start()
+
+
+def _finished_jobs(scene):
+    """Applies the results of finished viewport jobs; True while one still runs."""
+    running = False
+    objects = {obj.name_full: obj for obj in planet_objects(scene)}
+    for name, st in list(RUNTIME.items()):
+        job = st.job
+        if job is None:
+            continue
+        if job.is_alive():
+            running = True
+            continue
+        st.job = None
+        obj = objects.get(name)
+        if obj is None:
+            continue  # the planet went away meanwhile
+        if job.serial != st.serial:  # refreshed since (an operator, a render)
+            st.dirty = True
+            continue
+        if job.error is not None:
+            if not isinstance(job.error, core.REPORTED_ERRORS):
+                raise job.error
+            st.error = str(job.error)
+            continue
+        _apply(obj, st, job.work)
+        _finish(obj, scene, st, job.params, build_mesh=False)
+        _redraw_views()
+    return running
+
+
+def wait_for_jobs():
+    """Waits for the viewport jobs in flight (their results are dropped)."""
+    for st in list(RUNTIME.values()):
+        job = st.job
+        if job is not None:
+            job.join()
+            st.job = None
 
 
 def mesh_digest(mesh):
@@ -550,6 +675,8 @@ def _tick_locked():
         return
     now = time.monotonic()
     forget_removed()
+    if _finished_jobs(scene):
+        return  # the planet is busy in a job: nothing here may wait for it
     try:  # before the refresh: the viewport's frustum ends at its clip end
         fit_view_clips(scene)
         apply_camera_clip(scene)
@@ -576,10 +703,14 @@ def _tick_locked():
             continue
         st.refreshed_at = now
         try:
-            refresh(obj, scene, params=params, build_mesh=not s.gpu_preview)
+            if s.gpu_preview:
+                _start_job(obj, scene, st, params)
+            else:
+                refresh(obj, scene, params=params, build_mesh=True)
+                _redraw_views()
         except core.REPORTED_ERRORS as exc:
             st.error, st.dirty = str(exc), False
-        _redraw_views()
+            _redraw_views()
         break  # one planet per tick keeps the UI responsive
 
 
@@ -721,6 +852,7 @@ def add_handlers():
 def remove_handlers():
     if bpy.app.timers.is_registered(tick):
         bpy.app.timers.unregister(tick)
+    wait_for_jobs()
     for handler_list, fn in HANDLERS:
         while fn in handler_list:
             handler_list.remove(fn)

@@ -31,6 +31,12 @@ class PlanetState:
         self.frozen_camera = None  # (matrix_world planet space, params) while frozen
         self.mesh_hash = ""
         self.render_key = None     # camera + settings of the last render refresh
+        self.job = None            # live.SurfaceJob: the viewport refresh in flight
+        self.serial = 0            # counts refreshes (a job's result is applied if last)
+
+    def settled(self):
+        """Refreshed for the current view, with no refresh in flight."""
+        return not self.dirty and self.job is None
 
 
 def state(obj):

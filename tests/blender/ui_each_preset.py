@@ -63,7 +63,7 @@ def skyline(image):
 def refreshed(planet):
     from planet_lod import live
     st = live.state(planet)
-    yield from ui.wait_until(lambda: not st.dirty and st.preview is not None,
+    yield from ui.wait_until(lambda: st.settled() and st.preview is not None,
                              what="the viewport refresh")
     yield from ui.redraw(2)
 

@@ -76,6 +76,7 @@ def test():
     scene.eevee.taa_render_samples = 4
     with ui.override():
         bpy.ops.view3d.view_center_camera()
+    yield from ui.wait_until(st.settled, what="the viewport refresh")
     yield from ui.redraw(4)
     view = ui.screenshot("framed_view.png")
     x0, y0, x1, y1 = ui.camera_frame_rect(scene, camera, region, r3d)

@@ -27,7 +27,7 @@ def refreshed(planet):
     """Generator: waits for the viewport's refresh of `planet` and two redraws."""
     from planet_lod import live
     st = live.state(planet)
-    yield from ui.wait_until(lambda: not st.dirty and st.preview is not None,
+    yield from ui.wait_until(lambda: st.settled() and st.preview is not None,
                              what="the viewport refresh")
     yield from ui.redraw(2)
 
