@@ -3,6 +3,7 @@ asteroid) show their relief; a whole-planet view at Blender's default clip
 start shows none of the far hemisphere; a view limited by the sector budget
 near the asteroid's ground is covered by terrain, not emptied."""
 import math
+import threading
 
 import bpy
 import numpy as np
@@ -150,6 +151,49 @@ def budget():
           f"level {st.stats['max_level']}", flush=True)
 
 
+def refresh_job():
+    """The timer refreshes the preview in a worker job: the tick that starts it
+    returns with the previous preview still drawn, a later tick applies the new
+    one; a refresh made while the job runs (an operator, a render) makes the
+    job's result stale, and the planet refreshes again for the view."""
+    planet = add('MOON')
+    from planet_lod import live
+    st = live.state(planet)
+    yield from refreshed(planet)
+    gate, run = threading.Event(), live.SurfaceWork.run
+
+    def held(work):  # keeps a job in flight until the test lets it go
+        if threading.current_thread() is not threading.main_thread():
+            gate.wait(30)
+        run(work)
+    live.SurfaceWork.run = held
+    try:
+        ground_view(planet, 2000.0, 15.0)  # a new place: every sector in view is new
+        before = st.preview
+        yield from ui.wait_until(lambda: st.job is not None, what="a refresh job")
+        yield 0.3  # ticks go on while the job works
+        assert st.job is not None and st.preview is before and not st.dirty
+        gate.set()
+        yield from refreshed(planet)
+        assert st.preview is not before and st.stats["visible"] > 100, st.stats
+        job_surface = st.preview
+        # a refresh on the main thread while a job is in flight: the job is dropped
+        gate.clear()
+        _, area, _, _ = ui.view3d()
+        r3d = area.spaces.active.region_3d
+        r3d.view_location = r3d.view_location + Vector((0.0, 0.0, 500.0))
+        yield from ui.wait_until(lambda: st.job is not None, what="a refresh job")
+        serial = st.job.serial
+        threading.Timer(0.3, gate.set).start()
+        live.refresh(planet, bpy.context.scene)  # waits for the job's lock
+        assert st.serial > serial
+        yield from refreshed(planet)
+        assert st.preview is not job_surface and not st.error
+    finally:
+        gate.set()
+        live.SurfaceWork.run = run
+
+
 def test():
     lib.enable()
     ui.clean_view()
@@ -157,6 +201,7 @@ def test():
         yield from relief(preset)
     yield from far_side()
     yield from budget()
+    yield from refresh_job()
 
 
 ui.run(test)
