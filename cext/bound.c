@@ -247,12 +247,23 @@ void plod_bound_build(const plod_bound_setup *setup, const plod_sector *s,
         plod_planet_height_range_cap(planet, b->axis, atan2(b->sin_angle, b->cos_angle),
                                      &hmin, &hmax, &texels);
     }
-    double inset_lo, inset_hi;
-    int insets = plod_planet_insets_range_cap(planet, b->axis, atan2(b->sin_angle, b->cos_angle),
-                                              &inset_lo, &inset_hi);
+    double inset_lo, inset_hi, cap_angle = atan2(b->sin_angle, b->cos_angle);
+    plod_insets_relief inset;
+    int insets = plod_planet_insets_range_cap(planet, b->axis, cap_angle, &inset_lo, &inset_hi,
+                                              &inset);
+    double inset_relief = 0.0;
     if (insets) { /* the blend lies between the global data and the insets */
         hmin = inset_lo < hmin ? inset_lo : hmin;
         hmax = inset_hi > hmax ? inset_hi : hmax;
+        /* the insets' own relief at their spacing, as the map's below: over
+         * a sector e samples across, the pyramid's mean change per sample
+         * times the e + 1 samples it touches (no more than the range),
+         * shrinking with e below one sample as the map's relief of the
+         * 2 x 2 texels around does */
+        double e = inset.texel_angle > 0.0 ? 2.0 * cap_angle / inset.texel_angle : 1.0;
+        double range = inset_hi - inset_lo;
+        double across = inset.per_sample * (e < 1.0 ? 1.0 : e + 1.0);
+        inset_relief = (across < range ? across : range) * (e < 1.0 ? e : 1.0);
     }
     double relief_range = hmax - hmin;
     if (!insets) /* corner heights are blends there, not the map's bilinear patch */
@@ -275,8 +286,8 @@ void plod_bound_build(const plod_bound_setup *setup, const plod_sector *s,
     b->r_min = planet->radius + fmin_;
     b->r_max = planet->radius + fmax_;
     b->sag0 = b->size * b->size / (8.0 * b->r_min);
-    b->relief0 = relief_range * (texels < 1.0 ? texels : 1.0);
-    b->twist0 = plod__inside_one_cell(setup, u0, v0, u1, v1)
+    b->relief0 = relief_range * (texels < 1.0 ? texels : 1.0) + inset_relief;
+    b->twist0 = !insets && plod__inside_one_cell(setup, u0, v0, u1, v1)
                     ? 3.0 * relief_range * texels * texels
                     : INFINITY;
     double rho = setup->occluder;
@@ -382,8 +393,9 @@ double plod_bound_distance(const plod_bound_view *v, const plod_bound *b)
  *   curvature sag of a cell   (size / 2^t)^2 / (8 r_min)
  * + relief left between cells (hmax - hmin) * min(1, extent / texel) / 2^t
  * (below one texel the bilinear surface varies ~linearly between its
- * creases, so the relief of the texel footprint shrinks with the sector),
- * or, for a sector inside one bilinear cell (no crease), the smaller
+ * creases, so the relief of the texel footprint shrinks with the sector;
+ * plus, where insets meet the sector, their relief at their own spacing),
+ * or, for a sector inside one bilinear cell of the map and no inset, the smaller
  *   twist of the cell        3 (hmax - hmin) (extent / texel / 2^t)^2:
  * there h = a + b x + c y + d x y with |d| <= 2 (hmax - hmin) per texel^2,
  * and linear interpolation over a template cell of diameter

@@ -14,7 +14,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define PLOD__INSET_BLOCK 32
+/* Min/max pyramid of the samples: blocks of 4, 8, 16 and 32 samples. */
+#define PLOD__INSET_LEVELS 4
+#define PLOD__INSET_FINEST 4
 
 typedef struct plod__inset {
     double west, south, east, north; /* degrees: the corner samples */
@@ -25,8 +27,8 @@ typedef struct plod__inset {
     double texel_angle;              /* radians: the north-south sample spacing */
     double mosaic_texel_angle;       /* radians: the coarsest over its mosaic */
     double lo, hi;                   /* metres, NaN-free */
-    int blocks_x, blocks_y;
-    float *block_lo, *block_hi;      /* per PLOD__INSET_BLOCK^2 block */
+    int blocks_x[PLOD__INSET_LEVELS], blocks_y[PLOD__INSET_LEVELS];
+    float *block_lo[PLOD__INSET_LEVELS], *block_hi[PLOD__INSET_LEVELS]; /* NaN-free */
 } plod__inset;
 
 struct plod_insets {
@@ -51,8 +53,10 @@ void plod_insets_destroy(plod_insets *insets)
         return;
     for (size_t i = 0; i < insets->count; i++) {
         free(insets->items[i].metres);
-        free(insets->items[i].block_lo);
-        free(insets->items[i].block_hi);
+        for (int l = 0; l < PLOD__INSET_LEVELS; l++) {
+            free(insets->items[i].block_lo[l]);
+            free(insets->items[i].block_hi[l]);
+        }
     }
     free(insets->items);
     free(insets);
@@ -119,20 +123,25 @@ plod_status plod_insets_create(plod_insets **out, const plod_inset_desc *descs, 
         t->west = d->west, t->south = d->south, t->east = d->east, t->north = d->north;
         t->width = d->width, t->height = d->height;
         size_t n = (size_t)d->width * (size_t)d->height;
-        t->blocks_x = (d->width + PLOD__INSET_BLOCK - 1) / PLOD__INSET_BLOCK;
-        t->blocks_y = (d->height + PLOD__INSET_BLOCK - 1) / PLOD__INSET_BLOCK;
-        size_t blocks = (size_t)t->blocks_x * (size_t)t->blocks_y;
         t->metres = malloc(n * sizeof *t->metres);
-        t->block_lo = malloc(blocks * sizeof(float));
-        t->block_hi = malloc(blocks * sizeof(float));
-        if (!t->metres || !t->block_lo || !t->block_hi) {
+        int ok = t->metres != NULL;
+        for (int l = 0; l < PLOD__INSET_LEVELS; l++) {
+            int size = PLOD__INSET_FINEST << l;
+            t->blocks_x[l] = (d->width + size - 1) / size;
+            t->blocks_y[l] = (d->height + size - 1) / size;
+            size_t blocks = (size_t)t->blocks_x[l] * (size_t)t->blocks_y[l];
+            t->block_lo[l] = malloc(blocks * sizeof(float));
+            t->block_hi[l] = malloc(blocks * sizeof(float));
+            ok = ok && t->block_lo[l] && t->block_hi[l];
+            for (size_t b = 0; ok && b < blocks; b++)
+                t->block_lo[l][b] = INFINITY, t->block_hi[l][b] = -INFINITY;
+        }
+        if (!ok) {
             plod_insets_destroy(s);
             return PLOD_ERR_NO_MEMORY;
         }
         memcpy(t->metres, d->metres, n * sizeof *t->metres);
         t->lo = INFINITY, t->hi = -INFINITY;
-        for (size_t b = 0; b < blocks; b++)
-            t->block_lo[b] = INFINITY, t->block_hi[b] = -INFINITY;
         for (int y = 0; y < d->height; y++)
             for (int x = 0; x < d->width; x++) {
                 float v = t->metres[(size_t)y * (size_t)d->width + (size_t)x];
@@ -140,13 +149,22 @@ plod_status plod_insets_create(plod_insets **out, const plod_inset_desc *descs, 
                     t->metres[(size_t)y * (size_t)d->width + (size_t)x] = NAN; /* a void */
                     continue;
                 }
-                size_t b = (size_t)(y / PLOD__INSET_BLOCK) * (size_t)t->blocks_x +
-                           (size_t)(x / PLOD__INSET_BLOCK);
-                t->block_lo[b] = v < t->block_lo[b] ? v : t->block_lo[b];
-                t->block_hi[b] = v > t->block_hi[b] ? v : t->block_hi[b];
+                size_t b = (size_t)(y / PLOD__INSET_FINEST) * (size_t)t->blocks_x[0] +
+                           (size_t)(x / PLOD__INSET_FINEST);
+                t->block_lo[0][b] = v < t->block_lo[0][b] ? v : t->block_lo[0][b];
+                t->block_hi[0][b] = v > t->block_hi[0][b] ? v : t->block_hi[0][b];
                 t->lo = v < t->lo ? v : t->lo;
                 t->hi = v > t->hi ? v : t->hi;
             }
+        for (int l = 1; l < PLOD__INSET_LEVELS; l++) /* each block: its 2 x 2 finer ones */
+            for (int y = 0; y < t->blocks_y[l - 1]; y++)
+                for (int x = 0; x < t->blocks_x[l - 1]; x++) {
+                    size_t f = (size_t)y * (size_t)t->blocks_x[l - 1] + (size_t)x;
+                    size_t b = (size_t)(y / 2) * (size_t)t->blocks_x[l] + (size_t)(x / 2);
+                    float lo = t->block_lo[l - 1][f], hi = t->block_hi[l - 1][f];
+                    t->block_lo[l][b] = lo < t->block_lo[l][b] ? lo : t->block_lo[l][b];
+                    t->block_hi[l][b] = hi > t->block_hi[l][b] ? hi : t->block_hi[l][b];
+                }
         double span = fmin(d->east - d->west, d->north - d->south);
         t->feather = feather * span;
         if (t->lo <= t->hi) {
@@ -310,13 +328,13 @@ double plod_insets_mosaic_texel_cap(const plod_insets *insets, const double axis
 }
 
 int plod_insets_range_cap(const plod_insets *insets, const double axis[3], double angle,
-                          double *lo_out, double *hi_out)
+                          double *lo_out, double *hi_out, plod_insets_relief *relief)
 {
     if (!insets || !insets->count)
         return 0;
     plod__cap_box box = plod__cap_box_of(axis, angle);
     double lon = box.lon, half_lon = box.half_lon, lat0 = box.lat0, lat1 = box.lat1;
-    double lo = INFINITY, hi = -INFINITY;
+    double lo = INFINITY, hi = -INFINITY, texel_angle = 0.0, per_sample = 0.0;
     int any = 0;
     for (size_t i = 0; i < insets->count; i++) {
         const plod__inset *t = &insets->items[i];
@@ -324,7 +342,8 @@ int plod_insets_range_cap(const plod_insets *insets, const double axis[3], doubl
             continue;
         double w0 = lon - half_lon, w1 = lon + half_lon;
         any = 1;
-        /* the blocks under the box (clamped to the inset), whole inset when wide */
+        texel_angle = t->mosaic_texel_angle > texel_angle ? t->mosaic_texel_angle : texel_angle;
+        /* the samples under the box (clamped to the inset), whole inset when wide */
         double x0 = half_lon >= 180.0 ? t->west : fmax(t->west, w0), x1 = half_lon >= 180.0 ? t->east : fmin(t->east, w1);
         if (!(x0 <= x1)) /* hit through the date line shift: the whole inset */
             x0 = t->west, x1 = t->east;
@@ -335,16 +354,36 @@ int plod_insets_range_cap(const plod_insets *insets, const double axis[3], doubl
         int r1 = (int)floor((t->north - y0) / (t->north - t->south) * (t->height - 1)) + 2;
         c0 = c0 < 0 ? 0 : c0, r0 = r0 < 0 ? 0 : r0;
         c1 = c1 >= t->width ? t->width - 1 : c1, r1 = r1 >= t->height ? t->height - 1 : r1;
-        for (int by = r0 / PLOD__INSET_BLOCK; by <= r1 / PLOD__INSET_BLOCK; by++)
-            for (int bx = c0 / PLOD__INSET_BLOCK; bx <= c1 / PLOD__INSET_BLOCK; bx++) {
-                size_t b = (size_t)by * (size_t)t->blocks_x + (size_t)bx;
-                if (t->block_lo[b] < lo) lo = t->block_lo[b];
-                if (t->block_hi[b] > hi) hi = t->block_hi[b];
+        /* the finest pyramid level with at most 8 x 8 blocks there */
+        int l = 0;
+        while (l + 1 < PLOD__INSET_LEVELS &&
+               ((c1 - c0) / (PLOD__INSET_FINEST << l) > 7 ||
+                (r1 - r0) / (PLOD__INSET_FINEST << l) > 7))
+            l++;
+        int size = PLOD__INSET_FINEST << l;
+        double ilo = INFINITY, ihi = -INFINITY;
+        for (int by = r0 / size; by <= r1 / size; by++)
+            for (int bx = c0 / size; bx <= c1 / size; bx++) {
+                size_t b = (size_t)by * (size_t)t->blocks_x[l] + (size_t)bx;
+                if (t->block_lo[l][b] < ilo) ilo = t->block_lo[l][b];
+                if (t->block_hi[l][b] > ihi) ihi = t->block_hi[l][b];
             }
+        int across = (c1 / size - c0 / size) > (r1 / size - r0 / size) ? (c1 / size - c0 / size)
+                                                                       : (r1 / size - r0 / size);
+        if (ilo <= ihi) {
+            lo = ilo < lo ? ilo : lo;
+            hi = ihi > hi ? ihi : hi;
+            double slope = (ihi - ilo) / ((double)(across + 1) * size);
+            per_sample = slope > per_sample ? slope : per_sample;
+        }
     }
     if (!any)
         return 0;
     *lo_out = lo;
     *hi_out = hi;
+    if (relief) {
+        relief->texel_angle = texel_angle;
+        relief->per_sample = per_sample;
+    }
     return 1;
 }

@@ -674,9 +674,11 @@ int plod_planet_detail_first_octave_cap(const plod_planet *planet, const double 
 }
 
 int plod_planet_insets_range_cap(const plod_planet *planet, const double axis[3],
-                                 double angle, double *min_m, double *max_m)
+                                 double angle, double *min_m, double *max_m,
+                                 plod_insets_relief *relief)
 {
-    return planet->insets && plod_insets_range_cap(planet->insets, axis, angle, min_m, max_m);
+    return planet->insets &&
+           plod_insets_range_cap(planet->insets, axis, angle, min_m, max_m, relief);
 }
 
 static void plod__global_height_range(const plod_planet *planet, double *min_m, double *max_m)

@@ -194,10 +194,19 @@ double plod_insets_blend_weight(const plod_insets *insets, const double dir[3], 
  * cap's lon/lat box, 0 when none does. */
 double plod_insets_mosaic_texel_cap(const plod_insets *insets, const double axis[3],
                                     double angle);
-/* Metres bounds of the insets' samples under the cap's lon/lat box; 0 when
- * no inset meets it (the blend lies between the global height and these). */
+/* How the insets under a cap vary: their sample spacing (radians, the
+ * largest mosaic spacing there) and their mean height change per sample
+ * over the pyramid blocks the range was read from (metres). */
+typedef struct plod_insets_relief {
+    double texel_angle;
+    double per_sample;
+} plod_insets_relief;
+/* Metres bounds of the insets' samples under the cap's lon/lat box (from a
+ * min/max pyramid: they tighten as the cap shrinks, down to blocks of 4
+ * samples); 0 when no inset meets it (the blend lies between the global
+ * height and these).  *relief (may be NULL): as above. */
 int plod_insets_range_cap(const plod_insets *insets, const double axis[3], double angle,
-                          double *lo, double *hi);
+                          double *lo, double *hi, plod_insets_relief *relief);
 void plod_insets_global_range(const plod_insets *insets, double *lo, double *hi);
 
 #ifdef __cplusplus

@@ -172,9 +172,12 @@ void plod_planet_detail_range_cap(const plod_planet *planet, const double axis[3
 int plod_planet_detail_first_octave_cap(const plod_planet *planet, const double axis[3],
                                         double angle);
 /* Metres bounds of the planet's insets under a spherical cap (the blended
- * heights lie between the global data's and these); 0 when none meets it. */
+ * heights lie between the global data's and these; they tighten as the cap
+ * shrinks) and, when relief is not NULL, how they vary there
+ * (plod_insets_range_cap); 0 when none meets it. */
 int plod_planet_insets_range_cap(const plod_planet *planet, const double axis[3],
-                                 double angle, double *min_m, double *max_m);
+                                 double angle, double *min_m, double *max_m,
+                                 plod_insets_relief *relief);
 /* The detail field's modulation at a unit direction (sampled where the
  * height map samples; 1 without a map, 0 without detail). */
 double plod_planet_modulation(const plod_planet *planet, const double dir[3]);

@@ -342,3 +342,51 @@ def test_detail_continuous_across_a_mosaic_of_two_resolutions(planetlod, base, t
     steps = np.abs(np.diff(detail_part(planet, plain, lons, 45.3)))
     assert steps.max() < 0.01
     assert planet.texel_size(*direction(6.5, 45.3)) == pytest.approx(R * math.radians(1 / 3600))
+
+
+def test_pixel_criterion_counts_an_insets_relief(planetlod, tmp_path):
+    """A rough 3" tile on a flat global map, seen from 60 km: the pixel
+    criterion splits where the tile's relief shows, so the mesh stays near
+    the surface in view (with the global map's flatness alone it keeps
+    sectors kilometres wide: 27 px at the 99th percentile)."""
+    rng = np.random.default_rng(3)
+    noise = rng.normal(0.0, 1.0, (1201, 1201))
+    box = np.ones(16) / 16.0  # relief correlated over ~1.4 km, ~40 % slopes
+    for axis in (0, 1):
+        noise = np.apply_along_axis(lambda r: np.convolve(r, box, "same"), axis, noise)
+    grid = np.round(2000.0 + 120.0 * noise / noise.std()).astype(">i2")
+    path = tmp_path / "N45E006.hgt"
+    grid.tofile(path)
+    flat = planetlod.CubeMap(projection="qsc", size=64, dtype="u16")
+    for face in range(6):
+        flat.set_face(face, np.full(64 * 64, 1000, "<u2").tobytes())
+    planet = planetlod.Planet(R, heightmap=flat, height_scale=1000.0, insets=[str(path)])
+    centre = np.array(direction(6.5, 45.5))
+    eye = centre * (R + 5000.0 + 60000.0)
+    forward = -centre
+    right = np.cross(forward, [0.0, 0.0, 1.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    matrix = [[right[i], up[i], -forward[i], eye[i]] for i in range(3)] + [[0.0, 0.0, 0.0, 1.0]]
+    camera = planetlod.Camera(matrix, lens=50.0, sensor_width=36.0, resolution_x=1920,
+                              resolution_y=1080, clip_start=1.0, clip_end=1e8)
+    for _ in range(20):
+        stats = planet.refine(camera, template_level=3, max_pixel_error=2.0, budget=0)
+        if not stats["splits"] and not stats["merges"]:
+            break
+    mesh = planet.mesh(template_level=3)
+    points = np.frombuffer(mesh.positions, np.float32).reshape(-1, 3).astype(float)
+    points += np.array(mesh.origin)
+    triangles = np.frombuffer(mesh.triangles, np.int32).reshape(-1, 3)
+    pick = np.random.default_rng(4).choice(len(triangles), 4000, replace=False)
+    centroids = points[triangles[pick]].mean(axis=1)
+    radius = np.linalg.norm(centroids, axis=1)
+    heights = np.array([planet.height(*(c / r)) for c, r in zip(centroids, radius)])
+    local = (centroids - eye) @ np.array([right, up, -forward]).T
+    in_view = (local[:, 2] < 0) & (np.abs(local[:, 0] / local[:, 2]) < 18.0 / 50.0) & \
+        (np.abs(local[:, 1] / local[:, 2]) < 18.0 * 1080 / 1920 / 50.0)
+    pixels = (np.abs(radius - (R + heights)) * camera.pixels_per_radian /
+              np.linalg.norm(centroids - eye, axis=1))[in_view]
+    assert in_view.mean() > 0.8
+    assert np.percentile(pixels, 99) < 2.0 and pixels.mean() < 0.5, \
+        (stats["sectors_total"], np.percentile(pixels, 99), pixels.max())
