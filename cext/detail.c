@@ -1000,6 +1000,12 @@ plod_status plod_detail_create(plod_detail **out, const plod_detail_params *para
                                      ? 0.5 * PLOD_PI / size
                                      : PLOD_PI / size;
             largest = 2.0 * texel_angle * planet->radius;
+        } else if (planet->source) { /* an out-of-core map: its texel at the equator */
+            static const double equator[3] = {1.0, 0.0, 0.0};
+            double texel_angle = planet->source->ops->texel_angle(planet->source->self, equator);
+            largest = texel_angle > 0.0 && isfinite(texel_angle)
+                          ? 2.0 * texel_angle * planet->radius
+                          : planet->radius / 50.0;
         } else {
             largest = planet->radius / 50.0;
         }

@@ -66,7 +66,8 @@ typedef struct plod_detail_params {
     double amplitude;  /* metres: the first octave's amplitude at m = 1, >= 0 */
     double roughness;  /* amplitude ratio from one octave to the next, [0, 1) */
     double largest;    /* metres: first octave's wavelength; 0 = two height
-                          map texels (or radius / 50 without a map) */
+                          map (or out-of-core map) texels, radius / 50
+                          without a map */
     double smallest;   /* metres: no octave finer than this, > 0 */
     uint64_t seed;
     double craters;    /* crater layer weight, [0, 4] (CRATERS: >= 1 applies) */

@@ -123,6 +123,18 @@ def test_refined_sectors_bound_the_surface(planetlod, tiled, projection):
         assert np.isfinite(positions).all() and mesh.vertex_count > 0
 
 
+def test_detail_starts_at_the_tiled_maps_texel(planetlod, tiled, in_memory):
+    """The detail field's first octave is two texels of the map it refines,
+    out of core as in memory, not a fraction of the radius."""
+    detail = dict(amplitude=100.0, smallest=1.0)
+    out_of_core = planetlod.Planet(R, "car", heightmap=tiled, height_scale=8000.0, detail=detail)
+    loaded = planetlod.Planet(R, "car", heightmap=in_memory, height_scale=8000.0, detail=detail)
+    texel = math.pi / H * R
+    first = out_of_core.detail["finest_wavelength"] * 2.0 ** (out_of_core.detail["octaves"] - 1)
+    assert first == pytest.approx(2.0 * texel, rel=1e-9)
+    assert out_of_core.detail["octaves"] == loaded.detail["octaves"]
+
+
 def test_texel_size_and_bounded_memory_in_the_core(planetlod, tiled):
     planet = planetlod.Planet(R, "qsc", heightmap=tiled, height_scale=8000.0)
     assert planet.texel_size(1.0, 0.0, 0.0) == pytest.approx(math.pi / H * R)
