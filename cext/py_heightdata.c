@@ -228,7 +228,48 @@ static PyGetSetDef plod__tiled_map_getset[] = {
     {NULL},
 };
 
+/* TiledMap.is_written(path, tiles=None): whether the tile file is complete
+ * and current for the map (then TiledMap(path) opens it without writing). */
+static PyObject *plod__tiled_map_is_written(PyObject *Py_UNUSED(cls), PyObject *args,
+                                            PyObject *kwds)
+{
+    static char *kwlist[] = {"path", "tiles", NULL};
+    PyObject *path_bytes = NULL, *tiles_obj = Py_None, *tiles_bytes = NULL, *result = NULL;
+    char *derived = NULL;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O&|O", kwlist, PyUnicode_FSConverter,
+                                     &path_bytes, &tiles_obj))
+        return NULL;
+    const char *path = PyBytes_AsString(path_bytes), *tiles_path;
+    if (tiles_obj != Py_None) {
+        if (!PyUnicode_FSConverter(tiles_obj, &tiles_bytes))
+            goto done;
+        tiles_path = PyBytes_AsString(tiles_bytes);
+    } else {
+        size_t n = strlen(path) + 16;
+        if (!(derived = malloc(n))) {
+            PyErr_NoMemory();
+            goto done;
+        }
+        snprintf(derived, n, "%s.plodtiles", path);
+        tiles_path = derived;
+    }
+    int current;
+    Py_BEGIN_ALLOW_THREADS
+    current = plod_tiles_current(tiles_path, path);
+    Py_END_ALLOW_THREADS
+    result = PyBool_FromLong(current);
+done:
+    free(derived);
+    Py_XDECREF(tiles_bytes);
+    Py_DECREF(path_bytes);
+    return result;
+}
+
 static PyMethodDef plod__tiled_map_methods[] = {
+    {"is_written", (PyCFunction)(void (*)(void))plod__tiled_map_is_written,
+     METH_VARARGS | METH_KEYWORDS | METH_STATIC,
+     "is_written(path, tiles=None) -> bool: the tile file (default path + '.plodtiles') is "
+     "complete and current for the map, so TiledMap(path) opens it without writing"},
     {"sample", (PyCFunction)plod__tiled_map_sample, METH_VARARGS,
      "sample(lon_deg, lat_deg) -> float: bilinear value (normalised as CubeMap samples)"},
     {"range", (PyCFunction)plod__tiled_map_range, METH_VARARGS,

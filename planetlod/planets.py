@@ -6,7 +6,7 @@ import math
 import os
 import re
 
-from . import FileError, ImageError, InvalidArgument, presets, require_native
+from . import Cancelled, FileError, ImageError, InvalidArgument, presets, require_native
 
 
 def projection_id(key):
@@ -106,10 +106,39 @@ def _over_pixel_limit(exc):
     return isinstance(exc, ImageError) and "more than the limit of" in str(exc)
 
 
+TILES_NOT_WRITTEN = ("Large Map: the map's tile file is not written yet (or the map changed "
+                     "since): press Write Tile File")
+
+
+def tiles_written(settings):
+    """Whether the settings' height map has a current tile file next to it."""
+    return bool(settings.get("heightmap")) and \
+        require_native().TiledMap.is_written(settings["heightmap"])
+
+
+def write_tiles(settings, progress=None):
+    """Writes the settings' height map's tile file (map path + ".plodtiles",
+    as big as the map; to a temporary name, renamed when complete).
+    progress(fraction) is called as it goes; a true return cancels, and then
+    nothing is left behind.  Returns False when cancelled."""
+    check_heightmap(settings.get("heightmap"))
+    try:
+        require_native().TiledMap(settings["heightmap"],
+                                  signed=bool(settings.get("height_signed", False)),
+                                  cache_bytes=1 << 20, progress=progress)
+    except Cancelled:
+        return False
+    return True
+
+
 def tiled_map(settings):
-    """The settings' height map as an out-of-core TiledMap: its tile file,
-    map path + ".plodtiles", is written next to the map on first use (and
-    again when the map changes); at most 128 MiB of tiles stay in memory."""
+    """The settings' height map as an out-of-core TiledMap, read through its
+    tile file (write_tiles); at most 128 MiB of tiles stay in memory.  The
+    tile file is never written here: writing one takes as long as reading
+    the whole map (minutes for a global 500 m map), which the add-on runs
+    with a progress bar and a way to cancel."""
+    if not tiles_written(settings):
+        raise FileError(TILES_NOT_WRITTEN)
     tiled = require_native().TiledMap(settings["heightmap"],
                                       signed=bool(settings.get("height_signed", False)))
     if tiled.width != 2 * tiled.height:

@@ -129,6 +129,16 @@ def test_large_map_reads_the_map_through_a_tile_file(planetlod, tmp_path):
     world = write_world(tmp_path / "world.r16")
     in_memory = planets.build_planet(settings(heightmap=world))
     assert not os.path.exists(world + ".plodtiles")
+    # the tile file is written on request only (the add-on: with progress and Esc)
+    with pytest.raises(FileError, match="Write Tile File"):
+        planets.build_planet(settings(heightmap=world, heightmap_tiled=True))
+    seen = []
+    assert not planets.write_tiles(settings(heightmap=world),
+                                   progress=lambda f: seen.append(f) or True)
+    assert seen and not os.path.exists(world + ".plodtiles")  # cancelled: nothing left
+    assert not planets.tiles_written(settings(heightmap=world))
+    assert planets.write_tiles(settings(heightmap=world), progress=seen.append)
+    assert planets.tiles_written(settings(heightmap=world)) and seen[-1] <= 1.0
     tiled = planets.build_planet(settings(heightmap=world, heightmap_tiled=True))
     assert tiled is not in_memory
     assert os.path.isfile(world + ".plodtiles")
@@ -137,6 +147,7 @@ def test_large_map_reads_the_map_through_a_tile_file(planetlod, tmp_path):
             in_memory.height(*direction(lon, lat)), abs=0.02 * 8848.0)
     square = tmp_path / "square.r16"
     np.zeros((64, 64), "<u2").tofile(square)
+    assert planets.write_tiles(settings(heightmap=str(square)))
     with pytest.raises(InvalidArgument, match="2:1"):
         planets.build_planet(settings(heightmap=str(square), heightmap_tiled=True))
     with_insets = planets.build_planet(settings(heightmap=world, heightmap_tiled=True,
@@ -168,6 +179,7 @@ def test_maps_over_the_memory_limit_ask_for_the_large_map_option(planetlod, tmp_
     with pytest.raises(ImageError, match="more than the limit .*turn on Large Map"):
         planets.build_planet(settings(heightmap=world, height_scale=1000.0))
     assert not os.path.exists(world + ".plodtiles")
+    assert planets.write_tiles(settings(heightmap=world))
     planet = planets.build_planet(settings(heightmap=world, height_scale=1000.0,
                                            heightmap_tiled=True))
     assert math.isfinite(planet.height(*direction(0.0, 0.0)))

@@ -42,6 +42,7 @@ classes = (
     props.PLOD_PG_geo,
     operators.PLOD_OT_planet_add,
     operators.PLOD_OT_planet_refresh,
+    operators.PLOD_OT_write_tiles,
     operators.PLOD_OT_planet_apply_mesh,
     operators.PLOD_OT_planet_apply_preset,
     operators.PLOD_OT_set_heightmap,

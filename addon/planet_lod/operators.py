@@ -1,6 +1,7 @@
 """Operators.  Each one reports errors (self.report) and returns CANCELLED; none
 lets a traceback reach the user, and none leaves a half-built object behind."""
 import os
+import threading
 
 import bpy
 from bl_operators.presets import AddPresetBase
@@ -164,6 +165,89 @@ class PLOD_OT_planet_refresh(bpy.types.Operator):
         self.report({'INFO'}, f"{obj.name}: {stats.get('visible', 0)} sectors, "
                               f"{stats.get('triangles', 0)} triangles")
         return {'FINISHED'}
+
+
+class PLOD_OT_write_tiles(bpy.types.Operator):
+    """Write the Large Map's tile file next to the height map (as big as the map;
+    minutes for a global map).  The planet reads the map through it"""
+    bl_idname = "object.planet_write_tiles"
+    bl_label = "Write Tile File"
+    bl_options = {'REGISTER'}
+
+    @classmethod
+    def poll(cls, context):
+        obj = _planet(context)
+        return obj is not None and bool(obj.planet_lod.heightmap)
+
+    def _settings(self, context):
+        obj = _planet(context)
+        return obj, obj.planet_lod.as_dict()
+
+    def _done(self, obj, written, error):
+        if error is not None:
+            live.state(obj).error = str(error)
+            self.report({'ERROR'}, f"{obj.name}: {error}")
+            return {'CANCELLED'}
+        if not written:
+            self.report({'WARNING'}, f"{obj.name}: writing the tile file was cancelled")
+            return {'CANCELLED'}
+        live.mark_dirty(obj, geometry=True)
+        self.report({'INFO'}, f"{obj.name}: tile file written")
+        return {'FINISHED'}
+
+    def execute(self, context):  # scripts and background: blocking
+        if _report_missing(self):
+            return {'CANCELLED'}
+        obj, settings = self._settings(context)
+        try:
+            written = planets.write_tiles(settings)
+        except core.REPORTED_ERRORS as exc:
+            return self._done(obj, False, exc)
+        return self._done(obj, written, None)
+
+    def invoke(self, context, event):
+        """In the UI: the writing runs on a worker thread; the status bar shows its
+        progress and Esc cancels it."""
+        if _report_missing(self):
+            return {'CANCELLED'}
+        self._obj, settings = self._settings(context)
+        self._fraction, self._cancel, self._result = 0.0, False, None
+
+        def progress(fraction):
+            self._fraction = fraction
+            return self._cancel
+
+        def work():
+            try:
+                self._result = (planets.write_tiles(settings, progress), None)
+            except core.REPORTED_ERRORS as exc:
+                self._result = (False, exc)
+        self._thread = threading.Thread(target=work, name="planet_lod tile file")
+        self._thread.start()
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(0.1, window=context.window)
+        wm.progress_begin(0, 100)
+        wm.modal_handler_add(self)
+        return {'RUNNING_MODAL'}
+
+    def modal(self, context, event):
+        if event.type == 'ESC':
+            self._cancel = True
+        if event.type != 'TIMER':
+            return {'RUNNING_MODAL'}
+        wm = context.window_manager
+        wm.progress_update(int(100 * self._fraction))
+        if context.workspace:
+            context.workspace.status_text_set(
+                f"Writing the tile file: {100 * self._fraction:.0f} % (Esc to cancel)")
+        if self._thread.is_alive():
+            return {'RUNNING_MODAL'}
+        wm.event_timer_remove(self._timer)
+        wm.progress_end()
+        if context.workspace:
+            context.workspace.status_text_set(None)
+        written, error = self._result or (False, None)
+        return self._done(self._obj, written, error)
 
 
 class PLOD_OT_planet_apply_mesh(bpy.types.Operator):

@@ -118,6 +118,9 @@ class PLOD_PT_surface(PLOD_PT_planet_sub, bpy.types.Panel):
         row = col.row()
         row.active = bool(s.heightmap)
         row.prop(s, "heightmap_tiled")
+        if s.heightmap_tiled and s.heightmap and core.native is not None and \
+                not planets.tiles_written(s.as_dict()):
+            col.operator("object.planet_write_tiles", icon='FILE_REFRESH')
         col.label(text="Insets")
         row = col.row()
         row.template_list("PLOD_UL_insets", "", s, "insets", s, "inset_index", rows=2)

@@ -129,6 +129,13 @@ def main():
     world = os.path.join(folder, "world.r16")
     numpy.full((256, 512), 20000, "<u2").tofile(world)
     s.heightmap, s.heightmap_tiled = world, True
+    try:  # no tile file yet: the error is reported (and raised to a script)
+        bpy.ops.object.planet_refresh()
+        raise AssertionError("refreshed without the tile file")
+    except RuntimeError as exc:
+        assert "Write Tile File" in str(exc)
+    assert "Write Tile File" in live.state(earth).error, live.state(earth).error
+    assert bpy.ops.object.planet_write_tiles() == {'FINISHED'}
     assert bpy.ops.object.planet_refresh() == {'FINISHED'}, live.state(earth).error
     assert os.path.isfile(world + ".plodtiles")
     radius, lon, lat = mesh_points(earth)

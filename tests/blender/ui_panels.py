@@ -1,7 +1,10 @@
 """In the real UI (xvfb): every panel of the add-on's sidebar tab draws without
 error in each state -- no planet, each planet preset, a planet whose height map
-path is wrong, one with a missing inset file -- and the error is shown in the
-panel (a red box)."""
+path is wrong, one with a missing inset file, a Large Map without its tile
+file -- and the error is shown in the panel (a red box); Write Tile File
+writes it from the panel (a modal operator) and the planet refreshes."""
+import os
+
 import bpy
 import numpy as np
 
@@ -79,6 +82,25 @@ def test():
     yield 0.8
     yield from redraw_and_check(recorder, ALL, "inset removed")
     assert live.state(planet).error == "", live.state(planet).error
+    # a Large Map whose tile file is not written: the panel says so and offers
+    # to write it; written from the panel, the planet refreshes
+    world = os.path.join(lib.out_dir(), "world.r16")
+    np.full((256, 512), 30000, "<u2").tofile(world)
+    if os.path.exists(world + ".plodtiles"):
+        os.remove(world + ".plodtiles")
+    planet.planet_lod.heightmap, planet.planet_lod.heightmap_tiled = world, True
+    yield 0.8
+    yield from redraw_and_check(recorder, ALL, "Large Map, no tile file")
+    assert "tile file is not written" in live.state(planet).error, live.state(planet).error
+    assert red_pixels("panels_tiles_missing.png") > clean_red + 200, "tile error not shown"
+    with ui.override():
+        assert bpy.ops.object.planet_write_tiles('INVOKE_DEFAULT') == {'RUNNING_MODAL'}
+    yield from ui.wait_until(lambda: os.path.isfile(world + ".plodtiles") and
+                             live.state(planet).settled() and not live.state(planet).error,
+                             what="the tile file and the planet's refresh")
+    yield from redraw_and_check(recorder, ALL, "Large Map written")
+    planet.planet_lod.heightmap_tiled, planet.planet_lod.heightmap = False, ""
+    yield 0.8
 
 
 ui.run(test)
