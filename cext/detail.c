@@ -208,26 +208,33 @@ static double plod__crater_profile(double x, double *dprof)
     return PLOD__CRATER_RIM * s * s * s;
 }
 
-/* The crater of the lattice cell holding p (lattice units; the sphere is
- * |p - centre| = radius there), in units of depth; 0 outside any crater.
- * The crater centre is a seeded point of the cell moved onto the sphere;
+/* The crater of one lattice cell (its integer corner fx, fy, fz): none,
+ * or its centre and radius in lattice units.  The crater centre is a
+ * seeded point of the cell moved onto the sphere |p - centre| = radius;
  * a crater whose reach would leave its cell is dropped, so every cell
  * boundary has height 0 and slope 0: seamless. */
-static double plod__crater(const double p[3], const double centre[3], double radius,
-                           uint64_t seed, double density, double g[3])
+typedef struct plod__crater_cell {
+    double fx, fy, fz;
+    int present;
+    double c[3], r;
+} plod__crater_cell;
+
+static void plod__crater_cell_of(double fx, double fy, double fz, const double centre[3],
+                                 double radius, uint64_t seed, double density,
+                                 plod__crater_cell *cell)
 {
-    g[0] = g[1] = g[2] = 0.0;
-    double fx = plod__floor(p[0]), fy = plod__floor(p[1]), fz = plod__floor(p[2]);
+    cell->fx = fx, cell->fy = fy, cell->fz = fz;
+    cell->present = 0;
     uint64_t h = plod__mix((uint64_t)(int64_t)fx * PLOD__HX + (uint64_t)(int64_t)fy * PLOD__HY +
                            (uint64_t)(int64_t)fz * PLOD__HZ + seed);
     if (plod__unit(h) >= density)
-        return 0.0;
+        return;
     double c[3] = {fx + plod__unit(plod__mix(h + 1)), fy + plod__unit(plod__mix(h + 2)),
                    fz + plod__unit(plod__mix(h + 3))};
     double w[3] = {c[0] - centre[0], c[1] - centre[1], c[2] - centre[2]};
     double len = sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
     if (!(len > 0.0))
-        return 0.0;
+        return;
     double s = radius / len;
     c[0] = centre[0] + w[0] * s, c[1] = centre[1] + w[1] * s, c[2] = centre[2] + w[2] * s;
     /* many small craters, few large ones inside a class: r^-2; a crater
@@ -245,8 +252,20 @@ static double plod__crater(const double p[3], const double centre[3], double rad
     if (r * PLOD__CRATER_REACH > room)
         r = room * (1.0 / PLOD__CRATER_REACH);
     if (!(r >= PLOD__CRATER_SMALLEST))
+        return;
+    cell->present = 1;
+    memcpy(cell->c, c, sizeof c);
+    cell->r = r;
+}
+
+/* The crater of `cell` at p (in it), in units of depth; 0 outside it. */
+static double plod__crater_at(const double p[3], const plod__crater_cell *cell, double g[3])
+{
+    g[0] = g[1] = g[2] = 0.0;
+    if (!cell->present)
         return 0.0;
-    double reach = PLOD__CRATER_REACH * r;
+    const double *c = cell->c;
+    double r = cell->r, reach = PLOD__CRATER_REACH * r;
     double d[3] = {p[0] - c[0], p[1] - c[1], p[2] - c[2]};
     double dist2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
     if (dist2 >= reach * reach)
@@ -258,6 +277,17 @@ static double plod__crater(const double p[3], const double centre[3], double rad
         g[0] = k * d[0], g[1] = k * d[1], g[2] = k * d[2];
     }
     return value;
+}
+
+/* The crater of the lattice cell holding p (lattice units), in units of
+ * depth; 0 outside any crater; g: its gradient. */
+static double plod__crater(const double p[3], const double centre[3], double radius,
+                           uint64_t seed, double density, double g[3])
+{
+    plod__crater_cell cell;
+    plod__crater_cell_of(plod__floor(p[0]), plod__floor(p[1]), plod__floor(p[2]), centre, radius,
+                         seed, density, &cell);
+    return plod__crater_at(p, &cell, g);
 }
 
 /* ---- the field ------------------------------------------------------------- */
@@ -711,7 +741,9 @@ void plod_detail_noise_from_n(const plod_detail *detail, size_t n, const double 
             }
             if (o->crater_weight == 0.0)
                 continue;
-            for (int k = 0; k < active; k++) { /* craters: lane by lane */
+            /* craters: lane by lane, neighbouring lanes mostly in one cell */
+            plod__crater_cell cell = {NAN, NAN, NAN, 0, {0.0, 0.0, 0.0}, 0.0};
+            for (int k = 0; k < active; k++) {
                 int started = i >= l->first[k];
                 int add_sum = started && i < l->value_count[k];
                 int add_gradient = started && i < l->gradient_count[k];
@@ -724,8 +756,11 @@ void plod_detail_noise_from_n(const plod_detail *detail, size_t n, const double 
                                 o->m[a][2] * l->dir[2][k] + o->offset[a] + 0.5;
                 double centre[3] = {o->offset[0] + 0.5, o->offset[1] + 0.5,
                                     o->offset[2] + 0.5};
-                double value = plod__crater(cp, centre, o->frequency, o->crater_seed,
-                                            detail->params.crater_density, g);
+                double fx = plod__floor(cp[0]), fy = plod__floor(cp[1]), fz = plod__floor(cp[2]);
+                if (fx != cell.fx || fy != cell.fy || fz != cell.fz)
+                    plod__crater_cell_of(fx, fy, fz, centre, o->frequency, o->crater_seed,
+                                         detail->params.crater_density, &cell);
+                double value = plod__crater_at(cp, &cell, g);
                 if (value == 0.0)
                     continue;
                 if (add_sum)
