@@ -703,10 +703,10 @@ def _tick_locked():
             continue
         st.refreshed_at = now
         try:
-            if s.gpu_preview:
+            if s.gpu_preview and not bpy.app.background:  # the preview is drawn
                 _start_job(obj, scene, st, params)
             else:
-                refresh(obj, scene, params=params, build_mesh=True)
+                refresh(obj, scene, params=params, build_mesh=not s.gpu_preview)
                 _redraw_views()
         except core.REPORTED_ERRORS as exc:
             st.error, st.dirty = str(exc), False
