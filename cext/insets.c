@@ -28,7 +28,8 @@ typedef struct plod__inset {
     double mosaic_texel_angle;       /* radians: the coarsest over its mosaic */
     double lo, hi;                   /* metres, NaN-free */
     int blocks_x[PLOD__INSET_LEVELS], blocks_y[PLOD__INSET_LEVELS];
-    float *block_lo[PLOD__INSET_LEVELS], *block_hi[PLOD__INSET_LEVELS]; /* NaN-free */
+    float *block_lo[PLOD__INSET_LEVELS], *block_hi[PLOD__INSET_LEVELS]; /* voids left out:
+                                        +inf / -inf for a block of voids */
 } plod__inset;
 
 struct plod_insets {

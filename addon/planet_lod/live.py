@@ -343,7 +343,7 @@ def _refresh_locked(obj, scene, params, build_mesh, for_render):
         work = _work_for(obj, st, planet, settings, params, for_render,
                          check_size=build_mesh or preview, preview=preview)
         work.run()
-        _apply(obj, st, work)
+        _apply(st, work)
         if build_mesh:
             t0 = time.perf_counter()
             mesh = planet.mesh(template_level=settings["template_level"],
@@ -417,7 +417,7 @@ def _work_for(obj, st, planet, settings, params, for_render, check_size, preview
                        check_size=check_size, preview=request)
 
 
-def _apply(obj, st, work):
+def _apply(st, work):
     """The work's results into the planet's state (main thread)."""
     if work.stats is not None:
         st.stats = work.stats
@@ -464,7 +464,7 @@ class SurfaceJob(threading.Thread):
             self.error = exc
 
 
-def _start_job(obj, scene, st, params):
+def _start_job(obj, st, params):
     settings = obj.planet_lod.as_dict()
     planet = planet_settings.build_planet(settings)
     work = _work_for(obj, st, planet, settings, params, for_render=False, check_size=True,
@@ -498,7 +498,7 @@ def _finished_jobs(scene):
                 raise job.error
             st.error = str(job.error)
             continue
-        _apply(obj, st, job.work)
+        _apply(st, job.work)
         _finish(obj, scene, st, job.params, build_mesh=False)
         _redraw_views()
     return running
@@ -704,7 +704,7 @@ def _tick_locked():
         st.refreshed_at = now
         try:
             if s.gpu_preview and not bpy.app.background:  # the preview is drawn
-                _start_job(obj, scene, st, params)
+                _start_job(obj, st, params)
             else:
                 refresh(obj, scene, params=params, build_mesh=not s.gpu_preview)
                 _redraw_views()

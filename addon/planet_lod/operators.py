@@ -184,6 +184,8 @@ class PLOD_OT_write_tiles(bpy.types.Operator):
         return obj, obj.planet_lod.as_dict()
 
     def _done(self, obj, written, error):
+        if obj is None:  # deleted while its tile file was written
+            return {'FINISHED'} if written and error is None else {'CANCELLED'}
         if error is not None:
             live.state(obj).error = str(error)
             self.report({'ERROR'}, f"{obj.name}: {error}")
@@ -210,7 +212,8 @@ class PLOD_OT_write_tiles(bpy.types.Operator):
         progress and Esc cancels it."""
         if _report_missing(self):
             return {'CANCELLED'}
-        self._obj, settings = self._settings(context)
+        obj, settings = self._settings(context)
+        self._name = obj.name_full
         self._fraction, self._cancel, self._result = 0.0, False, None
 
         def progress(fraction):
@@ -220,7 +223,7 @@ class PLOD_OT_write_tiles(bpy.types.Operator):
         def work():
             try:
                 self._result = (planets.write_tiles(settings, progress), None)
-            except core.REPORTED_ERRORS as exc:
+            except Exception as exc:  # noqa: BLE001 -- reported by modal(), not lost
                 self._result = (False, exc)
         self._thread = threading.Thread(target=work, name="planet_lod tile file")
         self._thread.start()
@@ -247,7 +250,7 @@ class PLOD_OT_write_tiles(bpy.types.Operator):
         if context.workspace:
             context.workspace.status_text_set(None)
         written, error = self._result or (False, None)
-        return self._done(self._obj, written, error)
+        return self._done(bpy.data.objects.get(self._name), written, error)
 
 
 class PLOD_OT_planet_apply_mesh(bpy.types.Operator):
