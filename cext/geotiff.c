@@ -22,7 +22,6 @@
 #include <errno.h>
 #include <limits.h>
 #include <math.h>
-#include <stdarg.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -45,16 +44,6 @@ enum {
     PLOD__MAX_ENTRIES = 4096,  /* directory entries; real files have ~20 */
     PLOD__MAX_GEO_KEYS = 1024,
 };
-
-static void plod__geo_message(char *message, size_t size, const char *format, ...)
-{
-    if (!message || !size)
-        return;
-    va_list args;
-    va_start(args, format);
-    vsnprintf(message, size, format, args);
-    va_end(args);
-}
 
 typedef struct plod__tiff {
     FILE *file;
@@ -287,7 +276,7 @@ static int plod__tiff_georef(plod_georef *geo, const plod__tiff *t, unsigned lon
 plod_status plod_georef_read(plod_georef *geo, const char *path, char *message,
                              size_t message_size)
 {
-    plod__geo_message(message, message_size, "%s", "");
+    plod_status_format(message, message_size, "%s", "");
     if (!geo || !path)
         return PLOD_ERR_NULL;
     memset(geo, 0, sizeof *geo);
@@ -295,7 +284,7 @@ plod_status plod_georef_read(plod_georef *geo, const char *path, char *message,
     plod__tiff t = {0};
     errno = 0;
     if (stat(path, &info) != 0 || !S_ISREG(info.st_mode) || !(t.file = fopen(path, "rb"))) {
-        plod__geo_message(message, message_size, "cannot open '%s': %s", path,
+        plod_status_format(message, message_size, "cannot open '%s': %s", path,
                           errno ? strerror(errno) : "not a regular file");
         return PLOD_ERR_IO;
     }
@@ -318,7 +307,7 @@ plod_status plod_georef_read(plod_georef *geo, const char *path, char *message,
                                                : plod__tiff_uint(&t, head + 4, 4);
         if (!whole_header || !plod__tiff_georef(geo, &t, ifd)) {
             memset(geo, 0, sizeof *geo);
-            plod__geo_message(message, message_size,
+            plod_status_format(message, message_size,
                               "'%s' is a corrupt or truncated TIFF file (its first image "
                               "directory or pixel data lie beyond the file's %llu bytes, or "
                               "the directory is malformed)",
@@ -348,15 +337,15 @@ static const char *plod__geographic_name(int code)
 plod_status plod_georef_box(const plod_georef *geo, int width, int height, double box[4],
                             char *message, size_t message_size)
 {
-    plod__geo_message(message, message_size, "%s", "");
+    plod_status_format(message, message_size, "%s", "");
     if (!geo || !box)
         return PLOD_ERR_NULL;
     if (!geo->present) {
-        plod__geo_message(message, message_size, "no GeoTIFF georeferencing");
+        plod_status_format(message, message_size, "no GeoTIFF georeferencing");
         return PLOD_ERR_BAD_PARAM;
     }
     if (geo->model_type == 1 || (geo->model_type == 0 && geo->projected_type)) {
-        plod__geo_message(message, message_size,
+        plod_status_format(message, message_size,
                           "a projected CRS (GTModelTypeGeoKey 1, ProjectedCSTypeGeoKey %d%s) "
                           "is not supported: insets need geographic longitude/latitude "
                           "(EPSG:4326); reproject the file, e.g. gdalwarp -t_srs EPSG:4326",
@@ -366,33 +355,33 @@ plod_status plod_georef_box(const plod_georef *geo, int width, int height, doubl
         return PLOD_ERR_BAD_IMAGE;
     }
     if (geo->model_type == 3 || (geo->model_type && geo->model_type != 2)) {
-        plod__geo_message(message, message_size,
+        plod_status_format(message, message_size,
                           "GTModelTypeGeoKey %d (%s) is not supported: insets need geographic "
                           "longitude/latitude (EPSG:4326)",
                           geo->model_type, geo->model_type == 3 ? "geocentric" : "unknown");
         return PLOD_ERR_BAD_IMAGE;
     }
     if (!geo->geographic_type) {
-        plod__geo_message(message, message_size,
+        plod_status_format(message, message_size,
                           "the GeoTIFF names no geographic CRS (GeographicTypeGeoKey missing): "
                           "its placement is unknown; give the box (west, south, east, north)");
         return PLOD_ERR_BAD_IMAGE;
     }
     if (!plod__geographic_name(geo->geographic_type)) {
-        plod__geo_message(message, message_size,
+        plod_status_format(message, message_size,
                           "geographic CRS EPSG:%d is not supported (WGS 84, EPSG:4326, is; "
                           "NAD83 4269 and ETRS89 4258 are taken as WGS 84)",
                           geo->geographic_type);
         return PLOD_ERR_BAD_IMAGE;
     }
     if (geo->angular_units && geo->angular_units != 9102) {
-        plod__geo_message(message, message_size,
+        plod_status_format(message, message_size,
                           "angular unit EPSG:%d is not supported (degrees, 9102, are)",
                           geo->angular_units);
         return PLOD_ERR_BAD_IMAGE;
     }
     if (geo->raster_type && geo->raster_type != 1 && geo->raster_type != 2) {
-        plod__geo_message(message, message_size,
+        plod_status_format(message, message_size,
                           "GTRasterTypeGeoKey %d is neither PixelIsArea (1) nor PixelIsPoint (2)",
                           geo->raster_type);
         return PLOD_ERR_BAD_IMAGE;
@@ -401,7 +390,7 @@ plod_status plod_georef_box(const plod_georef *geo, int width, int height, doubl
     if (geo->has_transform) {
         const double *m = geo->transform;
         if (m[1] != 0.0 || m[4] != 0.0) {
-            plod__geo_message(message, message_size,
+            plod_status_format(message, message_size,
                               "a rotated or sheared ModelTransformation (%g, %g off the "
                               "diagonal) is not supported: only north-up grids are",
                               m[1], m[4]);
@@ -413,7 +402,7 @@ plod_status plod_georef_box(const plod_georef *geo, int width, int height, doubl
         scale_x = geo->scale[0], scale_y = geo->scale[1];
         x0 = tp[3] - tp[0] * scale_x, y0 = tp[4] + tp[1] * scale_y;
     } else {
-        plod__geo_message(message, message_size,
+        plod_status_format(message, message_size,
                           geo->tiepoint_count > 1
                               ? "%d tiepoints (a warped grid) are not supported: one tiepoint "
                                 "and ModelPixelScale, or ModelTransformation, are"
@@ -424,7 +413,7 @@ plod_status plod_georef_box(const plod_georef *geo, int width, int height, doubl
     }
     if (!(scale_x > 0.0 && scale_y > 0.0) || !isfinite(scale_x) || !isfinite(scale_y) ||
         !isfinite(x0) || !isfinite(y0)) {
-        plod__geo_message(message, message_size,
+        plod_status_format(message, message_size,
                           "pixel size %g x %g degrees at (%g, %g): only north-up, west-to-east "
                           "grids with positive, finite pixel sizes are supported",
                           scale_x, -scale_y, x0, y0);

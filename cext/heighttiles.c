@@ -14,7 +14,6 @@
 #include <fcntl.h>
 #include <math.h>
 #include <pthread.h>
-#include <stdarg.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -56,16 +55,6 @@ struct plod_tiles {
     int32_t *tile_slot; /* per tile: slot or -1 */
     size_t read_errors;
 };
-
-static void plod__tiles_message(char *message, size_t message_size, const char *format, ...)
-{
-    if (!message || message_size == 0)
-        return;
-    va_list args;
-    va_start(args, format);
-    vsnprintf(message, message_size, format, args);
-    va_end(args);
-}
 
 static size_t plod__tiles_sample_bytes(plod_texel_type type)
 {
@@ -178,13 +167,13 @@ static plod_status plod__rows_open(plod__row_reader *r, const char *source,
         return s;
     }
     if (raw->width <= 0 || raw->height <= 0 || (unsigned)raw->type >= PLOD_RAW_TYPE_COUNT) {
-        plod__tiles_message(message, message_size, "bad raw grid layout %dx%d type %d",
+        plod_status_format(message, message_size, "bad raw grid layout %dx%d type %d",
                             raw->width, raw->height, (int)raw->type);
         return PLOD_ERR_BAD_PARAM;
     }
     struct stat info;
     if (stat(source, &info) != 0 || !S_ISREG(info.st_mode)) {
-        plod__tiles_message(message, message_size, "cannot open '%s': %s", source,
+        plod_status_format(message, message_size, "cannot open '%s': %s", source,
                             strerror(errno));
         return PLOD_ERR_IO;
     }
@@ -192,7 +181,7 @@ static plod_status plod__rows_open(plod__row_reader *r, const char *source,
                                   (unsigned long long)raw->height *
                                   plod_raw_sample_bytes(raw->type);
     if ((unsigned long long)info.st_size != expected) {
-        plod__tiles_message(message, message_size,
+        plod_status_format(message, message_size,
                             "'%s' is %lld bytes; %dx%d samples of %zu bytes need %llu", source,
                             (long long)info.st_size, raw->width, raw->height,
                             plod_raw_sample_bytes(raw->type), expected);
@@ -207,7 +196,7 @@ static plod_status plod__rows_open(plod__row_reader *r, const char *source,
         free(r->raw_row);
         r->raw_file = NULL;
         r->raw_row = NULL;
-        plod__tiles_message(message, message_size, "cannot read '%s'", source);
+        plod_status_format(message, message_size, "cannot read '%s'", source);
         return PLOD_ERR_IO;
     }
     size_t length = strlen(source);
@@ -241,7 +230,7 @@ static plod_status plod__rows_read(plod__row_reader *r, int y0, int y1, void *ou
     int swap = r->raw.big_endian != plod__host_big_endian();
     for (int y = y0; y < y1; y++) {
         if (fread(r->raw_row, sample, count, r->raw_file) != count) {
-            plod__tiles_message(message, message_size, "the grid is truncated at row %d", y);
+            plod_status_format(message, message_size, "the grid is truncated at row %d", y);
             return PLOD_ERR_BAD_IMAGE;
         }
         unsigned char *dst = (unsigned char *)out + (size_t)(y - y0) * out_row;
@@ -310,13 +299,13 @@ plod_status plod_tiles_build(const char *source, const plod_raw_format *raw, int
                              const char *tiles_path, int tile, plod_progress_fn progress,
                              void *user, char *message, size_t message_size)
 {
-    plod__tiles_message(message, message_size, "%s", "");
+    plod_status_format(message, message_size, "%s", "");
     if (!source || !tiles_path)
         return PLOD_ERR_NULL;
     if (tile == 0)
         tile = PLOD_TILES_DEFAULT_TILE;
     if (tile < 16 || tile > 4096 || (tile & (tile - 1)) != 0) {
-        plod__tiles_message(message, message_size, "tile size %d: a power of two in 16..4096",
+        plod_status_format(message, message_size, "tile size %d: a power of two in 16..4096",
                             tile);
         return PLOD_ERR_BAD_PARAM;
     }
@@ -345,13 +334,13 @@ plod_status plod_tiles_build(const char *source, const plod_raw_format *raw, int
     if (!band || !tile_buffer || !bounds || !temporary) {
         free(band), free(tile_buffer), free(bounds), free(temporary);
         plod__rows_close(&reader);
-        plod__tiles_message(message, message_size, "cannot allocate a %dx%d band", width, tile);
+        plod_status_format(message, message_size, "cannot allocate a %dx%d band", width, tile);
         return PLOD_ERR_NO_MEMORY;
     }
     snprintf(temporary, path_length + 16, "%s.partial", tiles_path);
     int fd = open(temporary, O_RDWR | O_CREAT | O_TRUNC, 0644);
     if (fd < 0) {
-        plod__tiles_message(message, message_size, "cannot write '%s': %s", temporary,
+        plod_status_format(message, message_size, "cannot write '%s': %s", temporary,
                             strerror(errno));
         s = PLOD_ERR_IO;
         goto done;
@@ -399,7 +388,7 @@ plod_status plod_tiles_build(const char *source, const plod_raw_format *raw, int
             bounds[2 * index + 1] = hi;
             if (!plod__write_all(fd, tile_buffer, tile_bytes,
                                  data_offset + (off_t)(index * tile_bytes))) {
-                plod__tiles_message(message, message_size, "writing '%s' failed: %s", temporary,
+                plod_status_format(message, message_size, "writing '%s' failed: %s", temporary,
                                     strerror(errno));
                 s = PLOD_ERR_IO;
                 break;
@@ -407,7 +396,7 @@ plod_status plod_tiles_build(const char *source, const plod_raw_format *raw, int
         }
         if (s == PLOD_OK && progress && progress(user, (double)(ty + 1) / tiles_y)) {
             s = PLOD_ERR_CANCELLED;
-            plod__tiles_message(message, message_size, "cancelled");
+            plod_status_format(message, message_size, "cancelled");
         }
     }
     if (s == PLOD_OK) {
@@ -418,17 +407,17 @@ plod_status plod_tiles_build(const char *source, const plod_raw_format *raw, int
         memcpy(head, &header, sizeof header);
         if (!plod__write_all(fd, bounds, tile_count * 2 * sizeof(float), PLOD__TILES_HEADER) ||
             !plod__write_all(fd, head, sizeof head, 0) || fsync(fd) != 0) {
-            plod__tiles_message(message, message_size, "writing '%s' failed: %s", temporary,
+            plod_status_format(message, message_size, "writing '%s' failed: %s", temporary,
                                 strerror(errno));
             s = PLOD_ERR_IO;
         }
     }
     if (close(fd) != 0 && s == PLOD_OK) {
-        plod__tiles_message(message, message_size, "writing '%s' failed", temporary);
+        plod_status_format(message, message_size, "writing '%s' failed", temporary);
         s = PLOD_ERR_IO;
     }
     if (s == PLOD_OK && rename(temporary, tiles_path) != 0) {
-        plod__tiles_message(message, message_size, "cannot rename to '%s': %s", tiles_path,
+        plod_status_format(message, message_size, "cannot rename to '%s': %s", tiles_path,
                             strerror(errno));
         s = PLOD_ERR_IO;
     }
@@ -467,13 +456,13 @@ int plod_tiles_current(const char *tiles_path, const char *source)
 plod_status plod_tiles_open(plod_tiles **out, const char *tiles_path, size_t cache_bytes,
                             char *message, size_t message_size)
 {
-    plod__tiles_message(message, message_size, "%s", "");
+    plod_status_format(message, message_size, "%s", "");
     if (!out || !tiles_path)
         return PLOD_ERR_NULL;
     *out = NULL;
     int fd = open(tiles_path, O_RDONLY);
     if (fd < 0) {
-        plod__tiles_message(message, message_size, "cannot open '%s': %s", tiles_path,
+        plod_status_format(message, message_size, "cannot open '%s': %s", tiles_path,
                             strerror(errno));
         return PLOD_ERR_IO;
     }
@@ -481,14 +470,14 @@ plod_status plod_tiles_open(plod_tiles **out, const char *tiles_path, size_t cac
     struct stat info;
     if (!plod__read_header(fd, &h) || h.complete != 1 || fstat(fd, &info) != 0) {
         close(fd);
-        plod__tiles_message(message, message_size, "'%s' is not a complete tile file",
+        plod_status_format(message, message_size, "'%s' is not a complete tile file",
                             tiles_path);
         return PLOD_ERR_BAD_IMAGE;
     }
     if (h.width < 2 || h.height < 1 || h.width > (1u << 24) || h.height > (1u << 24) ||
         h.tile < 16 || h.tile > 4096 || (h.tile & (h.tile - 1)) || h.type >= PLOD_TEXEL_TYPE_COUNT) {
         close(fd);
-        plod__tiles_message(message, message_size, "'%s' has a corrupt header", tiles_path);
+        plod_status_format(message, message_size, "'%s' has a corrupt header", tiles_path);
         return PLOD_ERR_BAD_IMAGE;
     }
     plod_tiles *t = calloc(1, sizeof *t);
@@ -511,7 +500,7 @@ plod_status plod_tiles_open(plod_tiles **out, const char *tiles_path, size_t cac
     plod_status s = PLOD_OK;
     if ((unsigned long long)info.st_size <
         (unsigned long long)t->data_offset + (unsigned long long)count * t->tile_bytes) {
-        plod__tiles_message(message, message_size, "'%s' is truncated (%lld bytes)", tiles_path,
+        plod_status_format(message, message_size, "'%s' is truncated (%lld bytes)", tiles_path,
                             (long long)info.st_size);
         s = PLOD_ERR_BAD_IMAGE;
         goto fail;
@@ -526,7 +515,7 @@ plod_status plod_tiles_open(plod_tiles **out, const char *tiles_path, size_t cac
     }
     if (!plod__read_all(fd, bounds, count * 2 * sizeof(float), PLOD__TILES_HEADER)) {
         free(bounds);
-        plod__tiles_message(message, message_size, "'%s' is truncated", tiles_path);
+        plod_status_format(message, message_size, "'%s' is truncated", tiles_path);
         s = PLOD_ERR_BAD_IMAGE;
         goto fail;
     }
@@ -607,7 +596,7 @@ fail:
     close(fd);
     free(t);
     if (s == PLOD_ERR_NO_MEMORY)
-        plod__tiles_message(message, message_size, "out of memory opening '%s'", tiles_path);
+        plod_status_format(message, message_size, "out of memory opening '%s'", tiles_path);
     return s;
 }
 

@@ -11,23 +11,12 @@
 #include "plod_image.h"
 
 #include <errno.h>
-#include <stdarg.h>
 #include <stdint.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
-
-static void plod__raw_message(char *message, size_t message_size, const char *format, ...)
-{
-    if (!message || message_size == 0)
-        return;
-    va_list args;
-    va_start(args, format);
-    vsnprintf(message, message_size, format, args);
-    va_end(args);
-}
 
 size_t plod_raw_sample_bytes(plod_raw_type type)
 {
@@ -101,12 +90,12 @@ static int plod__file_size(const char *path, long long *size, char *message, siz
 {
     struct stat info;
     if (stat(path, &info) != 0) {
-        plod__raw_message(message, message_size, "cannot open '%s': %s", path, strerror(errno));
+        plod_status_format(message, message_size, "cannot open '%s': %s", path, strerror(errno));
         *status = PLOD_ERR_IO;
         return 0;
     }
     if (!S_ISREG(info.st_mode)) {
-        plod__raw_message(message, message_size, "'%s' is not a regular file", path);
+        plod_status_format(message, message_size, "'%s' is not a regular file", path);
         *status = PLOD_ERR_IO;
         return 0;
     }
@@ -147,7 +136,7 @@ plod_status plod_raw_guess(const char *path, plod_raw_format *format, char *mess
         else if (bytes == 3601LL * 3601 * 2)
             format->width = format->height = 3601; /* SRTM1, 1 arc-second */
         else {
-            plod__raw_message(message, message_size,
+            plod_status_format(message, message_size,
                               "'%s' is %lld bytes; an SRTM .hgt tile has 2884802 (1201 x 1201) "
                               "or 25934402 (3601 x 3601)",
                               path, bytes);
@@ -156,7 +145,7 @@ plod_status plod_raw_guess(const char *path, plod_raw_format *format, char *mess
         return PLOD_OK;
     }
     if (strcmp(ext, "r16") != 0 && strcmp(ext, "raw") != 0) {
-        plod__raw_message(message, message_size,
+        plod_status_format(message, message_size,
                           "'%s' is not a .hgt, .r16 or .raw height grid", path);
         return PLOD_ERR_BAD_PARAM;
     }
@@ -171,7 +160,7 @@ plod_status plod_raw_guess(const char *path, plod_raw_format *format, char *mess
         format->height = (int)(half < 1 << 30 ? half : 0);
     }
     if (format->width <= 0 || format->height <= 0) {
-        plod__raw_message(message, message_size,
+        plod_status_format(message, message_size,
                           "'%s' is %lld bytes, not a square or 2:1 grid of 16-bit samples; "
                           "give its width, height, sample type and byte order",
                           path, bytes);
@@ -236,7 +225,7 @@ plod_status plod_image_read_raw(plod_image *image, const char *path,
     image->pixels = NULL;
     if (format->width <= 0 || format->height <= 0 ||
         (unsigned)format->type >= PLOD_RAW_TYPE_COUNT) {
-        plod__raw_message(message, message_size,
+        plod_status_format(message, message_size,
                           "raw grid of %dx%d %s samples: width and height must be positive, "
                           "the type u8, u16, i16 or f32",
                           format->width, format->height, plod__raw_type_name(format->type));
@@ -250,7 +239,7 @@ plod_status plod_image_read_raw(plod_image *image, const char *path,
     unsigned long long expected =
         (unsigned long long)format->width * (unsigned long long)format->height * sample;
     if ((unsigned long long)bytes != expected) {
-        plod__raw_message(message, message_size,
+        plod_status_format(message, message_size,
                           "'%s' is %lld bytes; %dx%d %s samples need %llu", path, bytes,
                           format->width, format->height, plod__raw_type_name(format->type),
                           expected);
@@ -259,7 +248,7 @@ plod_status plod_image_read_raw(plod_image *image, const char *path,
     if (max_pixels == 0)
         max_pixels = PLOD_IMAGE_DEFAULT_MAX_PIXELS;
     if ((unsigned long long)format->width * (unsigned long long)format->height > max_pixels) {
-        plod__raw_message(message, message_size,
+        plod_status_format(message, message_size,
                           "'%s' is %dx%d samples, more than the limit of %zu", path,
                           format->width, format->height, max_pixels);
         return PLOD_ERR_BAD_IMAGE;
@@ -270,7 +259,7 @@ plod_status plod_image_read_raw(plod_image *image, const char *path,
     plod_image loaded = {0};
     status = plod_image_alloc(&loaded, format->width, format->height, 1, type);
     if (status != PLOD_OK) {
-        plod__raw_message(message, message_size, "cannot allocate %dx%d samples for '%s'",
+        plod_status_format(message, message_size, "cannot allocate %dx%d samples for '%s'",
                           format->width, format->height, path);
         return status;
     }
@@ -278,7 +267,7 @@ plod_status plod_image_read_raw(plod_image *image, const char *path,
     size_t row_bytes = (size_t)format->width * sample;
     unsigned char *row = file ? malloc(row_bytes) : NULL;
     if (!file || !row) {
-        plod__raw_message(message, message_size, file ? "out of memory reading '%s'"
+        plod_status_format(message, message_size, file ? "out of memory reading '%s'"
                                                       : "cannot read '%s'",
                           path);
         if (file)
@@ -292,7 +281,7 @@ plod_status plod_image_read_raw(plod_image *image, const char *path,
     size_t texel_row = (size_t)format->width * plod_image_texel_bytes(type);
     for (int y = 0; y < format->height; y++) {
         if (fread(row, 1, row_bytes, file) != row_bytes) {
-            plod__raw_message(message, message_size, "'%s' is truncated (row %d of %d)", path,
+            plod_status_format(message, message_size, "'%s' is truncated (row %d of %d)", path,
                               y, format->height);
             free(row);
             fclose(file);

@@ -9,7 +9,6 @@
 #include "plod_heightsource.h"
 
 #include <math.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -37,16 +36,6 @@ struct plod_insets {
     size_t count;
     double lo, hi;
 };
-
-static void plod__inset_message(char *message, size_t size, const char *format, ...)
-{
-    if (!message || !size)
-        return;
-    va_list args;
-    va_start(args, format);
-    vsnprintf(message, size, format, args);
-    va_end(args);
-}
 
 void plod_insets_destroy(plod_insets *insets)
 {
@@ -78,12 +67,12 @@ static int plod__edge_shared(const plod__inset *a, const plod__inset *b, int sid
 plod_status plod_insets_create(plod_insets **out, const plod_inset_desc *descs, size_t count,
                                double feather, char *message, size_t message_size)
 {
-    plod__inset_message(message, message_size, "%s", "");
+    plod_status_format(message, message_size, "%s", "");
     if (!out || (!descs && count))
         return PLOD_ERR_NULL;
     *out = NULL;
     if (!(feather >= 0.0 && feather <= 0.5)) {
-        plod__inset_message(message, message_size, "feather %g outside 0..0.5", feather);
+        plod_status_format(message, message_size, "feather %g outside 0..0.5", feather);
         return PLOD_ERR_BAD_PARAM;
     }
     for (size_t i = 0; i < count; i++) {
@@ -91,7 +80,7 @@ plod_status plod_insets_create(plod_insets **out, const plod_inset_desc *descs, 
         if (!d->metres || d->width < 2 || d->height < 2 || !(d->west < d->east) ||
             !(d->south < d->north) || d->west < -180.0 || d->east > 180.0 ||
             d->south < -90.0 || d->north > 90.0) {
-            plod__inset_message(message, message_size,
+            plod_status_format(message, message_size,
                                 "inset %zu: %dx%d samples over lon %g..%g, lat %g..%g: needs 2x2 "
                                 "samples or more, west < east within -180..180 (none across "
                                 "the date line), south < north within -90..90",
@@ -102,7 +91,7 @@ plod_status plod_insets_create(plod_insets **out, const plod_inset_desc *descs, 
             const plod_inset_desc *e = &descs[j];
             if (d->west < e->east && e->west < d->east && d->south < e->north &&
                 e->south < d->north) {
-                plod__inset_message(message, message_size,
+                plod_status_format(message, message_size,
                                     "insets %zu and %zu overlap (lon %g..%g, lat %g..%g and lon "
                                     "%g..%g, lat %g..%g); give each area once",
                                     j, i, e->west, e->east, e->south, e->north, d->west, d->east,

@@ -7,6 +7,8 @@
 #ifndef PLOD_STATUS_H
 #define PLOD_STATUS_H
 
+#include <stddef.h>
+
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -28,6 +30,15 @@ typedef enum plod_status {
 /* Human-readable message for a status; never NULL (unknown codes get a
  * generic message). */
 const char *plod_status_message(plod_status status);
+
+/* The explanation beside a returned status, printf-style, into `message`
+ * of `size` bytes (truncated; nothing written when message is NULL or
+ * size is 0): the messages of the readers and builders that take one. */
+void plod_status_format(char *message, size_t size, const char *format, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
 
 #ifdef __cplusplus
 }

@@ -1,5 +1,8 @@
-/* status.c -- message table for plod_status. */
+/* status.c -- message table for plod_status, and the detail messages. */
 #include "plod_status.h"
+
+#include <stdarg.h>
+#include <stdio.h>
 
 static const char *const plod__status_messages[PLOD_STATUS_COUNT] = {
     [PLOD_OK] = "success",
@@ -19,4 +22,14 @@ const char *plod_status_message(plod_status status)
     if ((unsigned)status >= PLOD_STATUS_COUNT || !plod__status_messages[status])
         return "unknown error";
     return plod__status_messages[status];
+}
+
+void plod_status_format(char *message, size_t size, const char *format, ...)
+{
+    if (!message || !size)
+        return;
+    va_list args;
+    va_start(args, format);
+    vsnprintf(message, size, format, args);
+    va_end(args);
 }

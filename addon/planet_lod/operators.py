@@ -25,10 +25,16 @@ def _planet(context):
     return obj
 
 
-def _validate(settings):
-    """Builds the native planet for a settings dict (raises on bad input) so that
-    nothing is created or changed in the scene when the input is bad."""
-    planets.build_planet(settings)
+def _refuses(op, trial, failure):
+    """Builds the native planet for `trial` (a settings dict) before anything in
+    the scene changes; when it cannot be built, reports "<failure>: <why>" and
+    returns True."""
+    try:
+        planets.build_planet(trial)
+    except core.REPORTED_ERRORS as exc:
+        op.report({'ERROR'}, f"{failure}: {exc}")
+        return True
+    return False
 
 
 class PLOD_OT_planet_add(bpy.types.Operator):
@@ -72,8 +78,7 @@ class PLOD_OT_planet_add(bpy.types.Operator):
             settings.gpu_preview = True  # also sets the object's viewport display
             settings.preset = self.preset
             settings.quality = self.quality
-            _validate(settings.as_dict())
-            planet = planets.build_planet(settings.as_dict())
+            planet = planets.build_planet(settings.as_dict())  # raises on bad input
             context.collection.objects.link(obj)
             obj.location = context.scene.cursor.location
             context.view_layer.update()
@@ -313,10 +318,7 @@ class PLOD_OT_planet_apply_preset(bpy.types.Operator):
             values.update(presets.quality_settings(self.quality))
         trial = obj.planet_lod.as_dict()
         trial.update({k: v for k, v in values.items() if k in trial})
-        try:
-            _validate(trial)
-        except core.REPORTED_ERRORS as exc:
-            self.report({'ERROR'}, f"Preset not applied: {exc}")
+        if _refuses(self, trial, "Preset not applied"):
             return {'CANCELLED'}
         obj.planet_lod.assign(values)
         if self.planet != "NONE":
@@ -350,10 +352,7 @@ class PLOD_OT_set_heightmap(bpy.types.Operator):
         obj = _planet(context)
         trial = obj.planet_lod.as_dict()
         trial["heightmap"] = bpy.path.abspath(self.filepath)
-        try:
-            _validate(trial)
-        except core.REPORTED_ERRORS as exc:
-            self.report({'ERROR'}, f"Height map not loaded: {exc}")
+        if _refuses(self, trial, "Height map not loaded"):
             return {'CANCELLED'}
         obj.planet_lod.heightmap = self.filepath
         return {'FINISHED'}
@@ -396,10 +395,7 @@ class PLOD_OT_inset_add(bpy.types.Operator):
                    scale=self.scale)
         path = bpy.path.abspath(self.filepath)
         trial["insets"] = trial["insets"] + [dict(box, path=path) if self.use_box else path]
-        try:
-            _validate(trial)
-        except core.REPORTED_ERRORS as exc:
-            self.report({'ERROR'}, f"Inset not added: {exc}")
+        if _refuses(self, trial, "Inset not added"):
             return {'CANCELLED'}
         settings = obj.planet_lod
         inset = settings.insets.add()
