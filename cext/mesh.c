@@ -611,11 +611,12 @@ typedef struct plod__slot_cache {
  * of several sizes, every octave for the height (the refiner keeps the
  * octaves a sector drops under the pixel error, so a corner stands out by
  * less than that) and, for the normal, the octaves of cells of
- * PLOD__CORNER_CELL times its distance to the origin (a function of the
- * corner and the origin: the same from every sector; the fine octaves'
- * slopes would speckle the shading).  Cached sectors get their corner
- * normals again where the current origin changed a corner's band
- * (plod__corner_normals).
+ * PLOD__CORNER_CELL times its distance to the eye, about a pixel there (a
+ * function of the corner and the eye: the same from every sector; finer
+ * octaves' slopes would speckle the shading: a corner's distance to the
+ * origin, the ground below the eye, is ~0 under an orbiting camera).
+ * Cached sectors get their corner normals again where the eye changed a
+ * corner's band (plod__corner_normals).
  * band[0..2]: edge opposite corner k (weight k zero); band[3]: inside. */
 #define PLOD__CORNER_CELL 1e-3
 static double plod__chord2(const double a[3], const double b[3])
@@ -645,7 +646,7 @@ static int plod__corner_band(const plod__emitter *e, const double dir[3])
     double radius = params->planet->radius;
     double d2 = 0.0;
     for (int c = 0; c < 3; c++) {
-        double x = dir[c] * radius - params->origin[c];
+        double x = dir[c] * radius - params->eye[c];
         d2 += x * x;
     }
     return e->surface->ops->octaves_for_cell(e->surface->self, sqrt(d2) * PLOD__CORNER_CELL);
@@ -759,10 +760,10 @@ static void plod__compute_vertices(const plod__emitter *e, const plod_mesh_secto
     }
 }
 
-/* A cached sector's corner normals for this emission's origin (they
- * depend on it, plod__vertex_band): as plod__compute_vertices computes
- * them, evaluated again only for corners whose band the origin changed
- * (the cached normal of an unchanged band is that evaluation's result). */
+/* A cached sector's corner normals for this emission's eye (they depend
+ * on it, plod__vertex_band): as plod__compute_vertices computes them,
+ * evaluated again only for corners whose band the eye changed (the cached
+ * normal of an unchanged band is that evaluation's result). */
 static void plod__corner_normals(const plod__emitter *e, const plod_mesh_sector *sector,
                                  size_t vbase, const plod__block *block)
 {

@@ -77,7 +77,7 @@ typedef struct plod_mesh_sector_source {
  * sector key, the planet-space positions (double), normals, uv and detail of the
  * sectors emitted by the last plod_mesh_emit that used it; a sector found
  * there is copied (positions re-offset in double, then cast; with a detail
- * field, corner normals whose band depends on the origin sampled again)
+ * field, corner normals whose band depends on the eye sampled again)
  * instead of recomputed, so the output is bit-identical to an uncached
  * emission.
  * Entries not used by an emission are freed at its end: the cache holds one
@@ -130,7 +130,9 @@ typedef struct plod_mesh_params {
      * after the refiner's split distance for that level (looks like the
      * coarser grid), 0 from morph_ramp of a level on (full detail). */
     int morph;                  /* 0 off (morph output all 0) */
-    double eye[3];              /* camera position, planet space (metres) */
+    double eye[3];              /* camera position, planet space (metres):
+                                   the morph factor and the corner normals'
+                                   detail band (plod_detail.h) */
     double morph_lod_scale;     /* metres, >= 0 (0: factor 0 everywhere) */
     double morph_level_rate;    /* levels per halving of distance, > 0 */
     double morph_ramp;          /* (0, 1] */
