@@ -329,7 +329,7 @@ static inline void plod__noise_start(plod__noise_state *st)
  * sequence of operations per octave, so they agree bit for bit. */
 static inline void plod__octave_step(const plod_detail *detail, const plod__octave *o,
                                      int ridged, const double dir[3], int add_sum,
-                                     int gradient, plod__noise_state *st)
+                                     int gradient, int crater_gradient, plod__noise_state *st)
 {
     double p[3], g[3];
     plod__lattice(o, dir, p);
@@ -383,7 +383,7 @@ static inline void plod__octave_step(const plod_detail *detail, const plod__octa
         if (value != 0.0) {
             if (add_sum)
                 st->sum += o->crater_weight * value;
-            if (gradient)
+            if (gradient && crater_gradient)
                 plod__add_gradient(o, g, o->crater_weight, st->acc);
         }
     }
@@ -397,7 +397,7 @@ static double plod__noise_value(const plod_detail *detail, const double dir[3], 
     plod__noise_state st;
     plod__noise_start(&st);
     for (int i = first; i < octaves; i++)
-        plod__octave_step(detail, &detail->octaves[i], ridged, dir, 1, 0, &st);
+        plod__octave_step(detail, &detail->octaves[i], ridged, dir, 1, 0, 0, &st);
     return st.sum;
 }
 
@@ -429,7 +429,8 @@ double plod_detail_noise_from(const plod_detail *detail, const double dir[3], in
     plod__noise_state st;
     plod__noise_start(&st);
     for (int i = first; i < octaves; i++)
-        plod__octave_step(detail, &detail->octaves[i], ridged, dir, 1, 1, &st);
+        plod__octave_step(detail, &detail->octaves[i], ridged, dir, 1, 1,
+                          i + PLOD_DETAIL_CRATER_NORMAL_LAG < octaves, &st);
     memcpy(gradient, st.acc, sizeof st.acc);
     return st.sum;
 }
@@ -746,7 +747,8 @@ void plod_detail_noise_from_n(const plod_detail *detail, size_t n, const double 
             for (int k = 0; k < active; k++) {
                 int started = i >= l->first[k];
                 int add_sum = started && i < l->value_count[k];
-                int add_gradient = started && i < l->gradient_count[k];
+                int add_gradient = started && i + PLOD_DETAIL_CRATER_NORMAL_LAG <
+                                                  l->gradient_count[k];
                 if (!add_sum && !add_gradient)
                     continue;
                 double cp[3] = {l->p[0][k] + 0.5, l->p[1][k] + 0.5, l->p[2][k] + 0.5}, g[3];

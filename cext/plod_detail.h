@@ -104,7 +104,13 @@ uint64_t plod_detail_stamp(const plod_detail *detail);
 /* N(d) summed over the first `octaves` octaves (clamped to the count) at
  * a unit direction, in metres before modulation; `gradient` (may be NULL)
  * gets its gradient in metres per unit of direction (3-D; project onto
- * the tangent plane for the slope per radian). */
+ * the tangent plane for the slope per radian).  The crater layer's part of
+ * the gradient leaves out the last PLOD_DETAIL_CRATER_NORMAL_LAG of those
+ * octaves: a band kept for cells of a third of its finest wavelength holds
+ * craters down to 0.08 wavelengths across, smaller than a cell, whose
+ * walls' slopes sampled at single vertices speckle the shading; four
+ * octaves on, the smallest span ~4 cells (their heights stay). */
+#define PLOD_DETAIL_CRATER_NORMAL_LAG 4
 double plod_detail_noise(const plod_detail *detail, const double dir[3], int octaves,
                          double gradient[3]);
 /* plod_detail_noise at n directions (dirs: 3 n doubles): sums[k] bit for

@@ -385,3 +385,38 @@ def test_planet_presets_detail_is_valid(planetlod):
         assert planet.detail["octaves"] >= 8, key
     assert styles["EARTH"] == "mountains"
     assert styles["MOON"] == "craters" and styles["ASTEROID"] == "craters"
+
+
+def test_crater_normals_do_not_speckle_a_whole_body(planetlod):
+    """The asteroid preset's craters seen whole (2.6 radii away, 3 px): the
+    normals of neighbouring vertices stay within 40 degrees of each other.
+    Craters far smaller than a mesh cell, sampled at single vertices, once
+    tilted 0.5 % of the triangles' normals that far (black and white specks
+    in the preview and renders); their slopes now join the normals four
+    octaves after their heights."""
+    from planetlod import presets
+    settings = presets.PLANETS["ASTEROID"]
+    radius = settings["radius"]
+    planet = planetlod.Planet(radius, projection=settings["projection"].lower(),
+                              height_scale=settings["height_scale"],
+                              detail=presets.detail_kwargs(settings))
+    eye = np.array([0.5, -1.0, 0.4])
+    eye *= 2.6 * radius / np.linalg.norm(eye)
+    forward = -eye / np.linalg.norm(eye)
+    right = np.cross(forward, [0.0, 0.0, 1.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    matrix = [[right[i], up[i], -forward[i], eye[i]] for i in range(3)] + [[0.0, 0.0, 0.0, 1.0]]
+    camera = planetlod.Camera(matrix, lens=50.0, sensor_width=36.0, resolution_x=640,
+                              resolution_y=360, clip_start=1.0, clip_end=1e9)
+    for _ in range(20):
+        stats = planet.refine(camera, template_level=3, max_pixel_error=3.0)
+        if not stats["splits"] and not stats["merges"]:
+            break
+    mesh = planet.mesh(template_level=3)
+    triangles = np.frombuffer(mesh.triangles, np.int32).reshape(-1, 3)
+    n = np.frombuffer(mesh.normals, np.float32).reshape(-1, 3)[triangles]
+    cosine = np.minimum(np.minimum((n[:, 0] * n[:, 1]).sum(1), (n[:, 1] * n[:, 2]).sum(1)),
+                        (n[:, 2] * n[:, 0]).sum(1))
+    apart = float((cosine < math.cos(math.radians(40.0))).mean())
+    assert len(triangles) > 10000 and apart < 1e-3, (len(triangles), apart)
