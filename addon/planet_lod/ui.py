@@ -15,6 +15,17 @@ def _planet(context):
     return None
 
 
+def _line_width(context):
+    """Characters of interface text that fit on a line of the sidebar beside an
+    icon (a character is ~7 px at resolution scale 1), so messages wrap instead
+    of being cut with an ellipsis."""
+    region = getattr(context, "region", None)
+    if region is None or region.width <= 0:
+        return 40
+    scale = context.preferences.system.ui_scale or 1.0
+    return max(16, int(region.width / (7.0 * scale)) - 6)
+
+
 def _wrapped(layout, text, icon, width=40):
     """A message over several lines (the sidebar is narrow), first line with `icon`."""
     words, line, lines = text.split(), "", []
@@ -78,7 +89,7 @@ class PLOD_PT_planet(PLOD_PT_base, bpy.types.Panel):
             box = layout.box()
             box.alert = True
             _wrapped(box, "The add-on's native module is missing: " + core.native_error,
-                     'ERROR')
+                     'ERROR', _line_width(context))
             return
         obj = _planet(context)
         if obj is None:
@@ -90,9 +101,10 @@ class PLOD_PT_planet(PLOD_PT_base, bpy.types.Panel):
         for message in errors:
             box = layout.box()
             box.alert = True
-            _wrapped(box, message[0].upper() + message[1:], 'ERROR')
+            _wrapped(box, message[0].upper() + message[1:], 'ERROR', _line_width(context))
         for message in warnings:
-            _wrapped(layout.box(), message[0].upper() + message[1:], 'INFO')
+            _wrapped(layout.box(), message[0].upper() + message[1:], 'INFO',
+                     _line_width(context))
         row = layout.row(align=True)
         row.menu("PLOD_MT_planet_presets", text=PLOD_MT_planet_presets.bl_label)
         row.operator("object.planet_preset_add", text="", icon='ADD')
