@@ -55,6 +55,16 @@ static int plod__build_progress_call(void *user, double fraction)
     return cancel;
 }
 
+/* The tile file's path as bytes (a new reference, NULL with an exception
+ * set): `tiles` when given, else the map's path + ".plodtiles". */
+static PyObject *plod__tiles_path(const char *path, PyObject *tiles)
+{
+    if (tiles == Py_None)
+        return PyBytes_FromFormat("%s.plodtiles", path);
+    PyObject *bytes = NULL;
+    return PyUnicode_FSConverter(tiles, &bytes) ? bytes : NULL;
+}
+
 static int plod__tiled_map_init(plod_py_tiled_map *self, PyObject *args, PyObject *kwds)
 {
     static char *kwlist[] = {"path", "raw", "signed", "tiles", "cache_bytes", "tile", "progress",
@@ -73,7 +83,6 @@ static int plod__tiled_map_init(plod_py_tiled_map *self, PyObject *args, PyObjec
         return -1;
     int result = -1;
     PyObject *tiles_bytes = NULL;
-    char *derived = NULL;
     plod_py_read_options options;
     if (plod_py_read_options_arg(raw, is_signed, &options, context) < 0)
         goto done;
@@ -86,21 +95,9 @@ static int plod__tiled_map_init(plod_py_tiled_map *self, PyObject *args, PyObjec
         goto done;
     }
     const char *path = PyBytes_AsString(path_bytes);
-    const char *tiles_path;
-    if (tiles_obj != Py_None) {
-        if (!PyUnicode_FSConverter(tiles_obj, &tiles_bytes))
-            goto done;
-        tiles_path = PyBytes_AsString(tiles_bytes);
-    } else {
-        size_t n = strlen(path) + 16;
-        derived = malloc(n);
-        if (!derived) {
-            PyErr_NoMemory();
-            goto done;
-        }
-        snprintf(derived, n, "%s.plodtiles", path);
-        tiles_path = derived;
-    }
+    if (!(tiles_bytes = plod__tiles_path(path, tiles_obj)))
+        goto done;
+    const char *tiles_path = PyBytes_AsString(tiles_bytes);
     if (access(path, R_OK) != 0) {
         char detail[PLOD__MESSAGE];
         snprintf(detail, sizeof detail, "cannot read '%s'", path);
@@ -136,7 +133,6 @@ static int plod__tiled_map_init(plod_py_tiled_map *self, PyObject *args, PyObjec
     self->tiles_path = PyUnicode_DecodeFSDefault(tiles_path);
     result = self->path && self->tiles_path ? 0 : -1;
 done:
-    free(derived);
     Py_XDECREF(tiles_bytes);
     Py_XDECREF(path_bytes);
     return result;
@@ -235,31 +231,18 @@ static PyObject *plod__tiled_map_is_written(PyObject *Py_UNUSED(cls), PyObject *
 {
     static char *kwlist[] = {"path", "tiles", NULL};
     PyObject *path_bytes = NULL, *tiles_obj = Py_None, *tiles_bytes = NULL, *result = NULL;
-    char *derived = NULL;
     if (!PyArg_ParseTupleAndKeywords(args, kwds, "O&|O", kwlist, PyUnicode_FSConverter,
                                      &path_bytes, &tiles_obj))
         return NULL;
-    const char *path = PyBytes_AsString(path_bytes), *tiles_path;
-    if (tiles_obj != Py_None) {
-        if (!PyUnicode_FSConverter(tiles_obj, &tiles_bytes))
-            goto done;
-        tiles_path = PyBytes_AsString(tiles_bytes);
-    } else {
-        size_t n = strlen(path) + 16;
-        if (!(derived = malloc(n))) {
-            PyErr_NoMemory();
-            goto done;
-        }
-        snprintf(derived, n, "%s.plodtiles", path);
-        tiles_path = derived;
-    }
+    if (!(tiles_bytes = plod__tiles_path(PyBytes_AsString(path_bytes), tiles_obj)))
+        goto done;
+    const char *path = PyBytes_AsString(path_bytes), *tiles_path = PyBytes_AsString(tiles_bytes);
     int current;
     Py_BEGIN_ALLOW_THREADS
     current = plod_tiles_current(tiles_path, path);
     Py_END_ALLOW_THREADS
     result = PyBool_FromLong(current);
 done:
-    free(derived);
     Py_XDECREF(tiles_bytes);
     Py_DECREF(path_bytes);
     return result;

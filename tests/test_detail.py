@@ -8,7 +8,7 @@ import pytest
 
 from conftest import data_path
 from test_mesh import arrays, edge_report
-from test_refine import check_conforming, corners, surface_camera, worst_pixel_gap
+from test_refine import check_conforming, corners, look_at, surface_camera, worst_pixel_gap
 
 EARTH_R = 6371000.0
 MOON_R = 1737400.0
@@ -402,12 +402,7 @@ def test_crater_normals_do_not_speckle_a_whole_body(planetlod):
                               detail=presets.detail_kwargs(settings))
     eye = np.array([0.5, -1.0, 0.4])
     eye *= 2.6 * radius / np.linalg.norm(eye)
-    forward = -eye / np.linalg.norm(eye)
-    right = np.cross(forward, [0.0, 0.0, 1.0])
-    right /= np.linalg.norm(right)
-    up = np.cross(right, forward)
-    matrix = [[right[i], up[i], -forward[i], eye[i]] for i in range(3)] + [[0.0, 0.0, 0.0, 1.0]]
-    camera = planetlod.Camera(matrix, lens=50.0, sensor_width=36.0, resolution_x=640,
+    camera = planetlod.Camera(look_at(eye, (0.0, 0.0, 0.0)), lens=50.0, sensor_width=36.0, resolution_x=640,
                               resolution_y=360, clip_start=1.0, clip_end=1e9)
     for _ in range(20):
         stats = planet.refine(camera, template_level=3, max_pixel_error=3.0)

@@ -6,6 +6,8 @@ import math
 import numpy as np
 import pytest
 
+from test_refine import look_at
+
 R = 6371000.0
 
 
@@ -361,13 +363,8 @@ def test_pixel_criterion_counts_an_insets_relief(planetlod, tmp_path):
     for face in range(6):
         flat.set_face(face, np.full(64 * 64, 1000, "<u2").tobytes())
     planet = planetlod.Planet(R, heightmap=flat, height_scale=1000.0, insets=[str(path)])
-    centre = np.array(direction(6.5, 45.5))
-    eye = centre * (R + 5000.0 + 60000.0)
-    forward = -centre
-    right = np.cross(forward, [0.0, 0.0, 1.0])
-    right /= np.linalg.norm(right)
-    up = np.cross(right, forward)
-    matrix = [[right[i], up[i], -forward[i], eye[i]] for i in range(3)] + [[0.0, 0.0, 0.0, 1.0]]
+    eye = np.array(direction(6.5, 45.5)) * (R + 5000.0 + 60000.0)
+    matrix = look_at(eye, (0.0, 0.0, 0.0))
     camera = planetlod.Camera(matrix, lens=50.0, sensor_width=36.0, resolution_x=1920,
                               resolution_y=1080, clip_start=1.0, clip_end=1e8)
     for _ in range(20):
@@ -382,7 +379,7 @@ def test_pixel_criterion_counts_an_insets_relief(planetlod, tmp_path):
     centroids = points[triangles[pick]].mean(axis=1)
     radius = np.linalg.norm(centroids, axis=1)
     heights = np.array([planet.height(*(c / r)) for c, r in zip(centroids, radius)])
-    local = (centroids - eye) @ np.array([right, up, -forward]).T
+    local = (centroids - eye) @ np.array(matrix)[:3, :3]  # right, up, back
     in_view = (local[:, 2] < 0) & (np.abs(local[:, 0] / local[:, 2]) < 18.0 / 50.0) & \
         (np.abs(local[:, 1] / local[:, 2]) < 18.0 * 1080 / 1920 / 50.0)
     pixels = (np.abs(radius - (R + heights)) * camera.pixels_per_radian /
