@@ -115,11 +115,11 @@ static const signed char plod__grad[16][3] = {
     {1, 0, -1}, {-1, 0, -1}, {0, 1, 1}, {0, -1, 1}, {0, 1, -1}, {0, -1, -1},
     {1, 1, 0}, {-1, 1, 0}, {0, -1, 1}, {0, -1, -1}};
 
-/* plod__grad as doubles (the lanes copy them, no conversions) */
-static const double plod__grad_double[16][3] = {
-    {1, 1, 0}, {-1, 1, 0}, {1, -1, 0}, {-1, -1, 0}, {1, 0, 1}, {-1, 0, 1},
-    {1, 0, -1}, {-1, 0, -1}, {0, 1, 1}, {0, -1, 1}, {0, 1, -1}, {0, -1, -1},
-    {1, 1, 0}, {-1, 1, 0}, {0, -1, 1}, {0, -1, -1}};
+/* plod__grad per axis for the lanes: entry i's component + 1 in bits 2 i
+ * and 2 i + 1 (test_detail.py holds the lanes to the point path) */
+#define PLOD__GRAD_X 0x52552222u
+#define PLOD__GRAD_Y 0x0a22550au
+#define PLOD__GRAD_Z 0x250a0a55u
 
 /* Improved noise at lattice point p, clamped to [-1, 1] (its extremes are
  * within ~1 already; the clamp makes the bound exact); g (when not NULL):
@@ -562,16 +562,29 @@ PLOD__LANE_CLONES PLOD__LANE_LOOPS static void plod__lanes_noise(plod__lanes *l,
         l->frac[1][k] = p1 - plod__floor_exact(p1);
         l->frac[2][k] = p2 - plod__floor_exact(p2);
     }
+    /* the cell's integer corner, p - frac (the floor, exactly), as an
+     * integer: the bits of floor + 1.5 * 2^52 less those of 1.5 * 2^52 are
+     * its two's complement for |floor| < 2^51 (the cast, in SIMD) */
+    uint64_t base[PLOD__LANES];
     for (int k = 0; k < l->count; k++) {
-        /* the cell's integer corner: p - frac is the floor, exactly */
-        uint64_t base = (uint64_t)(int64_t)(l->p[0][k] - l->frac[0][k]) * PLOD__HX +
-                        (uint64_t)(int64_t)(l->p[1][k] - l->frac[1][k]) * PLOD__HY +
-                        (uint64_t)(int64_t)(l->p[2][k] - l->frac[2][k]) * PLOD__HZ + o->seed;
-        for (int c = 0; c < 8; c++) {
-            uint64_t h = base + ((c & 1) ? PLOD__HX : 0) + ((c & 2) ? PLOD__HY : 0) +
-                         ((c & 4) ? PLOD__HZ : 0);
-            const double *q = plod__grad_double[plod__mix_fast(h) >> 60];
-            l->q[c][0][k] = q[0], l->q[c][1][k] = q[1], l->q[c][2][k] = q[2];
+        uint64_t xyz[3];
+        for (int a = 0; a < 3; a++) {
+            double shifted = (l->p[a][k] - l->frac[a][k]) + 6755399441055744.0;
+            memcpy(&xyz[a], &shifted, sizeof shifted);
+            xyz[a] -= 0x4338000000000000ULL;
+        }
+        base[k] = xyz[0] * PLOD__HX + xyz[1] * PLOD__HY + xyz[2] * PLOD__HZ + o->seed;
+    }
+    for (int c = 0; c < 8; c++) {
+        uint64_t corner = ((c & 1) ? PLOD__HX : 0) + ((c & 2) ? PLOD__HY : 0) +
+                          ((c & 4) ? PLOD__HZ : 0);
+        /* the corner's gradient from plod__grad packed per axis (shifts
+         * and masks instead of table gathers: the same values) */
+        for (int k = 0; k < l->count; k++) {
+            uint32_t shift = (uint32_t)(plod__mix_fast(base[k] + corner) >> 59) & 30u;
+            l->q[c][0][k] = (double)((int32_t)((PLOD__GRAD_X >> shift) & 3u) - 1);
+            l->q[c][1][k] = (double)((int32_t)((PLOD__GRAD_Y >> shift) & 3u) - 1);
+            l->q[c][2][k] = (double)((int32_t)((PLOD__GRAD_Z >> shift) & 3u) - 1);
         }
     }
     if (gradient)

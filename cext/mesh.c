@@ -772,19 +772,24 @@ static void plod__corner_normals(const plod__emitter *e, const plod_mesh_sector 
     const int ks[3][3] = {{n, 0, 0}, {0, n, 0}, {0, 0, n}};
     const size_t at[3] = {plod__vertex_index(n, 0, 0), plod__vertex_index(n, 0, n),
                           plod__vertex_index(n, n, 0)};
-    for (int c = 0; c < 3; c++) {
-        double dir[3], height, normal[3];
-        int octaves, normal_octaves;
+    double dirs[9], heights[3], normals[9];
+    int octaves[3], normal_octaves[3], count = 0;
+    size_t to[3];
+    for (int c = 0; c < 3; c++) { /* the corners whose band changed, in one batch */
+        double *dir = dirs + 3 * count;
         plod__vertex_direction((const double (*)[3])sector->corners, ks[c], inv_n, dir);
-        octaves = PLOD_DETAIL_MAX_OCTAVES;
-        normal_octaves = plod__corner_band(e, dir);
-        if (normal_octaves == block->corner_band[c])
-            continue;
-        e->surface->ops->sample_n(e->surface->self, 1, dir, &octaves, &normal_octaves, &height,
-                                  normal, NULL);
-        for (int k = 0; k < 3; k++)
-            e->out->normals[3 * (vbase + at[c]) + k] = (float)normal[k];
+        octaves[count] = PLOD_DETAIL_MAX_OCTAVES;
+        normal_octaves[count] = plod__corner_band(e, dir);
+        if (normal_octaves[count] != block->corner_band[c])
+            to[count++] = at[c];
     }
+    if (!count)
+        return;
+    e->surface->ops->sample_n(e->surface->self, (size_t)count, dirs, octaves, normal_octaves,
+                              heights, normals, NULL);
+    for (int c = 0; c < count; c++)
+        for (int k = 0; k < 3; k++)
+            e->out->normals[3 * (vbase + to[c]) + k] = (float)normals[3 * c + k];
 }
 
 /* The same outputs from a cache entry: (float)(p - origin) as computed. */
