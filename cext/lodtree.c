@@ -601,6 +601,12 @@ int plod_lodtree_split(plod_lodtree *t, size_t i)
         if (n < 0)
             return 1;
         if (t->leaves[n].level == t->leaves[i].level) {
+            /* a diamond splits two sectors; the first of an update always
+             * may (progress whatever the limit) */
+            if (t->split_limit && t->splits > 0 && t->splits + 2 > t->split_limit) {
+                t->limited = 1;
+                return 0;
+            }
             if (t->count + 2 > t->max_sectors || plod__reserve(t, 2) != PLOD_OK ||
                 plod__node_reserve(t, 2) != PLOD_OK || plod__pending_reserve(t, 2) != PLOD_OK) {
                 t->truncated = 1;

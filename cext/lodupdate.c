@@ -270,7 +270,7 @@ static void plod__merge_pass(plod__frame *f)
 static void plod__split_leaf(const plod__frame *f, size_t i)
 {
     plod_lodtree *t = f->tree;
-    while (!t->truncated && plod__leaf_wants_split(f, i)) {
+    while (!t->truncated && !t->limited && plod__leaf_wants_split(f, i)) {
         size_t before = t->splits;
         plod_lodtree_split(t, i);
         if (t->splits == before)
@@ -284,6 +284,21 @@ static void plod__split_pass(plod__frame *f)
 {
     plod_lodtree *t = f->tree;
     t->pending_count = 0;
+    if (t->split_limit) { /* progressive: breadth first (plod_refine_params) */
+        for (int again = 1; again && !t->truncated && !t->limited;) {
+            again = 0;
+            size_t swept = t->count; /* children appended now wait for the next sweep */
+            for (size_t i = 0; i < swept && !t->truncated && !t->limited; i++) {
+                if (!plod__leaf_wants_split(f, i))
+                    continue;
+                size_t before = t->splits;
+                plod_lodtree_split(t, i);
+                again |= t->splits != before;
+            }
+        }
+        t->pending_count = 0;
+        return;
+    }
     for (size_t i = 0; i < t->count && !t->truncated; i++)
         plod__split_leaf(f, i);
     while (t->pending_count && !t->truncated)
@@ -519,7 +534,16 @@ static void plod__frame_init(plod__frame *f, plod_refiner *r, const plod_camera 
 static void plod__refine(plod_refiner *r, plod__frame *f)
 {
     r->tree.splits = r->tree.merges = 0;
-    if (f->params->budget == 0) {
+    r->tree.split_limit = f->params->max_splits;
+    r->tree.limited = 0;
+    if (f->params->max_splits) {
+        /* progressive: the breadth-first pass, the budget as its cap (it
+         * stops the view a level short where it binds, uniformly) */
+        size_t budget = f->params->budget, cap = f->params->max_sectors;
+        plod__refine_pass(f, 0, budget && budget < cap ? budget : cap);
+        r->coarsen_step = 0;
+        r->budget_known = 0;
+    } else if (f->params->budget == 0) {
         plod__refine_pass(f, 0, f->params->max_sectors);
         r->coarsen_step = 0;
         r->budget_known = 0;
@@ -655,6 +679,7 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
     s.refine_us = t1 - t0;
     s.cull_us = t2 - t1;
     s.truncated = r->tree.truncated;
+    s.pending = r->tree.limited;
     s.frame = r->tree.frame;
     if (stats)
         *stats = s;

@@ -107,6 +107,10 @@ typedef struct plod_lodtree {
     uint32_t frame;              /* refine frame: births, stale evaluations */
     size_t max_sectors;          /* a split that would exceed it stops */
     int truncated;               /* 1: max_sectors stopped a split */
+    size_t split_limit;          /* 0, or: a diamond split that would take
+                                    `splits` over it stops (the first one of
+                                    a count from 0 never does) */
+    int limited;                 /* 1: split_limit stopped a split */
     size_t splits, merges;       /* counted since the caller zeroed them */
 } plod_lodtree;
 
@@ -128,8 +132,9 @@ size_t plod_lodtree_memory_bytes(const plod_lodtree *tree);
 /* Splits leaf i and, first, the coarser neighbours across its hypotenuse
  * (forced splits: the result conforms).  Leaf i's slot receives child 0 of
  * its split, its index is pushed on `pending`, new leaves are appended.
- * Returns 0 when max_sectors (or memory) stopped it (truncated = 1), 1
- * otherwise; at PLOD_MAX_LEVEL a no-op returning 1. */
+ * Returns 0 when max_sectors (or memory) stopped it (truncated = 1) or
+ * split_limit did (limited = 1), 1 otherwise; at PLOD_MAX_LEVEL a no-op
+ * returning 1. */
 int plod_lodtree_split(plod_lodtree *tree, size_t i);
 
 /* Whether internal node `node` may lose its children (the LOD update's

@@ -96,6 +96,22 @@ typedef struct plod_refine_params {
                                 flags of large sector sets (>= 8192 leaves;
                                 the node sweep stays sequential); result
                                 identical to 1 */
+    size_t max_splits;       /* 0 (default): unlimited.  Progressive
+                                refinement (the viewport): an update makes at
+                                most this many splits (stats.splits: 2 per
+                                diamond, forced ones included; at least one
+                                diamond, so updates always progress),
+                                and splits breadth first (every leaf that
+                                wants it once per sweep, so the whole view
+                                gains a level before any part gains two);
+                                where the limit stops it, stats.pending is
+                                set and later updates carry on from there.
+                                The budget is then the pass's cap instead of
+                                a search over thresholds: where it binds
+                                the view stops short of a level (most of it
+                                uniformly coarser, a part of it finer).  The
+                                result depends on the updates before: the
+                                viewport's, never a render's */
 } plod_refine_params;
 
 #define PLOD_REFINE_MAX_THREADS 16
@@ -114,6 +130,7 @@ typedef struct plod_refine_stats {
     double refine_us, cull_us;
     int max_level_reached;
     int truncated;                /* 1: max_sectors stopped the split pass */
+    int pending;                  /* 1: max_splits stopped it: refine again */
     unsigned frame;               /* refine frame counter (sector.birth) */
 } plod_refine_stats;
 

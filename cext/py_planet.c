@@ -496,20 +496,20 @@ static PyObject *plod__planet_refine(plod_py_planet *self, PyObject *args, PyObj
     static char *kwlist[] = {"camera", "criterion", "max_pixel_error", "split_border",
                              "merge_border", "hysteresis", "template_level", "max_level",
                              "budget", "backface", "frustum", "skip_sea", "max_sectors",
-                             "threads", NULL};
+                             "threads", "max_splits", NULL};
     PyObject *cam_obj;
     const char *criterion = "pixel";
     plod_refine_params p;
     plod_refine_params_default(&p);
-    Py_ssize_t budget = 0, max_sectors = (Py_ssize_t)PLOD_DEFAULT_MAX_SECTORS;
+    Py_ssize_t budget = 0, max_sectors = (Py_ssize_t)PLOD_DEFAULT_MAX_SECTORS, max_splits = 0;
     if (!plod__planet_ready(self))
         return NULL;
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O|sdddpiinpppni", kwlist, &cam_obj,
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O|sdddpiinpppnin", kwlist, &cam_obj,
                                      &criterion, &p.max_pixel_error, &p.split_border,
                                      &p.merge_border, &p.hysteresis, &p.template_level,
                                      &p.max_level, &budget, &p.backface_culling,
                                      &p.frustum_culling, &p.skip_sea, &max_sectors,
-                                     &p.threads))
+                                     &p.threads, &max_splits))
         return NULL;
     const plod_camera *cam = plod__camera_arg(cam_obj);
     if (!cam)
@@ -524,12 +524,16 @@ static PyObject *plod__planet_refine(plod_py_planet *self, PyObject *args, PyObj
     if (budget < 0)
         return plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "refine",
                                     "budget must be >= 0 (0 = unlimited)");
+    if (max_splits < 0)
+        return plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "refine",
+                                    "max_splits must be >= 0 (0 = unlimited)");
     if (max_sectors < 12)
         return plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "refine", "max_sectors must be >= 12");
     if (p.threads < 1 || p.threads > PLOD_REFINE_MAX_THREADS)
         return plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "refine", "threads must be 1..16");
     p.budget = (size_t)budget;
     p.max_sectors = (size_t)max_sectors;
+    p.max_splits = (size_t)max_splits;
     plod_refine_stats s;
     plod_status st;
     Py_BEGIN_ALLOW_THREADS
@@ -546,14 +550,15 @@ static PyObject *plod__planet_refine(plod_py_planet *self, PyObject *args, PyObj
     size_t per_v = plod_template_vertex_count(p.template_level);
     size_t per_t = plod_template_triangle_count(p.template_level);
     return Py_BuildValue(
-        "{s:n,s:n,s:n,s:n,s:n,s:n,s:n,s:d,s:d,s:i,s:O,s:I,s:K,s:K}", "sectors_total",
+        "{s:n,s:n,s:n,s:n,s:n,s:n,s:n,s:d,s:d,s:i,s:O,s:O,s:I,s:K,s:K}", "sectors_total",
         (Py_ssize_t)s.sectors_total, "sectors_after_backface",
         (Py_ssize_t)s.sectors_after_backface, "sectors_after_frustum",
         (Py_ssize_t)s.sectors_after_frustum, "sectors_after_budget",
         (Py_ssize_t)s.sectors_after_budget, "sectors_sea_skipped",
         (Py_ssize_t)s.sectors_sea_skipped, "splits", (Py_ssize_t)s.splits, "merges",
         (Py_ssize_t)s.merges, "refine_us", s.refine_us, "cull_us", s.cull_us, "max_level",
-        s.max_level_reached, "truncated", s.truncated ? Py_True : Py_False, "frame",
+        s.max_level_reached, "truncated", s.truncated ? Py_True : Py_False, "pending",
+        s.pending ? Py_True : Py_False, "frame",
         s.frame, "vertices", (unsigned long long)(s.sectors_after_budget * per_v),
         "triangles", (unsigned long long)(s.sectors_after_budget * per_t));
 }

@@ -301,6 +301,11 @@ static void fuzz__check_frame(const plod_refiner *refiner, const plod_planet *pl
     if (rp->budget)
         FUZZ_CHECK(st->sectors_after_budget <= rp->budget, "%zu visible, budget %zu",
                    st->sectors_after_budget, rp->budget);
+    if (rp->max_splits) /* one diamond (2 splits) always may */
+        FUZZ_CHECK(st->splits <= (rp->max_splits > 2 ? rp->max_splits : 2),
+                   "%zu splits, limit %zu", st->splits, rp->max_splits);
+    else
+        FUZZ_CHECK(!st->pending, "pending without a split limit");
     size_t count = 0;
     const plod_sector *sectors = plod_refiner_sectors(refiner, &count);
     FUZZ_CHECK(count == st->sectors_total, "%zu sectors, stats %zu", count, st->sectors_total);
@@ -348,12 +353,13 @@ static uint64_t *fuzz__leaf_set(const plod_refiner *refiner, size_t *count)
 
 /* Without hysteresis a frame depends on its camera alone: the incremental
  * result equals a fresh refiner's at the same camera (leaves, flags and the
- * canonical visible order), unless max_sectors truncated either. */
+ * canonical visible order), unless max_sectors truncated either or a split
+ * limit (progressive refinement, history-dependent by design) is set. */
 static void fuzz__check_history_free(const plod_refiner *incremental, const plod_planet *planet,
                                      const plod_camera *camera, const plod_refine_params *rp,
                                      const plod_refine_stats *st)
 {
-    if (rp->hysteresis || st->truncated)
+    if (rp->hysteresis || st->truncated || rp->max_splits)
         return;
     plod_refiner *fresh = NULL;
     FUZZ_CHECK(plod_refiner_create(&fresh, planet) == PLOD_OK, "fresh refiner");
@@ -580,14 +586,16 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     rp.max_level = (pf & 0x20) ? fuzz_range(&in, -1, PLOD_MAX_LEVEL + 1) : fuzz_range(&in, 0, 10);
     rp.budget = (size_t)fuzz_range(&in, 0, 64);
     rp.max_sectors = (size_t)fuzz_range(&in, 8, 512);
+    uint8_t progressive = fuzz_u8(&in); /* half the inputs: 1..64 splits a frame */
+    rp.max_splits = (progressive & 0x80) ? 1 + (size_t)(progressive & 63) : 0;
     int frames = 1 + (pf >> 6) % MAX_CAMERAS;
     if (fuzz__dump())
         fprintf(stderr, "params: criterion %d pixel_error %.17g split %.17g merge %.17g "
                 "hysteresis %d backface %d frustum %d skip_sea %d template %d max_level %d "
-                "budget %zu max_sectors %zu frames %d\n", rp.criterion, rp.max_pixel_error,
-                rp.split_border, rp.merge_border, rp.hysteresis, rp.backface_culling,
-                rp.frustum_culling, rp.skip_sea, rp.template_level, rp.max_level, rp.budget,
-                rp.max_sectors, frames);
+                "budget %zu max_sectors %zu max_splits %zu frames %d\n", rp.criterion,
+                rp.max_pixel_error, rp.split_border, rp.merge_border, rp.hysteresis,
+                rp.backface_culling, rp.frustum_culling, rp.skip_sea, rp.template_level,
+                rp.max_level, rp.budget, rp.max_sectors, rp.max_splits, frames);
 
     for (int f = 0; f < frames; f++) {
         plod_camera_desc desc;

@@ -233,9 +233,39 @@ def make_camera(params):
     return require_native().Camera(**params)
 
 
-def refine(planet, camera, settings, hysteresis=False):
+class ProgressiveSplits:
+    """How many splits one progressive refresh of the viewport may make, so
+    that a jump to a new place fills in over refreshes of about TARGET_MS
+    each instead of one long one.  The least is START_NEW_VERTICES new
+    vertices (2 sectors per split): cheap next to a refresh's fixed part
+    (copying the kept sectors, the preview's data).  A refresh that used its
+    allowance and took less than TARGET_MS raises the next one by the ratio
+    (at most 1.5 times), one that took longer lowers it (down to the
+    least).  Without a budget (a view as large as it asks for) refreshes
+    are not limited."""
+    TARGET_MS = 20.0
+    START_NEW_VERTICES = 24_000
+
+    def __init__(self, template_level, budget):
+        self.key = (int(template_level), int(budget))
+        n = 2 ** int(template_level)
+        per_sector = (n + 1) * (n + 2) // 2
+        self.least = max(16, self.START_NEW_VERTICES // (2 * per_sector))
+        self.splits = 0 if budget <= 0 else self.least
+
+    def measured(self, stats, ms):
+        """A refresh with this limit took `ms` (its refine's stats)."""
+        if self.splits and stats.get("pending") and ms > 0.0:
+            scale = min(1.5, max(0.5, self.TARGET_MS / ms))
+            self.splits = max(self.least, int(self.splits * scale))
+
+
+def refine(planet, camera, settings, hysteresis=False, max_splits=0):
     """Refines `planet` for `camera`; returns the stats dict plus 'triangles'.
-    hysteresis=False (renders) makes the LOD a function of the camera alone."""
+    hysteresis=False (renders) makes the LOD a function of the camera alone.
+    max_splits > 0 (the viewport's progressive refresh, ProgressiveSplits)
+    limits the splits of this refresh (stats 'pending': refine again to
+    carry on)."""
     template_level = int(settings["template_level"])
     kwargs = dict(criterion="pixel" if settings["criterion"] == "PIXEL" else "side_distance",
                   max_pixel_error=float(settings["max_pixel_error"]),
@@ -246,6 +276,8 @@ def refine(planet, camera, settings, hysteresis=False):
                   budget=int(settings["budget"]), backface=bool(settings["backface"]),
                   frustum=bool(settings["frustum"]),
                   skip_sea=bool(settings.get("use_sea_level") and settings.get("skip_sea")))
+    if max_splits > 0:
+        kwargs["max_splits"] = int(max_splits)
     stats = dict(planet.refine(camera, **kwargs))
     stats["triangles"] = planet.visible_count * 4 ** template_level
     stats["visible"] = planet.visible_count

@@ -597,6 +597,53 @@ def test_budget_coarsens_instead_of_dropping(planetlod, earth):
     assert s["sectors_after_budget"] == full["sectors_after_budget"]
 
 
+def test_progressive_refinement_fills_in_over_bounded_updates(planetlod, earth):
+    """With max_splits (the viewport's progressive refresh) a jump to a new
+    place splits breadth first, at most max_splits per update, each update
+    conforming, 'pending' until done; done, the sectors are the unlimited
+    refinement's.  With a budget the count never exceeds it.  Bad values
+    are refused."""
+    far = surface_camera(planetlod, EARTH_R, 3e6)
+    near = surface_camera(planetlod, EARTH_R, 2e3, lat=0.8, lon=0.15)
+    ref = planetlod.Planet(EARTH_R, heightmap=earth.heightmap, height_scale=8848.0)
+    ref.refine(far, max_pixel_error=0.5)
+    full = ref.refine(near, max_pixel_error=0.5)
+    p = planetlod.Planet(EARTH_R, heightmap=earth.heightmap, height_scale=8848.0)
+    p.refine(far, max_pixel_error=0.5)
+    limit, updates, levels = 300, 0, []
+    while True:
+        s = p.refine(near, max_pixel_error=0.5, max_splits=limit)
+        updates += 1
+        assert s["splits"] <= limit
+        check_conforming(p)
+        levels.append(s["max_level"])
+        if not s["pending"]:
+            break
+        assert updates < 200
+    print(f"{updates} updates of <= {limit} splits; max level per update {levels}")
+    assert updates >= 3 and levels == sorted(levels)
+    assert not full["pending"]
+    assert sorted(p.sector_ids(visible_only=False).tolist()) == \
+        sorted(ref.sector_ids(visible_only=False).tolist())
+    # breadth first: after the first update the view is uniformly coarse,
+    # not finished in one corner and untouched in another
+    p.refine(far, max_pixel_error=0.5)
+    p.refine(near, max_pixel_error=0.5, max_splits=limit)
+    spread = np.array(p.sector_levels(visible_only=True).tolist())
+    assert spread.max() - spread.min() <= 4, (spread.min(), spread.max())
+    budget = full["sectors_total"] // 4
+    for _ in range(100):
+        s = p.refine(near, max_pixel_error=0.5, max_splits=limit, budget=budget,
+                     hysteresis=True)
+        assert s["sectors_total"] <= budget
+        check_conforming(p)
+        if not s["pending"]:
+            break
+    assert not s["pending"] and s["sectors_after_budget"] > budget // 4
+    with pytest.raises(planetlod.PlanetLODError):
+        p.refine(near, max_splits=-1)
+
+
 def test_budget_below_the_base_mesh_keeps_the_nearest(planetlod):
     """A budget that even the coarsest refinement exceeds keeps the nearest
     visible sectors (the only case where sectors in view are left out)."""

@@ -47,6 +47,7 @@ planets = planet_objects
 
 REFRESH_INTERVAL_S = 0.1   # during navigation the detail follows at this rate
 TICK_S = 0.05
+BUSY_TICK_S = 0.01           # while a viewport job runs or its refinement goes on
 _lock = threading.RLock()   # one refresh at a time, across threads
 _local = threading.local()  # .busy: this thread is inside refresh()
 _renders = 0                # renders in progress (render_init .. complete/cancel)
@@ -369,9 +370,12 @@ class SurfaceWork:
     bpy, so the viewport timer can run it on a worker thread (SurfaceJob)
     while Blender's UI goes on; the main thread applies the result (_apply)."""
 
-    def __init__(self, planet, settings, params, refine, for_render, check_size, preview):
+    def __init__(self, planet, settings, params, refine, for_render, check_size, preview,
+                 max_splits=0):
         self.planet, self.settings, self.params = planet, settings, params
         self.refine, self.for_render, self.check_size = refine, for_render, check_size
+        self.max_splits = max_splits  # > 0: a progressive refresh, later ones carry on
+        self.ms = 0.0                 # the time run() took
         self.preview = preview  # None, or (anchor, radius, sea_level, morph, key, data)
         self.stats = None       # the refine's stats (None when frozen)
         self.inside = False     # the LOD camera is below the terrain
@@ -379,13 +383,21 @@ class SurfaceWork:
         self.preview_data = None  # a new surface.PreviewData, or None when unchanged
 
     def run(self):
+        t0 = time.perf_counter()
+        try:
+            self._run()
+        finally:
+            self.ms = (time.perf_counter() - t0) * 1000.0
+
+    def _run(self):
         planet, settings = self.planet, self.settings
         if self.refine:
             camera = planet_settings.make_camera(self.params)
             # without hysteresis (renders) the sector set and the order meshes
             # are emitted in depend on this camera only, never on earlier frames
             stats = planet_settings.refine(planet, camera, settings,
-                                           hysteresis=not self.for_render)
+                                           hysteresis=not self.for_render,
+                                           max_splits=self.max_splits)
             if self.check_size:  # refuse before the mesh (or anything in bpy) is touched
                 planet_settings.check_mesh_size(stats, settings["template_level"])
             self.stats = stats
@@ -406,7 +418,8 @@ class SurfaceWork:
             self.preview_data = surface.preview_data(visible, origin, radius, sea_level)
 
 
-def _work_for(obj, st, planet, settings, params, for_render, check_size, preview):
+def _work_for(obj, st, planet, settings, params, for_render, check_size, preview,
+              max_splits=0):
     s = obj.planet_lod
     frozen = s.freeze_lod and st.frozen_camera is not None and not for_render
     request = None
@@ -414,7 +427,7 @@ def _work_for(obj, st, planet, settings, params, for_render, check_size, preview
         sea_level = s.sea_level if s.use_sea_level else None
         request = (anchor(obj), s.radius, sea_level, s.morph, st.preview_key, st.preview)
     return SurfaceWork(planet, settings, params, refine=not frozen, for_render=for_render,
-                       check_size=check_size, preview=request)
+                       check_size=check_size, preview=request, max_splits=max_splits)
 
 
 def _apply(st, work):
@@ -444,8 +457,9 @@ def _finish(obj, scene, st, params, build_mesh):
 
 class SurfaceJob(threading.Thread):
     """The viewport's refresh of one planet drawn by the GPU preview, run off
-    Blender's main thread: a refresh at a new place emits every new sector's
-    detail (100-200 ms near the ground), which would stall the UI.  The job
+    Blender's main thread: a refresh emits its new sectors' detail, which
+    would stall the UI (a jump to a new place: 100-200 ms near the ground,
+    spread by the progressive refinement over refreshes of ~20-30 ms).  The job
     holds the refresh lock while it works, so no render refines that planet
     in between; the timer applies its result when it has finished.  Not a
     daemon: the interpreter waits for it at exit instead of freeing the planet
@@ -467,8 +481,12 @@ class SurfaceJob(threading.Thread):
 def _start_job(obj, st, params):
     settings = obj.planet_lod.as_dict()
     planet = planet_settings.build_planet(settings)
+    # progressive: a jump to a new place fills in over a few bounded refreshes
+    key = (settings["template_level"], settings["budget"])
+    if st.progressive is None or st.progressive.key != key:
+        st.progressive = planet_settings.ProgressiveSplits(*key)
     work = _work_for(obj, st, planet, settings, params, for_render=False, check_size=True,
-                     preview=True)
+                     preview=True, max_splits=st.progressive.splits)
     st.serial += 1
     st.job = SurfaceJob(obj.name_full, st.serial, work, params)
     st.dirty = False  # a change while the job runs marks the planet dirty again
@@ -500,6 +518,11 @@ def _finished_jobs(scene):
             continue
         _apply(st, job.work)
         _finish(obj, scene, st, job.params, build_mesh=False)
+        if job.work.stats is not None and job.work.stats.get("pending"):
+            # the progressive refinement carries on at the next tick
+            st.dirty, st.refreshed_at = True, 0.0
+            if st.progressive is not None:
+                st.progressive.measured(job.work.stats, job.work.ms)
         _redraw_views()
     return running
 
@@ -665,7 +688,10 @@ def tick():
         _tick_locked()
     finally:
         _lock.release()
-    return TICK_S
+    # a job in flight or a progressive refinement to carry on: come back soon
+    busy = any(st.job is not None or (st.dirty and st.refreshed_at == 0.0)
+               for st in RUNTIME.values())
+    return BUSY_TICK_S if busy else TICK_S
 
 
 def _tick_locked():

@@ -33,6 +33,7 @@ class PlanetState:
         self.render_key = None     # camera + settings of the last render refresh
         self.job = None            # live.SurfaceJob: the viewport refresh in flight
         self.serial = 0            # counts refreshes (a job's result is applied if last)
+        self.progressive = None    # planets.ProgressiveSplits of the viewport's jobs
 
     def settled(self):
         """Refreshed for the current view, with no refresh in flight."""

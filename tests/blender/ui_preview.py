@@ -154,16 +154,19 @@ def budget():
 def refresh_job():
     """The timer refreshes the preview in a worker job: the tick that starts it
     returns with the previous preview still drawn, a later tick applies the new
-    one; a refresh made while the job runs (an operator, a render) makes the
-    job's result stale, and the planet refreshes again for the view."""
+    one; a jump to a new place fills in over several bounded (progressive)
+    refreshes; a refresh made while the job runs (an operator, a render) makes
+    the job's result stale, and the planet refreshes again for the view."""
     planet = add('MOON')
     from planet_lod import live
     st = live.state(planet)
     yield from refreshed(planet)
     gate, run = threading.Event(), live.SurfaceWork.run
+    jobs = []
 
     def held(work):  # keeps a job in flight until the test lets it go
         if threading.current_thread() is not threading.main_thread():
+            jobs.append(work)
             gate.wait(30)
         run(work)
     live.SurfaceWork.run = held
@@ -176,6 +179,10 @@ def refresh_job():
         gate.set()
         yield from refreshed(planet)
         assert st.preview is not before and st.stats["visible"] > 100, st.stats
+        # progressive: the jump filled in over several bounded refreshes, the
+        # last one complete
+        assert len(jobs) >= 2 and all(w.max_splits > 0 for w in jobs), len(jobs)
+        assert jobs[0].stats["pending"] and not st.stats["pending"], st.stats
         job_surface = st.preview
         # a refresh on the main thread while a job is in flight: the job is dropped
         gate.clear()
