@@ -243,8 +243,8 @@ class ProgressiveSplits:
     (at most 1.5 times), one that took longer lowers it (down to the
     least).  Without a budget (a view as large as it asks for) refreshes
     are not limited."""
-    TARGET_MS = 20.0
-    START_NEW_VERTICES = 24_000
+    TARGET_MS = 15.0
+    START_NEW_VERTICES = 16_000
 
     def __init__(self, template_level, budget):
         self.key = (int(template_level), int(budget))
