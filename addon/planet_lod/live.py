@@ -345,6 +345,7 @@ def _refresh_locked(obj, scene, params, build_mesh, for_render):
                          check_size=build_mesh or preview, preview=preview)
         work.run()
         _apply(st, work)
+        st.pending = False  # refined in full
         if build_mesh:
             t0 = time.perf_counter()
             mesh = planet.mesh(template_level=settings["template_level"],
@@ -518,9 +519,9 @@ def _finished_jobs(scene):
             continue
         _apply(st, job.work)
         _finish(obj, scene, st, job.params, build_mesh=False)
-        if job.work.stats is not None and job.work.stats.get("pending"):
-            # the progressive refinement carries on at the next tick
-            st.dirty, st.refreshed_at = True, 0.0
+        st.pending = bool(job.work.stats and job.work.stats.get("pending"))
+        if st.pending:  # the progressive refinement carries on at the next tick
+            st.dirty = True
             if st.progressive is not None:
                 st.progressive.measured(job.work.stats, job.work.ms)
         _redraw_views()
@@ -689,8 +690,7 @@ def tick():
     finally:
         _lock.release()
     # a job in flight or a progressive refinement to carry on: come back soon
-    busy = any(st.job is not None or (st.dirty and st.refreshed_at == 0.0)
-               for st in RUNTIME.values())
+    busy = any(st.job is not None or (st.dirty and st.pending) for st in RUNTIME.values())
     return BUSY_TICK_S if busy else TICK_S
 
 
@@ -724,8 +724,9 @@ def _tick_locked():
         if sig != st.signature:
             st.signature, st.changed_at, st.dirty = sig, now, True
         # a refresh at most every REFRESH_INTERVAL_S, also while the view keeps
-        # moving (navigation), so the detail follows instead of popping at the end
-        if not st.dirty or now - st.refreshed_at < REFRESH_INTERVAL_S:
+        # moving (navigation), so the detail follows instead of popping at the
+        # end; a progressive refinement cut short carries on at once
+        if not st.dirty or (not st.pending and now - st.refreshed_at < REFRESH_INTERVAL_S):
             continue
         st.refreshed_at = now
         try:

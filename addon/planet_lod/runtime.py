@@ -34,6 +34,7 @@ class PlanetState:
         self.job = None            # live.SurfaceJob: the viewport refresh in flight
         self.serial = 0            # counts refreshes (a job's result is applied if last)
         self.progressive = None    # planets.ProgressiveSplits of the viewport's jobs
+        self.pending = False       # the last job's split limit cut its refinement short
 
     def settled(self):
         """Refreshed for the current view, with no refresh in flight."""
