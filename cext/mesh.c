@@ -229,6 +229,8 @@ static plod_status plod__check_params(const plod_mesh_params *params)
     for (int c = 0; c < 3; c++)
         if (!isfinite(params->origin[c]) || !isfinite(params->eye[c]))
             return PLOD_ERR_BAD_COORD;
+    if (params->changed_only && params->morph)
+        return PLOD_ERR_BAD_PARAM;
     if (params->morph) {
         if (!(params->morph_ramp > 0.0 && params->morph_ramp <= 1.0))
             return PLOD_ERR_BAD_PARAM;
@@ -437,6 +439,7 @@ struct plod_mesh_cache {
     int32_t *table; /* open addressing over entries: index or -1 */
     size_t table_size; /* power of two, >= 2 * count, or 0 */
     size_t hits, misses;
+    uint64_t emissions; /* emissions through the cache, never reset */
 };
 
 /* Per vertex: planet-space position (3 doubles), normal (3 floats), uv (2),
@@ -560,6 +563,7 @@ void plod_mesh_cache_get_stats(const plod_mesh_cache *cache, plod_mesh_cache_sta
     stats->max_bytes = cache->max_bytes;
     stats->hits = cache->hits;
     stats->misses = cache->misses;
+    stats->emissions = cache->emissions;
 }
 
 /* Empties the cache unless its entries were computed for these parameters. */
@@ -600,6 +604,8 @@ typedef struct plod__slot_cache {
     int32_t hit;          /* entry to copy from, or -1 */
     unsigned char *fresh; /* new entry data to fill (a miss that fits), or NULL */
     uint64_t key;
+    int corners_changed;  /* a hit whose corner normals were sampled again */
+    int32_t corner_band[3]; /* ... with these bands (written back at commit) */
 } plod__slot_cache;
 
 /* Detail octaves per vertex.  A shared vertex must get the same octaves
@@ -764,27 +770,64 @@ static void plod__compute_vertices(const plod__emitter *e, const plod_mesh_secto
  * on it, plod__vertex_band): as plod__compute_vertices computes them,
  * evaluated again only for corners whose band the eye changed (the cached
  * normal of an unchanged band is that evaluation's result). */
-static void plod__corner_normals(const plod__emitter *e, const plod_mesh_sector *sector,
-                                 size_t vbase, const plod__block *block)
+static void plod__corner_positions(int n, size_t at[3])
+{
+    at[0] = plod__vertex_index(n, 0, 0);
+    at[1] = plod__vertex_index(n, 0, n);
+    at[2] = plod__vertex_index(n, n, 0);
+}
+
+/* The normal band of each of a sector's corners for this emission's eye. */
+static void plod__corner_bands(const plod__emitter *e, const plod_mesh_sector *sector,
+                               double dirs[9], int32_t bands[3])
 {
     int n = e->n;
     double inv_n = 1.0 / (double)n;
     const int ks[3][3] = {{n, 0, 0}, {0, n, 0}, {0, 0, n}};
-    const size_t at[3] = {plod__vertex_index(n, 0, 0), plod__vertex_index(n, 0, n),
-                          plod__vertex_index(n, n, 0)};
-    double dirs[9], heights[3], normals[9];
+    for (int c = 0; c < 3; c++) {
+        plod__vertex_direction((const double (*)[3])sector->corners, ks[c], inv_n,
+                               dirs + 3 * c);
+        bands[c] = plod__corner_band(e, dirs + 3 * c);
+    }
+}
+
+/* Whether a cached sector's corner normals hold for this emission's eye. */
+static int plod__corners_current(const plod__emitter *e, const plod_mesh_sector *sector,
+                                 const plod__block *block)
+{
+    if (!e->banded || !e->out->normals)
+        return 1;
+    double dirs[9];
+    int32_t bands[3];
+    plod__corner_bands(e, sector, dirs, bands);
+    return bands[0] == block->corner_band[0] && bands[1] == block->corner_band[1] &&
+           bands[2] == block->corner_band[2];
+}
+
+static void plod__corner_normals(const plod__emitter *e, const plod_mesh_sector *sector,
+                                 size_t vbase, const plod__block *block,
+                                 plod__slot_cache *sc)
+{
+    size_t at[3], to[3];
+    plod__corner_positions(e->n, at);
+    double all_dirs[9], dirs[9], heights[3], normals[9];
+    int32_t bands[3];
     int octaves[3], normal_octaves[3], count = 0;
-    size_t to[3];
+    plod__corner_bands(e, sector, all_dirs, bands);
     for (int c = 0; c < 3; c++) { /* the corners whose band changed, in one batch */
-        double *dir = dirs + 3 * count;
-        plod__vertex_direction((const double (*)[3])sector->corners, ks[c], inv_n, dir);
+        if (bands[c] == block->corner_band[c])
+            continue;
+        for (int k = 0; k < 3; k++)
+            dirs[3 * count + k] = all_dirs[3 * c + k];
         octaves[count] = PLOD_DETAIL_MAX_OCTAVES;
-        normal_octaves[count] = plod__corner_band(e, dir);
-        if (normal_octaves[count] != block->corner_band[c])
-            to[count++] = at[c];
+        normal_octaves[count] = bands[c];
+        to[count++] = at[c];
     }
     if (!count)
         return;
+    sc->corners_changed = 1;
+    for (int c = 0; c < 3; c++)
+        sc->corner_band[c] = bands[c];
     e->surface->ops->sample_n(e->surface->self, (size_t)count, dirs, octaves, normal_octaves,
                               heights, normals, NULL);
     for (int c = 0; c < count; c++)
@@ -817,7 +860,7 @@ static void plod__copy_vertices(const plod__emitter *e, size_t vbase, const plod
 
 static plod_status plod__emit_sector(const plod__emitter *e, const plod_mesh_sector *sector,
                                      size_t slot, const plod_mesh_cache *cache,
-                                     const plod__slot_cache *sc)
+                                     plod__slot_cache *sc)
 {
     if (!plod__sector_ok(sector))
         return PLOD_ERR_BAD_COORD;
@@ -832,7 +875,7 @@ static plod_status plod__emit_sector(const plod__emitter *e, const plod_mesh_sec
         plod__block_view(cache->entries[sc->hit].data, e->vertices_per_sector, &block);
         plod__copy_vertices(e, vbase, &block);
         if (e->banded && out->normals)
-            plod__corner_normals(e, sector, vbase, &block);
+            plod__corner_normals(e, sector, vbase, &block, sc);
     } else if (sc && sc->fresh) {
         plod__block_view(sc->fresh, e->vertices_per_sector, &block);
         plod__compute_vertices(e, sector, vbase, &block);
@@ -841,6 +884,8 @@ static plod_status plod__emit_sector(const plod__emitter *e, const plod_mesh_sec
     }
     if (out->morph)
         memset(out->morph + vbase, 0, e->vertices_per_sector * sizeof(float));
+    if (out->keys)
+        out->keys[slot] = sector->key;
 
     if (out->triangles)
         plod__write_triangles(out->triangles + 3 * tbase, n, (int32_t)vbase);
@@ -888,6 +933,7 @@ static void plod__run_chunk(plod__chunk *chunk)
             sc->key = sector.key;
             sc->hit = plod__cache_find(cache, sector.key);
             sc->fresh = NULL;
+            sc->corners_changed = 0;
             size_t need = cache->entry_bytes;
             if (sc->hit < 0 && need <= chunk->budget) {
                 sc->fresh = malloc(need);
@@ -912,13 +958,35 @@ static void plod__run_chunks(void *context, size_t begin, size_t end)
         plod__run_chunk(&chunks[t]);
 }
 
-/* After the threads: keep the entries this emission used, add its fresh
- * blocks (a key seen twice keeps its first), free the rest.  Any failure
- * empties the cache: it is never wrong, only colder. */
-static void plod__cache_commit(plod_mesh_cache *c, plod__slot_cache *slots, size_t total,
-                               int ok)
+/* A hit's corner normals sampled again for this eye go back into its
+ * entry with their bands, so the entry holds what this emission wrote
+ * (changed_only compares with it). */
+static void plod__write_back_corners(plod_mesh_cache *c, const plod__emitter *e,
+                                     const plod__slot_cache *sc, size_t slot)
 {
+    plod__block block;
+    plod__block_view(c->entries[sc->hit].data, e->vertices_per_sector, &block);
+    size_t at[3];
+    plod__corner_positions(e->n, at);
+    const float *normals = e->out->normals + 3 * slot * e->vertices_per_sector;
+    for (int k = 0; k < 3; k++) {
+        memcpy(block.normal + 3 * at[k], normals + 3 * at[k], 3 * sizeof(float));
+        block.corner_band[k] = sc->corner_band[k];
+    }
+}
+
+/* After the threads: keep the entries this emission used (and those a
+ * changed_only emission left out: unchanged[0, count), an entry or -1),
+ * add its fresh blocks (a key seen twice keeps its first), free the rest.
+ * Any failure empties the cache: it is never wrong, only colder. */
+static void plod__cache_commit(plod_mesh_cache *c, const plod__emitter *e,
+                               plod__slot_cache *slots, size_t total,
+                               const int32_t *unchanged, size_t count, int ok)
+{
+    c->emissions++;
     c->hits = c->misses = 0;
+    for (size_t i = 0; i < count; i++)
+        c->hits += unchanged[i] >= 0;
     size_t fresh = 0;
     for (size_t i = 0; i < total; i++) {
         if (!slots[i].key)
@@ -949,8 +1017,14 @@ static void plod__cache_commit(plod_mesh_cache *c, plod__slot_cache *slots, size
         return;
     }
     for (size_t i = 0; i < total; i++)
-        if (slots[i].key && slots[i].hit >= 0)
+        if (slots[i].key && slots[i].hit >= 0) {
             used[slots[i].hit] = 1;
+            if (slots[i].corners_changed)
+                plod__write_back_corners(c, e, &slots[i], i);
+        }
+    for (size_t i = 0; i < count; i++)
+        if (unchanged[i] >= 0)
+            used[unchanged[i]] = 1;
     size_t kept = 0;
     for (size_t i = 0; i < c->count; i++) {
         if (used[i]) {
@@ -985,6 +1059,49 @@ static void plod__cache_commit(plod_mesh_cache *c, plod__slot_cache *slots, size
     }
 }
 
+/* changed_only: the source without the sectors whose cached output holds. */
+typedef struct plod__changed_source {
+    plod_mesh_sector_fn source;
+    const void *context;
+    const int32_t *unchanged; /* per index: the entry left out, or -1 */
+} plod__changed_source;
+
+static int plod__changed_sector(const void *context, size_t index, plod_mesh_sector *sector)
+{
+    const plod__changed_source *src = context;
+    return src->unchanged[index] < 0 && src->source(src->context, index, sector);
+}
+
+/* Per sector index, the entry of a sector a changed_only emission leaves
+ * out (a hit whose corner normals hold), else -1 (plod_parallel_for's
+ * range). */
+typedef struct plod__unchanged_search {
+    const plod__emitter *emitter;
+    const plod_mesh_cache *cache;
+    plod_mesh_sector_fn source;
+    const void *context;
+    int32_t *entry;
+} plod__unchanged_search;
+
+static void plod__find_unchanged(void *context, size_t begin, size_t end)
+{
+    const plod__unchanged_search *u = context;
+    plod_mesh_sector sector;
+    for (size_t s = begin; s < end; s++) {
+        u->entry[s] = -1;
+        sector.key = 0;
+        if (!u->source(u->context, s, &sector) || !sector.key)
+            continue;
+        int32_t hit = plod__cache_find(u->cache, sector.key);
+        if (hit < 0)
+            continue;
+        plod__block block;
+        plod__block_view(u->cache->entries[hit].data, u->emitter->vertices_per_sector, &block);
+        if (plod__corners_current(u->emitter, &sector, &block))
+            u->entry[s] = hit;
+    }
+}
+
 /* Below this many sectors a second thread costs more than it saves. */
 #define PLOD__MIN_SECTORS_PER_THREAD 4
 
@@ -1009,6 +1126,23 @@ plod_status plod_mesh_emit(const plod_mesh_params *params,
 
     plod__emitter emitter;
     plod__emitter_init(&emitter, params, surface, out);
+
+    plod_mesh_cache *cache = params->cache;
+    if (cache)
+        plod__cache_bind(cache, params, surface, emitter.vertices_per_sector);
+    int32_t *unchanged = NULL; /* changed_only: per index, the entry left out or -1 */
+    plod__changed_source changed;
+    if (cache && params->changed_only && count) {
+        unchanged = malloc(count * sizeof *unchanged);
+        if (unchanged) { /* (else every sector is emitted) */
+            plod__unchanged_search search = {&emitter, cache, source, context, unchanged};
+            int search_threads = count < 64 ? 1 : params->threads;
+            plod_parallel_for(count, search_threads, plod__find_unchanged, &search);
+            changed = (plod__changed_source){source, context, unchanged};
+            source = plod__changed_sector;
+            context = &changed;
+        }
+    }
 
     int threads = params->threads;
     if ((size_t)threads * PLOD__MIN_SECTORS_PER_THREAD > count)
@@ -1035,17 +1169,17 @@ plod_status plod_mesh_emit(const plod_mesh_params *params,
         chunks[t].slots = NULL;
         chunks[t].budget = 0;
     }
-    if (total > 0 && plod_mesh_vertex_bound(total, params->template_level) == 0)
+    if (total > 0 && plod_mesh_vertex_bound(total, params->template_level) == 0) {
+        free(unchanged);
         return PLOD_ERR_BAD_PARAM; /* indices would overflow int32 */
+    }
 
-    plod_mesh_cache *cache = params->cache;
     plod__slot_cache *slots = NULL;
     if (cache) {
-        plod__cache_bind(cache, params, surface, emitter.vertices_per_sector);
         slots = total ? calloc(total, sizeof *slots) : NULL;
         if (total && !slots) {
             plod_mesh_cache_clear(cache); /* emit uncached */
-            cache = NULL;
+            cache = NULL; /* (what changed_only left out stays the caller's) */
         }
     }
     if (slots) {
@@ -1066,9 +1200,11 @@ plod_status plod_mesh_emit(const plod_mesh_params *params,
         if (chunks[t].status != PLOD_OK && st == PLOD_OK)
             st = chunks[t].status;
     if (cache) { /* an emission of nothing leaves nothing cached */
-        plod__cache_commit(cache, slots, total, st == PLOD_OK);
+        plod__cache_commit(cache, &emitter, slots, total, unchanged, unchanged ? count : 0,
+                           st == PLOD_OK);
         free(slots);
     }
+    free(unchanged);
     if (st != PLOD_OK)
         return st;
 

@@ -96,6 +96,10 @@ typedef struct plod_mesh_cache_stats {
     size_t max_bytes;
     size_t hits;      /* last emission: sectors copied from the cache */
     size_t misses;    /* last emission: keyed sectors computed */
+    uint64_t emissions; /* emissions through the cache so far: a caller
+                           holding the output of emission k knows, seeing
+                           k here, that no other emission changed what a
+                           changed_only emission leaves out */
 } plod_mesh_cache_stats;
 
 #define PLOD_MESH_CACHE_DEFAULT_BYTES ((size_t)256 << 20)
@@ -137,6 +141,15 @@ typedef struct plod_mesh_params {
     double morph_level_rate;    /* levels per halving of distance, > 0 */
     double morph_ramp;          /* (0, 1] */
     plod_mesh_cache *cache;     /* NULL: none (borrowed; see above) */
+    /* With a cache: leave out the sectors whose output the cache's last
+     * emission already gave (a hit whose corner normals keep their band),
+     * so a caller that keeps what that emission wrote updates only what
+     * changed (new sectors, and sectors whose corner normals the eye
+     * changed); left-out sectors stay cached.  Positions are still
+     * relative to this emission's origin.  Needs morph off (the morph
+     * moves every vertex with the eye): PLOD_ERR_BAD_PARAM.  Without a
+     * cache every sector is emitted. */
+    int changed_only;
 } plod_mesh_params;
 
 /* Defaults: origin 0, threads 1, morph off, ramp 0.5, scale = radius,
@@ -186,7 +199,7 @@ double plod_mesh_morph_factor(const plod_mesh_params *params,
  * int32 (indices into this output), sector_level T, face T, detail V (the
  * detail field's part of the vertex's height in metres, over the octaves
  * the vertex keeps: modulation times noise; 0 without detail and on the
- * sea). */
+ * sea), keys S (each emitted sector's key, plod_mesh_sector.key). */
 typedef struct plod_mesh_buffers {
     float *positions;
     float *normals;
@@ -196,6 +209,7 @@ typedef struct plod_mesh_buffers {
     int32_t *sector_level;
     int32_t *face;
     float *detail;
+    uint64_t *keys;
 } plod_mesh_buffers;
 
 /* Vertices / triangles for `sector_count` sectors; 0 on a bad level or when

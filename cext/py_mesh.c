@@ -15,6 +15,7 @@ typedef struct plod_py_mesh {
     PyObject_HEAD
     PyObject *origin;        /* tuple of 3 floats */
     PyObject *positions, *normals, *uv, *triangles, *sector_level, *face, *morph, *detail;
+    PyObject *sector_ids;
     Py_ssize_t vertex_count, triangle_count, sector_count;
     int template_level;
 } plod_py_mesh;
@@ -32,6 +33,7 @@ static int plod__mesh_traverse(plod_py_mesh *self, visitproc visit, void *arg)
     Py_VISIT(self->face);
     Py_VISIT(self->morph);
     Py_VISIT(self->detail);
+    Py_VISIT(self->sector_ids);
     Py_VISIT(Py_TYPE((PyObject *)self));
     return 0;
 }
@@ -47,6 +49,7 @@ static int plod__mesh_clear(plod_py_mesh *self)
     Py_CLEAR(self->face);
     Py_CLEAR(self->morph);
     Py_CLEAR(self->detail);
+    Py_CLEAR(self->sector_ids);
     return 0;
 }
 
@@ -87,6 +90,8 @@ static PyMemberDef plod__mesh_members[] = {
     {"detail", T_OBJECT_EX, offsetof(plod_py_mesh, detail), READONLY,
      "Buffer('f', V): the detail field's part of each vertex's height (metres; 0 "
      "without detail and on the sea)"},
+    {"sector_ids", T_OBJECT_EX, offsetof(plod_py_mesh, sector_ids), READONLY,
+     "Buffer('Q', S): each emitted sector's id (planet.sector_ids), in emission order"},
     {"vertex_count", T_PYSSIZET, offsetof(plod_py_mesh, vertex_count), READONLY, NULL},
     {"triangle_count", T_PYSSIZET, offsetof(plod_py_mesh, triangle_count), READONLY, NULL},
     {"sector_count", T_PYSSIZET, offsetof(plod_py_mesh, sector_count), READONLY, NULL},
@@ -114,13 +119,15 @@ static PyObject *plod__origin_tuple(const double origin[3])
     return Py_BuildValue("(ddd)", origin[0], origin[1], origin[2]);
 }
 
-/* A Buffer of `count` 4-byte items over uninitialised malloc'ed storage. */
+/* A Buffer of `count` 4-byte items ('Q': 8-byte) over uninitialised
+ * malloc'ed storage. */
 static PyObject *plod__uninit_buffer(char format, size_t count, void **data)
 {
     *data = NULL;
-    if (count > PY_SSIZE_T_MAX / 4)
+    size_t itemsize = format == 'Q' ? 8 : 4;
+    if (count > PY_SSIZE_T_MAX / itemsize)
         return PyErr_NoMemory();
-    void *storage = malloc(count ? count * 4 : 1);
+    void *storage = malloc(count ? count * itemsize : 1);
     if (!storage)
         return PyErr_NoMemory();
     PyObject *buffer = plod_py_buffer_steal(format, count, storage);
@@ -136,8 +143,8 @@ typedef plod_status (*plod__emit_fn)(const void *context, const plod_mesh_buffer
 typedef plod_status (*plod__instances_fn)(const void *context, float *corners, float *levels,
                                           float *morph, size_t *instance_count);
 
-/* Emits `sectors` sectors through `emit` into a new Mesh; the GIL is
- * released meanwhile. */
+/* Emits at most `sectors` sectors through `emit` into a new Mesh (its
+ * buffers cut to what was emitted); the GIL is released meanwhile. */
 static PyObject *plod__mesh_build(const plod_mesh_params *params, size_t sectors,
                                   plod__emit_fn emit, const void *context)
 {
@@ -152,6 +159,7 @@ static PyObject *plod__mesh_build(const plod_mesh_params *params, size_t sectors
         return NULL;
     mesh->origin = mesh->positions = mesh->normals = mesh->uv = NULL;
     mesh->triangles = mesh->sector_level = mesh->face = mesh->morph = mesh->detail = NULL;
+    mesh->sector_ids = NULL;
     mesh->vertex_count = mesh->triangle_count = 0;
     mesh->sector_count = (Py_ssize_t)sectors;
     mesh->template_level = params->template_level;
@@ -167,10 +175,11 @@ static PyObject *plod__mesh_build(const plod_mesh_params *params, size_t sectors
     mesh->sector_level = plod__uninit_buffer('i', tb, (void **)&out.sector_level);
     mesh->face = plod__uninit_buffer('i', tb, (void **)&out.face);
     mesh->detail = plod__uninit_buffer('f', vb, (void **)&out.detail);
+    mesh->sector_ids = plod__uninit_buffer('Q', sectors, (void **)&out.keys);
     mesh->origin = plod__origin_tuple(params->origin);
     if (!mesh->positions || !mesh->normals || !mesh->uv || !mesh->morph ||
         !mesh->triangles || !mesh->sector_level || !mesh->face || !mesh->detail ||
-        !mesh->origin) {
+        !mesh->sector_ids || !mesh->origin) {
         Py_DECREF(mesh);
         return NULL;
     }
@@ -185,6 +194,23 @@ static PyObject *plod__mesh_build(const plod_mesh_params *params, size_t sectors
     }
     mesh->vertex_count = (Py_ssize_t)vertices;
     mesh->triangle_count = (Py_ssize_t)triangles;
+    size_t per_sector = plod_template_vertex_count(params->template_level);
+    size_t emitted = vertices / per_sector;
+    size_t emitted_triangles = triangles;
+    mesh->sector_count = (Py_ssize_t)emitted;
+    if (emitted < sectors &&
+        (plod_py_buffer_truncate(mesh->positions, 3 * vertices) < 0 ||
+         plod_py_buffer_truncate(mesh->normals, 3 * vertices) < 0 ||
+         plod_py_buffer_truncate(mesh->uv, 2 * vertices) < 0 ||
+         plod_py_buffer_truncate(mesh->morph, vertices) < 0 ||
+         plod_py_buffer_truncate(mesh->detail, vertices) < 0 ||
+         plod_py_buffer_truncate(mesh->triangles, 3 * emitted_triangles) < 0 ||
+         plod_py_buffer_truncate(mesh->sector_level, emitted_triangles) < 0 ||
+         plod_py_buffer_truncate(mesh->face, emitted_triangles) < 0 ||
+         plod_py_buffer_truncate(mesh->sector_ids, emitted) < 0)) {
+        Py_DECREF(mesh);
+        return NULL;
+    }
     return (PyObject *)mesh;
 }
 
@@ -273,12 +299,16 @@ static int plod__emission_args(int template_level, int threads)
 }
 
 PyObject *plod_py_mesh_emit(plod_session *session, int template_level, int morph,
-                            int threads, int visible_only, int use_cache)
+                            int threads, int visible_only, int use_cache, int changed_only)
 {
     if (plod__emission_args(template_level, threads) < 0)
         return NULL;
+    if (changed_only && (morph || !use_cache))
+        return plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "mesh",
+                                    "changed_only needs cache=True and morph=False");
     plod__session_emission e = {session, {0}, visible_only, use_cache};
     plod_session_mesh_params(session, template_level, morph, threads, &e.params);
+    e.params.changed_only = changed_only;
     return plod__mesh_build(&e.params, plod_session_sector_count(session, visible_only),
                             plod__session_emit, &e);
 }

@@ -798,20 +798,21 @@ static PyObject *plod__planet_surface(plod_py_planet *self, PyObject *args, PyOb
 static PyObject *plod__planet_mesh(plod_py_planet *self, PyObject *args, PyObject *kwds)
 {
     static char *kwlist[] = {"template_level", "morph", "threads", "visible_only", "cache",
-                             NULL};
+                             "changed_only", NULL};
     PyObject *level_obj = Py_None;
-    int morph = 0, threads = 2, visible_only = 1, use_cache = 1;
+    int morph = 0, threads = 2, visible_only = 1, use_cache = 1, changed_only = 0;
     if (!plod__planet_ready(self))
         return NULL;
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "|Opipp", kwlist, &level_obj, &morph,
-                                     &threads, &visible_only, &use_cache))
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "|Opippp", kwlist, &level_obj, &morph,
+                                     &threads, &visible_only, &use_cache, &changed_only))
         return NULL;
     int level;
     if (plod__template_level_arg(self, level_obj, &level) < 0)
         return NULL;
     if (plod__ensure_normalmap(self, "mesh (normal map)") < 0)
         return NULL;
-    return plod_py_mesh_emit(self->session, level, morph, threads, visible_only, use_cache);
+    return plod_py_mesh_emit(self->session, level, morph, threads, visible_only, use_cache,
+                             changed_only);
 }
 
 static PyObject *plod__planet_instances(plod_py_planet *self, PyObject *args, PyObject *kwds)
@@ -841,10 +842,11 @@ static PyObject *plod__planet_get(plod_py_planet *self, void *closure)
     case 8: {
         plod_mesh_cache_stats st;
         plod_session_cache_stats(self->session, &st);
-        return Py_BuildValue("{s:n,s:n,s:n,s:n,s:n}", "sectors", (Py_ssize_t)st.sectors,
+        return Py_BuildValue("{s:n,s:n,s:n,s:n,s:n,s:K}", "sectors", (Py_ssize_t)st.sectors,
                              "bytes", (Py_ssize_t)st.bytes, "max_bytes",
                              (Py_ssize_t)st.max_bytes, "hits",
-                             (Py_ssize_t)st.hits, "misses", (Py_ssize_t)st.misses);
+                             (Py_ssize_t)st.hits, "misses", (Py_ssize_t)st.misses,
+                             "emissions", (unsigned long long)st.emissions);
     }
     case 1: {
         size_t n = 0;
@@ -995,8 +997,8 @@ static PyGetSetDef plod__planet_getset[] = {
     {"memory_bytes", (getter)plod__planet_get_locked, NULL,
      "bytes held by the refiner (sectors, bounds, adjacency, internal nodes)", (void *)7},
     {"mesh_cache_info", (getter)plod__planet_get_locked, NULL,
-     "mesh() sector cache: dict(sectors, bytes, max_bytes, hits, misses); hits and "
-     "misses of the last cached mesh()", (void *)8},
+     "mesh() sector cache: dict(sectors, bytes, max_bytes, hits, misses, emissions); hits "
+     "and misses of the last cached mesh(), emissions: cached mesh() calls so far", (void *)8},
     {"mesh_cache_max_bytes", (getter)plod__planet_cache_bytes_get_locked,
      (setter)plod__planet_cache_bytes_set_locked,
      "budget of mesh()'s sector cache (bytes, default 256 MiB; 0 disables it)", NULL},
@@ -1037,9 +1039,10 @@ static PyMethodDef plod__planet_methods[] = {
     {"height_range", (PyCFunction)plod__planet_height_range, METH_NOARGS,
      "height_range() -> (min, max) metres"},
     {"mesh", (PyCFunction)(void (*)(void))plod__planet_mesh_locked, METH_VARARGS | METH_KEYWORDS,
-     "mesh(template_level=None, morph=False, threads=2, visible_only=True, cache=True) -> "
-     "Mesh; with cache, sectors kept from the previous mesh() are copied, not recomputed "
-     "(identical output)"},
+     "mesh(template_level=None, morph=False, threads=2, visible_only=True, cache=True, "
+     "changed_only=False) -> Mesh; with cache, sectors kept from the previous mesh() are "
+     "copied, not recomputed (identical output); changed_only leaves out the sectors whose "
+     "output the previous mesh() already gave (mesh.sector_ids names those emitted)"},
     {"reserve", (PyCFunction)(void (*)(void))plod__planet_reserve_locked,
      METH_VARARGS | METH_KEYWORDS,
      "reserve(sectors): allocate (and touch) room for this many sectors now, so that "

@@ -99,6 +99,21 @@ PyObject *plod_py_buffer_steal(char format, size_t count, void *data)
     return plod__buffer_alloc(format, count, data);
 }
 
+int plod_py_buffer_truncate(PyObject *obj, size_t count)
+{
+    if (!PyObject_TypeCheck(obj, plod_py_buffer_type)) {
+        PyErr_SetString(PyExc_TypeError, "expected a planetlod.Buffer");
+        return -1;
+    }
+    plod_py_buffer *self = (plod_py_buffer *)obj;
+    if (self->exports > 0 || count > (size_t)self->count) {
+        PyErr_SetString(PyExc_SystemError, "planetlod: buffer cannot be truncated");
+        return -1;
+    }
+    self->count = (Py_ssize_t)count;
+    return 0;
+}
+
 void *plod_py_buffer_data(PyObject *obj, size_t *count, char *format)
 {
     if (!PyObject_TypeCheck(obj, plod_py_buffer_type)) {

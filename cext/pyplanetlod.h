@@ -46,6 +46,9 @@ static inline void plod_py_free(PyObject *self)
 PyObject *plod_py_buffer_new(char format, size_t count, void **data);
 /* Wraps memory from malloc (ownership moves to the buffer, even on failure). */
 PyObject *plod_py_buffer_steal(char format, size_t count, void *data);
+/* Shortens a buffer nothing has exported yet to its first `count` items
+ * (a result filled below its bound); -1 with an exception otherwise. */
+int plod_py_buffer_truncate(PyObject *buffer, size_t count);
 /* Storage pointer of a planetlod.Buffer (NULL + TypeError otherwise). */
 void *plod_py_buffer_data(PyObject *buffer, size_t *count, char *format);
 
@@ -109,7 +112,7 @@ PyObject *plod_py_cubemap_from_image(const char *path, plod_projection projectio
  * use_cache.  InvalidArgument for a template level outside 0..7 or
  * threads outside 1..64. */
 PyObject *plod_py_mesh_emit(plod_session *session, int template_level, int morph,
-                            int threads, int visible_only, int use_cache);
+                            int threads, int visible_only, int use_cache, int changed_only);
 PyObject *plod_py_instances(plod_session *session, int template_level);
 
 /* ---- per-stage registration (each py_*.c defines one) --------------------- */

@@ -249,6 +249,31 @@ static void fuzz__emit(fuzz_input *in, plod_session *session, int finite_heights
         free(u.positions), free(u.normals), free(u.uv), free(u.morph);
         free(u.triangles), free(u.sector_level), free(u.face);
     }
+    if (use_cache && s == PLOD_OK) {
+        /* again for the same eye, changed only: what the cache held was
+         * just emitted, so only the sectors that did not fit come again */
+        plod_mesh_cache_stats held, after;
+        plod_session_cache_stats(session, &held);
+        plod_mesh_params again = mp;
+        again.changed_only = 1;
+        size_t cnv = 0, cnt = 0;
+        plod_status cs = plod_session_emit(session, &again, visible_only, 1, &b, &cnv, &cnt);
+        plod_session_cache_stats(session, &after);
+        FUZZ_CHECK(after.emissions == held.emissions + (cs != PLOD_ERR_BAD_PARAM),
+                   "emissions %llu after %llu (status %d)", (unsigned long long)after.emissions,
+                   (unsigned long long)held.emissions, cs);
+        if (mp.morph) {
+            FUZZ_CHECK(cs == PLOD_ERR_BAD_PARAM, "changed_only with morph: status %d", cs);
+        } else {
+            size_t per = plod_template_vertex_count(level);
+            FUZZ_CHECK(cs == PLOD_OK && cnv == (emitted - held.sectors) * per &&
+                           after.hits == held.sectors,
+                       "changed_only emitted %zu vertices, %zu of %zu sectors were cached",
+                       cnv, held.sectors, emitted);
+        }
+        s = plod_session_emit(session, &mp, visible_only, 1, &b, &nv, &nt); /* restore b */
+        FUZZ_CHECK(s == PLOD_OK, "cached emission failed the second time");
+    }
     if (s == PLOD_OK) {
         FUZZ_CHECK(nv == vbound && nt == tbound, "emitted %zu/%zu, bounds %zu/%zu", nv, nt,
                    vbound, tbound);

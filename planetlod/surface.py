@@ -122,17 +122,32 @@ class PreviewData:
     for a data texture `row_texels` wide (padded to whole rows):
     (x, y, z, height above sea level) and (normal x, y, z, 2 * sector level +
     sea flag).  Every sector is one copy of the template:
-    `template_triangles` index its `vertices_per_sector` vertices."""
-    __slots__ = ("texels", "row_texels", "vertex_count", "sector_count",
-                 "vertices_per_sector", "template_triangles")
+    `template_triangles` index its `vertices_per_sector` vertices.
 
-    def __init__(self, texels, row_texels, vertex_count, sector_count, template_triangles):
+    The sectors sit in `sector_count` slots, `slot_ids` naming each slot's
+    sector (0: a free slot, all zeros: it draws nothing), so that
+    preview_update can replace only what changed.  `serial` is the planet's
+    mesh-cache emission count after the mesh it was made from (None: not
+    from a cached mesh); preview_update needs it to be current."""
+    __slots__ = ("texels", "row_texels", "vertex_count", "sector_count",
+                 "vertices_per_sector", "template_triangles", "slot_ids", "serial")
+
+    def __init__(self, texels, row_texels, vertex_count, sector_count, template_triangles,
+                 slot_ids=None, serial=None):
         self.texels = texels          # (rows * row_texels, 4)
         self.row_texels = row_texels
         self.vertex_count = vertex_count
         self.sector_count = sector_count
         self.vertices_per_sector = vertex_count // max(sector_count, 1)
         self.template_triangles = template_triangles  # (t, 3) int32
+        self.slot_ids = (numpy.zeros(sector_count, dtype=numpy.uint64) if slot_ids is None
+                         else slot_ids)
+        self.serial = serial
+
+    @property
+    def sectors(self):
+        """Sectors held (slots in use)."""
+        return int(numpy.count_nonzero(self.slot_ids))
 
     @property
     def positions(self):
@@ -201,7 +216,68 @@ def preview_data(mesh, anchor, radius, sea_level=None, row_texels=PREVIEW_ROW_TE
     levels = numpy.frombuffer(mesh.sector_level, dtype=numpy.int32)[::tris_per_sector]
     vertex[:, 0, 3] = height
     vertex[:, 1, 3] = numpy.repeat(levels.astype(f32) * 2.0, n // sectors) + sea
-    return PreviewData(texels, row_texels, n, sectors, template.reshape(-1, 3).copy())
+    ids = getattr(mesh, "sector_ids", None)
+    ids = (numpy.frombuffer(ids, dtype=numpy.uint64).copy() if ids is not None
+           else numpy.zeros(sectors, dtype=numpy.uint64))
+    return PreviewData(texels, row_texels, n, sectors, template.reshape(-1, 3).copy(), ids)
+
+
+def preview_update(previous, mesh, visible_ids, anchor, radius, sea_level=None):
+    """The PreviewData of the planet's visible sectors `visible_ids` (numpy
+    uint64) from `previous` and `mesh`, a planet.mesh(changed_only=True)
+    emitted after the mesh `previous` was made from, with the same anchor,
+    radius, sea level and template: the sectors that left the view free
+    their slots, the emitted ones are written into theirs (new ones into
+    free slots), the rest is kept.  `previous` is not changed (the viewport
+    may be drawing it); slots are compacted when over half are free."""
+    fresh = preview_data(mesh, anchor, radius, sea_level, previous.row_texels)
+    if previous.sector_count == 0:
+        return fresh
+    vps = previous.vertices_per_sector
+    if mesh.sector_count and fresh.vertices_per_sector != vps:
+        raise ValueError("preview_update: another template than the preview's")
+    slot_ids = previous.slot_ids.copy()
+    leaving = (slot_ids != 0) & ~numpy.isin(slot_ids, visible_ids)
+    slot_ids[leaving] = 0
+    emitted = fresh.slot_ids
+    # the emitted sectors' slots: their own, else free ones, else new ones
+    order = numpy.argsort(slot_ids, kind="stable")
+    at = numpy.minimum(numpy.searchsorted(slot_ids, emitted, sorter=order), len(order) - 1)
+    own = order[at]
+    found = slot_ids[own] == emitted
+    target = numpy.where(found, own, -1)
+    missing = numpy.flatnonzero(~found)
+    free = numpy.flatnonzero(slot_ids == 0)
+    take = min(len(free), len(missing))
+    target[missing[:take]] = free[:take]
+    grow = len(missing) - take
+    slots = len(slot_ids) + grow
+    target[missing[take:]] = numpy.arange(len(slot_ids), slots)
+    held = numpy.count_nonzero(slot_ids) + len(missing)
+    compact = slots > 64 and held * 2 < slots
+    texels_per_slot = 2 * vps
+    rows = max((slots * texels_per_slot + previous.row_texels - 1) // previous.row_texels, 1)
+    texels = numpy.empty((rows * previous.row_texels, 4), dtype=numpy.float32)
+    kept = min(len(previous.texels), len(texels))
+    texels[:kept] = previous.texels[:kept]
+    texels[kept:] = 0.0
+    by_slot = texels[:slots * texels_per_slot].reshape(slots, texels_per_slot, 4)
+    by_slot[numpy.flatnonzero(leaving)] = 0.0
+    slot_ids = numpy.concatenate([slot_ids, numpy.zeros(grow, dtype=numpy.uint64)])
+    if len(emitted):
+        by_slot[target] = fresh.texels[:len(emitted) * texels_per_slot].reshape(
+            len(emitted), texels_per_slot, 4)
+        slot_ids[target] = emitted
+    template = previous.template_triangles
+    if compact:
+        live = numpy.flatnonzero(slot_ids)
+        slots = len(live)
+        rows = max((slots * texels_per_slot + previous.row_texels - 1) //
+                   previous.row_texels, 1)
+        packed = numpy.zeros((rows * previous.row_texels, 4), dtype=numpy.float32)
+        packed[:slots * texels_per_slot] = by_slot[live].reshape(-1, 4)
+        texels, slot_ids = packed, slot_ids[live]
+    return PreviewData(texels, previous.row_texels, slots * vps, slots, template, slot_ids)
 
 
 def _vertex_data_python(mesh, anchor, radius, sea_level):

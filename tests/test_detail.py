@@ -252,6 +252,56 @@ def test_detail_mesh_watertight_threads_cache_morph(planetlod, earth_detail):
     assert hits > 0
 
 
+def test_changed_only_mesh_keeps_a_copy_current(planetlod):
+    """mesh(changed_only=True) emits only what changed since the previous
+    cached mesh(): new sectors, and kept sectors whose corner normals the
+    eye moved to another band.  A copy kept per sector id from those
+    emissions (as the GPU preview keeps one) equals an uncached mesh of
+    the same sectors, frame after frame along a descent; any other cached
+    mesh() in between shows in mesh_cache_info's emission count."""
+    planet = earth_planet(planetlod, MOUNTAINS)
+    kept, emitted, visible, renewed = {}, 0, 0, 0
+    serial = planet.mesh_cache_info["emissions"]
+    for k in range(10):
+        altitude = 30000.0 * 0.55 ** k
+        cam = ground_camera(planetlod, planet, 46.5, 8.0 + 0.0004 * k, altitude)
+        planet.refine(cam, hysteresis=True)
+        assert planet.mesh_cache_info["emissions"] == serial
+        mesh = planet.mesh(template_level=3, changed_only=True)
+        serial += 1
+        assert planet.mesh_cache_info["emissions"] == serial
+        ids = np.frombuffer(mesh.sector_ids, np.uint64)
+        assert len(ids) == mesh.sector_count == mesh.vertex_count // 45
+        pos = np.frombuffer(mesh.positions, np.float32).reshape(-1, 45, 3)
+        normals = np.frombuffer(mesh.normals, np.float32).reshape(-1, 45, 3)
+        detail = np.frombuffer(mesh.detail, np.float32).reshape(-1, 45)
+        renewed += sum(1 for i in ids.tolist() if i in kept)
+        for j, sector in enumerate(ids.tolist()):
+            kept[sector] = (pos[j].astype(np.float64) + mesh.origin, normals[j], detail[j])
+        now = np.frombuffer(planet.sector_ids(), np.uint64).tolist()
+        kept = {sector: kept[sector] for sector in now}
+        emitted += len(ids)
+        visible += len(now)
+        ref = planet.mesh(template_level=3, cache=False)
+        assert len(kept) == ref.sector_count
+        ref_pos = np.frombuffer(ref.positions, np.float32).reshape(-1, 45, 3)
+        ref_normals = np.frombuffer(ref.normals, np.float32).reshape(-1, 45, 3)
+        ref_detail = np.frombuffer(ref.detail, np.float32).reshape(-1, 45)
+        for j, sector in enumerate(np.frombuffer(ref.sector_ids, np.uint64).tolist()):
+            p, n, d = kept[sector]
+            near = ref_pos[j].astype(np.float64)
+            gap = np.abs(p - (near + ref.origin)).max()
+            assert gap <= 2.0 ** -22 * (np.abs(near).max() + np.abs(p - mesh.origin).max()), k
+            assert np.array_equal(n, ref_normals[j]) and np.array_equal(d, ref_detail[j]), k
+    assert emitted < 0.6 * visible  # most sectors were kept, not emitted again
+    assert renewed > 0  # kept sectors whose corner normals changed band came again
+    planet.mesh(template_level=3)  # another emission: the copy's caller can tell
+    assert planet.mesh_cache_info["emissions"] == serial + 1
+    for bad in (dict(morph=True), dict(cache=False)):
+        with pytest.raises(planetlod.InvalidArgument):
+            planet.mesh(template_level=3, changed_only=True, **bad)
+
+
 def test_mesh_detail_output_is_the_fields_part_of_the_height(planetlod, earth_detail,
                                                              earth_plain):
     """mesh.detail: per vertex, the vertex's height above the radius minus the

@@ -405,18 +405,36 @@ class SurfaceWork:
             self.inside = planet_settings.camera_inside(planet, self.params["matrix_world"])
         if self.preview is None:
             return
-        # the same sectors in view, in any order (without morphing, which
-        # follows the eye), give the same surface: a view that moves
-        # without a change of what it sees keeps its preview.  (Drawing
-        # every leaf instead, for turns without a refresh, doubled the
-        # vertices to emit: bench_viewport_detail.py)
+        # the sectors in view (without morphing, which follows the eye) are
+        # kept from refresh to refresh: a view that moves without a change
+        # of what it sees keeps its preview, and one that changes some
+        # sectors replaces those.  (Drawing every leaf instead, for turns
+        # without a refresh, doubled the vertices to emit:
+        # bench_viewport_detail.py)
         origin, radius, sea_level, morph, old_key, old_data = self.preview
-        ids = numpy.sort(numpy.frombuffer(planet.sector_ids(visible_only=True), numpy.uint64))
-        self.preview_key = (planet, settings["template_level"], origin, radius, sea_level,
-                            ids.tobytes())
-        if morph or self.preview_key != old_key or old_data is None:
-            visible = planet.mesh(template_level=settings["template_level"], morph=morph)
+        level = settings["template_level"]
+        ids = numpy.frombuffer(planet.sector_ids(visible_only=True), numpy.uint64)
+        self.preview_key = (planet, level, origin, radius, sea_level, morph)
+        if morph:  # the morph moves every vertex with the eye
+            visible = planet.mesh(template_level=level, morph=True)
             self.preview_data = surface.preview_data(visible, origin, radius, sea_level)
+        elif (self.preview_key == old_key and old_data is not None and
+              old_data.serial == planet.mesh_cache_info["emissions"]):
+            # the planet's last mesh was this preview's: only what changed
+            # since (new sectors, corner normals of another band) is
+            # emitted, and replaced in a copy of the preview
+            changed = planet.mesh(template_level=level, changed_only=True)
+            serial = planet.mesh_cache_info["emissions"]
+            if changed.sector_count or len(ids) != old_data.sectors:
+                self.preview_data = surface.preview_update(old_data, changed, ids, origin,
+                                                           radius, sea_level)
+                self.preview_data.serial = serial
+            else:
+                old_data.serial = serial
+        else:
+            visible = planet.mesh(template_level=level)
+            self.preview_data = surface.preview_data(visible, origin, radius, sea_level)
+            self.preview_data.serial = planet.mesh_cache_info["emissions"]
 
 
 def _work_for(obj, st, planet, settings, params, for_render, check_size, preview,
