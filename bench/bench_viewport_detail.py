@@ -13,8 +13,9 @@ planetlod/presets.py), 1920x1080.
 Per planet and quality: the slowest refresh (ms), the mean, the refreshes
 over 50 ms, and the vertices of the slowest, for the two refreshes the
 add-on's viewport timer runs: with the GPU preview (the default display:
-refine + planet.mesh + surface.preview_data, uploaded and drawn
-by the GPU) and with the plain mesh (refine + planet.mesh).  Writing the mesh into Blender
+refine + planet.mesh(changed_only=True) + surface.preview_update, the
+sectors that changed replaced in the previous preview, uploaded and drawn by
+the GPU) and with the plain mesh (refine + planet.mesh).  Writing the mesh into Blender
 is not included (bench_blender.py measures that hand-off).  Not a test:
 figures only.
 """
@@ -23,6 +24,8 @@ import math
 import os
 import statistics
 import time
+
+import numpy
 
 import planetlod
 from planetlod import presets, surface
@@ -87,6 +90,21 @@ def alt_t(alt):
     return (math.log(2e7) - math.log(alt)) / (math.log(2e7) - math.log(2.0))
 
 
+def preview_refresh(planet, level, previous):
+    """The GPU preview's surface as the add-on's refresh makes it
+    (live.SurfaceWork): only the changed sectors, replaced in the previous
+    preview, while the planet's last mesh was that preview's."""
+    ids = numpy.frombuffer(planet.sector_ids(), numpy.uint64)
+    if previous is not None and previous.serial == planet.mesh_cache_info["emissions"]:
+        changed = planet.mesh(template_level=level, threads=2, changed_only=True)
+        data = surface.preview_update(previous, changed, ids, (0.0, 0.0, 0.0), planet.radius)
+    else:
+        visible = planet.mesh(template_level=level, threads=2)
+        data = surface.preview_data(visible, (0.0, 0.0, 0.0), planet.radius)
+    data.serial = planet.mesh_cache_info["emissions"]
+    return data
+
+
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--frames", type=int, default=48)
@@ -120,14 +138,14 @@ def main():
             for preview in (True, False):
                 for p in planets.values():
                     p.reset()
+                kept = {name: None for name in planets}
                 for _alt, cam in cams:
                     for name, p in planets.items():
                         t0 = time.perf_counter()
                         p.refine(cam, max_pixel_error=q["max_pixel_error"], budget=q["budget"],
                                  template_level=level, hysteresis=True)
                         if preview:
-                            visible = p.mesh(template_level=level, threads=2)
-                            surface.preview_data(visible, (0.0, 0.0, 0.0), p.radius)
+                            kept[name] = preview_refresh(p, level, kept[name])
                             preview_ms[name].append((time.perf_counter() - t0) * 1e3)
                         else:
                             mesh = p.mesh(template_level=level, threads=2)

@@ -1063,13 +1063,13 @@ static void plod__cache_commit(plod_mesh_cache *c, const plod__emitter *e,
 typedef struct plod__changed_source {
     plod_mesh_sector_fn source;
     const void *context;
-    const int32_t *unchanged; /* per index: the entry left out, or -1 */
+    const size_t *index; /* the source's indices of the changed sectors */
 } plod__changed_source;
 
-static int plod__changed_sector(const void *context, size_t index, plod_mesh_sector *sector)
+static int plod__changed_sector(const void *context, size_t k, plod_mesh_sector *sector)
 {
     const plod__changed_source *src = context;
-    return src->unchanged[index] < 0 && src->source(src->context, index, sector);
+    return src->source(src->context, src->index[k], sector);
 }
 
 /* Per sector index, the entry of a sector a changed_only emission leaves
@@ -1131,16 +1131,30 @@ plod_status plod_mesh_emit(const plod_mesh_params *params,
     if (cache)
         plod__cache_bind(cache, params, surface, emitter.vertices_per_sector);
     int32_t *unchanged = NULL; /* changed_only: per index, the entry left out or -1 */
+    size_t *changed_index = NULL, source_count = count;
     plod__changed_source changed;
     if (cache && params->changed_only && count) {
         unchanged = malloc(count * sizeof *unchanged);
-        if (unchanged) { /* (else every sector is emitted) */
+        changed_index = malloc(count * sizeof *changed_index);
+        if (unchanged && changed_index) {
             plod__unchanged_search search = {&emitter, cache, source, context, unchanged};
             int search_threads = count < 64 ? 1 : params->threads;
             plod_parallel_for(count, search_threads, plod__find_unchanged, &search);
-            changed = (plod__changed_source){source, context, unchanged};
+            /* the changed sectors as a source of their own, so that the
+             * threads' chunks share them evenly (they cluster near the eye) */
+            size_t n = 0;
+            for (size_t i = 0; i < count; i++)
+                if (unchanged[i] < 0)
+                    changed_index[n++] = i;
+            changed = (plod__changed_source){source, context, changed_index};
             source = plod__changed_sector;
             context = &changed;
+            count = n;
+        } else { /* every sector is emitted */
+            free(unchanged);
+            free(changed_index);
+            unchanged = NULL;
+            changed_index = NULL;
         }
     }
 
@@ -1171,6 +1185,7 @@ plod_status plod_mesh_emit(const plod_mesh_params *params,
     }
     if (total > 0 && plod_mesh_vertex_bound(total, params->template_level) == 0) {
         free(unchanged);
+        free(changed_index);
         return PLOD_ERR_BAD_PARAM; /* indices would overflow int32 */
     }
 
@@ -1200,11 +1215,12 @@ plod_status plod_mesh_emit(const plod_mesh_params *params,
         if (chunks[t].status != PLOD_OK && st == PLOD_OK)
             st = chunks[t].status;
     if (cache) { /* an emission of nothing leaves nothing cached */
-        plod__cache_commit(cache, &emitter, slots, total, unchanged, unchanged ? count : 0,
-                           st == PLOD_OK);
+        plod__cache_commit(cache, &emitter, slots, total, unchanged,
+                           unchanged ? source_count : 0, st == PLOD_OK);
         free(slots);
     }
     free(unchanged);
+    free(changed_index);
     if (st != PLOD_OK)
         return st;
 

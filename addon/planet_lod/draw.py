@@ -140,7 +140,8 @@ def _dummy_texture():
 def _ensure_batch(res, st):
     """The batch for `capacity` sectors (grown by doubling, so a growing LOD
     rebuilds it a few times only) and the surface texture of the planet's
-    current preview.  Slots past the preview's vertices draw nothing."""
+    current preview.  Slots past the preview's vertices, and its free slots
+    (sectors that left the view: zeros), draw nothing."""
     preview = st.preview
     tris = preview.template_triangles
     vt = preview.vertices_per_sector

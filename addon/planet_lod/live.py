@@ -478,7 +478,7 @@ class SurfaceJob(threading.Thread):
     """The viewport's refresh of one planet drawn by the GPU preview, run off
     Blender's main thread: a refresh emits its new sectors' detail, which
     would stall the UI (a jump to a new place: 100-200 ms near the ground,
-    spread by the progressive refinement over refreshes of ~20-40 ms).  The job
+    spread by the progressive refinement over refreshes of ~12 ms).  The job
     holds the refresh lock while it works, so no render refines that planet
     in between; the timer applies its result when it has finished.  Not a
     daemon: the interpreter waits for it at exit instead of freeing the planet
