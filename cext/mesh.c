@@ -1102,6 +1102,61 @@ static void plod__find_unchanged(void *context, size_t begin, size_t end)
     }
 }
 
+/* With a cache a hit costs a copy and a miss the whole evaluation, and the
+ * misses cluster (the new sectors near the eye): the threads' chunks are
+ * cut at equal estimated work, a miss counting PLOD__MISS_WEIGHT hits.
+ * (Where the chunks are cut never changes the output: slots follow the
+ * index order.) */
+#define PLOD__MISS_WEIGHT 16
+
+typedef struct plod__weighing {
+    plod_mesh_sector_fn source;
+    const void *context;
+    const plod_mesh_cache *cache;
+    unsigned char *weight; /* per index: 0 not emitted, 1 a hit, else a miss */
+} plod__weighing;
+
+static void plod__weigh(void *context, size_t begin, size_t end)
+{
+    const plod__weighing *w = context;
+    plod_mesh_sector sector;
+    for (size_t s = begin; s < end; s++) {
+        sector.key = 0;
+        if (!w->source(w->context, s, &sector))
+            w->weight[s] = 0;
+        else if (sector.key && plod__cache_find(w->cache, sector.key) >= 0)
+            w->weight[s] = 1;
+        else
+            w->weight[s] = PLOD__MISS_WEIGHT;
+    }
+}
+
+/* Chunk t = [cut[t], cut[t + 1]) of [0, count): equal work by the cache's
+ * hits and misses; 0 (equal counts) when out of memory. */
+static int plod__cut_by_work(const plod_mesh_cache *cache, plod_mesh_sector_fn source,
+                             const void *context, size_t count, int threads, size_t *cut)
+{
+    unsigned char *weight = malloc(count);
+    if (!weight)
+        return 0;
+    plod__weighing w = {source, context, cache, weight};
+    plod_parallel_for(count, threads, plod__weigh, &w);
+    uint64_t total = 0, done = 0;
+    for (size_t s = 0; s < count; s++)
+        total += weight[s];
+    int t = 1;
+    cut[0] = 0;
+    for (size_t s = 0; s < count && t < threads; s++) {
+        done += weight[s];
+        while (t < threads && done * (uint64_t)threads >= total * (uint64_t)t)
+            cut[t++] = s + 1;
+    }
+    while (t <= threads)
+        cut[t++] = count;
+    free(weight);
+    return 1;
+}
+
 /* Below this many sectors a second thread costs more than it saves. */
 #define PLOD__MIN_SECTORS_PER_THREAD 4
 
@@ -1165,14 +1220,17 @@ plod_status plod_mesh_emit(const plod_mesh_params *params,
         threads = 1;
 
     plod__chunk chunks[PLOD_MESH_MAX_THREADS];
+    size_t cut[PLOD_MESH_MAX_THREADS + 1];
+    int by_work = cache && threads > 1 &&
+                  plod__cut_by_work(cache, source, context, count, threads, cut);
     size_t total = 0;
-    /* Contiguous, balanced split of [0, count). */
+    /* Contiguous split of [0, count): by work with a cache, else by count. */
     for (int t = 0; t < threads; t++) {
         chunks[t].emitter = &emitter;
         chunks[t].source = source;
         chunks[t].context = context;
-        chunks[t].begin = count * (size_t)t / (size_t)threads;
-        chunks[t].end = count * (size_t)(t + 1) / (size_t)threads;
+        chunks[t].begin = by_work ? cut[t] : count * (size_t)t / (size_t)threads;
+        chunks[t].end = by_work ? cut[t + 1] : count * (size_t)(t + 1) / (size_t)threads;
         chunks[t].emitted = 0;
         for (size_t s = chunks[t].begin; s < chunks[t].end; s++)
             chunks[t].emitted += source(context, s, NULL) ? 1 : 0;
