@@ -229,17 +229,33 @@ def preview_update(previous, mesh, visible_ids, anchor, radius, sea_level=None):
     radius, sea level and template: the sectors that left the view free
     their slots, the emitted ones are written into theirs (new ones into
     free slots), the rest is kept.  `previous` is not changed (the viewport
-    may be drawing it); slots are compacted when over half are free."""
+    may be drawing it).  When fewer than half the slots would stay in use,
+    the kept sectors and the emitted ones are packed into new slots."""
     fresh = preview_data(mesh, anchor, radius, sea_level, previous.row_texels)
     if previous.sector_count == 0:
         return fresh
     vps = previous.vertices_per_sector
     if mesh.sector_count and fresh.vertices_per_sector != vps:
         raise ValueError("preview_update: another template than the preview's")
-    slot_ids = previous.slot_ids.copy()
-    leaving = (slot_ids != 0) & ~numpy.isin(slot_ids, visible_ids)
-    slot_ids[leaving] = 0
+    per_slot = 2 * vps
     emitted = fresh.slot_ids
+    fresh_slots = fresh.texels[:len(emitted) * per_slot].reshape(len(emitted), per_slot, 4)
+    old_slots = previous.texels[:previous.sector_count * per_slot].reshape(-1, per_slot, 4)
+    slot_ids = previous.slot_ids
+    staying = (slot_ids != 0) & numpy.isin(slot_ids, visible_ids)
+    if previous.sector_count > 64 and 2 * len(visible_ids) < previous.sector_count:
+        kept = numpy.flatnonzero(staying & ~numpy.isin(slot_ids, emitted))
+        slots = len(kept) + len(emitted)
+        texels = _preview_texels(slots, per_slot, previous.row_texels)
+        by_slot = texels[:slots * per_slot].reshape(slots, per_slot, 4)
+        by_slot[:len(kept)] = old_slots[kept]
+        by_slot[len(kept):] = fresh_slots
+        slot_ids = numpy.concatenate([slot_ids[kept], emitted])
+        return PreviewData(texels, previous.row_texels, slots * vps, slots,
+                           previous.template_triangles, slot_ids)
+    leaving = numpy.flatnonzero((slot_ids != 0) & ~staying)
+    slot_ids = slot_ids.copy()
+    slot_ids[leaving] = 0
     # the emitted sectors' slots: their own, else free ones, else new ones
     order = numpy.argsort(slot_ids, kind="stable")
     at = numpy.minimum(numpy.searchsorted(slot_ids, emitted, sorter=order), len(order) - 1)
@@ -253,31 +269,26 @@ def preview_update(previous, mesh, visible_ids, anchor, radius, sea_level=None):
     grow = len(missing) - take
     slots = len(slot_ids) + grow
     target[missing[take:]] = numpy.arange(len(slot_ids), slots)
-    held = numpy.count_nonzero(slot_ids) + len(missing)
-    compact = slots > 64 and held * 2 < slots
-    texels_per_slot = 2 * vps
-    rows = max((slots * texels_per_slot + previous.row_texels - 1) // previous.row_texels, 1)
-    texels = numpy.empty((rows * previous.row_texels, 4), dtype=numpy.float32)
-    kept = min(len(previous.texels), len(texels))
-    texels[:kept] = previous.texels[:kept]
-    texels[kept:] = 0.0
-    by_slot = texels[:slots * texels_per_slot].reshape(slots, texels_per_slot, 4)
-    by_slot[numpy.flatnonzero(leaving)] = 0.0
+    texels = _preview_texels(slots, per_slot, previous.row_texels, previous.texels)
+    by_slot = texels[:slots * per_slot].reshape(slots, per_slot, 4)
+    by_slot[leaving] = 0.0
+    by_slot[target] = fresh_slots
     slot_ids = numpy.concatenate([slot_ids, numpy.zeros(grow, dtype=numpy.uint64)])
-    if len(emitted):
-        by_slot[target] = fresh.texels[:len(emitted) * texels_per_slot].reshape(
-            len(emitted), texels_per_slot, 4)
-        slot_ids[target] = emitted
-    template = previous.template_triangles
-    if compact:
-        live = numpy.flatnonzero(slot_ids)
-        slots = len(live)
-        rows = max((slots * texels_per_slot + previous.row_texels - 1) //
-                   previous.row_texels, 1)
-        packed = numpy.zeros((rows * previous.row_texels, 4), dtype=numpy.float32)
-        packed[:slots * texels_per_slot] = by_slot[live].reshape(-1, 4)
-        texels, slot_ids = packed, slot_ids[live]
-    return PreviewData(texels, previous.row_texels, slots * vps, slots, template, slot_ids)
+    slot_ids[target] = emitted
+    return PreviewData(texels, previous.row_texels, slots * vps, slots,
+                       previous.template_triangles, slot_ids)
+
+
+def _preview_texels(slots, per_slot, row_texels, start=None):
+    """Texels for `slots` slots in whole rows, beginning with a copy of
+    `start` (as much as fits), zero after it."""
+    rows = max((slots * per_slot + row_texels - 1) // row_texels, 1)
+    texels = numpy.empty((rows * row_texels, 4), dtype=numpy.float32)
+    kept = 0 if start is None else min(len(start), len(texels))
+    if kept:
+        texels[:kept] = start[:kept]
+    texels[kept:] = 0.0
+    return texels
 
 
 def _vertex_data_python(mesh, anchor, radius, sea_level):
