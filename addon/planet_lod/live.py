@@ -382,6 +382,7 @@ class SurfaceWork:
         self.inside = False     # the LOD camera is below the terrain
         self.preview_key = None
         self.preview_data = None  # a new surface.PreviewData, or None when unchanged
+        self.preview_serial = None  # unchanged: the mesh-cache emission it stays current at
 
     def run(self):
         t0 = time.perf_counter()
@@ -429,8 +430,8 @@ class SurfaceWork:
                 self.preview_data = surface.preview_update(old_data, changed, ids, origin,
                                                            radius, sea_level)
                 self.preview_data.serial = serial
-            else:
-                old_data.serial = serial
+            else:  # (applied on the main thread: the viewport may be drawing it)
+                self.preview_serial = serial
         else:
             visible = planet.mesh(template_level=level)
             self.preview_data = surface.preview_data(visible, origin, radius, sea_level)
@@ -462,6 +463,8 @@ def _apply(st, work):
         if work.preview_data is not None:
             st.preview_key, st.preview = work.preview_key, work.preview_data
             st.gpu_version += 1
+        elif work.preview_serial is not None:
+            st.preview.serial = work.preview_serial
         st.stats["preview_vertices"] = st.preview.vertex_count
 
 
