@@ -194,9 +194,7 @@ static PyObject *plod__mesh_build(const plod_mesh_params *params, size_t sectors
     }
     mesh->vertex_count = (Py_ssize_t)vertices;
     mesh->triangle_count = (Py_ssize_t)triangles;
-    size_t per_sector = plod_template_vertex_count(params->template_level);
-    size_t emitted = vertices / per_sector;
-    size_t emitted_triangles = triangles;
+    size_t emitted = vertices / plod_template_vertex_count(params->template_level);
     mesh->sector_count = (Py_ssize_t)emitted;
     if (emitted < sectors &&
         (plod_py_buffer_truncate(mesh->positions, 3 * vertices) < 0 ||
@@ -204,9 +202,9 @@ static PyObject *plod__mesh_build(const plod_mesh_params *params, size_t sectors
          plod_py_buffer_truncate(mesh->uv, 2 * vertices) < 0 ||
          plod_py_buffer_truncate(mesh->morph, vertices) < 0 ||
          plod_py_buffer_truncate(mesh->detail, vertices) < 0 ||
-         plod_py_buffer_truncate(mesh->triangles, 3 * emitted_triangles) < 0 ||
-         plod_py_buffer_truncate(mesh->sector_level, emitted_triangles) < 0 ||
-         plod_py_buffer_truncate(mesh->face, emitted_triangles) < 0 ||
+         plod_py_buffer_truncate(mesh->triangles, 3 * triangles) < 0 ||
+         plod_py_buffer_truncate(mesh->sector_level, triangles) < 0 ||
+         plod_py_buffer_truncate(mesh->face, triangles) < 0 ||
          plod_py_buffer_truncate(mesh->sector_ids, emitted) < 0)) {
         Py_DECREF(mesh);
         return NULL;

@@ -238,10 +238,10 @@ class ProgressiveSplits:
     that a jump to a new place fills in over refreshes of about TARGET_MS
     each instead of one long one.  The least is START_NEW_VERTICES new
     vertices (2 sectors per split): cheap next to a refresh's fixed part
-    (finding the sectors that changed, copying the preview).  A refresh that used its
-    allowance and took less than TARGET_MS raises the next one by the ratio
-    (at most 1.5 times), one that took longer lowers it (down to the
-    least).  Without a budget (a view as large as it asks for) refreshes
+    (finding the sectors that changed, copying the preview).  A refresh
+    that used its allowance and took less than TARGET_MS raises the next
+    one by the ratio (at most 1.5 times), one that took longer lowers it
+    (down to the least).  Without a budget (a view as large as it asks for) refreshes
     are not limited."""
     TARGET_MS = 12.0
     START_NEW_VERTICES = 16_000
