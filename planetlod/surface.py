@@ -180,9 +180,7 @@ def preview_data(mesh, anchor, radius, sea_level=None, row_texels=PREVIEW_ROW_TE
     vertex near or below the sea is lifted exactly as the render mesh's is."""
     f32 = numpy.float32
     n = mesh.vertex_count
-    rows = max((2 * n + row_texels - 1) // row_texels, 1)
-    texels = numpy.empty((rows * row_texels, 4), dtype=f32)
-    texels[2 * n:] = 0.0
+    texels = _texel_rows(2 * n, row_texels)
     if n == 0:
         return PreviewData(texels, row_texels, 0, 0, numpy.zeros((0, 3), dtype=numpy.int32))
     vertex = texels[:2 * n].reshape(n, 2, 4)
@@ -246,7 +244,7 @@ def preview_update(previous, mesh, visible_ids, anchor, radius, sea_level=None):
     if previous.sector_count > 64 and 2 * len(visible_ids) < previous.sector_count:
         kept = numpy.flatnonzero(staying & ~numpy.isin(slot_ids, emitted))
         slots = len(kept) + len(emitted)
-        texels = _preview_texels(slots, per_slot, previous.row_texels)
+        texels = _texel_rows(slots * per_slot, previous.row_texels)
         by_slot = texels[:slots * per_slot].reshape(slots, per_slot, 4)
         by_slot[:len(kept)] = old_slots[kept]
         by_slot[len(kept):] = fresh_slots
@@ -269,7 +267,7 @@ def preview_update(previous, mesh, visible_ids, anchor, radius, sea_level=None):
     grow = len(missing) - take
     slots = len(slot_ids) + grow
     target[missing[take:]] = numpy.arange(len(slot_ids), slots)
-    texels = _preview_texels(slots, per_slot, previous.row_texels, previous.texels)
+    texels = _texel_rows(slots * per_slot, previous.row_texels, previous.texels)
     by_slot = texels[:slots * per_slot].reshape(slots, per_slot, 4)
     by_slot[leaving] = 0.0
     by_slot[target] = fresh_slots
@@ -279,15 +277,15 @@ def preview_update(previous, mesh, visible_ids, anchor, radius, sea_level=None):
                        previous.template_triangles, slot_ids)
 
 
-def _preview_texels(slots, per_slot, row_texels, start=None):
-    """Texels for `slots` slots in whole rows, beginning with a copy of
-    `start` (as much as fits), zero after it."""
-    rows = max((slots * per_slot + row_texels - 1) // row_texels, 1)
+def _texel_rows(count, row_texels, start=None):
+    """Whole rows for `count` texels, zero past them: the caller fills them,
+    after the copy of `start` (as much of it as fits) they begin with."""
+    rows = max((count + row_texels - 1) // row_texels, 1)
     texels = numpy.empty((rows * row_texels, 4), dtype=numpy.float32)
-    kept = 0 if start is None else min(len(start), len(texels))
-    if kept:
+    if start is not None:
+        kept = min(len(start), count)
         texels[:kept] = start[:kept]
-    texels[kept:] = 0.0
+    texels[count:] = 0.0
     return texels
 
 
