@@ -1,11 +1,12 @@
 #!/usr/bin/env python3
-"""Two builds of planetlod side by side in one process, frame by frame: the
-detail field's emission (cold and flyby, the Earth preset along
+"""Two builds of planetlod side by side in one process, frame by frame:
+refine+cull with the detail field (as bench_detail.py), the detail field's emission (cold and flyby, the Earth preset along
 bench_refine.py's descent, as bench_detail.py) and an artist's viewport
 refresh with the GPU preview (refine with hysteresis + mesh() +
 surface.preview_data, per planet preset, as bench_viewport_detail.py).
 
     /usr/bin/python3 -m bench.bench_detail_builds --base DIR [--new DIR]
+        [--refine-frames 240] [--refine-threads 1] [--passes 2]
         [--frames 48] [--viewport-frames 16] [--threads 2]
         [--planets EARTH,MOON,MARS,ASTEROID] [--quality PREVIEW]
 
@@ -107,6 +108,43 @@ def emission(builds, presets, args):
     report("emission, flyby (sector cache)", "M vert/s", flyby, True)
 
 
+def refine(builds, presets, args):
+    """Refine+cull per frame (the refiner's own timers) along bench_refine.py's
+    descent with the Earth preset's detail, 1 px, template level 4; per frame
+    the best of --passes descents.  The two builds must refine alike: every
+    frame's sector counts, splits and merges are compared."""
+    detail = presets.detail_settings("EARTH")
+    planets = {name: lod.Planet(R, heightmap=data_path("earth-topology.png"),
+                                height_scale=8848.0, sea_level=0.0, detail=detail)
+               for name, lod in builds.items()}
+    for p in planets.values():
+        p.reserve(1 << 16)
+    top = planets["base"].height_range()[1]
+    path = list(bench_refine.descent(args.refine_frames, terrain_top=top))
+    cams = {name: [camera(lod, m) for _alt, m in path] for name, lod in builds.items()}
+    best = {name: [float("inf")] * len(path) for name in builds}
+    counts = {name: [None] * len(path) for name in builds}
+    keys = ("sectors_total", "sectors_after_frustum", "sectors_after_budget", "splits", "merges")
+    for _ in range(args.passes):
+        for p in planets.values():
+            p.reset()
+        for k in range(len(path)):
+            for name in builds:
+                s = planets[name].refine(cams[name][k], template_level=4, max_level=48,
+                                         threads=args.refine_threads)
+                best[name][k] = min(best[name][k], s["refine_us"] + s["cull_us"])
+                counts[name][k] = tuple(s[key] for key in keys)
+    differ = sum(1 for a, b in zip(counts["base"], counts["new"]) if a != b)
+    print(f"\nrefine+cull, Earth preset's detail, {len(path)}-frame descent, 1 px, template "
+          f"level 4, {args.refine_threads} thread(s), per frame the best of {args.passes}; "
+          f"frames whose counts differ between the builds: {differ}")
+    report("refine+cull", "µs", best, False)
+    for name in builds:
+        us = best[name]
+        print(f"{'':<44} {name:>10}: slowest {max(us):7.0f} µs, over 1 ms "
+              f"{sum(1 for x in us if x > 1000.0)} of {len(us)}")
+
+
 def viewport(builds, presets, surface, args):
     print(f"\nviewport refresh with the GPU preview (refine with hysteresis + mesh() + "
           f"preview_data), {args.viewport_frames}-frame descents from 3 radii to 2 m")
@@ -153,14 +191,22 @@ def main():
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--planets", default="EARTH,MOON,MARS,ASTEROID")
     parser.add_argument("--quality", default="PREVIEW")
-    parser.add_argument("--skip", default="", help="'emission' or 'viewport'")
+    parser.add_argument("--refine-frames", type=int, default=240)
+    parser.add_argument("--refine-threads", type=int, default=1)
+    parser.add_argument("--passes", type=int, default=2, help="refine: descents per build")
+    parser.add_argument("--skip", default="",
+                        help="measures to leave out: 'refine', 'emission', 'viewport', "
+                             "comma-separated")
     args = parser.parse_args()
     builds = {"base": load_build(args.base), "new": load_build(args.new)}
     for name, lod in builds.items():
         print(f"{name}: {lod.__file__}")
-    if args.skip != "emission":
+    skip = set(args.skip.split(","))
+    if "refine" not in skip:
+        refine(builds, presets, args)
+    if "emission" not in skip:
         emission(builds, presets, args)
-    if args.skip != "viewport":
+    if "viewport" not in skip:
         viewport(builds, presets, surface, args)
 
 

@@ -190,6 +190,7 @@ void plod_bound_build(const plod_bound_setup *setup, const plod_sector *s,
 {
     const plod_planet *planet = setup->planet;
     const double *c[3] = {memo->dir[idx[0]], memo->dir[idx[1]], memo->dir[idx[2]]};
+    b->memo = (plod_bound_memo){0};
     double axis[3] = {c[0][0] + c[1][0] + c[2][0], c[0][1] + c[1][1] + c[2][1],
                       c[0][2] + c[1][2] + c[2][2]};
     double len = plod_norm3(axis);
@@ -446,8 +447,11 @@ static int plod__exceeds(const plod_bound_view *v, const plod_bound *b, double d
  * bounding ball (no nearer than the prism) and the prism point axis * r_min
  * (no nearer than the prism's nearest point), each only when it clears the
  * threshold by a margin far above the rounding of the exact distance; so
- * the result is the exact test's. */
-int plod_bound_exceeds_at_prism(const plod_bound_view *v, const plod_bound *b)
+ * the result is the exact test's.  With `slack` (may be NULL): how far the
+ * eye may move before the exact test could decide otherwise (the prism's
+ * distance changes no faster than the eye; the margins cover the rounding
+ * at both ends), or <= 0. */
+static int plod__exceeds_slack(const plod_bound_view *v, const plod_bound *b, double *slack)
 {
     double reach; /* the distance threshold, metres */
     switch (v->split_mode) {
@@ -458,23 +462,66 @@ int plod_bound_exceeds_at_prism(const plod_bound_view *v, const plod_bound *b)
         reach = plod__error_m(v, b) * v->split_scale;
         break;
     default:
-        return plod__exceeds(v, b, 0.0); /* orthographic: no distance */
+        if (slack)
+            *slack = INFINITY; /* orthographic: no distance */
+        return plod__exceeds(v, b, 0.0);
+    }
+    /* false at the distance floor: false at any distance (as plod__exceeds) */
+    if (!(v->split_mode ? reach > v->distance_floor
+                        : b->size > v->split_scale * v->distance_floor)) {
+        if (slack)
+            *slack = INFINITY;
+        return 0;
     }
     const double *eye = v->eye;
     double margin = 1e-9 * (reach + b->sphere_radius) + 1e-12 * v->eye_dist;
     double g[3] = {eye[0] - b->axis[0] * b->sphere_z, eye[1] - b->axis[1] * b->sphere_z,
                    eye[2] - b->axis[2] * b->sphere_z};
     double far_ = reach + b->sphere_radius + margin;
-    if (plod_dot3(g, g) >= far_ * far_)
+    double gg = plod_dot3(g, g);
+    if (gg >= far_ * far_) {
+        if (slack)
+            *slack = sqrt(gg) - far_ - 2.0 * margin;
         return 0;
+    }
     double near_ = reach - margin;
     if (near_ > 0.0) {
         double q[3] = {eye[0] - b->axis[0] * b->r_min, eye[1] - b->axis[1] * b->r_min,
                        eye[2] - b->axis[2] * b->r_min};
-        if (plod_dot3(q, q) <= near_ * near_)
-            return plod__exceeds(v, b, 0.0); /* distance below reach: the floor decides */
+        double qq = plod_dot3(q, q);
+        if (qq <= near_ * near_) {
+            /* distance below reach (above the floor): the exact test is true */
+            if (slack)
+                *slack = near_ - sqrt(qq) - 2.0 * margin;
+            return 1;
+        }
     }
-    return plod__exceeds(v, b, plod_bound_distance(v, b));
+    double distance = plod_bound_distance(v, b);
+    int exceeds = plod__exceeds(v, b, distance);
+    if (slack)
+        *slack = fabs(distance - reach) - 3.0 * margin;
+    return exceeds;
+}
+
+int plod_bound_exceeds_at_prism(const plod_bound_view *v, const plod_bound *b)
+{
+    return plod__exceeds_slack(v, b, NULL);
+}
+
+int plod_bound_exceeds_memo(const plod_bound_view *v, plod_bound *b)
+{
+    plod_bound_memo *m = &b->memo;
+    if (!v->memo_key)
+        return plod__exceeds_slack(v, b, NULL);
+    if (m->key == v->memo_key && v->travelled < m->until)
+        return m->exceeds;
+    double slack;
+    int exceeds = plod__exceeds_slack(v, b, &slack);
+    m->key = v->memo_key;
+    m->exceeds = (uint8_t)exceeds;
+    /* until <= travelled: tested again next time */
+    m->until = slack > 0.0 ? v->travelled + slack * (1.0 - 1e-9) : -INFINITY;
+    return exceeds;
 }
 /* ---- horizon-distance correction ---------------------------------------------- */
 

@@ -33,6 +33,11 @@
 #include <string.h>
 #include <time.h>
 
+/* the canonical order's radix sort (plod__order_visible): 11-bit digits */
+#define PLOD__ORDER_BITS 11
+#define PLOD__ORDER_DIGITS ((64 + PLOD__ORDER_BITS - 1) / PLOD__ORDER_BITS)
+#define PLOD__ORDER_RADIX (1u << PLOD__ORDER_BITS)
+
 struct plod_refiner {
     plod_lodtree tree;
     /* the budget search, from one update to the next */
@@ -47,11 +52,19 @@ struct plod_refiner {
     size_t order_count, order_capacity;
     uint64_t *order_keys;        /* radix-sort scratch: 2 * order_capacity */
     uint32_t *order_scratch;     /* order_capacity */
+    uint32_t order_counts[PLOD__ORDER_DIGITS][PLOD__ORDER_RADIX]; /* its digit counts */
+    /* the memos of the distance tests (plod_bound_memo): the thresholds
+     * memo_key names, and the eye's path since it was issued */
+    uint32_t memo_key;
+    int memo_split_mode;
+    double memo_split_scale, memo_error_scale;
+    double travelled, memo_eye[3];
 };
 
 /* One update's context: the tree it refines, its parameters and the
  * camera-derived values and thresholds its tests read. */
 typedef struct plod__frame {
+    plod_refiner *refiner;
     plod_lodtree *tree;
     const plod_refine_params *params;
     plod_bound_view view;
@@ -68,13 +81,13 @@ enum {
 /* ---- the predicate ------------------------------------------------------------ */
 
 /* Split predicate P of a node (level = its level), from its own bound. */
-static int plod__wants_split(const plod__frame *f, const plod_bound *b, int level,
+static int plod__wants_split(const plod__frame *f, plod_bound *b, int level,
                              unsigned *flags, unsigned parent_planes, unsigned *planes)
 {
     *flags = plod_bound_cull(&f->view, b, parent_planes, planes);
     if (level >= f->params->max_level || *flags)
         return 0;
-    return plod_bound_exceeds_at_prism(&f->view, b);
+    return plod_bound_exceeds_memo(&f->view, b);
 }
 
 /* The frustum planes node `parent`'s surface is inside of, this frame
@@ -89,7 +102,7 @@ static unsigned plod__parent_planes(const plod_lodtree *t, int32_t parent)
 static unsigned plod__node_p(const plod__frame *f, int32_t k, unsigned parent_planes)
 {
     plod_lodtree *t = f->tree;
-    const plod_lodtree_node *n = &t->nodes[k];
+    plod_lodtree_node *n = &t->nodes[k];
     unsigned flags, planes;
     int p = plod__wants_split(f, &n->bound, plod_lodtree_id_level(n->id), &flags,
                               parent_planes, &planes);
@@ -213,6 +226,33 @@ static void plod__set_threshold(plod__frame *f, int step)
         v->split_mode = 2;
         v->split_scale = v->camera->pixels_per_metre / (params->max_pixel_error * v->coarsening);
     }
+    /* other thresholds than the memos were made under: a new key, whose
+     * path starts here */
+    plod_refiner *r = f->refiner;
+    if (!r->memo_key || r->memo_split_mode != v->split_mode ||
+        r->memo_split_scale != v->split_scale || r->memo_error_scale != v->error_scale) {
+        r->memo_key = r->memo_key == UINT32_MAX ? 1 : r->memo_key + 1;
+        r->memo_split_mode = v->split_mode;
+        r->memo_split_scale = v->split_scale;
+        r->memo_error_scale = v->error_scale;
+        r->travelled = 0.0;
+        memcpy(r->memo_eye, v->eye, sizeof r->memo_eye);
+    }
+    v->memo_key = r->memo_key;
+    v->travelled = r->travelled;
+}
+
+/* The eye's path length since the memos' key was issued, rounded up (a
+ * step below half a unit in the last place still advances it). */
+static void plod__travel(plod_refiner *r, const double eye[3])
+{
+    double d[3] = {eye[0] - r->memo_eye[0], eye[1] - r->memo_eye[1], eye[2] - r->memo_eye[2]};
+    double step = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    if (step > 0.0)
+        r->travelled = nextafter(r->travelled + step * (1.0 + 1e-9), INFINITY);
+    else if (!(step == 0.0))
+        r->memo_key = 0; /* not finite: a new key at the next threshold */
+    memcpy(r->memo_eye, eye, sizeof r->memo_eye);
 }
 
 /* P* of every internal node in one sequential, top-down sweep (parents come
@@ -426,8 +466,10 @@ static plod_status plod__order_reserve(plod_refiner *r, size_t need)
 }
 
 /* The visible leaves' indices sorted by plod__order_key: an LSD radix sort,
- * 8 bits a pass, skipping the passes in which every key has the same digit
+ * 11 bits a pass (six passes cover the key; one read of the keys counts
+ * every digit), skipping the passes in which every key has the same digit
  * (the high bits of a frame's keys mostly agree). */
+
 static plod_status plod__order_visible(plod_refiner *r, size_t visible)
 {
     r->order_count = 0;
@@ -438,24 +480,33 @@ static plod_status plod__order_visible(plod_refiner *r, size_t visible)
         return st;
     uint64_t *keys = r->order_keys, *keys_out = r->order_keys + r->order_capacity;
     uint32_t *index = r->order, *index_out = r->order_scratch;
+    uint32_t (*count)[PLOD__ORDER_RADIX] = r->order_counts;
+    memset(count, 0, sizeof r->order_counts);
+    const uint64_t mask = PLOD__ORDER_RADIX - 1;
     size_t n = 0;
     for (size_t i = 0; i < r->tree.count; i++) {
         if (!(r->tree.leaves[i].flags & PLOD_SECTOR_VISIBLE))
             continue;
-        keys[n] = plod__order_key(r->tree.leaves[i].id);
+        uint64_t key = plod__order_key(r->tree.leaves[i].id);
+        for (int d = 0; d < PLOD__ORDER_DIGITS; d++)
+            count[d][key >> (d * PLOD__ORDER_BITS) & mask]++;
+        keys[n] = key;
         index[n++] = (uint32_t)i;
     }
     assert(n == visible);
-    for (int shift = 0; shift < 64; shift += 8) {
-        size_t start[257] = {0};
-        for (size_t k = 0; k < n; k++)
-            start[(keys[k] >> shift & 0xFF) + 1]++;
-        if (start[(keys[0] >> shift & 0xFF) + 1] == n)
+    for (int d = 0; d < PLOD__ORDER_DIGITS; d++) {
+        int shift = d * PLOD__ORDER_BITS;
+        uint32_t *start = count[d];
+        if (start[keys[0] >> shift & mask] == n)
             continue; /* one digit for all: this pass keeps the order */
-        for (int d = 0; d < 256; d++)
-            start[d + 1] += start[d];
+        uint32_t sum = 0;
+        for (unsigned b = 0; b < PLOD__ORDER_RADIX; b++) {
+            uint32_t c = start[b];
+            start[b] = sum;
+            sum += c;
+        }
         for (size_t k = 0; k < n; k++) {
-            size_t to = start[keys[k] >> shift & 0xFF]++;
+            uint32_t to = start[keys[k] >> shift & mask]++;
             keys_out[to] = keys[k];
             index_out[to] = index[k];
         }
@@ -504,6 +555,7 @@ static void plod__frame_init(plod__frame *f, plod_refiner *r, const plod_camera 
                              const plod_refine_params *params, double eye_dist)
 {
     const plod_planet *planet = r->tree.planet;
+    f->refiner = r;
     f->tree = &r->tree;
     f->params = params;
     plod_bound_view *v = &f->view;
@@ -661,6 +713,7 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
     r->order_count = 0; /* a failure below leaves no stale visible list */
     plod__frame f;
     plod__frame_init(&f, r, camera, params, eye_dist);
+    plod__travel(r, camera->position);
     plod__refine(r, &f);
     double t1 = plod__now_us();
     plod_refine_stats s;

@@ -12,9 +12,21 @@
 extern "C" {
 #endif
 
+/* What a bound's distance test last decided, and for how long it holds:
+ * the prism's distance moves no faster than the eye, so the decision
+ * stands while the eye has travelled less than `until` (measured by
+ * plod_bound_view.travelled) under the same thresholds (`key`). */
+typedef struct plod_bound_memo {
+    double until;
+    uint32_t key;    /* plod_bound_view.memo_key it was made under; 0: none */
+    uint8_t exceeds;
+} plod_bound_memo;
+
 /* A sector's cap prism (every point r d, d within the cap angle of `axis`,
- * r in [r_min, r_max]) and the per-sector constants of its tests. */
+ * r in [r_min, r_max]), the per-sector constants of its tests and the
+ * memo of its distance test (moves with the bound; a new bound has none). */
 typedef struct plod_bound {
+    plod_bound_memo memo;
     double axis[3];
     double cos_angle, sin_angle; /* cap half-angle */
     double r_min, r_max;  /* metres from the centre */
@@ -78,6 +90,9 @@ typedef struct plod_bound_view {
     double coarsening;           /* the budget's threshold factor */
     int split_mode;              /* 0 side/distance, 1 pixel, 2 ortho pixel */
     double split_scale;          /* its threshold, coarsening included */
+    uint32_t memo_key;           /* names the thresholds above (0: memos off) */
+    double travelled;            /* the eye's path length since memo_key was
+                                    issued, rounded up */
 } plod_bound_view;
 
 /* bit i: the surface is inside frustum plane i */
@@ -99,6 +114,9 @@ double plod_bound_score(const plod_bound_view *view, const plod_bound *b, double
 /* score > 1 at plod_bound_distance, decided without it where cheaper
  * bounds settle it (the same result). */
 int plod_bound_exceeds_at_prism(const plod_bound_view *view, const plod_bound *b);
+/* plod_bound_exceeds_at_prism, from b's memo while it holds (the same
+ * result); otherwise tested and, when view->memo_key is set, memoised. */
+int plod_bound_exceeds_memo(const plod_bound_view *view, plod_bound *b);
 
 #ifdef __cplusplus
 }

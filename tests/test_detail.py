@@ -8,7 +8,8 @@ import pytest
 
 from conftest import data_path
 from test_mesh import arrays, edge_report
-from test_refine import check_conforming, corners, look_at, surface_camera, worst_pixel_gap
+from test_refine import (check_conforming, corners, frame_state, look_at, surface_camera,
+                         worst_pixel_gap)
 
 EARTH_R = 6371000.0
 MOON_R = 1737400.0
@@ -41,11 +42,11 @@ def earth_plain(planetlod):
     return earth_planet(planetlod)
 
 
-def ground_camera(planetlod, planet, lat, lon, altitude, pitch=-0.25, radius=EARTH_R):
+def ground_camera(planetlod, planet, lat, lon, altitude, pitch=-0.25, radius=EARTH_R, **kw):
     d = unit(lat, lon)
     ground = planet.height(*d)
     return surface_camera(planetlod, radius + ground, altitude, lat=math.radians(lat),
-                          lon=math.radians(lon), pitch=pitch)
+                          lon=math.radians(lon), pitch=pitch, **kw)
 
 
 def check_bounds(planet, sample_limit=3000, rng=None):
@@ -341,6 +342,36 @@ def test_detail_refinement_is_history_free_and_thread_identical(planetlod, earth
     fresh = earth_planet(planetlod, MOUNTAINS)
     fresh.refine(cams[-1], threads=2)
     assert bytes(fresh.sector_ids()) == history
+
+
+def test_small_moves_refine_as_a_fresh_planet(planetlod, earth_detail):
+    """The refiner keeps each sector's distance decision while the eye
+    cannot have moved far enough to change it.  Along a descent over the
+    Alps in metre steps (where a decision kept 1.5 times too long already
+    changes most frames), with the eye standing still, stepping by less than
+    a rounding unit, jumping, and the thresholds changing and changing back
+    (pixel error, template level, criterion, lens, orthographic), every
+    frame has exactly the leaves, flags and order of a fresh refine."""
+    fresh = earth_planet(planetlod, MOUNTAINS)
+    earth_detail.reset()
+    steps = [1.0] * 8 + [0.0, 0.0, 1e-9, 1e-9] + [2.0] * 4 + [300.0] + [1.0] * 4
+    changes = {20: dict(max_pixel_error=2.0), 22: dict(template_level=3),
+               24: dict(criterion="side_distance"), 26: dict(lens=35.0), 28: dict(ortho=True)}
+    along = 0.0
+    for k in range(32):
+        along += steps[k % len(steps)]
+        kw = dict(changes.get(k, {}))
+        lens = kw.pop("lens", 50.0)
+        ortho = kw.pop("ortho", False)
+        cam = ground_camera(planetlod, earth_detail, 46.5, 8.0 + along * 1.3e-5, 60.0 - k,
+                            lens=lens, type="ORTHO" if ortho else "PERSP", ortho_scale=200.0)
+        s = earth_detail.refine(cam, **kw)
+        fresh.reset()
+        f = fresh.refine(cam, **kw)
+        assert frame_state(earth_detail) == frame_state(fresh), (k, kw)
+        assert s["sectors_after_frustum"] == f["sectors_after_frustum"], k
+    assert f["sectors_total"] > 1000
+    assert earth_detail.check_invariants()
 
 
 @pytest.mark.parametrize("style", ["hills", "mountains", "craters"])
