@@ -47,12 +47,16 @@ struct plod_refiner {
                                budget_params (the same frame again) */
     plod_camera budget_camera;
     plod_refine_params budget_params;
-    /* this frame's visible sectors in canonical order (plod__order_visible) */
+    /* this frame's visible sectors in canonical order (plod__order_visible)
+     * and their keys, from which the next frame's order starts */
     uint32_t *order;
+    uint64_t *order_keys;
     size_t order_count, order_capacity;
-    uint64_t *order_keys;        /* radix-sort scratch: 2 * order_capacity */
-    uint32_t *order_scratch;     /* order_capacity */
-    uint32_t order_counts[PLOD__ORDER_DIGITS][PLOD__ORDER_RADIX]; /* its digit counts */
+    size_t order_sorted;         /* entries of order/order_keys that the last
+                                    ordering left sorted (0: none) */
+    uint32_t *scratch_index;     /* 3 * order_capacity: the kept, the new */
+    uint64_t *scratch_keys;      /* and the radix sort's scratch lists */
+    uint32_t order_counts[PLOD__ORDER_DIGITS][PLOD__ORDER_RADIX]; /* digit counts */
     /* the memos of the distance tests (plod_bound_memo): the thresholds
      * memo_key names, and the eye's path since it was issued */
     uint32_t memo_key;
@@ -449,55 +453,47 @@ static plod_status plod__order_reserve(plod_refiner *r, size_t need)
     size_t capacity = r->order_capacity ? r->order_capacity : 256;
     while (capacity < need)
         capacity *= 2;
+    /* realloc keeps the sorted entries the next ordering starts from */
     uint32_t *order = realloc(r->order, capacity * sizeof *order);
     if (!order)
         return PLOD_ERR_NO_MEMORY;
     r->order = order;
-    uint32_t *scratch = realloc(r->order_scratch, capacity * sizeof *scratch);
-    if (!scratch)
-        return PLOD_ERR_NO_MEMORY;
-    r->order_scratch = scratch;
-    uint64_t *keys = realloc(r->order_keys, 2 * capacity * sizeof *keys);
+    uint64_t *keys = realloc(r->order_keys, capacity * sizeof *keys);
     if (!keys)
         return PLOD_ERR_NO_MEMORY;
     r->order_keys = keys;
-    r->order_capacity = capacity; /* only once all three have grown */
+    uint32_t *scratch_index = realloc(r->scratch_index, 3 * capacity * sizeof *scratch_index);
+    if (!scratch_index)
+        return PLOD_ERR_NO_MEMORY;
+    r->scratch_index = scratch_index;
+    uint64_t *scratch_keys = realloc(r->scratch_keys, 3 * capacity * sizeof *scratch_keys);
+    if (!scratch_keys)
+        return PLOD_ERR_NO_MEMORY;
+    r->scratch_keys = scratch_keys;
+    r->order_capacity = capacity; /* only once all four have grown */
     return PLOD_OK;
 }
 
-/* The visible leaves' indices sorted by plod__order_key: an LSD radix sort,
- * 11 bits a pass (six passes cover the key; one read of the keys counts
- * every digit), skipping the passes in which every key has the same digit
- * (the high bits of a frame's keys mostly agree). */
-
-static plod_status plod__order_visible(plod_refiner *r, size_t visible)
+/* Sorts n (key, index) pairs by key: an LSD radix sort, 11 bits a pass
+ * (one read of the keys counts every digit), skipping the passes in which
+ * every key has the same digit (the high bits of a frame's keys mostly
+ * agree).  The result is in keys/index; tmp_*: scratch for n. */
+static void plod__radix_sort(uint64_t *keys, uint32_t *index, size_t n, uint64_t *tmp_keys,
+                             uint32_t *tmp_index, uint32_t (*count)[PLOD__ORDER_RADIX])
 {
-    r->order_count = 0;
-    if (visible == 0)
-        return PLOD_OK; /* the arrays may not exist yet (NULL + 0 is undefined) */
-    plod_status st = plod__order_reserve(r, visible);
-    if (st != PLOD_OK)
-        return st;
-    uint64_t *keys = r->order_keys, *keys_out = r->order_keys + r->order_capacity;
-    uint32_t *index = r->order, *index_out = r->order_scratch;
-    uint32_t (*count)[PLOD__ORDER_RADIX] = r->order_counts;
-    memset(count, 0, sizeof r->order_counts);
+    if (n < 2)
+        return;
     const uint64_t mask = PLOD__ORDER_RADIX - 1;
-    size_t n = 0;
-    for (size_t i = 0; i < r->tree.count; i++) {
-        if (!(r->tree.leaves[i].flags & PLOD_SECTOR_VISIBLE))
-            continue;
-        uint64_t key = plod__order_key(r->tree.leaves[i].id);
+    memset(count, 0, PLOD__ORDER_DIGITS * sizeof *count);
+    for (size_t k = 0; k < n; k++)
         for (int d = 0; d < PLOD__ORDER_DIGITS; d++)
-            count[d][key >> (d * PLOD__ORDER_BITS) & mask]++;
-        keys[n] = key;
-        index[n++] = (uint32_t)i;
-    }
-    assert(n == visible);
+            count[d][keys[k] >> (d * PLOD__ORDER_BITS) & mask]++;
+    uint64_t *in_keys = keys, *out_keys = tmp_keys;
+    uint32_t *in_index = index, *out_index = tmp_index;
     for (int d = 0; d < PLOD__ORDER_DIGITS; d++) {
         int shift = d * PLOD__ORDER_BITS;
         uint32_t *start = count[d];
-        if (start[keys[0] >> shift & mask] == n)
+        if (start[in_keys[0] >> shift & mask] == n)
             continue; /* one digit for all: this pass keeps the order */
         uint32_t sum = 0;
         for (unsigned b = 0; b < PLOD__ORDER_RADIX; b++) {
@@ -506,16 +502,84 @@ static plod_status plod__order_visible(plod_refiner *r, size_t visible)
             sum += c;
         }
         for (size_t k = 0; k < n; k++) {
-            uint32_t to = start[keys[k] >> shift & mask]++;
-            keys_out[to] = keys[k];
-            index_out[to] = index[k];
+            uint32_t to = start[in_keys[k] >> shift & mask]++;
+            out_keys[to] = in_keys[k];
+            out_index[to] = in_index[k];
         }
-        uint64_t *tk = keys; keys = keys_out; keys_out = tk;
-        uint32_t *ti = index; index = index_out; index_out = ti;
+        uint64_t *tk = in_keys; in_keys = out_keys; out_keys = tk;
+        uint32_t *ti = in_index; in_index = out_index; out_index = ti;
     }
-    if (index != r->order) /* an odd number of passes ran */
-        memcpy(r->order, index, n * sizeof *index);
-    r->order_count = n;
+    if (in_keys != keys) { /* an odd number of passes ran */
+        memcpy(keys, in_keys, n * sizeof *keys);
+        memcpy(index, in_index, n * sizeof *index);
+    }
+}
+
+/* a leaf whose entry the ordering kept from the last frame (set and
+ * cleared within plod__order_visible) */
+#define PLOD__SECTOR_LISTED (1u << 15)
+
+/* The visible leaves' indices sorted by plod__order_key.  From one frame
+ * to the next most of them stay: the last frame's sorted entries whose
+ * leaf is still there and visible are kept in their order, only the others
+ * are sorted, and the two lists are merged (the same order as sorting
+ * them all: the keys are unique). */
+static plod_status plod__order_visible(plod_refiner *r, size_t visible)
+{
+    size_t previous = r->order_sorted;
+    r->order_sorted = 0;
+    r->order_count = 0;
+    if (visible == 0)
+        return PLOD_OK; /* the arrays may not exist yet (NULL + 0 is undefined) */
+    plod_status st = plod__order_reserve(r, visible);
+    if (st != PLOD_OK)
+        return st;
+    plod_lodtree *t = &r->tree;
+    size_t capacity = r->order_capacity;
+    uint64_t *kept_keys = r->scratch_keys, *new_keys = r->scratch_keys + capacity;
+    uint32_t *kept_index = r->scratch_index, *new_index = r->scratch_index + capacity;
+    size_t kept = 0;
+    for (size_t j = 0; j < previous; j++) {
+        uint32_t i = r->order[j];
+        if (i >= t->count)
+            continue;
+        plod_sector *sec = &t->leaves[i];
+        if (!(sec->flags & PLOD_SECTOR_VISIBLE) || plod__order_key(sec->id) != r->order_keys[j])
+            continue;
+        sec->flags |= PLOD__SECTOR_LISTED;
+        kept_keys[kept] = r->order_keys[j];
+        kept_index[kept++] = i;
+    }
+    size_t added = 0;
+    for (size_t i = 0; i < t->count; i++) {
+        plod_sector *sec = &t->leaves[i];
+        if (!(sec->flags & PLOD_SECTOR_VISIBLE))
+            continue;
+        if (sec->flags & PLOD__SECTOR_LISTED) {
+            sec->flags &= (uint16_t)~PLOD__SECTOR_LISTED;
+            continue;
+        }
+        new_keys[added] = plod__order_key(sec->id);
+        new_index[added++] = (uint32_t)i;
+    }
+    assert(kept + added == visible);
+    plod__radix_sort(new_keys, new_index, added, r->scratch_keys + 2 * capacity,
+                     r->scratch_index + 2 * capacity, r->order_counts);
+    size_t a = 0, b = 0, n = 0;
+    while (a < kept && b < added) {
+        int take_kept = kept_keys[a] < new_keys[b];
+        r->order_keys[n] = take_kept ? kept_keys[a] : new_keys[b];
+        r->order[n++] = take_kept ? kept_index[a++] : new_index[b++];
+    }
+    for (; a < kept; a++, n++) {
+        r->order_keys[n] = kept_keys[a];
+        r->order[n] = kept_index[a];
+    }
+    for (; b < added; b++, n++) {
+        r->order_keys[n] = new_keys[b];
+        r->order[n] = new_index[b];
+    }
+    r->order_count = r->order_sorted = n;
     return PLOD_OK;
 }
 
@@ -768,7 +832,8 @@ void plod_refiner_destroy(plod_refiner *refiner)
     plod_lodtree_free(&refiner->tree);
     free(refiner->order);
     free(refiner->order_keys);
-    free(refiner->order_scratch);
+    free(refiner->scratch_index);
+    free(refiner->scratch_keys);
     free(refiner);
 }
 
@@ -788,7 +853,7 @@ void plod_refiner_reset(plod_refiner *refiner)
 {
     if (!refiner)
         return;
-    refiner->order_count = 0;
+    refiner->order_count = refiner->order_sorted = 0;
     plod_lodtree_reset(&refiner->tree);
 }
 
@@ -829,7 +894,7 @@ size_t plod_refiner_memory_bytes(const plod_refiner *r)
     if (!r)
         return 0;
     return sizeof *r + plod_lodtree_memory_bytes(&r->tree) +
-           r->order_capacity * (2 * sizeof(uint32_t) + 2 * sizeof(uint64_t));
+           r->order_capacity * 4 * (sizeof(uint32_t) + sizeof(uint64_t));
 }
 
 plod_status plod_refiner_check(const plod_refiner *r)
