@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Two builds of planetlod side by side in one process, frame by frame:
-refine+cull with the detail field (as bench_detail.py), the detail field's emission (cold and flyby, the Earth preset along
+refine+cull with and without the detail field (as bench_detail.py), the detail field's emission (cold and flyby, the Earth preset along
 bench_refine.py's descent, as bench_detail.py) and an artist's viewport
 refresh with the GPU preview (refine with hysteresis + mesh() +
 surface.preview_data, per planet preset, as bench_viewport_detail.py).
@@ -110,39 +110,40 @@ def emission(builds, presets, args):
 
 def refine(builds, presets, args):
     """Refine+cull per frame (the refiner's own timers) along bench_refine.py's
-    descent with the Earth preset's detail, 1 px, template level 4; per frame
-    the best of --passes descents.  The two builds must refine alike: every
-    frame's sector counts, splits and merges are compared."""
-    detail = presets.detail_settings("EARTH")
-    planets = {name: lod.Planet(R, heightmap=data_path("earth-topology.png"),
-                                height_scale=8848.0, sea_level=0.0, detail=detail)
-               for name, lod in builds.items()}
-    for p in planets.values():
-        p.reserve(1 << 16)
-    top = planets["base"].height_range()[1]
-    path = list(bench_refine.descent(args.refine_frames, terrain_top=top))
-    cams = {name: [camera(lod, m) for _alt, m in path] for name, lod in builds.items()}
-    best = {name: [float("inf")] * len(path) for name in builds}
-    counts = {name: [None] * len(path) for name in builds}
+    descent, 1 px, template level 4, with the Earth preset's detail and
+    without detail; per frame the best of --passes descents.  The two builds
+    must refine alike: every frame's sector counts, splits and merges are
+    compared."""
     keys = ("sectors_total", "sectors_after_frustum", "sectors_after_budget", "splits", "merges")
-    for _ in range(args.passes):
+    for label, detail in (("detail on", presets.detail_settings("EARTH")), ("detail off", None)):
+        planets = {name: lod.Planet(R, heightmap=data_path("earth-topology.png"),
+                                    height_scale=8848.0, sea_level=0.0, detail=detail)
+                   for name, lod in builds.items()}
         for p in planets.values():
-            p.reset()
-        for k in range(len(path)):
-            for name in builds:
-                s = planets[name].refine(cams[name][k], template_level=4, max_level=48,
-                                         threads=args.refine_threads)
-                best[name][k] = min(best[name][k], s["refine_us"] + s["cull_us"])
-                counts[name][k] = tuple(s[key] for key in keys)
-    differ = sum(1 for a, b in zip(counts["base"], counts["new"]) if a != b)
-    print(f"\nrefine+cull, Earth preset's detail, {len(path)}-frame descent, 1 px, template "
-          f"level 4, {args.refine_threads} thread(s), per frame the best of {args.passes}; "
-          f"frames whose counts differ between the builds: {differ}")
-    report("refine+cull", "µs", best, False)
-    for name in builds:
-        us = best[name]
-        print(f"{'':<44} {name:>10}: slowest {max(us):7.0f} µs, over 1 ms "
-              f"{sum(1 for x in us if x > 1000.0)} of {len(us)}")
+            p.reserve(1 << 16)
+        top = planets["base"].height_range()[1]
+        path = list(bench_refine.descent(args.refine_frames, terrain_top=top))
+        cams = {name: [camera(lod, m) for _alt, m in path] for name, lod in builds.items()}
+        best = {name: [float("inf")] * len(path) for name in builds}
+        counts = {name: [None] * len(path) for name in builds}
+        for _ in range(args.passes):
+            for p in planets.values():
+                p.reset()
+            for k in range(len(path)):
+                for name in builds:
+                    s = planets[name].refine(cams[name][k], template_level=4, max_level=48,
+                                             threads=args.refine_threads)
+                    best[name][k] = min(best[name][k], s["refine_us"] + s["cull_us"])
+                    counts[name][k] = tuple(s[key] for key in keys)
+        differ = sum(1 for a, b in zip(counts["base"], counts["new"]) if a != b)
+        print(f"\nrefine+cull, {label}, {len(path)}-frame descent, 1 px, template level 4, "
+              f"{args.refine_threads} thread(s), per frame the best of {args.passes}; frames "
+              f"whose counts differ between the builds: {differ}")
+        report(f"refine+cull, {label}", "µs", best, False)
+        for name in builds:
+            us = best[name]
+            print(f"{'':<44} {name:>10}: slowest {max(us):7.0f} µs, over 1 ms "
+                  f"{sum(1 for x in us if x > 1000.0)} of {len(us)}")
 
 
 def viewport(builds, presets, surface, args):
