@@ -519,8 +519,9 @@ int plod_bound_exceeds_memo(const plod_bound_view *v, plod_bound *b)
     int exceeds = plod__exceeds_slack(v, b, &slack);
     m->key = v->memo_key;
     m->exceeds = (uint8_t)exceeds;
-    /* until <= travelled: tested again next time */
-    m->until = slack > 0.0 ? v->travelled + slack * (1.0 - 1e-9) : -INFINITY;
+    /* rounded down (until <= travelled: tested again next time) */
+    m->until = slack > 0.0 ? nextafter(v->travelled + slack * (1.0 - 1e-9), -INFINITY)
+                           : -INFINITY;
     return exceeds;
 }
 /* ---- horizon-distance correction ---------------------------------------------- */

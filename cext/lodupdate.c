@@ -60,6 +60,7 @@ struct plod_refiner {
     /* the memos of the distance tests (plod_bound_memo): the thresholds
      * memo_key names, and the eye's path since it was issued */
     uint32_t memo_key;
+    int memo_current;            /* 0: the next threshold issues a new key */
     int memo_split_mode;
     double memo_split_scale, memo_error_scale;
     double travelled, memo_eye[3];
@@ -213,6 +214,15 @@ static void plod__eval_parallel(plod__frame *f, int threads)
 
 /* ---- one refinement pass; the budget ---------------------------------------------- */
 
+/* Drops every bound's memo (before the memo keys wrap around). */
+static void plod__forget_memos(plod_lodtree *t)
+{
+    for (size_t i = 0; i < t->count; i++)
+        t->geom[i].self.memo.key = 0;
+    for (size_t k = 0; k < t->node_top; k++)
+        t->nodes[k].bound.memo.key = 0;
+}
+
 /* The split thresholds of coarsening step `step`: the criterion's threshold
  * times 2^(step / 2) (pixel error, or split border). */
 static void plod__set_threshold(plod__frame *f, int step)
@@ -233,9 +243,12 @@ static void plod__set_threshold(plod__frame *f, int step)
     /* other thresholds than the memos were made under: a new key, whose
      * path starts here */
     plod_refiner *r = f->refiner;
-    if (!r->memo_key || r->memo_split_mode != v->split_mode ||
+    if (!r->memo_current || r->memo_split_mode != v->split_mode ||
         r->memo_split_scale != v->split_scale || r->memo_error_scale != v->error_scale) {
+        if (r->memo_key == UINT32_MAX)
+            plod__forget_memos(f->tree); /* the keys start again */
         r->memo_key = r->memo_key == UINT32_MAX ? 1 : r->memo_key + 1;
+        r->memo_current = 1;
         r->memo_split_mode = v->split_mode;
         r->memo_split_scale = v->split_scale;
         r->memo_error_scale = v->error_scale;
@@ -252,10 +265,10 @@ static void plod__travel(plod_refiner *r, const double eye[3])
 {
     double d[3] = {eye[0] - r->memo_eye[0], eye[1] - r->memo_eye[1], eye[2] - r->memo_eye[2]};
     double step = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-    if (step > 0.0)
+    if (!(step < INFINITY))
+        r->memo_current = 0; /* overflowed: a new key, a new path */
+    else if (step > 0.0)
         r->travelled = nextafter(r->travelled + step * (1.0 + 1e-9), INFINITY);
-    else if (!(step == 0.0))
-        r->memo_key = 0; /* not finite: a new key at the next threshold */
     memcpy(r->memo_eye, eye, sizeof r->memo_eye);
 }
 
