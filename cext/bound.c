@@ -248,10 +248,14 @@ void plod_bound_build(const plod_bound_setup *setup, const plod_sector *s,
         plod_planet_height_range_cap(planet, b->axis, atan2(b->sin_angle, b->cos_angle),
                                      &hmin, &hmax, &texels);
     }
-    double inset_lo, inset_hi, cap_angle = atan2(b->sin_angle, b->cos_angle);
+    double inset_lo, inset_hi, cap_angle = 0.0;
     plod_insets_relief inset;
-    int insets = plod_planet_insets_range_cap(planet, b->axis, cap_angle, &inset_lo, &inset_hi,
+    int insets = 0;
+    if (planet->insets) { /* the cap's angle only where insets may meet it */
+        cap_angle = atan2(b->sin_angle, b->cos_angle);
+        insets = plod_planet_insets_range_cap(planet, b->axis, cap_angle, &inset_lo, &inset_hi,
                                               &inset);
+    }
     double inset_relief = 0.0;
     if (insets) { /* the blend lies between the global data and the insets */
         hmin = inset_lo < hmin ? inset_lo : hmin;
