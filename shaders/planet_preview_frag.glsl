@@ -9,8 +9,8 @@
  * render material's aerial perspective (atmosphere.py: single scattering,
  * Rayleigh + Mie, optical depths by Schüler's approximation of the Chapman
  * function), per pixel: a flat sea's triangles span kilometres of haze.
- * The colour map is read at the mip level of the pixel's footprint
- * (textureGrad; the longitude derivative unwrapped across the date line);
+ * The colour map is read at full resolution, averaged over the pixel's
+ * footprint (from the viewer's distance and slant);
  * an sRGB texture's texels arrive decoded (scene-linear). */
 
 vec3 level_colour(float level)
@@ -131,10 +131,26 @@ void main()
   }
   else if (shading == SHADING_COLOR_MAP) {  /* the sea's colour included */
     vec2 st = vec2(atan(n.y, n.x) / (2.0 * PLOD_PI) + 0.5, asin(clamp(n.z, -1.0, 1.0)) / PLOD_PI + 0.5);
-    vec2 dx = dFdx(st), dy = dFdy(st);
-    dx.x -= floor(dx.x + 0.5);
-    dy.x -= floor(dy.x + 0.5);
-    albedo = textureGrad(color_map, st, dx, dy).rgb;
+    /* The map's full resolution only, averaged over the pixel's footprint
+     * by four taps where the map is minified.  Its mip levels, read through
+     * llvmpipe's sampler (textureGrad or textureLod), gave dots of a far
+     * coarser colour along lines of the view: triangle edges, and the
+     * boundaries between levels.  The footprint comes from the view, not
+     * from screen-space derivatives: across the view (pixel_size: radians
+     * per pixel, or minus planet-space metres per pixel when orthographic),
+     * stretched along the ground by the view's slant, in map rows (the map
+     * spans pi in latitude; a row is as wide in longitude at the equator). */
+    vec3 to_eye = camera.xyz - v_point;
+    float across = pixel_size > 0.0 ? length(to_eye) * pixel_size : -pixel_size;
+    float slant = max(abs(dot(n, normalize(to_eye))), 0.05);
+    vec2 size = vec2(textureSize(color_map, 0));
+    float rows = across / slant / length(v_point) * size.y / PLOD_PI;
+    float spread = 0.25 * clamp(rows, 0.0, 32.0);
+    vec2 tap = vec2(spread / (2.0 * size.y * max(length(n.xy), 0.05)), spread / size.y);
+    albedo = 0.25 * (textureLod(color_map, st + vec2(tap.x, 0.5 * tap.y), 0.0).rgb +
+                     textureLod(color_map, st + vec2(-0.5 * tap.x, tap.y), 0.0).rgb +
+                     textureLod(color_map, st - vec2(tap.x, 0.5 * tap.y), 0.0).rgb +
+                     textureLod(color_map, st - vec2(-0.5 * tap.x, tap.y), 0.0).rgb);
   }
   else if (v_sea > 0.5) {  /* ground the core lifted to the sea surface */
     albedo = vec3(0.004, 0.02, 0.06);  /* the render material's deep water */

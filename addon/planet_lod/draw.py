@@ -91,13 +91,16 @@ def preview_shader(atm=None):
         vert, frag = shader_sources(shader_defines(atm))
         info = gpu.types.GPUShaderCreateInfo()
         # 128 bytes of push constants (as Blender counts them), the most
-        # every GPU backend takes
+        # every GPU backend takes: 124 here
         info.push_constant('MAT4', "ModelViewProjectionMatrix")
         info.push_constant('VEC4', "anchor")  # planet space at the object's origin; height scale
         info.push_constant('VEC4', "sun")     # direction (planet space), strength
         info.push_constant('VEC4', "camera")  # the viewer (planet space), exposure
         # 4 * the view transform (VIEW_TRANSFORMS) + the ground's colour (SHADING_*)
         info.push_constant('INT', "display")
+        # the colour map's footprint: radians per pixel, or minus planet-space
+        # metres per pixel (orthographic)
+        info.push_constant('FLOAT', "pixel_size")
         # set by Blender when it binds the shader: whether the framebuffer
         # encodes to sRGB on write (its own shaders read it the same way)
         info.push_constant('BOOL', "srgbTarget")
@@ -190,6 +193,19 @@ def _ensure_color(res, settings):
 VIEW_TRANSFORMS = {"Standard": 0, "Filmic": 1, "AgX": 2}
 
 
+def pixel_size(region_data, to_planet):
+    """Radians per pixel of the view (perspective), or minus planet-space
+    metres per pixel (orthographic), from the window matrix: its [1][1] is
+    1 / tan(half the vertical field), or 2 / the height the view shows."""
+    height = max(bpy.context.region.height if bpy.context.region else 1, 1)
+    window = region_data.window_matrix
+    per_pixel = 2.0 / (max(abs(window[1][1]), 1e-12) * height)
+    if region_data.is_perspective:
+        return per_pixel
+    scale = to_planet.to_scale()
+    return -per_pixel * (abs(scale.x) + abs(scale.y) + abs(scale.z)) / 3.0
+
+
 def draw_planet(obj, st, region_data):
     s = obj.planet_lod
     shader = preview_shader(atmosphere.params(s))
@@ -218,6 +234,7 @@ def draw_planet(obj, st, region_data):
     shading = SHADING_LEVELS if s.show_levels else \
         SHADING_COLOR_MAP if res.color_tex is not None else SHADING_RAMP
     shader.uniform_int("display", 4 * VIEW_TRANSFORMS.get(view.view_transform, 2) + shading)
+    shader.uniform_float("pixel_size", pixel_size(region_data, to_planet))
     shader.uniform_sampler("color_map", res.color_tex or _dummy_texture())
     shader.uniform_sampler("surface", res.surface_tex)
     res.batch.draw(shader)

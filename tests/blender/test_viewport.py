@@ -1,6 +1,7 @@
 """Under xvfb-run: the GPU preview draws the planet in a real 3D viewport.
 Screenshots of the viewport with the preview on and off must differ over the
-planet's disk, and the preview must show many colours (texture + light)."""
+planet's disk, the preview must show many colours (texture + light), and no
+pixel inside the planet may stand out alone from its neighbours."""
 import os
 import sys
 import traceback
@@ -32,6 +33,26 @@ def screenshot(name):
     px = list(image.pixels)
     bpy.data.images.remove(image)
     return w, h, px
+
+
+def isolated_pixels(w, h, on, off):
+    """Pixels inside the drawn planet (3 pixels in from its edge) that stand
+    out from 8 neighbours which agree among themselves: a colour read from
+    the wrong place or level of a texture, not an edge of the picture."""
+    import numpy as np
+    on = np.asarray(on, dtype=np.float64).reshape(h, w, 4)[:, :, :3]
+    off = np.asarray(off, dtype=np.float64).reshape(h, w, 4)[:, :, :3]
+    inner = np.abs(on - off).sum(axis=2) > 0.05
+    drawn = inner.copy()
+    for dy in range(-3, 4):
+        for dx in range(-3, 4):
+            inner &= np.roll(np.roll(drawn, dy, 0), dx, 1)
+    around = np.stack([on[1 + dy:h - 1 + dy, 1 + dx:w - 1 + dx]
+                       for dy in (-1, 0, 1) for dx in (-1, 0, 1) if (dy, dx) != (0, 0)])
+    stands_out = np.abs(on[1:-1, 1:-1] - np.median(around, axis=0)).max(axis=2) > 0.2
+    agree = (np.percentile(around, 75, axis=0) -
+             np.percentile(around, 25, axis=0)).max(axis=2) < 0.08
+    return int(np.sum(stands_out & agree & inner[1:-1, 1:-1]))
 
 
 def setup():
@@ -87,6 +108,9 @@ def step():
               flush=True)
         assert differ > 0.02 * w * h, "GPU preview drew (almost) nothing"
         assert len(colours) > 20, "GPU preview is flat (no texture/light)"
+        stray = isolated_pixels(w, h, on, off[2])
+        print(f"isolated pixels inside the planet: {stray}", flush=True)
+        assert stray == 0, "GPU preview has stray pixels (dots along lines of the view)"
         print("PLOD-TEST PASS", flush=True)
         os._exit(0)
     except BaseException:
