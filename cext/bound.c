@@ -507,11 +507,6 @@ static int plod__exceeds_slack(const plod_bound_view *v, const plod_bound *b, do
     return exceeds;
 }
 
-int plod_bound_exceeds_at_prism(const plod_bound_view *v, const plod_bound *b)
-{
-    return plod__exceeds_slack(v, b, NULL);
-}
-
 int plod_bound_exceeds_memo(const plod_bound_view *v, plod_bound *b)
 {
     plod_bound_memo *m = &b->memo;

@@ -112,10 +112,8 @@ double plod_bound_distance(const plod_bound_view *view, const plod_bound *b);
  * over the coarsening. */
 double plod_bound_score(const plod_bound_view *view, const plod_bound *b, double distance);
 /* score > 1 at plod_bound_distance, decided without it where cheaper
- * bounds settle it (the same result). */
-int plod_bound_exceeds_at_prism(const plod_bound_view *view, const plod_bound *b);
-/* plod_bound_exceeds_at_prism, from b's memo while it holds (the same
- * result); otherwise tested and, when view->memo_key is set, memoised. */
+ * bounds settle it (the same result); from b's memo while it holds,
+ * otherwise tested and, when view->memo_key is set, memoised. */
 int plod_bound_exceeds_memo(const plod_bound_view *view, plod_bound *b);
 
 #ifdef __cplusplus
