@@ -15,11 +15,15 @@
  * square's 8 octant triangles, each inner (northern) one paired with the
  * outer (southern) one across the equator line |u|+|v| = 1.
  *
- * Adjacency: every sector edge is keyed by the sum of its two endpoints'
- * canonical integer points on the cube (or octahedron) surface, which is
- * unique for the edges of a conforming mesh and equal from both faces of a
- * cube edge.  A hash table maps each key to the two leaves sharing it, so
- * forced splits and diamond lookups are O(1) and exact across faces.
+ * Adjacency: every leaf links to the leaf across each of its edges (a
+ * conforming mesh: always exactly one), so forced splits and diamond
+ * lookups are one read, across faces too.  Splits and merges keep the links
+ * as the half-edge meshes of ROAM do (M. Duchaineau et al., "ROAMing
+ * Terrain: Real-time Optimally Adapting Meshes", IEEE Visualization, 1997):
+ * a child inherits its parent's leg, the ring around the split point links
+ * the four children, and the outer neighbours are relinked.  Corners keep
+ * canonical integer points on the cube (or octahedron) surface, equal from
+ * both faces of a cube edge, which the checks compare.
  *
  * Nodes: the bounds of the internal (split) nodes are kept in a dense
  * array in creation order (removed ones leave holes until the next
@@ -40,7 +44,7 @@
 
 #define PLOD__ONE ((int32_t)1 << PLOD_COORD_BITS)
 
-/* ---- canonical points and edge keys -------------------------------------- */
+/* ---- canonical points and neighbour links -------------------------------- */
 
 static void plod__canon(const plod_lodtree *t, int face, int32_t u, int32_t v,
                         int32_t out[3])
@@ -64,193 +68,49 @@ static void plod__canon(const plod_lodtree *t, int face, int32_t u, int32_t v,
     out[2] = z;
 }
 
-/* Edge e joins corners e and (e + 1) % 3; edge 2 is the hypotenuse. */
-static void plod__edge_key(const plod_lodtree *t, const plod_sector *s, int e,
-                           int32_t key[3])
-{
-    int a = e, b = (e + 1) % 3;
-    int32_t pa[3], pb[3];
-    plod__canon(t, s->face, s->cu[a], s->cv[a], pa);
-    plod__canon(t, s->face, s->cu[b], s->cv[b], pb);
-    for (int i = 0; i < 3; i++)
-        key[i] = pa[i] + pb[i];
-}
-
-/* The key of edge e from cached canonical points (= plod__edge_key). */
-static void plod__corners_key(const plod_lodtree_corners *c, int e, int32_t key[3])
-{
-    const int32_t *pa = c->canon[e], *pb = c->canon[(e + 1) % 3];
-    for (int i = 0; i < 3; i++)
-        key[i] = pa[i] + pb[i];
-}
-
-static void plod__leaf_key(const plod_lodtree *t, size_t at, int e, int32_t key[3])
-{
-    plod__corners_key(&t->corners[at], e, key);
-}
-
-static size_t plod__hash(const int32_t key[3])
-{
-    uint64_t h = (uint32_t)key[0];
-    h = h * 0x9E3779B97F4A7C15ull ^ (uint32_t)key[1];
-    h = h * 0xC2B2AE3D27D4EB4Full ^ (uint32_t)key[2];
-    h ^= h >> 31;
-    h *= 0x94D049BB133111EBull;
-    h ^= h >> 29;
-    return (size_t)h;
-}
-
 static int plod__key_eq(const int32_t a[3], const int32_t b[3])
 {
     return a[0] == b[0] && a[1] == b[1] && a[2] == b[2];
 }
 
-static int plod__slot_empty(const plod_lodtree_edge *e)
+/* Whether edge ea of leaf a and edge eb of leaf b join the same two
+ * points, in opposite directions (as two counter-clockwise neighbours'). */
+static int plod__same_edge(const plod_lodtree *t, size_t a, int ea, size_t b, int eb)
 {
-    return e->leaf[0] < 0 && e->leaf[1] < 0;
+    const int32_t(*pa)[3] = t->corners[a].canon, (*pb)[3] = t->corners[b].canon;
+    return plod__key_eq(pa[ea], pb[(eb + 1) % 3]) && plod__key_eq(pa[(ea + 1) % 3], pb[eb]);
 }
 
-static size_t plod__edge_find(const plod_lodtree *t, const int32_t key[3])
-{
-    size_t i = plod__hash(key) & t->edge_mask;
-    for (;;) {
-        const plod_lodtree_edge *e = &t->edges[i];
-        if (plod__slot_empty(e))
-            return (size_t)-1;
-        if (plod__key_eq(e->key, key))
-            return i;
-        i = (i + 1) & t->edge_mask;
-    }
-}
-
-static plod_status plod__edge_grow(plod_lodtree *t, size_t capacity)
-{
-    plod_lodtree_edge *fresh = malloc(capacity * sizeof *fresh);
-    if (!fresh)
-        return PLOD_ERR_NO_MEMORY;
-    for (size_t i = 0; i < capacity; i++)
-        fresh[i].leaf[0] = fresh[i].leaf[1] = -1;
-    plod_lodtree_edge *old = t->edges;
-    size_t old_capacity = old ? t->edge_mask + 1 : 0;
-    t->edges = fresh;
-    t->edge_mask = capacity - 1;
-    for (size_t i = 0; i < old_capacity; i++) {
-        if (plod__slot_empty(&old[i]))
-            continue;
-        size_t j = plod__hash(old[i].key) & t->edge_mask;
-        while (!plod__slot_empty(&fresh[j]))
-            j = (j + 1) & t->edge_mask;
-        fresh[j] = old[i];
-    }
-    free(old);
-    return PLOD_OK;
-}
-
-/* Capacity is ensured by the caller (plod__reserve). */
-static void plod__edge_add(plod_lodtree *t, const int32_t key[3], int32_t leaf)
-{
-    size_t i = plod__hash(key) & t->edge_mask;
-    for (;;) {
-        plod_lodtree_edge *e = &t->edges[i];
-        if (plod__slot_empty(e)) {
-            memcpy(e->key, key, sizeof e->key);
-            e->leaf[0] = leaf;
-            e->leaf[1] = -1;
-            t->edge_used++;
-            return;
-        }
-        if (plod__key_eq(e->key, key)) {
-            assert(e->leaf[0] < 0 || e->leaf[1] < 0);
-            e->leaf[e->leaf[0] < 0 ? 0 : 1] = leaf;
-            return;
-        }
-        i = (i + 1) & t->edge_mask;
-    }
-}
-
-/* A new edge shared by leaves a and b (key absent; capacity ensured). */
-static void plod__edge_add_two(plod_lodtree *t, const int32_t key[3], int32_t a, int32_t b)
-{
-    size_t i = plod__hash(key) & t->edge_mask;
-    while (!plod__slot_empty(&t->edges[i])) {
-        assert(!plod__key_eq(t->edges[i].key, key));
-        i = (i + 1) & t->edge_mask;
-    }
-    plod_lodtree_edge *e = &t->edges[i];
-    memcpy(e->key, key, sizeof e->key);
-    e->leaf[0] = a;
-    e->leaf[1] = b;
-    t->edge_used++;
-}
-
-static void plod__edge_remove(plod_lodtree *t, const int32_t key[3], int32_t leaf)
-{
-    size_t i = plod__edge_find(t, key);
-    assert(i != (size_t)-1);
-    plod_lodtree_edge *e = &t->edges[i];
-    if (e->leaf[0] == leaf)
-        e->leaf[0] = -1;
-    else if (e->leaf[1] == leaf)
-        e->leaf[1] = -1;
-    else
-        assert(!"leaf not on its edge");
-    if (!plod__slot_empty(e))
-        return;
-    /* backward-shift deletion keeps linear probing chains intact */
-    t->edge_used--;
-    size_t hole = i, j = i;
-    for (;;) {
-        j = (j + 1) & t->edge_mask;
-        plod_lodtree_edge *n = &t->edges[j];
-        if (plod__slot_empty(n))
-            break;
-        size_t home = plod__hash(n->key) & t->edge_mask;
-        /* move n into the hole unless its home lies cyclically in (hole, j] */
-        int stays = hole <= j ? (home > hole && home <= j) : (home > hole || home <= j);
-        if (stays)
-            continue;
-        t->edges[hole] = *n;
-        n->leaf[0] = n->leaf[1] = -1;
-        hole = j;
-    }
-}
-
-static void plod__edge_replace(plod_lodtree *t, const int32_t key[3], int32_t from,
-                               int32_t to)
-{
-    size_t i = plod__edge_find(t, key);
-    assert(i != (size_t)-1);
-    plod_lodtree_edge *e = &t->edges[i];
-    if (e->leaf[0] == from)
-        e->leaf[0] = to;
-    else {
-        assert(e->leaf[1] == from);
-        e->leaf[1] = to;
-    }
-}
-
-/* The other leaf on edge `e` of leaf `index`, or -1. */
+/* The other leaf on edge `e` of leaf `index`. */
 static int32_t plod__across(const plod_lodtree *t, size_t index, int e)
 {
-    int32_t key[3];
-    plod__leaf_key(t, index, e, key);
-    size_t i = plod__edge_find(t, key);
-    if (i == (size_t)-1)
-        return -1;
-    const plod_lodtree_edge *edge = &t->edges[i];
-    return edge->leaf[0] == (int32_t)index ? edge->leaf[1] : edge->leaf[0];
+    return t->neighbours[index][e];
 }
 
-static void plod__leaf_link(plod_lodtree *t, size_t index)
+/* Leaf `leaf`'s link that pointed at `from` points at `to` instead (two
+ * sectors of a conforming mesh share at most one edge, so the link is
+ * found by value). */
+static void plod__relink(plod_lodtree *t, int32_t leaf, int32_t from, int32_t to)
 {
+    assert(leaf >= 0 && (size_t)leaf < t->count);
+    int32_t *link = t->neighbours[leaf];
     for (int e = 0; e < 3; e++) {
-        int32_t key[3];
-        plod__leaf_key(t, index, e, key);
-        plod__edge_add(t, key, (int32_t)index);
+        if (link[e] == from) {
+            link[e] = to;
+            return;
+        }
     }
+    assert(!"leaf not linked to its neighbour");
 }
 
-/* Room for `extra` more leaves (and their edges). */
+/* A merge's watch on a leaf it will cascade from: plod__drop_unlinked
+ * updates `index` when it moves that leaf. */
+typedef struct plod_lodtree_watch {
+    size_t index;
+    struct plod_lodtree_watch *outer;
+} plod_lodtree_watch;
+
+/* Room for `extra` more leaves. */
 static plod_status plod__reserve(plod_lodtree *t, size_t extra)
 {
     size_t need = t->count + extra;
@@ -274,16 +134,11 @@ static plod_status plod__reserve(plod_lodtree *t, size_t extra)
         if (!parent)
             return PLOD_ERR_NO_MEMORY;
         t->leaf_parent = parent;
-        t->capacity = capacity;
-    }
-    /* every leaf has 3 edges, each shared by 2 leaves: 1.5 keys per leaf */
-    size_t keys = t->edge_used + 3 * extra + 8;
-    size_t edge_capacity = t->edges ? t->edge_mask + 1 : 0;
-    if (keys * 2 > edge_capacity) {
-        size_t capacity = edge_capacity ? edge_capacity : 256;
-        while (keys * 2 > capacity)
-            capacity *= 2;
-        return plod__edge_grow(t, capacity);
+        int32_t(*neighbours)[3] = realloc(t->neighbours, capacity * sizeof *neighbours);
+        if (!neighbours)
+            return PLOD_ERR_NO_MEMORY;
+        t->neighbours = neighbours;
+        t->capacity = capacity; /* only once all five have grown */
     }
     return PLOD_OK;
 }
@@ -508,14 +363,11 @@ static void plod__split_diamond(plod_lodtree *t, size_t i, size_t n)
 {
     size_t pair[2] = {i, n};
     plod_sector parents[2] = {t->leaves[i], t->leaves[n]};
-    /* edge table, incrementally: the shared hypotenuse goes; a child's own
-     * hypotenuse is one of its parent's legs (child 0 keeps the parent's
-     * slot, so only child 1's leg is relinked); the children's other two
-     * edges are new, four keys each shared by two of the four children */
-    int32_t hyp[3];
-    plod__leaf_key(t, i, 2, hyp);
-    plod__edge_remove(t, hyp, (int32_t)i);
-    plod__edge_remove(t, hyp, (int32_t)n);
+    /* links: a child's hypotenuse is one of its parent's legs (child 0
+     * keeps the parent's slot, so only child 1's neighbour is relinked);
+     * the children's other two edges join them around the midpoint */
+    int32_t legs[2][2] = {{t->neighbours[i][0], t->neighbours[i][1]},
+                          {t->neighbours[n][0], t->neighbours[n][1]}};
     int32_t node[2] = {plod__node_add(t, parents[0].id, &t->geom[i].self, t->leaf_parent[i]),
                        plod__node_add(t, parents[1].id, &t->geom[n].self, t->leaf_parent[n])};
     t->node_partner[node[0]] = node[1];
@@ -552,11 +404,9 @@ static void plod__split_diamond(plod_lodtree *t, size_t i, size_t n)
             g->eval_frame = t->frame - 1;
             t->leaf_parent[at] = node[k];
             plod__apply_bound(c, &g->self);
-            if (at != pair[k]) {
-                int32_t key[3];
-                plod__leaf_key(t, at, 2, key);
-                plod__edge_replace(t, key, (int32_t)pair[k], (int32_t)at);
-            }
+            t->neighbours[at][2] = legs[k][bit];
+            if (at != pair[k])
+                plod__relink(t, legs[k][bit], (int32_t)pair[k], (int32_t)at);
         }
     }
     /* p's children (p1, m, p0), (p2, m, p1); q's (q1, m, p2), (p0, m, q1):
@@ -565,9 +415,8 @@ static void plod__split_diamond(plod_lodtree *t, size_t i, size_t n)
     for (int k = 0; k < 4; k++) {
         size_t a = child[ring[k][0]][ring[k][1]];
         size_t b = child[ring[(k + 1) % 4][0]][ring[(k + 1) % 4][1]];
-        int32_t key[3];
-        plod__leaf_key(t, a, 0, key);
-        plod__edge_add_two(t, key, (int32_t)a, (int32_t)b);
+        t->neighbours[a][0] = (int32_t)b;
+        t->neighbours[b][1] = (int32_t)a;
     }
     t->splits += 2;
     t->pending[t->pending_count++] = i;
@@ -625,20 +474,22 @@ int plod_lodtree_split(plod_lodtree *t, size_t i)
 
 /* ---- merge ----------------------------------------------------------------- */
 
-/* Drops leaf x, already unlinked, moving the last leaf into its slot. */
+/* Drops leaf x, which no leaf links to any more, moving the last leaf
+ * into its slot. */
 static void plod__drop_unlinked(plod_lodtree *t, size_t x)
 {
     size_t last = t->count - 1;
     if (x != last) {
-        for (int e = 0; e < 3; e++) {
-            int32_t key[3];
-            plod__leaf_key(t, last, e, key);
-            plod__edge_replace(t, key, (int32_t)last, (int32_t)x);
-        }
+        for (int e = 0; e < 3; e++)
+            plod__relink(t, t->neighbours[last][e], (int32_t)last, (int32_t)x);
+        memcpy(t->neighbours[x], t->neighbours[last], sizeof t->neighbours[x]);
         t->leaves[x] = t->leaves[last];
         t->geom[x] = t->geom[last];
         t->corners[x] = t->corners[last];
         t->leaf_parent[x] = t->leaf_parent[last];
+        for (plod_lodtree_watch *w = t->watches; w; w = w->outer)
+            if (w->index == last)
+                w->index = x;
     }
     t->count--;
 }
@@ -751,26 +602,23 @@ static int plod__merge_diamond(plod_lodtree *t, size_t ia, int32_t pi,
     plod__node_remove(t, pi);
     plod__node_remove(t, qi);
     size_t ib_ = (size_t)ib, ic_ = (size_t)ic, id2 = (size_t)id_;
-    /* edge table, incrementally (the reverse of plod__split_diamond): each
-     * child's hypotenuse is a leg of its parent, relinked to the parent's
-     * slot; the children's other edges go; the parents' shared hypotenuse
-     * comes back */
-    const size_t child_at[4] = {ia, ib_, ic_, id2};
-    for (int x = 0; x < 4; x++) {
-        size_t to = x < 2 ? ia : ic_;
-        int32_t key[3];
-        if (child_at[x] != to) {
-            plod__leaf_key(t, child_at[x], 2, key);
-            plod__edge_replace(t, key, (int32_t)child_at[x], (int32_t)to);
-        }
-        for (int e = 0; e < 2; e++) {
-            plod__leaf_key(t, child_at[x], e, key);
-            plod__edge_remove(t, key, (int32_t)child_at[x]);
-        }
-    }
-    plod_lodtree_corners cp = plod__parent_corners(&t->corners[ia], &t->corners[ib_]);
     /* a is child 0 of p; c may be either child of q */
     int c_first = !(t->leaves[ic_].id & 1);
+    /* links (the reverse of plod__split_diamond): each child's hypotenuse
+     * is a leg of its parent, whose neighbour is relinked to the parent's
+     * slot; the parents share their hypotenuse again */
+    const size_t child_at[2][2] = {{ia, ib_}, {c_first ? ic_ : id2, c_first ? id2 : ic_}};
+    const size_t parent_at[2] = {ia, ic_};
+    for (int k = 0; k < 2; k++) {
+        int32_t legs[2] = {t->neighbours[child_at[k][0]][2], t->neighbours[child_at[k][1]][2]};
+        for (int bit = 0; bit < 2; bit++)
+            if (child_at[k][bit] != parent_at[k])
+                plod__relink(t, legs[bit], (int32_t)child_at[k][bit], (int32_t)parent_at[k]);
+        t->neighbours[parent_at[k]][0] = legs[0];
+        t->neighbours[parent_at[k]][1] = legs[1];
+        t->neighbours[parent_at[k]][2] = (int32_t)parent_at[1 - k];
+    }
+    plod_lodtree_corners cp = plod__parent_corners(&t->corners[ia], &t->corners[ib_]);
     plod_lodtree_corners cq = plod__parent_corners(&t->corners[c_first ? ic_ : id2],
                                             &t->corners[c_first ? id2 : ic_]);
     t->corners[ia] = cp;
@@ -781,10 +629,6 @@ static int plod__merge_diamond(plod_lodtree *t, size_t ia, int32_t pi,
     t->leaves[ic_] = q;
     t->geom[ic_] = gq;
     t->leaf_parent[ic_] = gp_gq_parent[1];
-    int32_t hyp[3];
-    plod__leaf_key(t, ia, 2, hyp);
-    plod__edge_add(t, hyp, (int32_t)ia);
-    plod__edge_add(t, hyp, (int32_t)ic_);
     size_t hi = ib_ > id2 ? ib_ : id2, lo = ib_ > id2 ? id2 : ib_;
     size_t at[2] = {ia, ic_};
     for (int k = 0; k < 2; k++) {
@@ -800,21 +644,14 @@ static int plod__merge_diamond(plod_lodtree *t, size_t ia, int32_t pi,
             t->node_leaves[up]++; /* its child is a leaf again */
     }
     t->merges += 2;
+    /* the first cascade may move q into a hole: a watch follows it */
     uint64_t q_id = t->leaves[at[1]].id;
-    int32_t q_hyp[3];
-    plod__leaf_key(t, at[1], 2, q_hyp);
+    plod_lodtree_watch q_watch = {at[1], t->watches};
+    t->watches = &q_watch;
     plod__cascade(t, at[0], m);
-    /* the first cascade may have moved q into a hole (or merged p away):
-     * q is still on its own hypotenuse edge, found by key */
-    size_t slot = plod__edge_find(t, q_hyp);
-    assert(slot != (size_t)-1);
-    for (int k = 0; k < 2; k++) {
-        int32_t leaf = t->edges[slot].leaf[k];
-        if (leaf >= 0 && t->leaves[leaf].id == q_id) {
-            plod__cascade(t, (size_t)leaf, m);
-            break;
-        }
-    }
+    t->watches = q_watch.outer;
+    if (q_watch.index < t->count && t->leaves[q_watch.index].id == q_id)
+        plod__cascade(t, q_watch.index, m);
     return 1;
 }
 
@@ -840,18 +677,30 @@ static void plod__add_base(plod_lodtree *t, unsigned base, int face,
     g->eval_frame = t->frame - 1;
     t->leaf_parent[at] = -1;
     plod__apply_bound(s, &g->self);
-    plod__leaf_link(t, at);
+}
+
+/* Links the base sectors: each edge to the one other base edge joining the
+ * same two points (a dozen sectors: by comparison). */
+static void plod__link_base(plod_lodtree *t)
+{
+    for (size_t i = 0; i < t->count; i++) {
+        for (int e = 0; e < 3; e++) {
+            t->neighbours[i][e] = -1;
+            for (size_t j = 0; j < t->count && t->neighbours[i][e] < 0; j++)
+                for (int f = 0; f < 3; f++)
+                    if (j != i && plod__same_edge(t, i, e, j, f))
+                        t->neighbours[i][e] = (int32_t)j;
+            assert(t->neighbours[i][e] >= 0);
+        }
+    }
 }
 
 static plod_status plod__build_base(plod_lodtree *t)
 {
     t->count = 0;
-    t->edge_used = 0;
     t->node_used = 0;
     t->node_top = 0;
-    if (t->edges)
-        for (size_t i = 0; i <= t->edge_mask; i++)
-            t->edges[i].leaf[0] = t->edges[i].leaf[1] = -1;
+    t->watches = NULL;
     plod_status st = plod__reserve(t, 12);
     if (st != PLOD_OK)
         return st;
@@ -882,6 +731,7 @@ static plod_status plod__build_base(plod_lodtree *t)
             plod__add_base(t, base++, 0, ou, ov);
         }
     }
+    plod__link_base(t);
     return PLOD_OK;
 }
 
@@ -907,7 +757,7 @@ void plod_lodtree_free(plod_lodtree *t)
     free(t->geom);
     free(t->corners);
     free(t->leaf_parent);
-    free(t->edges);
+    free(t->neighbours);
     free(t->nodes);
     free(t->node_parent);
     free(t->node_state);
@@ -945,6 +795,7 @@ plod_status plod_lodtree_reserve(plod_lodtree *t, size_t sectors)
         memset(t->geom + old_leaves, 0, grown * sizeof *t->geom);
         memset(t->corners + old_leaves, 0, grown * sizeof *t->corners);
         memset(t->leaf_parent + old_leaves, 0, grown * sizeof *t->leaf_parent);
+        memset(t->neighbours + old_leaves, 0, grown * sizeof *t->neighbours);
     }
     grown = t->node_capacity - old_nodes;
     if (grown) {
@@ -964,9 +815,7 @@ plod_status plod_lodtree_reserve(plod_lodtree *t, size_t sectors)
 size_t plod_lodtree_memory_bytes(const plod_lodtree *t)
 {
     size_t bytes = t->capacity * (sizeof(plod_sector) + sizeof(plod_lodtree_leaf) +
-                                  sizeof(int32_t));
-    if (t->edges)
-        bytes += (t->edge_mask + 1) * sizeof(plod_lodtree_edge);
+                                  sizeof(int32_t) + sizeof *t->neighbours);
     bytes += t->capacity * sizeof(plod_lodtree_corners);
     bytes += t->node_capacity * (sizeof(plod_lodtree_node) + 2 * sizeof(int32_t) + 3);
     bytes += t->pending_capacity * sizeof(size_t);
@@ -986,26 +835,9 @@ int plod_lodtree_try_merge(plod_lodtree *t, size_t leaf, plod_lodtree_merge_fn a
 
 plod_status plod_lodtree_check(const plod_lodtree *t)
 {
-    size_t links = 0;
     for (size_t i = 0; i < t->count; i++) {
         const plod_sector *s = &t->leaves[i];
-        for (int e = 0; e < 3; e++) {
-            int32_t key[3];
-            plod__edge_key(t, s, e, key);
-            size_t slot = plod__edge_find(t, key);
-            if (slot == (size_t)-1)
-                return PLOD_ERR_BAD_PARAM;
-            const plod_lodtree_edge *edge = &t->edges[slot];
-            if (edge->leaf[0] != (int32_t)i && edge->leaf[1] != (int32_t)i)
-                return PLOD_ERR_BAD_PARAM;
-            int32_t other = edge->leaf[0] == (int32_t)i ? edge->leaf[1] : edge->leaf[0];
-            if (other < 0 || (size_t)other >= t->count)
-                return PLOD_ERR_BAD_PARAM; /* closed sphere: always two */
-            int dl = (int)t->leaves[other].level - (int)s->level;
-            if (dl < -1 || dl > 1)
-                return PLOD_ERR_BAD_PARAM;
-        }
-        /* the corner cache holds the bits a fresh computation gives */
+        /* the corner cache first: the links are checked on its points */
         double fresh[3][3];
         plod_sector_corners(t->planet, s, fresh);
         const plod_lodtree_corners *cc = &t->corners[i];
@@ -1017,6 +849,27 @@ plod_status plod_lodtree_check(const plod_lodtree *t)
             if (!plod__key_eq(point, cc->canon[k]))
                 return PLOD_ERR_BAD_PARAM;
         }
+    }
+    for (size_t i = 0; i < t->count; i++) {
+        const plod_sector *s = &t->leaves[i];
+        /* closed sphere: every edge has a leaf across, joining the same two
+         * points and linked back over that edge alone */
+        for (int e = 0; e < 3; e++) {
+            int32_t other = t->neighbours[i][e];
+            if (other < 0 || (size_t)other >= t->count || other == (int32_t)i)
+                return PLOD_ERR_BAD_PARAM;
+            int back = 0, f_back = -1;
+            for (int f = 0; f < 3; f++)
+                if (t->neighbours[other][f] == (int32_t)i)
+                    back++, f_back = f;
+            if (back != 1 || !plod__same_edge(t, i, e, (size_t)other, f_back))
+                return PLOD_ERR_BAD_PARAM;
+            int dl = (int)t->leaves[other].level - (int)s->level;
+            if (dl < -1 || dl > 1)
+                return PLOD_ERR_BAD_PARAM;
+        }
+        /* the corner cache holds the bits a fresh computation gives */
+        const plod_lodtree_corners *cc = &t->corners[i];
         for (int k = 0; k < 3; k++) {
             double h = plod_planet_map_height(t->planet, cc->dir[k]);
             if ((cc->known & (1u << k)) && memcmp(&h, &cc->height[k], sizeof h) != 0)
@@ -1028,14 +881,7 @@ plod_status plod_lodtree_check(const plod_lodtree *t)
         if (parent >= 0 && ((size_t)parent >= t->node_top ||
                             t->nodes[parent].id != plod_lodtree_parent_id(s->id)))
             return PLOD_ERR_BAD_PARAM;
-        links += 3;
     }
-    size_t used = 0;
-    for (size_t i = 0; i <= t->edge_mask; i++)
-        if (!plod__slot_empty(&t->edges[i]))
-            used++;
-    if (used != t->edge_used || 2 * used != links)
-        return PLOD_ERR_BAD_PARAM;
     /* a binary forest with count leaves over the base sectors */
     size_t bases = plod_projection_is_cube(t->planet->projection) ? 12 : 8;
     if (t->node_used + bases != t->count)

@@ -1,6 +1,6 @@
 /* plod_lodtree.h -- the LOD tree of the refinement (lodtree.c): implicit
- * longest-edge-bisection ids, the leaf and internal-node stores, the edge
- * hash that gives conforming neighbours, split and merge, and the
+ * longest-edge-bisection ids, the leaf and internal-node stores with
+ * their conforming neighbour links, split and merge, and the
  * invariants.  Mechanics only: when to split or merge is the LOD update's
  * (lodupdate.c), which drives the tree through these calls.  Internal to
  * the core: bindings use plod_refine.h.
@@ -58,14 +58,9 @@ typedef struct plod_lodtree_leaf {
 typedef struct plod_lodtree_corners {
     double dir[3][3];
     double height[3];
-    int32_t canon[3][3]; /* canonical points: edge keys */
+    int32_t canon[3][3]; /* canonical points (shared corners compare equal) */
     unsigned known; /* bit k: height[k] computed */
 } plod_lodtree_corners;
-
-typedef struct plod_lodtree_edge {
-    int32_t key[3];
-    int32_t leaf[2]; /* -1 = none; both -1 = empty slot */
-} plod_lodtree_edge;
 
 /* An internal (split) node and its bound. */
 typedef struct plod_lodtree_node {
@@ -87,8 +82,11 @@ typedef struct plod_lodtree {
                                     apart from geom: the merge sweep reads
                                     it for every leaf */
     size_t count, capacity;
-    plod_lodtree_edge *edges;
-    size_t edge_mask, edge_used; /* capacity - 1, live entries */
+    int32_t (*neighbours)[3];    /* the leaf across each edge (edge e joins
+                                    corners e and e + 1 mod 3); apart from
+                                    geom: only splits and merges read it */
+    struct plod_lodtree_watch *watches; /* leaves merges will cascade from,
+                                    kept up to date as leaves move */
     size_t *pending;             /* leaves a split wrote children into in
                                     place (the split pass revisits them) */
     size_t pending_count, pending_capacity;
@@ -122,7 +120,7 @@ plod_status plod_lodtree_init(plod_lodtree *tree, const plod_planet *planet);
 void plod_lodtree_free(plod_lodtree *tree);
 /* Back to the base sectors (the frame counter advances); keeps capacity. */
 void plod_lodtree_reset(plod_lodtree *tree);
-/* Room for `sectors` leaves, their nodes, edges and split queue, allocated
+/* Room for `sectors` leaves, their links, nodes and split queue, allocated
  * and touched now.  PLOD_ERR_NO_MEMORY leaves the tree usable. */
 plod_status plod_lodtree_reserve(plod_lodtree *tree, size_t sectors);
 size_t plod_lodtree_memory_bytes(const plod_lodtree *tree);

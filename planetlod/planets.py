@@ -149,7 +149,7 @@ def tiled_map(settings):
 
 # Sectors a planet allocates (and touches) when it is built: a 1 px LOD at
 # 1920x1080 peaks near 7,000 over the Earth map, so the first flight over a
-# new planet does not grow arrays mid-frame (about 11 MB, 3 ms, once).
+# new planet does not grow arrays mid-frame (about 10 MB, 3 ms, once).
 RESERVE_SECTORS = 16384
 
 
