@@ -64,6 +64,8 @@ struct plod_refiner {
     int memo_split_mode;
     double memo_split_scale, memo_error_scale;
     double travelled, memo_eye[3];
+    plod_workers *workers;       /* params.threads - 1 of them, or NULL */
+    int workers_for;             /* the params.threads they were started for */
 };
 
 /* One update's context: the tree it refines, its parameters and the
@@ -199,17 +201,33 @@ static void plod__eval_range(void *context, size_t begin, size_t end)
     }
 }
 
-/* Evaluates every leaf's P and flags on `threads` threads, after the node
- * sweep; below PLOD__PARALLEL_LEAVES leaves (thread start-up, ~10-50 us,
- * would eat the gain) or when no thread can be started the split pass
- * evaluates them as usual. */
-#define PLOD__PARALLEL_LEAVES 8192
+/* Evaluates every leaf's P and flags on the refiner's workers, after the
+ * node sweep; below PLOD__PARALLEL_LEAVES leaves (handing chunks over
+ * would eat the gain) or without workers the split pass evaluates them as
+ * usual. */
+#define PLOD__PARALLEL_LEAVES 2048
+#define PLOD__PARALLEL_GRAIN 512
 
-static void plod__eval_parallel(plod__frame *f, int threads)
+static void plod__eval_parallel(plod__frame *f)
 {
-    if (threads < 2 || f->tree->count < PLOD__PARALLEL_LEAVES)
+    plod_workers *workers = f->refiner->workers;
+    if (!workers || f->tree->count < PLOD__PARALLEL_LEAVES)
         return;
-    plod_parallel_for(f->tree->count, threads, plod__eval_range, f);
+    plod_workers_for(workers, f->tree->count, PLOD__PARALLEL_GRAIN, plod__eval_range, f);
+}
+
+/* Workers for params->threads, started once (and again when the count
+ * changes); none when they cannot start: the result is the same. */
+static void plod__ready_workers(plod_refiner *r, int threads)
+{
+    if (r->workers_for != threads) {
+        plod_workers_destroy(r->workers);
+        r->workers = NULL;
+        r->workers_for = threads;
+        if (threads >= 2 && plod_workers_create(&r->workers, threads) != PLOD_OK)
+            r->workers = NULL;
+    }
+    plod_workers_begin(r->workers); /* until the classification: they spin */
 }
 
 /* ---- one refinement pass; the budget ---------------------------------------------- */
@@ -297,7 +315,7 @@ static void plod__sweep(plod__frame *f, int step)
                                      PLOD__STAR_KNOWN |
                                      ((pk & PLOD__P_TRUE) ? PLOD__STAR_TRUE : 0u));
     }
-    plod__eval_parallel(f, f->params->threads);
+    plod__eval_parallel(f);
 }
 
 /* The merge pass: every diamond whose parents fail the split predicate;
@@ -681,15 +699,31 @@ static void plod__refine(plod_refiner *r, plod__frame *f)
     }
 }
 
-/* Every leaf's flags (culling, sea, visible) and the culling counts of
- * `stats`; returns the visible count. */
-static size_t plod__classify(const plod__frame *f, plod_refine_stats *s)
+/* The counts of plod__classify over a range of leaves. */
+typedef struct plod__class_counts {
+    size_t after_backface, after_frustum, sea_skipped, visible;
+    int deepest;
+} plod__class_counts;
+
+/* plod__classify's chunks: at most PLOD__CLASS_CHUNKS, each with its counts */
+#define PLOD__CLASS_CHUNKS 64
+
+typedef struct plod__class_job {
+    const plod__frame *frame;
+    size_t grain;
+    plod__class_counts counts[PLOD__CLASS_CHUNKS];
+} plod__class_job;
+
+/* Flags of leaves [begin, end), written to their own slots; the counts to
+ * the chunk's own entry. */
+static void plod__classify_range(void *context, size_t begin, size_t end)
 {
+    plod__class_job *job = context;
+    const plod__frame *f = job->frame;
     plod_lodtree *t = f->tree;
     const plod_planet *planet = t->planet;
-    size_t visible = 0;
-    int deepest = 0;
-    for (size_t i = 0; i < t->count; i++) {
+    plod__class_counts c = {0, 0, 0, 0, 0};
+    for (size_t i = begin; i < end; i++) {
         plod_sector *sec = &t->leaves[i];
         plod_lodtree_leaf *g = &t->geom[i];
         if (g->eval_frame != t->frame) { /* not visited (truncated pass) */
@@ -704,26 +738,53 @@ static size_t plod__classify(const plod__frame *f, plod_refine_stats *s)
         int sea = planet->has_sea_level && sec->height_max <= planet->sea_level;
         if (sea)
             flags |= PLOD_SECTOR_SEA;
-        deepest = sec->level > deepest ? sec->level : deepest;
+        c.deepest = sec->level > c.deepest ? sec->level : c.deepest;
         if (flags & PLOD_SECTOR_BACKFACING) {
             sec->flags = (uint16_t)flags;
             continue;
         }
-        s->sectors_after_backface++;
+        c.after_backface++;
         if (flags & PLOD_SECTOR_OUTSIDE_FRUSTUM) {
             sec->flags = (uint16_t)flags;
             continue;
         }
-        s->sectors_after_frustum++;
-        if (sea) {
-            if (f->params->skip_sea) {
-                s->sectors_sea_skipped++;
-                sec->flags = (uint16_t)flags;
-                continue;
-            }
+        c.after_frustum++;
+        if (sea && f->params->skip_sea) {
+            c.sea_skipped++;
+            sec->flags = (uint16_t)flags;
+            continue;
         }
         sec->flags = (uint16_t)(flags | PLOD_SECTOR_VISIBLE);
-        visible++;
+        c.visible++;
+    }
+    job->counts[begin / job->grain] = c;
+}
+
+/* Every leaf's flags (culling, sea, visible) and the culling counts of
+ * `stats`, on the refiner's workers when there are many leaves (the counts
+ * are sums: the same for any chunking); returns the visible count. */
+static size_t plod__classify(const plod__frame *f, plod_refine_stats *s)
+{
+    size_t count = f->tree->count;
+    plod__class_job job;
+    job.frame = f;
+    job.grain = count / PLOD__CLASS_CHUNKS + 1;
+    if (job.grain < PLOD__PARALLEL_GRAIN)
+        job.grain = PLOD__PARALLEL_GRAIN;
+    size_t chunks = count ? (count - 1) / job.grain + 1 : 0;
+    /* a single call on the caller writes entry 0 only */
+    memset(job.counts, 0, chunks * sizeof job.counts[0]);
+    plod_workers_for(count >= PLOD__PARALLEL_LEAVES ? f->refiner->workers : NULL, count,
+                     job.grain, plod__classify_range, &job);
+    size_t visible = 0;
+    int deepest = 0;
+    for (size_t k = 0; k < chunks; k++) {
+        const plod__class_counts *c = &job.counts[k];
+        s->sectors_after_backface += c->after_backface;
+        s->sectors_after_frustum += c->after_frustum;
+        s->sectors_sea_skipped += c->sea_skipped;
+        visible += c->visible;
+        deepest = c->deepest > deepest ? c->deepest : deepest;
     }
     s->max_level_reached = deepest;
     return visible;
@@ -791,11 +852,13 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
     plod__frame f;
     plod__frame_init(&f, r, camera, params, eye_dist);
     plod__travel(r, camera->position);
+    plod__ready_workers(r, params->threads);
     plod__refine(r, &f);
     double t1 = plod__now_us();
     plod_refine_stats s;
     memset(&s, 0, sizeof s);
     size_t visible = plod__classify(&f, &s);
+    plod_workers_end(r->workers);
     st = plod__cut_to_budget(&f, &visible);
     if (st == PLOD_OK)
         st = plod__order_visible(r, visible);
@@ -842,6 +905,7 @@ void plod_refiner_destroy(plod_refiner *refiner)
 {
     if (!refiner)
         return;
+    plod_workers_destroy(refiner->workers);
     plod_lodtree_free(&refiner->tree);
     free(refiner->order);
     free(refiner->order_keys);

@@ -1,6 +1,6 @@
 /* plod_base.h -- what every stage of the Planet LOD core shares: status
- * codes (plod_status.h), constants, small double[3] vector helpers and one
- * fork-join loop over threads.
+ * codes (plod_status.h), constants, small double[3] vector helpers, one
+ * fork-join loop over threads and a pool of persistent workers.
  */
 #ifndef PLOD_BASE_H
 #define PLOD_BASE_H
@@ -57,6 +57,37 @@ typedef void (*plod_range_fn)(void *context, size_t begin, size_t end);
  * disjoint memory, and the output is the same for every thread count only
  * if it does not depend on the blocking. */
 void plod_parallel_for(size_t count, int threads, plod_range_fn range, void *context);
+
+/* Persistent workers, for loops of a few hundred microseconds, where
+ * starting threads (tens of microseconds each) would eat the gain.  A loop
+ * is cut into chunks that the caller and the workers claim in turn; the
+ * caller never waits for a worker to start, only for the chunks a worker
+ * has claimed, so a worker that is slow to be scheduled (or gone: after
+ * fork()) costs nothing but its share.  Between plod_workers_begin and
+ * plod_workers_end idle workers spin for the next loop; otherwise they look
+ * for one every ~0.1 ms for a while, then sleep.  The pool belongs to its
+ * creator, who calls it from one thread at a time. */
+typedef struct plod_workers plod_workers;
+
+/* `threads` - 1 workers (threads counts the caller).  PLOD_ERR_BAD_PARAM
+ * for threads < 2 or above PLOD_MAX_THREADS; PLOD_ERR_NO_MEMORY when no
+ * thread could start (with fewer it succeeds; plod_workers_threads says). */
+plod_status plod_workers_create(plod_workers **out, int threads);
+void plod_workers_destroy(plod_workers *workers);
+/* The caller plus the workers that started. */
+int plod_workers_threads(const plod_workers *workers);
+/* Loops are coming: idle workers wake (if asleep) and spin until
+ * plod_workers_end (or a few milliseconds), so the loops start on all
+ * threads at once. */
+void plod_workers_begin(plod_workers *workers);
+void plod_workers_end(plod_workers *workers);
+/* Calls range(context, begin, end) over [0, count) in chunks of `grain`
+ * (0 counts as 1), on the caller and the workers; returns when every chunk
+ * has run.  workers NULL: one call on the caller.  As plod_parallel_for:
+ * chunks must write disjoint memory, and the output is the same for every
+ * thread count only if it does not depend on the chunking. */
+void plod_workers_for(plod_workers *workers, size_t count, size_t grain, plod_range_fn range,
+                      void *context);
 
 #ifdef __cplusplus
 }

@@ -93,8 +93,9 @@ typedef struct plod_refine_params {
                                 (stats.truncated) */
     int threads;             /* 1..PLOD_REFINE_MAX_THREADS, default 1: threads
                                 that evaluate the leaves' predicates and
-                                flags of large sector sets (>= 8192 leaves;
-                                the node sweep stays sequential); result
+                                flags of large sector sets (>= 2048 leaves;
+                                the node sweep stays sequential), the
+                                refiner's persistent workers; result
                                 identical to 1 */
     size_t max_splits;       /* 0 (default): unlimited.  Progressive
                                 refinement (the viewport): an update makes at

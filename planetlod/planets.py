@@ -260,6 +260,12 @@ class ProgressiveSplits:
             self.splits = max(self.least, int(self.splits * scale))
 
 
+# Threads of a refine: the planet's worker evaluates half the leaves of a large
+# sector set while the caller does the other half (the same sectors for any
+# count); two, as the mesh emission uses.
+REFINE_THREADS = max(1, min(2, os.cpu_count() or 1))
+
+
 def refine(planet, camera, settings, hysteresis=False, max_splits=0):
     """Refines `planet` for `camera`; returns the stats dict plus 'triangles'.
     hysteresis=False (renders) makes the LOD a function of the camera alone.
@@ -275,7 +281,8 @@ def refine(planet, camera, settings, hysteresis=False, max_splits=0):
                   template_level=template_level, max_level=max_level(settings),
                   budget=int(settings["budget"]), backface=bool(settings["backface"]),
                   frustum=bool(settings["frustum"]),
-                  skip_sea=bool(settings.get("use_sea_level") and settings.get("skip_sea")))
+                  skip_sea=bool(settings.get("use_sea_level") and settings.get("skip_sea")),
+                  threads=REFINE_THREADS)
     if max_splits > 0:
         kwargs["max_splits"] = int(max_splits)
     stats = dict(planet.refine(camera, **kwargs))
