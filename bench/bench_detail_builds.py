@@ -1,6 +1,8 @@
 #!/usr/bin/env python3
 """Two builds of planetlod side by side in one process, frame by frame:
-refine+cull with and without the detail field (as bench_detail.py), the detail field's emission (cold and flyby, the Earth preset along
+refine+cull with and without the detail field (as bench_detail.py); the
+same with detail, each build flying whole descents alone, in turns; the
+detail field's emission (cold and flyby, the Earth preset along
 bench_refine.py's descent, as bench_detail.py) and an artist's viewport
 refresh with the GPU preview (refine with hysteresis + mesh() +
 surface.preview_data, per planet preset, as bench_viewport_detail.py).
@@ -13,7 +15,8 @@ surface.preview_data, per planet preset, as bench_viewport_detail.py).
 --base and --new are folders holding a planetlod build (the new one
 defaults to this checkout).  Both modules are loaded into one process
 (each its own copy of the library), and every frame runs the base, then
-the new build, so load from other tasks falls on both alike.  Per measure:
+the new build (descent by descent for the lone descents), so load from
+other tasks falls on both alike.  Per measure:
 the median and mean over the frames of each build and the median of the
 per-frame ratios base / new.  Not a test: figures only.
 """
@@ -146,6 +149,35 @@ def refine(builds, presets, args):
                   f"{sum(1 for x in us if x > 1000.0)} of {len(us)}")
 
 
+def refine_alone(builds, presets, args):
+    """Refine+cull with detail as above, but each build flies whole descents
+    by itself, the builds taking turns descent by descent: a frame's time
+    without the other planet's data in the caches between frames (and with
+    the workers of threads >= 2 as a lone planet keeps them)."""
+    detail = presets.detail_settings("EARTH")
+    best = {}
+    for name, lod in builds.items():
+        planet = lod.Planet(R, heightmap=data_path("earth-topology.png"), height_scale=8848.0,
+                            sea_level=0.0, detail=detail)
+        planet.reserve(1 << 16)
+        top = planet.height_range()[1]
+        path = list(bench_refine.descent(args.refine_frames, terrain_top=top))
+        best[name] = (planet, [camera(lod, m) for _alt, m in path], [float("inf")] * len(path))
+    for _ in range(args.passes):
+        for name, (planet, cams, us) in best.items():
+            planet.reset()
+            for k, cam in enumerate(cams):
+                s = planet.refine(cam, template_level=4, max_level=48, threads=args.refine_threads)
+                us[k] = min(us[k], s["refine_us"] + s["cull_us"])
+    figures = {name: us for name, (_p, _c, us) in best.items()}
+    print(f"\nrefine+cull, detail on, each build alone, {args.refine_threads} thread(s), per "
+          f"frame the best of {args.passes} descents")
+    report("refine+cull alone, detail on", "µs", figures, False)
+    for name, us in figures.items():
+        print(f"{'':<44} {name:>10}: slowest {max(us):7.0f} µs, over 1 ms "
+              f"{sum(1 for x in us if x > 1000.0)} of {len(us)}")
+
+
 def viewport(builds, presets, surface, args):
     print(f"\nviewport refresh with the GPU preview (refine with hysteresis + mesh() + "
           f"preview_data), {args.viewport_frames}-frame descents from 3 radii to 2 m")
@@ -196,8 +228,8 @@ def main():
     parser.add_argument("--refine-threads", type=int, default=1)
     parser.add_argument("--passes", type=int, default=2, help="refine: descents per build")
     parser.add_argument("--skip", default="",
-                        help="measures to leave out: 'refine', 'emission', 'viewport', "
-                             "comma-separated")
+                        help="measures to leave out: 'refine', 'alone', 'emission', "
+                             "'viewport', comma-separated")
     args = parser.parse_args()
     builds = {"base": load_build(args.base), "new": load_build(args.new)}
     for name, lod in builds.items():
@@ -205,6 +237,8 @@ def main():
     skip = set(args.skip.split(","))
     if "refine" not in skip:
         refine(builds, presets, args)
+    if "alone" not in skip:
+        refine_alone(builds, presets, args)
     if "emission" not in skip:
         emission(builds, presets, args)
     if "viewport" not in skip:
