@@ -127,8 +127,10 @@ static void plod__detail_bound(const plod_planet *planet, const plod_sector *s,
         return; /* a cap past a hemisphere: the region's bounds */
     double nlo, nhi;
     plod_detail_local_range(planet->detail, corner, chord, b->size, &nlo, &nhi);
-    int first = plod_planet_detail_first_octave_cap(planet, b->axis,
-                                                    atan2(b->sin_angle, b->cos_angle));
+    /* the cap's angle only where insets may meet it */
+    int first = planet->insets ? plod_planet_detail_first_octave_cap(
+                                     planet, b->axis, atan2(b->sin_angle, b->cos_angle))
+                               : plod_detail_octave_count(planet->detail);
     if (first < plod_detail_octave_count(planet->detail)) {
         /* an inset: there the field blends toward its fine octaves alone */
         double flo, fhi;
