@@ -18,10 +18,11 @@
  * Adjacency: every leaf links to the leaf across each of its edges (a
  * conforming mesh: always exactly one), so forced splits and diamond
  * lookups are one read, across faces too.  Splits and merges keep the links
- * as the half-edge meshes of ROAM do (M. Duchaineau et al., "ROAMing
- * Terrain: Real-time Optimally Adapting Meshes", IEEE Visualization, 1997):
- * a child inherits its parent's leg, the ring around the split point links
- * the four children, and the outer neighbours are relinked.  Corners keep
+ * as ROAM's triangle bintree keeps its base, left and right neighbours
+ * (M. Duchaineau et al., "ROAMing Terrain: Real-time Optimally Adapting
+ * Meshes", IEEE Visualization, 1997): a child inherits its parent's leg,
+ * the ring around the split point links the four children, and the outer
+ * neighbours are relinked.  Corners keep
  * canonical integer points on the cube (or octahedron) surface, equal from
  * both faces of a cube edge, which the checks compare.
  *
