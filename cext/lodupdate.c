@@ -64,6 +64,11 @@ struct plod_refiner {
     int memo_split_mode;
     double memo_split_scale, memo_error_scale;
     double travelled, memo_eye[3];
+    /* bit i: leaf i passed P when the leaves were evaluated (or a split
+     * wrote a new leaf into slot i ahead of the split pass); the split
+     * pass visits only these slots.  NULL: it visits every slot */
+    uint64_t *split_marks;
+    size_t split_mark_words;
     plod_workers *workers;       /* params.threads - 1 of them, or NULL */
     int workers_for;             /* the params.threads they were started for */
 };
@@ -178,42 +183,74 @@ static int plod__leaf_wants_split(const plod__frame *f, size_t i)
     return plod__node_wants(f, parent);
 }
 
-/* ---- parallel evaluation ------------------------------------------------------- */
+/* ---- the leaves' evaluation ----------------------------------------------------- */
 
-/* P and cull flags of leaves [begin, end), written to their own slots only:
- * pure functions of the bounds, the camera and the parents' plane masks
- * (final after the node sweep), so any split of the work gives the bits of
- * the lazy single-threaded evaluation.  The node sweep itself stays
- * sequential: top-down, a node's plane mask spares its children most plane
- * tests, which a split by index range would lose. */
+/* P and cull flags of leaves [begin, end) (begin a multiple of 64), written
+ * to their own slots, and their words of the split marks: pure functions
+ * of the bounds, the camera and the parents' plane masks (final after the
+ * node sweep), so any split of the work gives the bits of the lazy
+ * single-threaded evaluation.  The node sweep itself stays sequential:
+ * top-down, a node's plane mask spares its children most plane tests,
+ * which a split by index range would lose. */
 static void plod__eval_range(void *context, size_t begin, size_t end)
 {
     const plod__frame *f = context;
     plod_lodtree *t = f->tree;
-    for (size_t i = begin; i < end; i++) {
-        plod_lodtree_leaf *g = &t->geom[i];
-        unsigned flags, planes;
-        g->eval_split = (uint8_t)plod__wants_split(f, &g->self, t->leaves[i].level, &flags,
-                                                   plod__parent_planes(t, t->leaf_parent[i]),
-                                                   &planes);
-        g->eval_flags = (uint8_t)flags;
-        g->eval_frame = t->frame;
+    uint64_t *marks = f->refiner->split_marks;
+    for (size_t first = begin; first < end; first += 64) {
+        size_t last = end - first < 64 ? end : first + 64;
+        uint64_t word = 0;
+        for (size_t i = first; i < last; i++) {
+            plod_lodtree_leaf *g = &t->geom[i];
+            unsigned flags, planes;
+            g->eval_split = (uint8_t)plod__wants_split(
+                f, &g->self, t->leaves[i].level, &flags,
+                plod__parent_planes(t, t->leaf_parent[i]), &planes);
+            g->eval_flags = (uint8_t)flags;
+            g->eval_frame = t->frame;
+            word |= (uint64_t)(g->eval_split != 0) << (i - first);
+        }
+        if (marks)
+            marks[first / 64] = word;
     }
 }
 
-/* Evaluates every leaf's P and flags on the refiner's workers, after the
- * node sweep; below PLOD__PARALLEL_LEAVES leaves (handing chunks over
- * would eat the gain) or without workers the split pass evaluates them as
- * usual. */
+/* Room for the split marks of `count` leaves. */
+static plod_status plod__marks_reserve(plod_refiner *r, size_t count)
+{
+    size_t words = count / 64 + 1;
+    if (words <= r->split_mark_words)
+        return PLOD_OK;
+    size_t capacity = r->split_mark_words ? 2 * r->split_mark_words : 64;
+    while (capacity < words)
+        capacity *= 2;
+    uint64_t *fresh = realloc(r->split_marks, capacity * sizeof *fresh);
+    if (!fresh)
+        return PLOD_ERR_NO_MEMORY;
+    r->split_marks = fresh;
+    r->split_mark_words = capacity;
+    return PLOD_OK;
+}
+
+/* Every leaf's P and flags, after the merges (the leaves they restored
+ * included) and before the splits; on the refiner's workers from
+ * PLOD__PARALLEL_LEAVES leaves (below, handing chunks over would eat the
+ * gain), in chunks of whole mark words. */
 #define PLOD__PARALLEL_LEAVES 2048
 #define PLOD__PARALLEL_GRAIN 512
 
-static void plod__eval_parallel(plod__frame *f)
+static void plod__eval_leaves(plod__frame *f)
 {
-    plod_workers *workers = f->refiner->workers;
-    if (!workers || f->tree->count < PLOD__PARALLEL_LEAVES)
-        return;
-    plod_workers_for(workers, f->tree->count, PLOD__PARALLEL_GRAIN, plod__eval_range, f);
+    size_t count = f->tree->count;
+    plod_refiner *r = f->refiner;
+    if (plod__marks_reserve(r, count) != PLOD_OK) {
+        /* without them the split pass visits every slot: the same result */
+        free(r->split_marks);
+        r->split_marks = NULL;
+        r->split_mark_words = 0;
+    }
+    plod_workers_for(count >= PLOD__PARALLEL_LEAVES ? r->workers : NULL, count,
+                     PLOD__PARALLEL_GRAIN, plod__eval_range, f);
 }
 
 /* Workers for params->threads, started once (and again when the count
@@ -291,8 +328,7 @@ static void plod__travel(plod_refiner *r, const double eye[3])
 }
 
 /* P* of every internal node in one sequential, top-down sweep (parents come
- * first); P is evaluated only where the parent passes P*.  Then the leaves'
- * P, on threads when there are many. */
+ * first); P is evaluated only where the parent passes P*. */
 static void plod__sweep(plod__frame *f, int step)
 {
     plod_lodtree *t = f->tree;
@@ -315,7 +351,6 @@ static void plod__sweep(plod__frame *f, int step)
                                      PLOD__STAR_KNOWN |
                                      ((pk & PLOD__P_TRUE) ? PLOD__STAR_TRUE : 0u));
     }
-    plod__eval_parallel(f);
 }
 
 /* The merge pass: every diamond whose parents fail the split predicate;
@@ -354,7 +389,11 @@ static void plod__split_leaf(const plod__frame *f, size_t i)
 }
 
 /* The split pass: one sweep (children appended at the end are swept too);
- * children written in place of earlier leaves are revisited after. */
+ * children written in place of earlier leaves are revisited after.  The
+ * sweep visits only the slots the evaluation marked, and those a split
+ * wrote a child into ahead of it: at every other slot a sweep over all of
+ * them would find a leaf that fails P, so the splits are the same, in the
+ * same order. */
 static void plod__split_pass(plod__frame *f)
 {
     plod_lodtree *t = f->tree;
@@ -374,7 +413,25 @@ static void plod__split_pass(plod__frame *f)
         t->pending_count = 0;
         return;
     }
-    for (size_t i = 0; i < t->count && !t->truncated; i++)
+    uint64_t *marks = f->refiner->split_marks;
+    size_t swept = 0;
+    if (marks) {
+        swept = t->count;
+        for (size_t w = 0; w * 64 < swept && !t->truncated; w++) {
+            while (marks[w] && !t->truncated) {
+                size_t i = w * 64 + (size_t)__builtin_ctzll(marks[w]);
+                marks[w] &= marks[w] - 1;
+                size_t queued = t->pending_count;
+                plod__split_leaf(f, i);
+                for (size_t k = queued; k < t->pending_count; k++) {
+                    size_t at = t->pending[k];
+                    if (at > i && at < swept)
+                        marks[at / 64] |= (uint64_t)1 << (at % 64);
+                }
+            }
+        }
+    }
+    for (size_t i = swept; i < t->count && !t->truncated; i++)
         plod__split_leaf(f, i);
     while (t->pending_count && !t->truncated)
         plod__split_leaf(f, t->pending[--t->pending_count]);
@@ -390,6 +447,7 @@ static void plod__refine_pass(plod__frame *f, int step, size_t cap)
     f->tree->max_sectors = cap;
     f->tree->truncated = 0;
     plod__merge_pass(f);
+    plod__eval_leaves(f);
     plod__split_pass(f);
 }
 
@@ -911,6 +969,7 @@ void plod_refiner_destroy(plod_refiner *refiner)
     free(refiner->order_keys);
     free(refiner->scratch_index);
     free(refiner->scratch_keys);
+    free(refiner->split_marks);
     free(refiner);
 }
 
@@ -923,6 +982,8 @@ plod_status plod_refiner_reserve(plod_refiner *refiner, size_t sectors)
     plod_status st = plod_lodtree_reserve(&refiner->tree, sectors);
     if (st == PLOD_OK)
         st = plod__order_reserve(refiner, sectors);
+    if (st == PLOD_OK)
+        st = plod__marks_reserve(refiner, sectors);
     return st;
 }
 
@@ -971,7 +1032,8 @@ size_t plod_refiner_memory_bytes(const plod_refiner *r)
     if (!r)
         return 0;
     return sizeof *r + plod_lodtree_memory_bytes(&r->tree) +
-           r->order_capacity * 4 * (sizeof(uint32_t) + sizeof(uint64_t));
+           r->order_capacity * 4 * (sizeof(uint32_t) + sizeof(uint64_t)) +
+           r->split_mark_words * sizeof(uint64_t);
 }
 
 plod_status plod_refiner_check(const plod_refiner *r)
