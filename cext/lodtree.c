@@ -139,7 +139,11 @@ static plod_status plod__reserve(plod_lodtree *t, size_t extra)
         if (!neighbours)
             return PLOD_ERR_NO_MEMORY;
         t->neighbours = neighbours;
-        t->capacity = capacity; /* only once all five have grown */
+        int32_t *job = realloc(t->leaf_job, capacity * sizeof *job);
+        if (!job)
+            return PLOD_ERR_NO_MEMORY;
+        t->leaf_job = job;
+        t->capacity = capacity; /* only once all six have grown */
     }
     return PLOD_OK;
 }
@@ -290,6 +294,29 @@ static void plod__load_corners(const plod_lodtree *t, size_t at, plod__corner_me
     memo->points.known = c->known & 7u;
 }
 
+/* A deferred split of one parent (plod_lodtree_defer): the parent's
+ * corners, and the slots of the children that wait for their bounds. */
+typedef struct plod_lodtree_job {
+    plod__corner_memo memo;
+    size_t child[2];
+    int settled;
+} plod_lodtree_job;
+
+static plod_status plod__job_reserve(plod_lodtree *t, size_t extra)
+{
+    if (t->job_count + extra <= t->job_capacity)
+        return PLOD_OK;
+    size_t capacity = t->job_capacity ? 2 * t->job_capacity : 256;
+    while (capacity < t->job_count + extra)
+        capacity *= 2;
+    plod_lodtree_job *fresh = realloc(t->jobs, capacity * sizeof *fresh);
+    if (!fresh)
+        return PLOD_ERR_NO_MEMORY;
+    t->jobs = fresh;
+    t->job_capacity = capacity;
+    return PLOD_OK;
+}
+
 /* Bound of the leaf at `at` from scratch; fills its corner cache. */
 static void plod__compute_bound(plod_lodtree *t, size_t at, plod_bound *b)
 {
@@ -359,6 +386,66 @@ static void plod__apply_bound(plod_sector *s, const plod_bound *b)
 
 /* ---- split ----------------------------------------------------------------- */
 
+/* What a split computes for the two children of one parent, made at slots
+ * at[0] and at[1] (memo: the parent's corners): the midpoint of the
+ * parent's hypotenuse, the children's bounds, corner caches and height
+ * ranges.  Writes only the children's slots. */
+static void plod__settle_children(plod_lodtree *t, plod__corner_memo *memo, const size_t at[2])
+{
+    const plod_sector *c0 = &t->leaves[at[0]];
+    const double scale = 1.0 / (double)PLOD__ONE;
+    plod_status st = plod_face_to_dir(t->planet->projection, c0->face, c0->cu[1] * scale,
+                                      c0->cv[1] * scale, memo->points.dir[3]);
+    (void)st;
+    assert(st == PLOD_OK);
+    plod__canon(t, c0->face, c0->cu[1], c0->cv[1], memo->canon[3]);
+    for (int bit = 0; bit < 2; bit++) {
+        /* plod__child: corners (parent a, midpoint, parent b) */
+        const int idx[3] = {bit ? 2 : 1, 3, bit ? 1 : 0};
+        plod_sector *c = &t->leaves[at[bit]];
+        plod_lodtree_leaf *g = &t->geom[at[bit]];
+        plod_bound_build(&t->setup, c, &memo->points, idx, &g->self);
+        plod__store_corners(t, at[bit], memo, idx);
+        g->eval_frame = t->frame - 1;
+        plod__apply_bound(c, &g->self);
+    }
+}
+
+int plod_lodtree_settle(plod_lodtree *t, size_t job)
+{
+    assert(job < t->job_count);
+    plod_lodtree_job *j = &t->jobs[job];
+    if (j->settled)
+        return 0;
+    plod__settle_children(t, &j->memo, j->child);
+    t->leaf_job[j->child[0]] = t->leaf_job[j->child[1]] = -1;
+    j->settled = 1;
+    return 1;
+}
+
+size_t plod_lodtree_job_child(const plod_lodtree *t, size_t job, int bit)
+{
+    assert(job < t->job_count && (bit == 0 || bit == 1));
+    return t->jobs[job].child[bit];
+}
+
+void plod_lodtree_defer(plod_lodtree *t, int on)
+{
+    if (!on) {
+        for (size_t j = 0; j < t->job_count; j++)
+            plod_lodtree_settle(t, j);
+    }
+    t->job_count = 0;
+    t->defer = on;
+}
+
+/* A leaf about to be split (or to give its bound to a node) is settled. */
+static void plod__settle_leaf(plod_lodtree *t, size_t i)
+{
+    if (t->leaf_job[i] >= 0)
+        plod_lodtree_settle(t, (size_t)t->leaf_job[i]);
+}
+
 /* Both leaves share their hypotenuse and have the same level. */
 static void plod__split_diamond(plod_lodtree *t, size_t i, size_t n)
 {
@@ -374,6 +461,12 @@ static void plod__split_diamond(plod_lodtree *t, size_t i, size_t n)
     t->node_partner[node[0]] = node[1];
     t->node_partner[node[1]] = node[0];
     for (int k = 0; k < 2; k++) {
+        const plod_lodtree_leaf *g = &t->geom[pair[k]];
+        if (g->eval_frame == t->frame)
+            t->node_state[node[k]] =
+                (uint8_t)(PLOD_NODE_P_KNOWN | (g->eval_split ? PLOD_NODE_P_TRUE : 0u));
+    }
+    for (int k = 0; k < 2; k++) {
         int32_t up = t->node_parent[node[k]];
         if (up >= 0)
             t->node_leaves[up]--; /* that child is a node now */
@@ -386,28 +479,23 @@ static void plod__split_diamond(plod_lodtree *t, size_t i, size_t n)
         for (int bit = 0; bit < 2; bit++) {
             size_t at = bit ? t->count++ : pair[k];
             child[k][bit] = at;
-            plod_sector *c = &t->leaves[at];
-            plod__child(&parents[k], bit, t->frame, c);
-            if (bit == 0) {
-                const double scale = 1.0 / (double)PLOD__ONE;
-                plod_status st = plod_face_to_dir(t->planet->projection, c->face,
-                                                  c->cu[1] * scale, c->cv[1] * scale,
-                                                  memo.points.dir[3]);
-                (void)st;
-                assert(st == PLOD_OK);
-                plod__canon(t, c->face, c->cu[1], c->cv[1], memo.canon[3]);
-            }
-            /* plod__child: corners (parent a, midpoint, parent b) */
-            const int idx[3] = {bit ? 2 : 1, 3, bit ? 1 : 0};
-            plod_lodtree_leaf *g = &t->geom[at];
-            plod_bound_build(&t->setup, c, &memo.points, idx, &g->self);
-            plod__store_corners(t, at, &memo, idx);
-            g->eval_frame = t->frame - 1;
+            plod__child(&parents[k], bit, t->frame, &t->leaves[at]);
             t->leaf_parent[at] = node[k];
-            plod__apply_bound(c, &g->self);
             t->neighbours[at][2] = legs[k][bit];
             if (at != pair[k])
                 plod__relink(t, legs[k][bit], (int32_t)pair[k], (int32_t)at);
+        }
+        if (t->defer) {
+            plod_lodtree_job *job = &t->jobs[t->job_count];
+            job->memo = memo;
+            job->child[0] = child[k][0];
+            job->child[1] = child[k][1];
+            job->settled = 0;
+            t->geom[child[k][0]].eval_frame = t->geom[child[k][1]].eval_frame = t->frame - 1;
+            t->leaf_job[child[k][0]] = t->leaf_job[child[k][1]] = (int32_t)t->job_count++;
+        } else {
+            plod__settle_children(t, &memo, child[k]);
+            t->leaf_job[child[k][0]] = t->leaf_job[child[k][1]] = -1;
         }
     }
     /* p's children (p1, m, p0), (p2, m, p1); q's (q1, m, p2), (p0, m, q1):
@@ -445,11 +533,13 @@ int plod_lodtree_split(plod_lodtree *t, size_t i)
 {
     if (t->leaves[i].level >= PLOD_MAX_LEVEL)
         return 1; /* edge of domain: a no-op */
+    plod__settle_leaf(t, i);
     for (int attempt = 0; attempt < 2; attempt++) {
         int32_t n = plod__across(t, i, 2);
         assert(n >= 0);
         if (n < 0)
             return 1;
+        plod__settle_leaf(t, (size_t)n);
         if (t->leaves[n].level == t->leaves[i].level) {
             /* a diamond splits two sectors; the first of an update always
              * may (progress whatever the limit) */
@@ -458,7 +548,8 @@ int plod_lodtree_split(plod_lodtree *t, size_t i)
                 return 0;
             }
             if (t->count + 2 > t->max_sectors || plod__reserve(t, 2) != PLOD_OK ||
-                plod__node_reserve(t, 2) != PLOD_OK || plod__pending_reserve(t, 2) != PLOD_OK) {
+                plod__node_reserve(t, 2) != PLOD_OK || plod__pending_reserve(t, 2) != PLOD_OK ||
+                (t->defer && plod__job_reserve(t, 2) != PLOD_OK)) {
                 t->truncated = 1;
                 return 0;
             }
@@ -488,6 +579,7 @@ static void plod__drop_unlinked(plod_lodtree *t, size_t x)
         t->geom[x] = t->geom[last];
         t->corners[x] = t->corners[last];
         t->leaf_parent[x] = t->leaf_parent[last];
+        t->leaf_job[x] = t->leaf_job[last];
         for (plod_lodtree_watch *w = t->watches; w; w = w->outer)
             if (w->index == last)
                 w->index = x;
@@ -627,9 +719,11 @@ static int plod__merge_diamond(plod_lodtree *t, size_t ia, int32_t pi,
     t->leaves[ia] = p;
     t->geom[ia] = gp;
     t->leaf_parent[ia] = gp_gq_parent[0];
+    t->leaf_job[ia] = -1;
     t->leaves[ic_] = q;
     t->geom[ic_] = gq;
     t->leaf_parent[ic_] = gp_gq_parent[1];
+    t->leaf_job[ic_] = -1;
     size_t hi = ib_ > id2 ? ib_ : id2, lo = ib_ > id2 ? id2 : ib_;
     size_t at[2] = {ia, ic_};
     for (int k = 0; k < 2; k++) {
@@ -677,6 +771,7 @@ static void plod__add_base(plod_lodtree *t, unsigned base, int face,
     plod__compute_bound(t, at, &g->self);
     g->eval_frame = t->frame - 1;
     t->leaf_parent[at] = -1;
+    t->leaf_job[at] = -1;
     plod__apply_bound(s, &g->self);
 }
 
@@ -759,6 +854,8 @@ void plod_lodtree_free(plod_lodtree *t)
     free(t->corners);
     free(t->leaf_parent);
     free(t->neighbours);
+    free(t->leaf_job);
+    free(t->jobs);
     free(t->nodes);
     free(t->node_parent);
     free(t->node_state);
@@ -786,8 +883,13 @@ plod_status plod_lodtree_reserve(plod_lodtree *t, size_t sectors)
         st = plod__node_reserve(t, sectors > t->node_top ? sectors - t->node_top : 0);
     if (st == PLOD_OK)
         st = plod__pending_reserve(t, sectors > t->pending_count ? sectors - t->pending_count : 0);
+    size_t old_jobs = t->job_capacity;
+    if (st == PLOD_OK) /* a frame's deferred splits: a quarter of the sectors covers most */
+        st = plod__job_reserve(t, sectors / 4 > t->job_count ? sectors / 4 - t->job_count : 0);
     if (st != PLOD_OK)
         return st;
+    if (t->job_capacity > old_jobs)
+        memset(t->jobs + old_jobs, 0, (t->job_capacity - old_jobs) * sizeof *t->jobs);
     /* Touch the new tails now: the first faults on fresh pages are what
      * made growth frames slow, and this moves them out of the update. */
     size_t grown = t->capacity - old_leaves;
@@ -797,6 +899,7 @@ plod_status plod_lodtree_reserve(plod_lodtree *t, size_t sectors)
         memset(t->corners + old_leaves, 0, grown * sizeof *t->corners);
         memset(t->leaf_parent + old_leaves, 0, grown * sizeof *t->leaf_parent);
         memset(t->neighbours + old_leaves, 0, grown * sizeof *t->neighbours);
+        memset(t->leaf_job + old_leaves, 0xff, grown * sizeof *t->leaf_job); /* -1 */
     }
     grown = t->node_capacity - old_nodes;
     if (grown) {
@@ -820,6 +923,7 @@ size_t plod_lodtree_memory_bytes(const plod_lodtree *t)
     bytes += t->capacity * sizeof(plod_lodtree_corners);
     bytes += t->node_capacity * (sizeof(plod_lodtree_node) + 2 * sizeof(int32_t) + 3);
     bytes += t->pending_capacity * sizeof(size_t);
+    bytes += t->capacity * sizeof *t->leaf_job + t->job_capacity * sizeof(plod_lodtree_job);
     return bytes;
 }
 

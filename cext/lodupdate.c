@@ -83,13 +83,6 @@ typedef struct plod__frame {
     double merge_ratio;     /* merge_border / split_border (hysteresis) */
 } plod__frame;
 
-/* tree->node_state bits, valid for the current frame (cleared by its
- * sweep) */
-enum {
-    PLOD__P_KNOWN = 1, PLOD__P_TRUE = 2,        /* P(node) */
-    PLOD__STAR_KNOWN = 4, PLOD__STAR_TRUE = 8   /* P*(node) */
-};
-
 /* ---- the predicate ------------------------------------------------------------ */
 
 /* Split predicate P of a node (level = its level), from its own bound. */
@@ -109,7 +102,7 @@ static unsigned plod__parent_planes(const plod_lodtree *t, int32_t parent)
     return parent >= 0 ? t->node_planes[parent] : 0u;
 }
 
-/* P(node) of an internal node, as PLOD__P_KNOWN | P_TRUE bits; stores its
+/* P(node) of an internal node, as PLOD_NODE_P_KNOWN | P_TRUE bits; stores its
  * plane mask. */
 static unsigned plod__node_p(const plod__frame *f, int32_t k, unsigned parent_planes)
 {
@@ -119,7 +112,7 @@ static unsigned plod__node_p(const plod__frame *f, int32_t k, unsigned parent_pl
     int p = plod__wants_split(f, &n->bound, plod_lodtree_id_level(n->id), &flags,
                               parent_planes, &planes);
     t->node_planes[k] = (uint8_t)planes;
-    return PLOD__P_KNOWN | (p ? PLOD__P_TRUE : 0u);
+    return PLOD_NODE_P_KNOWN | (p ? PLOD_NODE_P_TRUE : 0u);
 }
 
 /* P*(node) = P(node) and P*(parent): monotone by construction, so the
@@ -129,17 +122,17 @@ static int plod__node_wants(const plod__frame *f, int32_t k)
 {
     plod_lodtree *t = f->tree;
     unsigned st = t->node_state[k];
-    if (st & PLOD__STAR_KNOWN)
-        return (st & PLOD__STAR_TRUE) != 0;
-    if (!(st & PLOD__P_KNOWN))
+    if (st & PLOD_NODE_STAR_KNOWN)
+        return (st & PLOD_NODE_STAR_TRUE) != 0;
+    if (!(st & PLOD_NODE_P_KNOWN))
         st |= plod__node_p(f, k, plod__parent_planes(t, t->node_parent[k]));
-    int wants = (st & PLOD__P_TRUE) != 0;
+    int wants = (st & PLOD_NODE_P_TRUE) != 0;
     int32_t parent = t->node_parent[k];
     if (wants && parent >= 0) {
         assert(t->nodes[parent].id == plod_lodtree_parent_id(t->nodes[k].id));
         wants = plod__node_wants(f, parent);
     }
-    t->node_state[k] = (uint8_t)(st | PLOD__STAR_KNOWN | (wants ? PLOD__STAR_TRUE : 0u));
+    t->node_state[k] = (uint8_t)(st | PLOD_NODE_STAR_KNOWN | (wants ? PLOD_NODE_STAR_TRUE : 0u));
     return wants;
 }
 
@@ -162,20 +155,29 @@ static int plod__allows_merge(void *context, int32_t k)
                f->merge_ratio;
 }
 
+/* P(leaf) and its cull flags, cached for this frame; returns P.  A pure
+ * function of the bound, the camera and the parent's plane mask (whose
+ * bits change which planes are tested, not the result). */
+static int plod__eval_leaf(const plod__frame *f, size_t i)
+{
+    plod_lodtree *t = f->tree;
+    plod_lodtree_leaf *g = &t->geom[i];
+    unsigned flags, planes;
+    g->eval_split = (uint8_t)plod__wants_split(f, &g->self, t->leaves[i].level, &flags,
+                                               plod__parent_planes(t, t->leaf_parent[i]),
+                                               &planes);
+    g->eval_flags = (uint8_t)flags;
+    g->eval_frame = t->frame;
+    return g->eval_split;
+}
+
 /* P*(leaf), caching P(leaf) and its cull flags for this frame. */
 static int plod__leaf_wants_split(const plod__frame *f, size_t i)
 {
     plod_lodtree *t = f->tree;
     plod_lodtree_leaf *g = &t->geom[i];
-    if (g->eval_frame != t->frame) {
-        unsigned flags;
-        unsigned planes;
-        g->eval_split = (uint8_t)plod__wants_split(f, &g->self, t->leaves[i].level, &flags,
-                                                   plod__parent_planes(t, t->leaf_parent[i]),
-                                                   &planes);
-        g->eval_flags = (uint8_t)flags;
-        g->eval_frame = t->frame;
-    }
+    if (g->eval_frame != t->frame)
+        plod__eval_leaf(f, i);
     int32_t parent = t->leaf_parent[i];
     if (!g->eval_split || parent < 0)
         return g->eval_split;
@@ -195,21 +197,12 @@ static int plod__leaf_wants_split(const plod__frame *f, size_t i)
 static void plod__eval_range(void *context, size_t begin, size_t end)
 {
     const plod__frame *f = context;
-    plod_lodtree *t = f->tree;
     uint64_t *marks = f->refiner->split_marks;
     for (size_t first = begin; first < end; first += 64) {
         size_t last = end - first < 64 ? end : first + 64;
         uint64_t word = 0;
-        for (size_t i = first; i < last; i++) {
-            plod_lodtree_leaf *g = &t->geom[i];
-            unsigned flags, planes;
-            g->eval_split = (uint8_t)plod__wants_split(
-                f, &g->self, t->leaves[i].level, &flags,
-                plod__parent_planes(t, t->leaf_parent[i]), &planes);
-            g->eval_flags = (uint8_t)flags;
-            g->eval_frame = t->frame;
-            word |= (uint64_t)(g->eval_split != 0) << (i - first);
-        }
+        for (size_t i = first; i < last; i++)
+            word |= (uint64_t)(plod__eval_leaf(f, i) != 0) << (i - first);
         if (marks)
             marks[first / 64] = word;
     }
@@ -341,15 +334,15 @@ static void plod__sweep(plod__frame *f, int step)
             continue;
         }
         int32_t parent = t->node_parent[k];
-        if (parent >= 0 && !(t->node_state[parent] & PLOD__STAR_TRUE)) {
-            t->node_state[k] = PLOD__STAR_KNOWN; /* P* false, P not needed */
+        if (parent >= 0 && !(t->node_state[parent] & PLOD_NODE_STAR_TRUE)) {
+            t->node_state[k] = PLOD_NODE_STAR_KNOWN; /* P* false, P not needed */
             t->node_planes[k] = 0;
             continue;
         }
         unsigned pk = plod__node_p(f, (int32_t)k, plod__parent_planes(t, parent));
-        t->node_state[k] = (uint8_t)((pk & (PLOD__P_KNOWN | PLOD__P_TRUE)) |
-                                     PLOD__STAR_KNOWN |
-                                     ((pk & PLOD__P_TRUE) ? PLOD__STAR_TRUE : 0u));
+        t->node_state[k] = (uint8_t)((pk & (PLOD_NODE_P_KNOWN | PLOD_NODE_P_TRUE)) |
+                                     PLOD_NODE_STAR_KNOWN |
+                                     ((pk & PLOD_NODE_P_TRUE) ? PLOD_NODE_STAR_TRUE : 0u));
     }
 }
 
@@ -370,10 +363,75 @@ static void plod__merge_pass(plod__frame *f)
         if (t->node_leaves[qi] != 2)
             continue;
         if (!f->params->hysteresis &&
-            ((t->node_state[pi] | t->node_state[qi]) & PLOD__STAR_TRUE))
+            ((t->node_state[pi] | t->node_state[qi]) & PLOD_NODE_STAR_TRUE))
             continue;
         plod_lodtree_try_merge(t, i, plod__allows_merge, f);
     }
+}
+
+/* Deferred splits (plod_lodtree_defer) settled in parallel: a wave's jobs
+ * from PLOD__PARALLEL_JOBS on, in chunks of PLOD__JOB_GRAIN (a job, two
+ * bounds and their evaluation, takes about half a microsecond). */
+#define PLOD__PARALLEL_JOBS 64
+#define PLOD__JOB_GRAIN 32
+
+typedef struct plod__wave {
+    const plod__frame *frame;
+    size_t first; /* the wave's first job */
+} plod__wave;
+
+/* Settles the wave's jobs [first + begin, first + end) and evaluates their
+ * children: each writes only its own children's slots. */
+static void plod__settle_range(void *context, size_t begin, size_t end)
+{
+    const plod__wave *wave = context;
+    plod_lodtree *t = wave->frame->tree;
+    for (size_t j = wave->first + begin; j < wave->first + end; j++) {
+        if (!plod_lodtree_settle(t, j))
+            continue; /* a split settled it on demand */
+        plod__eval_leaf(wave->frame, plod_lodtree_job_child(t, j, 0));
+        plod__eval_leaf(wave->frame, plod_lodtree_job_child(t, j, 1));
+    }
+}
+
+/* Splits the leaf at slot i if it is settled and passes P*. */
+static void plod__visit(const plod__frame *f, size_t i)
+{
+    plod_lodtree *t = f->tree;
+    if (t->leaf_job[i] < 0 && plod__leaf_wants_split(f, i))
+        plod_lodtree_split(t, i);
+}
+
+/* The split pass in waves: the marked leaves that pass P* split, their
+ * children's bounds are deferred; the wave's jobs are settled and their
+ * children evaluated on the workers; the children that pass P* make the
+ * next wave.  A slot whose leaf is unsettled when visited is visited again
+ * as a child of its job.  Every leaf that passes P* splits (and the forced
+ * splits a conforming tree needs), so the leaves are the same as the
+ * depth-first pass's, in other slots. */
+static void plod__split_waves(plod__frame *f)
+{
+    plod_lodtree *t = f->tree;
+    const uint64_t *marks = f->refiner->split_marks;
+    plod_lodtree_defer(t, 1);
+    size_t swept = t->count;
+    for (size_t w = 0; w * 64 < swept && !t->truncated; w++)
+        for (uint64_t bits = marks[w]; bits && !t->truncated; bits &= bits - 1)
+            plod__visit(f, w * 64 + (size_t)__builtin_ctzll(bits));
+    for (size_t first = 0; first < t->job_count;) {
+        size_t last = t->job_count;
+        plod__wave wave = {f, first};
+        plod_workers_for(last - first >= PLOD__PARALLEL_JOBS ? f->refiner->workers : NULL,
+                         last - first, PLOD__JOB_GRAIN, plod__settle_range, &wave);
+        for (size_t j = first; j < last && !t->truncated; j++) {
+            plod__visit(f, plod_lodtree_job_child(t, j, 0));
+            if (!t->truncated)
+                plod__visit(f, plod_lodtree_job_child(t, j, 1));
+        }
+        first = last;
+    }
+    plod_lodtree_defer(t, 0);
+    t->pending_count = 0;
 }
 
 /* Splits leaf i while it passes P* (and the split happens). */
@@ -398,6 +456,13 @@ static void plod__split_pass(plod__frame *f)
 {
     plod_lodtree *t = f->tree;
     t->pending_count = 0;
+    /* waves, unless a cap may stop the pass where the order of the splits
+     * decides which were made and hysteresis carries that to later frames */
+    if (!t->split_limit && f->refiner->split_marks &&
+        (!f->params->hysteresis || t->max_sectors >= f->params->max_sectors)) {
+        plod__split_waves(f);
+        return;
+    }
     if (t->split_limit) { /* progressive: breadth first (plod_refine_params) */
         for (int again = 1; again && !t->truncated && !t->limited;) {
             again = 0;

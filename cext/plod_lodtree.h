@@ -68,6 +68,15 @@ typedef struct plod_lodtree_node {
     plod_bound bound;
 } plod_lodtree_node;
 
+/* node_state bits: the LOD update's, valid for the current frame (cleared
+ * by its sweep).  A split makes a node from a leaf that the update
+ * evaluated this frame (the leaf's eval_split) with P known: the node has
+ * the leaf's bound, level and parent, so the same predicate. */
+enum {
+    PLOD_NODE_P_KNOWN = 1, PLOD_NODE_P_TRUE = 2,        /* P(node) */
+    PLOD_NODE_STAR_KNOWN = 4, PLOD_NODE_STAR_TRUE = 8   /* P*(node) */
+};
+
 /* Given: planet (borrowed).  Returned: everything else.  The arrays are
  * read directly by the LOD update; only these calls change their shape. */
 typedef struct plod_lodtree {
@@ -87,6 +96,12 @@ typedef struct plod_lodtree {
                                     geom: only splits and merges read it */
     struct plod_lodtree_watch *watches; /* leaves merges will cascade from,
                                     kept up to date as leaves move */
+    /* deferred splits: while `defer` is set, a split leaves its children's
+     * bounds and corner caches to a job (plod_lodtree_settle) */
+    int defer;
+    struct plod_lodtree_job *jobs;
+    size_t job_count, job_capacity;
+    int32_t *leaf_job;           /* per leaf: the job that settles it, or -1 */
     size_t *pending;             /* leaves a split wrote children into in
                                     place (the split pass revisits them) */
     size_t pending_count, pending_capacity;
@@ -134,6 +149,21 @@ size_t plod_lodtree_memory_bytes(const plod_lodtree *tree);
  * split_limit did (limited = 1), 1 otherwise; at PLOD_MAX_LEVEL a no-op
  * returning 1. */
 int plod_lodtree_split(plod_lodtree *tree, size_t i);
+
+/* Deferred splits (as many threads can compute the bounds of the children
+ * as there are jobs).  plod_lodtree_defer(tree, 1) starts them: each split
+ * records a job for each of its two parents whose children it makes in
+ * place (ids, corners, links) without their bounds, leaf_job[] naming the
+ * job; a split of an unsettled leaf settles it first.  Settling a job
+ * computes what an immediate split would have (the same calls on the same
+ * corners: the same bits).  plod_lodtree_defer(tree, 0) settles the jobs
+ * left and ends.  Jobs write only their own children: distinct jobs may be
+ * settled on distinct threads while nothing else changes the tree. */
+void plod_lodtree_defer(plod_lodtree *tree, int on);
+/* Settles job `job`; returns 0 if it was settled before. */
+int plod_lodtree_settle(plod_lodtree *tree, size_t job);
+/* The slot that job `job` made child `bit` (0, 1) in. */
+size_t plod_lodtree_job_child(const plod_lodtree *tree, size_t job, int bit);
 
 /* Whether internal node `node` may lose its children (the LOD update's
  * policy, asked by the merge below). */
