@@ -710,6 +710,39 @@ def test_max_sectors_caps_memory(planetlod):
     check_conforming(p)
 
 
+def test_truncated_refine_leaves_every_sector_complete(planetlod):
+    """A refine that max_sectors stops part-way (splits whose children's
+    bounds were still to be computed) leaves a whole tree: every sector has
+    its bound and height range, the links and invariants hold, any thread
+    count stops at the same sectors, and the next refine carries on from
+    there."""
+    def planet():
+        return planetlod.Planet(EARTH_R, heightmap=data_path("earth-topology.png"),
+                                heightmap_size=256, height_scale=8848.0, sea_level=0.0,
+                                detail=dict(amplitude=60.0, style="mountains"))
+    cam = surface_camera(planetlod, EARTH_R, 4000.0, lat=0.8, lon=0.15)  # over the Alps
+    results = []
+    for threads in (1, 2):
+        p = planet()
+        s = p.refine(cam, max_sectors=1200, threads=threads)
+        assert s["truncated"] and 1000 < p.sector_count <= 1200
+        assert p.check_invariants()
+        check_conforming(p)
+        heights = np.array(p.sector_heights(visible_only=False).tolist()).reshape(-1, 2)
+        assert np.all(np.isfinite(heights)) and np.all(heights[:, 0] <= heights[:, 1])
+        assert np.all(heights[:, 1] > -500.0) and np.all(heights[:, 0] < 9500.0)
+        assert p.mesh().vertex_count > 0
+        results.append((bytes(p.sector_ids(visible_only=False)),
+                        bytes(p.sector_flags(visible_only=False)), bytes(heights)))
+        full = p.refine(cam, threads=threads)
+        assert not full["truncated"] and full["sectors_total"] > 1200
+        assert p.check_invariants()
+        fresh = planet()
+        fresh.refine(cam)
+        assert sorted_ids(p) == sorted_ids(fresh)
+    assert results[0] == results[1]
+
+
 def test_recommended_clip(planetlod, earth):
     for alt in (2.0, 1e3, 1e6):
         cam = surface_camera(planetlod, EARTH_R, alt)
