@@ -940,8 +940,12 @@ int plod_lodtree_try_merge(plod_lodtree *t, size_t leaf, plod_lodtree_merge_fn a
 
 plod_status plod_lodtree_check(const plod_lodtree *t)
 {
+    if (t->defer || t->job_count)
+        return PLOD_ERR_BAD_PARAM; /* deferred splits left unsettled */
     for (size_t i = 0; i < t->count; i++) {
         const plod_sector *s = &t->leaves[i];
+        if (t->leaf_job[i] != -1)
+            return PLOD_ERR_BAD_PARAM;
         /* the corner cache first: the links are checked on its points */
         double fresh[3][3];
         plod_sector_corners(t->planet, s, fresh);

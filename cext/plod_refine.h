@@ -185,15 +185,16 @@ void plod_sector_corners(const plod_planet *planet, const plod_sector *sector,
 
 /* ---- memory, invariants ------------------------------------------------------ */
 
-/* Bytes held by the refiner (sector records, per-leaf bounds and corners,
- * edge table, internal-node table, split queue, visible order), capacities
- * included; 0 for NULL. */
+/* Bytes held by the refiner (sector records, per-leaf bounds, corners and
+ * neighbour links, internal-node table, split queue, deferred splits and
+ * split marks, visible order), capacities included; 0 for NULL. */
 size_t plod_refiner_memory_bytes(const plod_refiner *refiner);
 
-/* Verifies the internal invariants (edge table matches the leaves, every
- * edge shared by two leaves within one level, internal nodes = leaves -
- * base sectors, parent and diamond-partner links, cached corners and
- * heights equal to fresh ones).  PLOD_OK, PLOD_ERR_BAD_PARAM when one
+/* Verifies the internal invariants (neighbour links match the leaves'
+ * edges both ways, every edge shared by two leaves within one level,
+ * internal nodes = leaves - base sectors, parent and diamond-partner
+ * links, cached corners and heights equal to fresh ones, no split left
+ * waiting for its children's bounds).  PLOD_OK, PLOD_ERR_BAD_PARAM when one
  * fails, PLOD_ERR_NULL, or PLOD_ERR_NO_MEMORY (its scratch array); O(leaves
  * + nodes).  For tests. */
 plod_status plod_refiner_check(const plod_refiner *refiner);
