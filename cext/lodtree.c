@@ -184,7 +184,11 @@ static plod_status plod__node_reserve(plod_lodtree *t, size_t extra)
     if (!partner)
         return PLOD_ERR_NO_MEMORY;
     t->node_partner = partner;
-    t->node_capacity = capacity; /* only once all four have grown */
+    int32_t *child0 = realloc(t->node_child0, capacity * sizeof *child0);
+    if (!child0)
+        return PLOD_ERR_NO_MEMORY;
+    t->node_child0 = child0;
+    t->node_capacity = capacity; /* only once all have grown */
     return PLOD_OK;
 }
 
@@ -236,6 +240,7 @@ void plod_lodtree_compact(plod_lodtree *t)
         t->node_parent[next] = parent >= 0 ? map[parent] : -1;
         t->node_leaves[next] = t->node_leaves[k];
         t->node_partner[next] = t->node_partner[k]; /* renumbered below */
+        t->node_child0[next] = t->node_child0[k];
         next++;
     }
     for (size_t k = 0; k < next; k++)
@@ -460,6 +465,8 @@ static void plod__split_diamond(plod_lodtree *t, size_t i, size_t n)
                        plod__node_add(t, parents[1].id, &t->geom[n].self, t->leaf_parent[n])};
     t->node_partner[node[0]] = node[1];
     t->node_partner[node[1]] = node[0];
+    t->node_child0[node[0]] = (int32_t)i; /* child 0 keeps its parent's slot */
+    t->node_child0[node[1]] = (int32_t)n;
     for (int k = 0; k < 2; k++) {
         const plod_lodtree_leaf *g = &t->geom[pair[k]];
         if (g->eval_frame == t->frame)
@@ -580,6 +587,8 @@ static void plod__drop_unlinked(plod_lodtree *t, size_t x)
         t->corners[x] = t->corners[last];
         t->leaf_parent[x] = t->leaf_parent[last];
         t->leaf_job[x] = t->leaf_job[last];
+        if (t->leaf_parent[x] >= 0 && !(t->leaves[x].id & 1))
+            t->node_child0[t->leaf_parent[x]] = (int32_t)x;
         for (plod_lodtree_watch *w = t->watches; w; w = w->outer)
             if (w->index == last)
                 w->index = x;
@@ -720,10 +729,14 @@ static int plod__merge_diamond(plod_lodtree *t, size_t ia, int32_t pi,
     t->geom[ia] = gp;
     t->leaf_parent[ia] = gp_gq_parent[0];
     t->leaf_job[ia] = -1;
+    if (gp_gq_parent[0] >= 0 && !(p.id & 1))
+        t->node_child0[gp_gq_parent[0]] = (int32_t)ia;
     t->leaves[ic_] = q;
     t->geom[ic_] = gq;
     t->leaf_parent[ic_] = gp_gq_parent[1];
     t->leaf_job[ic_] = -1;
+    if (gp_gq_parent[1] >= 0 && !(q.id & 1))
+        t->node_child0[gp_gq_parent[1]] = (int32_t)ic_;
     size_t hi = ib_ > id2 ? ib_ : id2, lo = ib_ > id2 ? id2 : ib_;
     size_t at[2] = {ia, ic_};
     for (int k = 0; k < 2; k++) {
@@ -862,6 +875,7 @@ void plod_lodtree_free(plod_lodtree *t)
     free(t->node_planes);
     free(t->node_leaves);
     free(t->node_partner);
+    free(t->node_child0);
     free(t->pending);
     memset(t, 0, sizeof *t);
 }
@@ -909,6 +923,7 @@ plod_status plod_lodtree_reserve(plod_lodtree *t, size_t sectors)
         memset(t->node_planes + old_nodes, 0, grown);
         memset(t->node_leaves + old_nodes, 0, grown);
         memset(t->node_partner + old_nodes, 0, grown * sizeof *t->node_partner);
+        memset(t->node_child0 + old_nodes, 0, grown * sizeof *t->node_child0);
     }
     grown = t->pending_capacity - old_pending;
     if (grown) /* the split queue may not exist yet (NULL + 0 is undefined) */
@@ -921,7 +936,7 @@ size_t plod_lodtree_memory_bytes(const plod_lodtree *t)
     size_t bytes = t->capacity * (sizeof(plod_sector) + sizeof(plod_lodtree_leaf) +
                                   sizeof(int32_t) + sizeof *t->neighbours);
     bytes += t->capacity * sizeof(plod_lodtree_corners);
-    bytes += t->node_capacity * (sizeof(plod_lodtree_node) + 2 * sizeof(int32_t) + 3);
+    bytes += t->node_capacity * (sizeof(plod_lodtree_node) + 3 * sizeof(int32_t) + 3);
     bytes += t->pending_capacity * sizeof(size_t);
     bytes += t->capacity * sizeof *t->leaf_job + t->job_capacity * sizeof(plod_lodtree_job);
     return bytes;
@@ -1020,9 +1035,17 @@ plod_status plod_lodtree_check(const plod_lodtree *t)
     uint8_t *count = calloc(t->node_top ? t->node_top : 1, 1);
     if (!count)
         return PLOD_ERR_NO_MEMORY;
-    for (size_t i = 0; i < t->count; i++)
-        if (t->leaf_parent[i] >= 0)
-            count[t->leaf_parent[i]]++;
+    for (size_t i = 0; i < t->count; i++) {
+        int32_t parent = t->leaf_parent[i];
+        if (parent < 0)
+            continue;
+        count[parent]++;
+        /* a child-0 leaf is where its parent says */
+        if (!(t->leaves[i].id & 1) && t->node_child0[parent] != (int32_t)i) {
+            free(count);
+            return PLOD_ERR_BAD_PARAM;
+        }
+    }
     plod_status st = PLOD_OK;
     for (size_t k = 0; k < t->node_top; k++)
         if (t->nodes[k].id && count[k] != t->node_leaves[k])

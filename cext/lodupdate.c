@@ -69,6 +69,11 @@ struct plod_refiner {
      * pass visits only these slots.  NULL: it visits every slot */
     uint64_t *split_marks;
     size_t split_mark_words;
+    /* the nodes the last sweep found with two leaf children and failing
+     * P* (the merge pass's candidates; see plod__merge_pass) */
+    int32_t *merge_nodes;
+    size_t merge_count, merge_capacity;
+    int merge_listed;            /* 0: the list is incomplete (no memory) */
     plod_workers *workers;       /* params.threads - 1 of them, or NULL */
     int workers_for;             /* the params.threads they were started for */
 };
@@ -155,9 +160,24 @@ static int plod__allows_merge(void *context, int32_t k)
                f->merge_ratio;
 }
 
-/* P(leaf) and its cull flags, cached for this frame; returns P.  A pure
- * function of the bound, the camera and the parent's plane mask (whose
- * bits change which planes are tested, not the result). */
+/* A leaf's flags from its culling flags: sea (every height at sea level),
+ * visible (not culled, and not sea skipped). */
+static uint16_t plod__leaf_flags(const plod__frame *f, const plod_sector *sec, unsigned cull)
+{
+    const plod_planet *planet = f->tree->planet;
+    unsigned flags = cull;
+    int sea = planet->has_sea_level && sec->height_max <= planet->sea_level;
+    if (sea)
+        flags |= PLOD_SECTOR_SEA;
+    if (!cull && !(sea && f->params->skip_sea))
+        flags |= PLOD_SECTOR_VISIBLE;
+    return (uint16_t)flags;
+}
+
+/* P(leaf), cached for this frame, and the leaf's flags (culling, sea,
+ * visible); returns P.  A pure function of the bound, the camera and the
+ * parent's plane mask (whose bits change which planes are tested, not the
+ * result). */
 static int plod__eval_leaf(const plod__frame *f, size_t i)
 {
     plod_lodtree *t = f->tree;
@@ -166,8 +186,8 @@ static int plod__eval_leaf(const plod__frame *f, size_t i)
     g->eval_split = (uint8_t)plod__wants_split(f, &g->self, t->leaves[i].level, &flags,
                                                plod__parent_planes(t, t->leaf_parent[i]),
                                                &planes);
-    g->eval_flags = (uint8_t)flags;
     g->eval_frame = t->frame;
+    t->leaves[i].flags = plod__leaf_flags(f, &t->leaves[i], flags);
     return g->eval_split;
 }
 
@@ -320,14 +340,46 @@ static void plod__travel(plod_refiner *r, const double eye[3])
     memcpy(r->memo_eye, eye, sizeof r->memo_eye);
 }
 
+/* Room for `count` merge candidates. */
+static plod_status plod__merge_reserve(plod_refiner *r, size_t count)
+{
+    if (count <= r->merge_capacity)
+        return PLOD_OK;
+    size_t capacity = r->merge_capacity ? 2 * r->merge_capacity : 256;
+    while (capacity < count)
+        capacity *= 2;
+    int32_t *fresh = realloc(r->merge_nodes, capacity * sizeof *fresh);
+    if (!fresh)
+        return PLOD_ERR_NO_MEMORY;
+    r->merge_nodes = fresh;
+    r->merge_capacity = capacity;
+    return PLOD_OK;
+}
+
+/* Appends node k to the merge candidates (or marks the list incomplete). */
+static void plod__list_merge_node(plod_refiner *r, int32_t k)
+{
+    if (r->merge_count == r->merge_capacity &&
+        plod__merge_reserve(r, r->merge_count + 1) != PLOD_OK) {
+        r->merge_listed = 0;
+        return;
+    }
+    r->merge_nodes[r->merge_count++] = k;
+}
+
 /* P* of every internal node in one sequential, top-down sweep (parents come
- * first); P is evaluated only where the parent passes P*. */
+ * first); P is evaluated only where the parent passes P*.  Lists the nodes
+ * with two leaf children that fail P*: without hysteresis the only merges
+ * that can start. */
 static void plod__sweep(plod__frame *f, int step)
 {
     plod_lodtree *t = f->tree;
+    plod_refiner *r = f->refiner;
     t->frame++;
     plod__set_threshold(f, step);
     plod_lodtree_compact(t);
+    r->merge_count = 0;
+    r->merge_listed = 1;
     for (size_t k = 0; k < t->node_top; k++) {
         if (!t->nodes[k].id) {
             t->node_state[k] = 0;
@@ -337,21 +389,41 @@ static void plod__sweep(plod__frame *f, int step)
         if (parent >= 0 && !(t->node_state[parent] & PLOD_NODE_STAR_TRUE)) {
             t->node_state[k] = PLOD_NODE_STAR_KNOWN; /* P* false, P not needed */
             t->node_planes[k] = 0;
-            continue;
+        } else {
+            unsigned pk = plod__node_p(f, (int32_t)k, plod__parent_planes(t, parent));
+            t->node_state[k] = (uint8_t)((pk & (PLOD_NODE_P_KNOWN | PLOD_NODE_P_TRUE)) |
+                                         PLOD_NODE_STAR_KNOWN |
+                                         ((pk & PLOD_NODE_P_TRUE) ? PLOD_NODE_STAR_TRUE : 0u));
         }
-        unsigned pk = plod__node_p(f, (int32_t)k, plod__parent_planes(t, parent));
-        t->node_state[k] = (uint8_t)((pk & (PLOD_NODE_P_KNOWN | PLOD_NODE_P_TRUE)) |
-                                     PLOD_NODE_STAR_KNOWN |
-                                     ((pk & PLOD_NODE_P_TRUE) ? PLOD_NODE_STAR_TRUE : 0u));
+        if (t->node_leaves[k] == 2 && !(t->node_state[k] & PLOD_NODE_STAR_TRUE))
+            plod__list_merge_node(r, (int32_t)k);
     }
 }
 
 /* The merge pass: every diamond whose parents fail the split predicate;
- * downwards, so the leaves moved into holes were already visited, and
- * merges cascade upwards as subtrees collapse. */
+ * merges cascade upwards as subtrees collapse.  Without hysteresis it
+ * starts from the sweep's candidates (a diamond can merge only if both its
+ * parents have two leaf children and fail P*; the merges each one starts
+ * try the diamonds above); the result does not depend on the order.  With
+ * hysteresis (or no list) it goes down the leaves, so the leaves moved
+ * into holes were already visited. */
 static void plod__merge_pass(plod__frame *f)
 {
     plod_lodtree *t = f->tree;
+    plod_refiner *r = f->refiner;
+    if (!f->params->hysteresis && r->merge_listed) {
+        for (size_t c = r->merge_count; c-- > 0;) {
+            int32_t pi = r->merge_nodes[c];
+            if (!t->nodes[pi].id || t->node_leaves[pi] != 2)
+                continue; /* merged, or split below, since it was listed */
+            int32_t qi = t->node_partner[pi];
+            if (t->node_leaves[qi] != 2 ||
+                ((t->node_state[pi] | t->node_state[qi]) & PLOD_NODE_STAR_TRUE))
+                continue;
+            plod_lodtree_try_merge(t, (size_t)t->node_child0[pi], plod__allows_merge, f);
+        }
+        return;
+    }
     for (size_t i = t->count; i-- > 0;) {
         if (i >= t->count)
             i = t->count - 1;
@@ -833,64 +905,50 @@ typedef struct plod__class_counts {
 
 typedef struct plod__class_job {
     const plod__frame *frame;
+    int evaluated; /* every leaf was evaluated this frame (no cap stopped a pass) */
     size_t grain;
     plod__class_counts counts[PLOD__CLASS_CHUNKS];
 } plod__class_job;
 
-/* Flags of leaves [begin, end), written to their own slots; the counts to
- * the chunk's own entry. */
+/* The counts of leaves [begin, end), to the chunk's own entry, from the
+ * flags their evaluation wrote (evaluating those a stopped pass left). */
 static void plod__classify_range(void *context, size_t begin, size_t end)
 {
     plod__class_job *job = context;
     const plod__frame *f = job->frame;
     plod_lodtree *t = f->tree;
-    const plod_planet *planet = t->planet;
     plod__class_counts c = {0, 0, 0, 0, 0};
     for (size_t i = begin; i < end; i++) {
-        plod_sector *sec = &t->leaves[i];
-        plod_lodtree_leaf *g = &t->geom[i];
-        if (g->eval_frame != t->frame) { /* not visited (truncated pass) */
-            unsigned cull_flags;
-            unsigned planes;
-            g->eval_split = (uint8_t)plod__wants_split(f, &g->self, sec->level, &cull_flags, 0,
-                                                       &planes);
-            g->eval_flags = (uint8_t)cull_flags;
-            g->eval_frame = t->frame;
-        }
-        unsigned flags = g->eval_flags;
-        int sea = planet->has_sea_level && sec->height_max <= planet->sea_level;
-        if (sea)
-            flags |= PLOD_SECTOR_SEA;
+        const plod_sector *sec = &t->leaves[i];
+        if (!job->evaluated && t->geom[i].eval_frame != t->frame)
+            plod__eval_leaf(f, i); /* not visited (a pass stopped by a cap) */
+        unsigned flags = sec->flags;
         c.deepest = sec->level > c.deepest ? sec->level : c.deepest;
-        if (flags & PLOD_SECTOR_BACKFACING) {
-            sec->flags = (uint16_t)flags;
+        if (flags & PLOD_SECTOR_BACKFACING)
             continue;
-        }
         c.after_backface++;
-        if (flags & PLOD_SECTOR_OUTSIDE_FRUSTUM) {
-            sec->flags = (uint16_t)flags;
+        if (flags & PLOD_SECTOR_OUTSIDE_FRUSTUM)
             continue;
-        }
         c.after_frustum++;
-        if (sea && f->params->skip_sea) {
-            c.sea_skipped++;
-            sec->flags = (uint16_t)flags;
+        if (!(flags & PLOD_SECTOR_VISIBLE)) {
+            c.sea_skipped++; /* neither culled nor visible */
             continue;
         }
-        sec->flags = (uint16_t)(flags | PLOD_SECTOR_VISIBLE);
         c.visible++;
     }
     job->counts[begin / job->grain] = c;
 }
 
-/* Every leaf's flags (culling, sea, visible) and the culling counts of
- * `stats`, on the refiner's workers when there are many leaves (the counts
- * are sums: the same for any chunking); returns the visible count. */
+/* The culling counts of `stats` over every leaf's flags (culling, sea,
+ * visible: written when the leaf was evaluated), on the refiner's workers
+ * when there are many leaves (the counts are sums: the same for any
+ * chunking); returns the visible count. */
 static size_t plod__classify(const plod__frame *f, plod_refine_stats *s)
 {
     size_t count = f->tree->count;
     plod__class_job job;
     job.frame = f;
+    job.evaluated = !f->tree->truncated && !f->tree->limited;
     job.grain = count / PLOD__CLASS_CHUNKS + 1;
     if (job.grain < PLOD__PARALLEL_GRAIN)
         job.grain = PLOD__PARALLEL_GRAIN;
@@ -1035,6 +1093,7 @@ void plod_refiner_destroy(plod_refiner *refiner)
     free(refiner->scratch_index);
     free(refiner->scratch_keys);
     free(refiner->split_marks);
+    free(refiner->merge_nodes);
     free(refiner);
 }
 
@@ -1049,6 +1108,8 @@ plod_status plod_refiner_reserve(plod_refiner *refiner, size_t sectors)
         st = plod__order_reserve(refiner, sectors);
     if (st == PLOD_OK)
         st = plod__marks_reserve(refiner, sectors);
+    if (st == PLOD_OK) /* at most half the nodes have two leaf children */
+        st = plod__merge_reserve(refiner, sectors / 2 + 1);
     return st;
 }
 
@@ -1098,7 +1159,7 @@ size_t plod_refiner_memory_bytes(const plod_refiner *r)
         return 0;
     return sizeof *r + plod_lodtree_memory_bytes(&r->tree) +
            r->order_capacity * 4 * (sizeof(uint32_t) + sizeof(uint64_t)) +
-           r->split_mark_words * sizeof(uint64_t);
+           r->split_mark_words * sizeof(uint64_t) + r->merge_capacity * sizeof(int32_t);
 }
 
 plod_status plod_refiner_check(const plod_refiner *r)

@@ -44,12 +44,11 @@ static inline uint64_t plod_lodtree_parent_id(uint64_t id)
 
 /* A leaf's bound, and the slots where the LOD update caches its evaluation
  * of this frame (the tree moves them with the leaf and marks a new leaf's
- * stale). */
+ * stale; the evaluation's culling goes to the sector's flags). */
 typedef struct plod_lodtree_leaf {
     plod_bound self;
     uint32_t eval_frame;   /* frame of the cached evaluation below */
     uint8_t eval_split;    /* predicate result */
-    uint8_t eval_flags;    /* PLOD_SECTOR_BACKFACING | OUTSIDE_FRUSTUM */
 } plod_lodtree_leaf;
 
 /* A leaf's corner directions and, once a bound needed them, heights: kept
@@ -115,6 +114,8 @@ typedef struct plod_lodtree {
     int32_t *node_partner;       /* the other parent of its diamond: both
                                     are made by one split, removed by one
                                     merge */
+    int32_t *node_child0;        /* the slot of its child 0 while that child
+                                    is a leaf (kept as leaves move) */
     size_t node_capacity, node_top, node_used; /* node_top: slots in use or
                                                   holes (id 0) */
     uint32_t frame;              /* refine frame: births, stale evaluations */
