@@ -207,8 +207,8 @@ static int plod__leaf_wants_split(const plod__frame *f, size_t i)
 
 /* ---- the leaves' evaluation ----------------------------------------------------- */
 
-/* P and cull flags of leaves [begin, end) (begin a multiple of 64), written
- * to their own slots, and their words of the split marks: pure functions
+/* P and flags of leaves [begin, end) (begin a multiple of 64), written to
+ * their own slots, and their words of the split marks: pure functions
  * of the bounds, the camera and the parents' plane masks (final after the
  * node sweep), so any split of the work gives the bits of the lazy
  * single-threaded evaluation.  The node sweep itself stays sequential:
