@@ -266,6 +266,23 @@ void plod_workers_end(plod_workers *w)
         atomic_store(&w->spin, 0);
 }
 
+void *plod_grow(void *array, size_t *capacity, size_t need, size_t size, size_t first)
+{
+    size_t grown = *capacity ? *capacity : (first ? first : 1);
+    while (grown < need) {
+        if (grown > SIZE_MAX / 2)
+            return NULL;
+        grown *= 2;
+    }
+    if (size && grown > SIZE_MAX / size)
+        return NULL;
+    void *fresh = realloc(array, grown * size);
+    if (!fresh)
+        return NULL;
+    *capacity = grown;
+    return fresh;
+}
+
 void plod_workers_for(plod_workers *w, size_t count, size_t grain, plod_range_fn range,
                       void *context)
 {

@@ -311,14 +311,11 @@ static plod_status plod__job_reserve(plod_lodtree *t, size_t extra)
 {
     if (t->job_count + extra <= t->job_capacity)
         return PLOD_OK;
-    size_t capacity = t->job_capacity ? 2 * t->job_capacity : 256;
-    while (capacity < t->job_count + extra)
-        capacity *= 2;
-    plod_lodtree_job *fresh = realloc(t->jobs, capacity * sizeof *fresh);
+    plod_lodtree_job *fresh =
+        plod_grow(t->jobs, &t->job_capacity, t->job_count + extra, sizeof *fresh, 256);
     if (!fresh)
         return PLOD_ERR_NO_MEMORY;
     t->jobs = fresh;
-    t->job_capacity = capacity;
     return PLOD_OK;
 }
 
@@ -523,14 +520,11 @@ static plod_status plod__pending_reserve(plod_lodtree *t, size_t extra)
 {
     if (t->pending_count + extra <= t->pending_capacity)
         return PLOD_OK;
-    size_t capacity = t->pending_capacity ? 2 * t->pending_capacity : 256;
-    while (capacity < t->pending_count + extra)
-        capacity *= 2;
-    size_t *fresh = realloc(t->pending, capacity * sizeof *fresh);
+    size_t *fresh = plod_grow(t->pending, &t->pending_capacity, t->pending_count + extra,
+                              sizeof *fresh, 256);
     if (!fresh)
         return PLOD_ERR_NO_MEMORY;
     t->pending = fresh;
-    t->pending_capacity = capacity;
     return PLOD_OK;
 }
 

@@ -234,14 +234,10 @@ static plod_status plod__marks_reserve(plod_refiner *r, size_t count)
     size_t words = count / 64 + 1;
     if (words <= r->split_mark_words)
         return PLOD_OK;
-    size_t capacity = r->split_mark_words ? 2 * r->split_mark_words : 64;
-    while (capacity < words)
-        capacity *= 2;
-    uint64_t *fresh = realloc(r->split_marks, capacity * sizeof *fresh);
+    uint64_t *fresh = plod_grow(r->split_marks, &r->split_mark_words, words, sizeof *fresh, 64);
     if (!fresh)
         return PLOD_ERR_NO_MEMORY;
     r->split_marks = fresh;
-    r->split_mark_words = capacity;
     return PLOD_OK;
 }
 
@@ -345,14 +341,10 @@ static plod_status plod__merge_reserve(plod_refiner *r, size_t count)
 {
     if (count <= r->merge_capacity)
         return PLOD_OK;
-    size_t capacity = r->merge_capacity ? 2 * r->merge_capacity : 256;
-    while (capacity < count)
-        capacity *= 2;
-    int32_t *fresh = realloc(r->merge_nodes, capacity * sizeof *fresh);
+    int32_t *fresh = plod_grow(r->merge_nodes, &r->merge_capacity, count, sizeof *fresh, 256);
     if (!fresh)
         return PLOD_ERR_NO_MEMORY;
     r->merge_nodes = fresh;
-    r->merge_capacity = capacity;
     return PLOD_OK;
 }
 

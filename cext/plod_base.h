@@ -58,6 +58,12 @@ typedef void (*plod_range_fn)(void *context, size_t begin, size_t end);
  * if it does not depend on the blocking. */
 void plod_parallel_for(size_t count, int threads, plod_range_fn range, void *context);
 
+/* Grows an array of `size`-byte elements whose capacity *capacity is below
+ * `need`: the capacity doubles (from `first` when 0) until it holds `need`.
+ * Returns the moved array, or NULL without memory (the array and
+ * *capacity as they were). */
+void *plod_grow(void *array, size_t *capacity, size_t need, size_t size, size_t first);
+
 /* Persistent workers, for loops of a few hundred microseconds, where
  * starting threads (tens of microseconds each) would eat the gain.  A loop
  * is cut into chunks that the caller and the workers claim in turn; the
