@@ -493,20 +493,24 @@ PLOD__LANE_INLINE double plod__floor_exact(double x)
 }
 
 /* lane k of octave o's gradient noise (n, and g when gradient): the
- * arithmetic of plod__gnoise_kernel after the hashes, the corners'
- * gradients read from the lanes */
-PLOD__LANE_INLINE void plod__lane_blend(plod__lanes *l, int k, int gradient)
+ * arithmetic of plod__gnoise_kernel after the hashes.  Corner c's gradient
+ * component a is q[(3 c + a) * corner_stride + k * lane_step]: the lanes'
+ * own (l->q) or, where every lane is in one lattice cell, one set for all
+ * (lane_step 0): the same values, so the same bits. */
+PLOD__LANE_INLINE void plod__lane_blend(plod__lanes *l, int k, int gradient, const double *q,
+                                        int corner_stride, int lane_step)
 {
+#define PLOD__Q(c, a) q[(3 * (c) + (a)) * corner_stride + k * lane_step]
     double x = l->frac[0][k], y = l->frac[1][k], z = l->frac[2][k];
     double x1 = x - 1, y1 = y - 1, z1 = z - 1;
-    double val0 = l->q[0][0][k] * x + l->q[0][1][k] * y + l->q[0][2][k] * z;
-    double val1 = l->q[1][0][k] * x1 + l->q[1][1][k] * y + l->q[1][2][k] * z;
-    double val2 = l->q[2][0][k] * x + l->q[2][1][k] * y1 + l->q[2][2][k] * z;
-    double val3 = l->q[3][0][k] * x1 + l->q[3][1][k] * y1 + l->q[3][2][k] * z;
-    double val4 = l->q[4][0][k] * x + l->q[4][1][k] * y + l->q[4][2][k] * z1;
-    double val5 = l->q[5][0][k] * x1 + l->q[5][1][k] * y + l->q[5][2][k] * z1;
-    double val6 = l->q[6][0][k] * x + l->q[6][1][k] * y1 + l->q[6][2][k] * z1;
-    double val7 = l->q[7][0][k] * x1 + l->q[7][1][k] * y1 + l->q[7][2][k] * z1;
+    double val0 = PLOD__Q(0, 0) * x + PLOD__Q(0, 1) * y + PLOD__Q(0, 2) * z;
+    double val1 = PLOD__Q(1, 0) * x1 + PLOD__Q(1, 1) * y + PLOD__Q(1, 2) * z;
+    double val2 = PLOD__Q(2, 0) * x + PLOD__Q(2, 1) * y1 + PLOD__Q(2, 2) * z;
+    double val3 = PLOD__Q(3, 0) * x1 + PLOD__Q(3, 1) * y1 + PLOD__Q(3, 2) * z;
+    double val4 = PLOD__Q(4, 0) * x + PLOD__Q(4, 1) * y + PLOD__Q(4, 2) * z1;
+    double val5 = PLOD__Q(5, 0) * x1 + PLOD__Q(5, 1) * y + PLOD__Q(5, 2) * z1;
+    double val6 = PLOD__Q(6, 0) * x + PLOD__Q(6, 1) * y1 + PLOD__Q(6, 2) * z1;
+    double val7 = PLOD__Q(7, 0) * x1 + PLOD__Q(7, 1) * y1 + PLOD__Q(7, 2) * z1;
     double ux = x * x * x * (x * (x * 6.0 - 15.0) + 10.0);
     double uy = y * y * y * (y * (y * 6.0 - 15.0) + 10.0);
     double uz = z * z * z * (z * (z * 6.0 - 15.0) + 10.0);
@@ -525,9 +529,9 @@ PLOD__LANE_INLINE void plod__lane_blend(plod__lanes *l, int k, int gradient)
     double dy = 30.0 * y * y * (y * (y - 2.0) + 1.0);
     double dz = 30.0 * z * z * (z * (z - 2.0) + 1.0);
 #define PLOD__AXIS_GRADIENT(a)                                                                  \
-    double q0##a = l->q[0][a][k], q1##a = l->q[1][a][k], q2##a = l->q[2][a][k],                \
-           q3##a = l->q[3][a][k], q4##a = l->q[4][a][k], q5##a = l->q[5][a][k],                \
-           q6##a = l->q[6][a][k], q7##a = l->q[7][a][k];                                       \
+    double q0##a = PLOD__Q(0, a), q1##a = PLOD__Q(1, a), q2##a = PLOD__Q(2, a),                \
+           q3##a = PLOD__Q(3, a), q4##a = PLOD__Q(4, a), q5##a = PLOD__Q(5, a),                \
+           q6##a = PLOD__Q(6, a), q7##a = PLOD__Q(7, a);                                       \
     double g##a = q0##a + (q1##a - q0##a) * ux + (q2##a - q0##a) * uy + (q4##a - q0##a) * uz + \
                   (q0##a - q1##a - q2##a + q3##a) * ux * uy +                                  \
                   (q0##a - q2##a - q4##a + q6##a) * uy * uz +                                  \
@@ -537,12 +541,21 @@ PLOD__LANE_INLINE void plod__lane_blend(plod__lanes *l, int k, int gradient)
     PLOD__AXIS_GRADIENT(1)
     PLOD__AXIS_GRADIENT(2)
 #undef PLOD__AXIS_GRADIENT
+#undef PLOD__Q
     g0 += dx * (k1 + k4 * uy + k6 * uz + k7 * uy * uz);
     g1 += dy * (k2 + k5 * uz + k4 * ux + k7 * uz * ux);
     g2 += dz * (k3 + k6 * ux + k5 * uy + k7 * ux * uy);
     l->g[0][k] = clamp ? 0.0 : g0;
     l->g[1][k] = clamp ? 0.0 : g1;
     l->g[2][k] = clamp ? 0.0 : g2;
+}
+
+/* corner gradient component from a lattice hash: plod__grad[h >> 60][axis]
+ * (the table packed per axis) */
+PLOD__LANE_INLINE double plod__grad_component(uint32_t packed, uint64_t hash)
+{
+    uint32_t shift = (uint32_t)(hash >> 59) & 30u;
+    return (double)((int32_t)((packed >> shift) & 3u) - 1);
 }
 
 /* octave o's gradient noise at every lane (n, and g when gradient) */
@@ -565,7 +578,7 @@ PLOD__LANE_CLONES PLOD__LANE_LOOPS static void plod__lanes_noise(plod__lanes *l,
     /* the cell's integer corner, p - frac (the floor, exactly), as an
      * integer: the bits of floor + 1.5 * 2^52 less those of 1.5 * 2^52 are
      * its two's complement for |floor| < 2^51 (the cast, in SIMD) */
-    uint64_t base[PLOD__LANES];
+    uint64_t base[PLOD__LANES], differ = 0;
     for (int k = 0; k < l->count; k++) {
         uint64_t xyz[3];
         for (int a = 0; a < 3; a++) {
@@ -574,6 +587,26 @@ PLOD__LANE_CLONES PLOD__LANE_LOOPS static void plod__lanes_noise(plod__lanes *l,
             xyz[a] -= 0x4338000000000000ULL;
         }
         base[k] = xyz[0] * PLOD__HX + xyz[1] * PLOD__HY + xyz[2] * PLOD__HZ + o->seed;
+        differ |= base[k] ^ base[0];
+    }
+    if (l->count > 0 && !differ) {
+        /* every lane in one lattice cell (the coarse octaves of a sector):
+         * its corners hashed once */
+        double q[8][3];
+        for (int c = 0; c < 8; c++) {
+            uint64_t hash = plod__mix_fast(base[0] + ((c & 1) ? PLOD__HX : 0) +
+                                           ((c & 2) ? PLOD__HY : 0) + ((c & 4) ? PLOD__HZ : 0));
+            q[c][0] = plod__grad_component(PLOD__GRAD_X, hash);
+            q[c][1] = plod__grad_component(PLOD__GRAD_Y, hash);
+            q[c][2] = plod__grad_component(PLOD__GRAD_Z, hash);
+        }
+        if (gradient)
+            for (int k = 0; k < l->count; k++)
+                plod__lane_blend(l, k, 1, &q[0][0], 1, 0);
+        else
+            for (int k = 0; k < l->count; k++)
+                plod__lane_blend(l, k, 0, &q[0][0], 1, 0);
+        return;
     }
     for (int c = 0; c < 8; c++) {
         uint64_t corner = ((c & 1) ? PLOD__HX : 0) + ((c & 2) ? PLOD__HY : 0) +
@@ -581,18 +614,18 @@ PLOD__LANE_CLONES PLOD__LANE_LOOPS static void plod__lanes_noise(plod__lanes *l,
         /* the corner's gradient from plod__grad packed per axis (shifts
          * and masks instead of table gathers: the same values) */
         for (int k = 0; k < l->count; k++) {
-            uint32_t shift = (uint32_t)(plod__mix_fast(base[k] + corner) >> 59) & 30u;
-            l->q[c][0][k] = (double)((int32_t)((PLOD__GRAD_X >> shift) & 3u) - 1);
-            l->q[c][1][k] = (double)((int32_t)((PLOD__GRAD_Y >> shift) & 3u) - 1);
-            l->q[c][2][k] = (double)((int32_t)((PLOD__GRAD_Z >> shift) & 3u) - 1);
+            uint64_t hash = plod__mix_fast(base[k] + corner);
+            l->q[c][0][k] = plod__grad_component(PLOD__GRAD_X, hash);
+            l->q[c][1][k] = plod__grad_component(PLOD__GRAD_Y, hash);
+            l->q[c][2][k] = plod__grad_component(PLOD__GRAD_Z, hash);
         }
     }
     if (gradient)
         for (int k = 0; k < l->count; k++)
-            plod__lane_blend(l, k, 1);
+            plod__lane_blend(l, k, 1, &l->q[0][0][0], PLOD__LANES, 1);
     else
         for (int k = 0; k < l->count; k++)
-            plod__lane_blend(l, k, 0);
+            plod__lane_blend(l, k, 0, &l->q[0][0][0], PLOD__LANES, 1);
 }
 
 /* lane k: octave i's noise term into the sum (i < its value count) and
@@ -711,9 +744,18 @@ void plod_detail_noise_from_n(const plod_detail *detail, size_t n, const double 
         for (int k = 0; k < count; k++)
             lane_of[per_depth[depth_of[k]]++] = k;
         int padded = (count + 3) & ~3, earliest = detail->count;
+        /* idle lanes are masked and may read any lattice point: the batch's
+         * first direction keeps them in its cells (plod__lanes_noise's
+         * one-cell octaves) */
+        const double *idle_dir = plod__idle_dir;
+        for (int k = 0; k < count; k++)
+            if (plod__unit_range(dirs + 3 * (first + (size_t)lane_of[k]))) {
+                idle_dir = dirs + 3 * (first + (size_t)lane_of[k]);
+                break;
+            }
         for (int k = 0; k < padded; k++) {
             int v = 0, g = 0, f = 0;
-            const double *dir = plod__idle_dir; /* idle lanes: masked, any lattice point */
+            const double *dir = idle_dir;
             if (k < count) {
                 size_t at = first + (size_t)lane_of[k];
                 v = octaves[at] < detail->count ? octaves[at] : detail->count;

@@ -401,12 +401,16 @@ def test_batched_surface_is_the_point_path_on_a_map(planetlod, style):
     planet = earth_planet(planetlod, dict(style=style, amplitude=800.0, seed=7, craters=1.0,
                                           smallest=0.05))
     rng = np.random.default_rng(21)
-    # clusters of nearby directions (as a sector's vertices) and scattered ones
+    # clusters of nearby directions interleaved, runs of them (as a
+    # sector's vertices: whole batches in one lattice cell of the coarse
+    # octaves) and scattered ones
     centres = rng.normal(size=(40, 3))
     centres /= np.linalg.norm(centres, axis=1)[:, None]
     near = np.array([centres[k % 40] + 1e-6 * (1 + k % 50) * rng.normal(size=3)
                      for k in range(1500)])
-    dirs = np.concatenate([near, rng.normal(size=(500, 3))])
+    runs = np.array([centres[k // 150] + 10.0 ** -(5 + k // 150 % 4) * rng.normal(size=3)
+                     for k in range(750)])
+    dirs = np.concatenate([near, runs, rng.normal(size=(500, 3))])
     flat = dirs.reshape(-1).tolist()
     heights, normals = planet.surface(flat)
     normals = list(normals)
