@@ -628,13 +628,21 @@ PLOD__LANE_CLONES PLOD__LANE_LOOPS static void plod__lanes_noise(plod__lanes *l,
             plod__lane_blend(l, k, 0, &l->q[0][0][0], PLOD__LANES, 1);
 }
 
+/* An octave's weight and rotation, copied out of the octave: the lane
+ * loops' stores then provably leave them alone, which the vectoriser
+ * needs under -fno-strict-aliasing. */
+typedef struct plod__octave_terms {
+    double a;
+    double m[3][3];
+} plod__octave_terms;
+
 /* lane k: octave i's noise term into the sum (i < its value count) and
  * gradient (i < its gradient count): plod__octave_step's operations, as
  * selects */
-PLOD__LANE_INLINE void plod__lane_accumulate(plod__lanes *l, int k, const plod__octave *o,
+PLOD__LANE_INLINE void plod__lane_accumulate(plod__lanes *l, int k, const plod__octave_terms *o,
                                             double at, int ridged, int gradient)
 {
-    double a = o->noise_weight;
+    double a = o->a;
     int started = at >= l->first[k];
     int add_sum = started & (at < l->value_count[k]);
     int add_gradient = gradient ? started & (at < l->gradient_count[k]) : 0;
@@ -686,18 +694,20 @@ PLOD__LANE_CLONES PLOD__LANE_LOOPS static void
 plod__lanes_accumulate(plod__lanes *l, const plod__octave *o, int ridged, int i, int gradient)
 {
     double at = (double)i;
+    plod__octave_terms terms = {o->noise_weight, {{0.0}}};
+    memcpy(terms.m, o->m, sizeof terms.m);
     if (ridged && gradient)
         for (int k = 0; k < l->count; k++)
-            plod__lane_accumulate(l, k, o, at, 1, 1);
+            plod__lane_accumulate(l, k, &terms, at, 1, 1);
     else if (ridged)
         for (int k = 0; k < l->count; k++)
-            plod__lane_accumulate(l, k, o, at, 1, 0);
+            plod__lane_accumulate(l, k, &terms, at, 1, 0);
     else if (gradient)
         for (int k = 0; k < l->count; k++)
-            plod__lane_accumulate(l, k, o, at, 0, 1);
+            plod__lane_accumulate(l, k, &terms, at, 0, 1);
     else
         for (int k = 0; k < l->count; k++)
-            plod__lane_accumulate(l, k, o, at, 0, 0);
+            plod__lane_accumulate(l, k, &terms, at, 0, 0);
 }
 
 static const double plod__idle_dir[3] = {1.0, 0.0, 0.0};
