@@ -578,7 +578,7 @@ PLOD__LANE_CLONES PLOD__LANE_LOOPS static void plod__lanes_noise(plod__lanes *l,
     /* the cell's integer corner, p - frac (the floor, exactly), as an
      * integer: the bits of floor + 1.5 * 2^52 less those of 1.5 * 2^52 are
      * its two's complement for |floor| < 2^51 (the cast, in SIMD) */
-    uint64_t base[PLOD__LANES], differ = 0;
+    uint64_t base[PLOD__LANES], differ = 0, seed = o->seed;
     for (int k = 0; k < l->count; k++) {
         uint64_t xyz[3];
         for (int a = 0; a < 3; a++) {
@@ -586,9 +586,10 @@ PLOD__LANE_CLONES PLOD__LANE_LOOPS static void plod__lanes_noise(plod__lanes *l,
             memcpy(&xyz[a], &shifted, sizeof shifted);
             xyz[a] -= 0x4338000000000000ULL;
         }
-        base[k] = xyz[0] * PLOD__HX + xyz[1] * PLOD__HY + xyz[2] * PLOD__HZ + o->seed;
-        differ |= base[k] ^ base[0];
+        base[k] = xyz[0] * PLOD__HX + xyz[1] * PLOD__HY + xyz[2] * PLOD__HZ + seed;
     }
+    for (int k = 0; k < l->count; k++) /* apart: base[0] read while written kept it scalar */
+        differ |= base[k] ^ base[0];
     if (l->count > 0 && !differ) {
         /* every lane in one lattice cell (the coarse octaves of a sector):
          * its corners hashed once */
