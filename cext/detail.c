@@ -446,30 +446,6 @@ double plod_detail_noise_from(const plod_detail *detail, const double dir[3], in
  * plod_detail_noise. */
 #define PLOD__LANES 64
 
-/* The lane loops' selects are if-converted into SIMD only where the
- * compiler may evaluate both arms of a floating-point select (no traps:
- * the values are the same either way) and vectorises loops: GCC's -O2 does
- * neither, so these functions ask for it (fp-contract stays off: no fused
- * multiply-adds, the same roundings as the point path).  Where the
- * processor has AVX2, GCC on Linux also builds a 4-lane version, chosen
- * at load time; its results are the same bits (IEEE double arithmetic,
- * no FMA). */
-#if defined(__GNUC__) && !defined(__clang__)
-#define PLOD__LANE_LOOPS \
-    __attribute__((optimize("O3", "no-trapping-math", "fp-contract=off")))
-#define PLOD__LANE_INLINE static inline __attribute__((always_inline))
-#if defined(__x86_64__) && defined(__linux__) && !defined(PLOD_DETAIL_NO_CLONES)
-#define PLOD__LANE_CLONES __attribute__((target_clones("avx2", "default")))
-#endif
-#endif
-#ifndef PLOD__LANE_LOOPS
-#define PLOD__LANE_LOOPS
-#define PLOD__LANE_INLINE static inline
-#endif
-#ifndef PLOD__LANE_CLONES
-#define PLOD__LANE_CLONES
-#endif
-
 typedef struct plod__lanes {
     int count; /* lanes in use, rounded up to a multiple of 4 (idle ones masked) */
     double dir[3][PLOD__LANES];
@@ -485,7 +461,7 @@ typedef struct plod__lanes {
 
 /* floor() of |x| < 2^51, exact, branch-free: round to an integer by
  * adding and removing 2^52, step down where that rounded up */
-PLOD__LANE_INLINE double plod__floor_exact(double x)
+PLOD_LANE_INLINE double plod__floor_exact(double x)
 {
     double big = x < 0.0 ? -4503599627370496.0 : 4503599627370496.0;
     double r = (x + big) - big;
@@ -497,7 +473,7 @@ PLOD__LANE_INLINE double plod__floor_exact(double x)
  * component a is q[(3 c + a) * corner_stride + k * lane_step]: the lanes'
  * own (l->q) or, where every lane is in one lattice cell, one set for all
  * (lane_step 0): the same values, so the same bits. */
-PLOD__LANE_INLINE void plod__lane_blend(plod__lanes *l, int k, int gradient, const double *q,
+PLOD_LANE_INLINE void plod__lane_blend(plod__lanes *l, int k, int gradient, const double *q,
                                         int corner_stride, int lane_step)
 {
 #define PLOD__Q(c, a) q[(3 * (c) + (a)) * corner_stride + k * lane_step]
@@ -552,14 +528,14 @@ PLOD__LANE_INLINE void plod__lane_blend(plod__lanes *l, int k, int gradient, con
 
 /* corner gradient component from a lattice hash: plod__grad[h >> 60][axis]
  * (the table packed per axis) */
-PLOD__LANE_INLINE double plod__grad_component(uint32_t packed, uint64_t hash)
+PLOD_LANE_INLINE double plod__grad_component(uint32_t packed, uint64_t hash)
 {
     uint32_t shift = (uint32_t)(hash >> 59) & 30u;
     return (double)((int32_t)((packed >> shift) & 3u) - 1);
 }
 
 /* octave o's gradient noise at every lane (n, and g when gradient) */
-PLOD__LANE_CLONES PLOD__LANE_LOOPS static void plod__lanes_noise(plod__lanes *l, const plod__octave *o,
+PLOD_LANE_CLONES PLOD_LANE_LOOPS static void plod__lanes_noise(plod__lanes *l, const plod__octave *o,
                                                            int gradient)
 {
     double m00 = o->m[0][0], m01 = o->m[0][1], m02 = o->m[0][2], m10 = o->m[1][0],
@@ -640,7 +616,7 @@ typedef struct plod__octave_terms {
 /* lane k: octave i's noise term into the sum (i < its value count) and
  * gradient (i < its gradient count): plod__octave_step's operations, as
  * selects */
-PLOD__LANE_INLINE void plod__lane_accumulate(plod__lanes *l, int k, const plod__octave_terms *o,
+PLOD_LANE_INLINE void plod__lane_accumulate(plod__lanes *l, int k, const plod__octave_terms *o,
                                             double at, int ridged, int gradient)
 {
     double a = o->a;
@@ -691,7 +667,7 @@ PLOD__LANE_INLINE void plod__lane_accumulate(plod__lanes *l, int k, const plod__
 #undef PLOD__RIDGED_AXIS
 }
 
-PLOD__LANE_CLONES PLOD__LANE_LOOPS static void
+PLOD_LANE_CLONES PLOD_LANE_LOOPS static void
 plod__lanes_accumulate(plod__lanes *l, const plod__octave *o, int ridged, int i, int gradient)
 {
     double at = (double)i;

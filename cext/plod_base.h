@@ -40,6 +40,31 @@ static inline void plod_cross3(const double a[3], const double b[3], double out[
     out[2] = a[0] * b[1] - a[1] * b[0];
 }
 
+/* ---- lane loops ------------------------------------------------------------
+ * Loops over a batch of points written for SIMD (structure of arrays, the
+ * branches as selects) ask GCC for what its -O2 lacks: vectorised loops,
+ * and selects if-converted, which needs leave to evaluate both arms of a
+ * floating-point select (no traps; the values are the same either way).
+ * fp-contract stays off: no fused multiply-adds, the roundings of the
+ * point path.  Where the processor has AVX2, GCC on Linux also builds a
+ * 4-lane version of a PLOD_LANE_CLONES function, chosen at load time; its
+ * results are the same bits (IEEE double arithmetic, no FMA).
+ * PLOD_LANE_INLINE: helpers inlined into them. */
+#if defined(__GNUC__) && !defined(__clang__)
+#define PLOD_LANE_LOOPS __attribute__((optimize("O3", "no-trapping-math", "fp-contract=off")))
+#define PLOD_LANE_INLINE static inline __attribute__((always_inline))
+#if defined(__x86_64__) && defined(__linux__) && !defined(PLOD_NO_CLONES)
+#define PLOD_LANE_CLONES __attribute__((target_clones("avx2", "default")))
+#endif
+#endif
+#ifndef PLOD_LANE_LOOPS
+#define PLOD_LANE_LOOPS
+#define PLOD_LANE_INLINE static inline
+#endif
+#ifndef PLOD_LANE_CLONES
+#define PLOD_LANE_CLONES
+#endif
+
 /* ---- threads --------------------------------------------------------------- */
 
 #define PLOD_MAX_THREADS 64

@@ -25,6 +25,7 @@
 #include "plod_projection.h"
 
 #include <ctype.h>
+#include <stdint.h>
 #include <math.h>
 #include <string.h>
 
@@ -101,25 +102,60 @@ plod_status plod_face_frame(int face, int frame[3][3])
 
 PLOD__HOT double plod__maxd(double a, double b) { return a > b ? a : b; }
 
+/* cond ? a : b on the bits (no branch for the compiler to thread: GCC
+ * if-converts only small selects, and batch loops must stay branch-free) */
+PLOD__HOT double plod__pick(int cond, double a, double b)
+{
+    uint64_t bits_a, bits_b, mask = (uint64_t)0 - (uint64_t)(cond != 0);
+    memcpy(&bits_a, &a, sizeof a);
+    memcpy(&bits_b, &b, sizeof b);
+    uint64_t bits = (bits_a & mask) | (bits_b & ~mask);
+    double out;
+    memcpy(&out, &bits, sizeof out);
+    return out;
+}
+
+/* cond ? a : b for small integers, arithmetically */
+PLOD__HOT int plod__pick_int(int cond, int a, int b)
+{
+    return b ^ ((a ^ b) & -(cond != 0));
+}
+
 /* Lowest face whose centre axis is the largest component of d (ties -> the
- * lower face, as WCSLIB's strict '>' chain), without branches. */
+ * lower face, as WCSLIB's strict '>' chain), branch-free (NaN: face 0). */
 PLOD__HOT int plod__select_face(double x, double y, double z)
 {
     double m = plod__maxd(plod__maxd(plod__maxd(z, x), plod__maxd(y, -x)),
                           plod__maxd(-y, -z));
-    unsigned mask = (unsigned)(z == m) | (unsigned)(x == m) << 1 |
-                    (unsigned)(y == m) << 2 | (unsigned)(-x == m) << 3 |
-                    (unsigned)(-y == m) << 4 | (unsigned)(-z == m) << 5;
-    return mask ? __builtin_ctz(mask) : 0; /* mask == 0 only for NaN */
+    int face = 0; /* the first match wins: tested last */
+    face = plod__pick_int(-z == m, 5, face);
+    face = plod__pick_int(-y == m, 4, face);
+    face = plod__pick_int(-x == m, 3, face);
+    face = plod__pick_int(y == m, 2, face);
+    face = plod__pick_int(x == m, 1, face);
+    face = plod__pick_int(z == m, 0, face);
+    return face;
 }
 
+/* The frame tables as selects (a batch loop cannot index a table per
+ * lane): each coordinate is one component or its negation, exactly. */
 PLOD__HOT void plod__to_local(int face, double x, double y, double z,
                                   double *xi, double *eta, double *zeta)
 {
-    const double d[3] = {x, y, z};
-    *xi = plod__su[face] * d[plod__iu[face]];
-    *eta = plod__sv[face] * d[plod__iv[face]];
-    *zeta = plod__sc[face] * d[plod__ic[face]];
+    double a = y, b = z, c = -z; /* face 5's, then the others' */
+    a = plod__pick(face == 2, -x, a);
+    a = plod__pick(face == 3, -y, a);
+    a = plod__pick(face == 4, x, a);
+    b = plod__pick(face == 0, -x, b);
+    b = plod__pick(face == 5, x, b);
+    c = plod__pick(face == 0, z, c);
+    c = plod__pick(face == 1, x, c);
+    c = plod__pick(face == 2, y, c);
+    c = plod__pick(face == 3, -x, c);
+    c = plod__pick(face == 4, -y, c);
+    *xi = a;
+    *eta = b;
+    *zeta = c;
 }
 
 PLOD__HOT void plod__from_local(int face, double xi, double eta, double zeta,
@@ -268,22 +304,16 @@ PLOD__HOT double plod__qsc_tan(double t)
 PLOD__HOT void plod__qsc_fwd(double xi, double eta, double zeta, double r,
                                  double *u, double *v)
 {
-    const double in[2] = {xi, eta};
-    int swap = fabs(eta) > fabs(xi); /* indexes instead of branches */
-    double major = in[swap], minor = in[1 - swap];
-    if (major == 0.0) {
-        *u = 0.0;
-        *v = 0.0;
-        return;
-    }
+    int swap = fabs(eta) > fabs(xi); /* selects instead of branches */
+    double major = swap ? eta : xi, minor = swap ? xi : eta;
     double omega = minor / major;
     double w2 = omega * omega;
     double q = sqrt(2.0 + w2);
-    double out[2];
-    out[swap] = major * sqrt((1.0 + w2) * q / ((r + zeta) * r * (q - 1.0)));
-    out[1 - swap] = out[swap] * (12.0 / PLOD_PI) * plod__qsc_atan(omega * (q - 1.0) / (q + w2));
-    *u = out[0];
-    *v = out[1];
+    double along = major * sqrt((1.0 + w2) * q / ((r + zeta) * r * (q - 1.0)));
+    double across = along * (12.0 / PLOD_PI) * plod__qsc_atan(omega * (q - 1.0) / (q + w2));
+    int centre = major == 0.0; /* the face centre: no omega */
+    *u = centre ? 0.0 : (swap ? across : along);
+    *v = centre ? 0.0 : (swap ? along : across);
 }
 
 PLOD__HOT void plod__qsc_inv(double u, double v, double *xi, double *eta,
@@ -605,6 +635,36 @@ plod_status plod_face_to_dir(plod_projection projection, int face, double u,
     return plod__face_to_dir(projection, face, u, v, dir);
 }
 
+/* The batch, lane by lane as if every direction were finite and of
+ * moderate length (those are exactly plod__dir_to_face's operations: no
+ * rescaling): branch-free, so the loop vectorises.  redo[i] marks the
+ * others, for the caller to take one by one. */
+PLOD_LANE_CLONES PLOD_LANE_LOOPS static void plod__dir_to_face_lanes(
+    plod_projection projection, size_t n, const double *dirs, int *faces, double *u, double *v,
+    unsigned char *redo)
+{
+#define PLOD__LOOP(PROJ)                                                                  \
+    for (size_t i = 0; i < n; i++) {                                                      \
+        double x = dirs[3 * i], y = dirs[3 * i + 1], z = dirs[3 * i + 2];                 \
+        double r2 = x * x + y * y + z * z;                                                \
+        redo[i] = !((r2 > 1e-290) & (r2 < 1e290)); /* also NaN and infinities */          \
+        double r = sqrt(x * x + y * y + z * z), xi, eta, zeta, a, b;                      \
+        int f = plod__select_face(x, y, z);                                               \
+        plod__to_local(f, x, y, z, &xi, &eta, &zeta);                                     \
+        plod__local_fwd(PROJ, xi, eta, zeta, r, &a, &b);                                  \
+        faces[i] = f;                                                                     \
+        u[i] = a + 0.0;                                                                   \
+        v[i] = b + 0.0;                                                                   \
+    }
+    switch (projection) {
+    case PLOD_PROJ_TSC: PLOD__LOOP(PLOD_PROJ_TSC) break;
+    case PLOD_PROJ_CSC: PLOD__LOOP(PLOD_PROJ_CSC) break;
+    case PLOD_PROJ_QSC: PLOD__LOOP(PLOD_PROJ_QSC) break;
+    default: PLOD__LOOP(PLOD_PROJ_SPHERIFIED) break;
+    }
+#undef PLOD__LOOP
+}
+
 plod_status plod_dir_to_face_n(plod_projection projection, size_t n,
                                const double *dirs, int *faces, double *u,
                                double *v, int *stat)
@@ -614,24 +674,35 @@ plod_status plod_dir_to_face_n(plod_projection projection, size_t n,
     if ((unsigned)projection >= PLOD_PROJ_COUNT)
         return PLOD_ERR_BAD_PROJECTION;
     plod_status first = PLOD_OK;
-#define PLOD__LOOP(PROJ)                                                          \
-    for (size_t i = 0; i < n; i++) {                                              \
-        const double *d = dirs + 3 * i;                                           \
-        plod_status st = PLOD_OK;                                                 \
-        if (!plod__finite3(d) || (d[0] == 0.0 && d[1] == 0.0 && d[2] == 0.0)) {   \
-            st = PLOD_ERR_BAD_COORD;                                              \
-            faces[i] = -1;                                                        \
-            u[i] = v[i] = NAN;                                                    \
-        } else {                                                                  \
-            plod__dir_to_face(PROJ, d, faces + i, u + i, v + i);                  \
-        }                                                                         \
-        if (stat)                                                                 \
-            stat[i] = (int)st;                                                    \
-        if (st != PLOD_OK && first == PLOD_OK)                                    \
-            first = st;                                                           \
+    enum { BLOCK = 256 };
+    unsigned char redo[BLOCK];
+    for (size_t begin = 0; begin < n; begin += BLOCK) {
+        size_t count = n - begin < BLOCK ? n - begin : BLOCK;
+        const double *block_dirs = dirs + 3 * begin;
+        if (projection == PLOD_PROJ_CAR)
+            memset(redo, 1, count);
+        else
+            plod__dir_to_face_lanes(projection, count, block_dirs, faces + begin, u + begin,
+                                    v + begin, redo);
+        for (size_t k = 0; k < count; k++) {
+            size_t i = begin + k;
+            plod_status st = PLOD_OK;
+            if (redo[k]) {
+                const double *d = dirs + 3 * i;
+                if (!plod__finite3(d) || (d[0] == 0.0 && d[1] == 0.0 && d[2] == 0.0)) {
+                    st = PLOD_ERR_BAD_COORD;
+                    faces[i] = -1;
+                    u[i] = v[i] = NAN;
+                } else {
+                    plod__dir_to_face(projection, d, faces + i, u + i, v + i);
+                }
+            }
+            if (stat)
+                stat[i] = (int)st;
+            if (st != PLOD_OK && first == PLOD_OK)
+                first = st;
+        }
     }
-    PLOD__PER_PROJECTION(projection)
-#undef PLOD__LOOP
     return first;
 }
 

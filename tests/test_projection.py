@@ -203,6 +203,38 @@ def test_scalar_matches_vector(planetlod):
         assert (lon, lat) == (lons[0], lats[0])
 
 
+@pytest.mark.parametrize("proj", ["tsc", "csc", "qsc", "spherified", "car"])
+def test_batch_dir_to_face_is_the_point_path(planetlod, proj):
+    """dirs_to_faces runs whole batches branch-free (vectorised) and takes
+    the rare points one by one: every point is dir_to_face's, bit for bit,
+    on face edges and corners (ties), signed zeros, the axes, very long and
+    very short vectors; invalid ones give face -1 and NaN."""
+    rng = np.random.default_rng(5)
+    special = [(1, 1, 0), (1, 1, 1), (-1, -1, -1), (0, -1, 1), (1, 0, 0), (-1, 0, 0),
+               (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1), (0.0, -0.0, 1.0),
+               (-0.0, 1.0, -0.0), (1e200, 3e199, -2e199), (1e-200, -3e-201, 2e-201),
+               (5e-324, 0.0, 0.0), (1e154, 1e154, 1e154), (0.3, -0.3, 0.3)]
+    dirs = np.concatenate([np.array(special, dtype=float), rng.normal(size=(700, 3)),
+                           rng.normal(size=(40, 3)) * 1e-160,
+                           np.round(rng.normal(size=(60, 3)))])
+    faces, u, v = planetlod.dirs_to_faces(proj, dirs.ravel())
+    for k, d in enumerate(dirs):
+        if not d.any():
+            assert faces[k] == -1 and math.isnan(u[k]) and math.isnan(v[k])
+            continue
+        f, a, b = planetlod.dir_to_face(proj, *d)
+        assert (faces[k], struct_bits(u[k]), struct_bits(v[k])) == \
+            (f, struct_bits(a), struct_bits(b)), (k, tuple(d))
+    bad = [float("nan"), 0.0, 1.0, float("inf"), 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 2.0, 3.0]
+    faces, u, v = planetlod.dirs_to_faces(proj, bad)
+    assert list(faces) == [-1, -1, -1, faces[3]] and faces[3] >= 0
+    assert all(math.isnan(x) for x in list(u[:3]) + list(v[:3]))
+
+
+def struct_bits(x):
+    return array.array("d", [x]).tobytes()
+
+
 def test_cross_layout_conventions(planetlod):
     # face centres (FITS): face 0 north, 1..4 at lon 0/90/180/270, 5 south
     centres = [(0, 90), (0, 0), (90, 0), (180, 0), (-90, 0), (0, -90)]
