@@ -10,6 +10,7 @@
 #include "plod_planet.h"
 #include "plod_detail.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -168,7 +169,7 @@ static void plod__difference_normal(const plod_planet *planet, const double dir[
 
 /* The field's directions are unit: callers' directions (unit by
  * contract, any length from Python) are renormalised, one rounding. */
-static void plod__unit_dir(const double dir[3], double unit[3])
+PLOD_LANE_INLINE void plod__unit_dir(const double dir[3], double unit[3])
 {
     double len2 = dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2];
     double inv = 1.0 / sqrt(len2);
@@ -178,10 +179,12 @@ static void plod__unit_dir(const double dir[3], double unit[3])
 /* The detail term m N (N evaluated at the unit direction dir, g its
  * gradient) on top of the map's height and normal: height += m N; the
  * normal, if wanted, is rebuilt from the map normal's slope plus N's
- * analytic slope: n ~ (R + h) d - grad_t h_map - m grad_t N. */
-static void plod__apply_detail(const plod_planet *planet, const double dir[3], double m,
-                               double noise, const double g[3], double *height,
-                               double *normal, double *detail)
+ * analytic slope: n ~ (R + h) d - grad_t h_map - m grad_t N (kept where
+ * that is zero or not finite).  Branch-free but for the outputs asked
+ * for, so that batch loops vectorise. */
+PLOD_LANE_INLINE void plod__apply_detail(double radius, const double dir[3], double m,
+                                         double noise, const double g[3], double *height,
+                                         double *normal, double *detail)
 {
     double h_map = *height;
     *height = h_map + m * noise;
@@ -190,17 +193,67 @@ static void plod__apply_detail(const plod_planet *planet, const double dir[3], d
     if (!normal)
         return;
     double nd = normal[0] * dir[0] + normal[1] * dir[1] + normal[2] * dir[2];
-    double k = nd > 1e-3 ? (planet->radius + h_map) / nd : 0.0; /* map slope, per radian */
+    double k = nd > 1e-3 ? (radius + h_map) / nd : 0.0; /* map slope, per radian */
     double gd = g[0] * dir[0] + g[1] * dir[1] + g[2] * dir[2];
-    double r = planet->radius + *height, v[3];
+    double r = radius + *height, v[3];
     for (int c = 0; c < 3; c++)
         v[c] = r * dir[c] + k * (normal[c] - nd * dir[c]) - m * (g[c] - gd * dir[c]);
     double vlen2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
-    if (!(vlen2 > 0.0) || !isfinite(vlen2))
-        return;
+    int keep = !((vlen2 > 0.0) & (vlen2 <= DBL_MAX)); /* zero, infinite or NaN */
     double inv_len = 1.0 / sqrt(vlen2);
     for (int c = 0; c < 3; c++)
-        normal[c] = v[c] * inv_len;
+        normal[c] = keep ? normal[c] : v[c] * inv_len;
+}
+
+/* A normal map sample (3 channels in [0, 1]) decoded into the unit normal
+ * when `sampled`; the normal is left as it is otherwise, or where the
+ * sample is too short to be a normal (interpolated across a fold: it
+ * stays radial).  Branch-free, for the batch loop. */
+PLOD_LANE_INLINE void plod__decode_normal(const double s[3], int sampled, double normal[3])
+{
+    double m[3] = {2.0 * s[0] - 1.0, 2.0 * s[1] - 1.0, 2.0 * s[2] - 1.0};
+    double len2 = m[0] * m[0] + m[1] * m[1] + m[2] * m[2];
+    int use = sampled & (len2 > 0.25);
+    double inv_len = 1.0 / sqrt(len2);
+    for (int c = 0; c < 3; c++)
+        normal[c] = use ? m[c] * inv_len : normal[c];
+}
+
+/* plod__decode_normal over a batch: the samples of points on faces[i] (-1:
+ * not sampled) */
+PLOD_LANE_CLONES PLOD_LANE_LOOPS static void plod__decode_normals(size_t n, const int *faces,
+                                                                 const double *samples,
+                                                                 double *normals)
+{
+    for (size_t i = 0; i < n; i++)
+        plod__decode_normal(samples + 3 * i, faces[i] >= 0, normals + 3 * i);
+}
+
+/* plod__unit_dir over a batch, in place */
+PLOD_LANE_CLONES PLOD_LANE_LOOPS static void plod__unit_dirs(size_t n, double *dirs)
+{
+    for (size_t i = 0; i < n; i++)
+        plod__unit_dir(dirs + 3 * i, dirs + 3 * i);
+}
+
+/* plod__apply_detail over a batch (heights, normals and detail of the
+ * batch's points, in order) */
+PLOD_LANE_CLONES PLOD_LANE_LOOPS static void plod__apply_detail_n(
+    double radius, size_t n, const double *unit, const double *scale, const double *noise,
+    const double *gradient, double *heights, double *normals, double *detail)
+{
+    if (normals && detail)
+        for (size_t i = 0; i < n; i++)
+            plod__apply_detail(radius, unit + 3 * i, scale[i], noise[i], gradient + 3 * i,
+                               heights + i, normals + 3 * i, detail + i);
+    else if (normals)
+        for (size_t i = 0; i < n; i++)
+            plod__apply_detail(radius, unit + 3 * i, scale[i], noise[i], gradient + 3 * i,
+                               heights + i, normals + 3 * i, NULL);
+    else
+        for (size_t i = 0; i < n; i++)
+            plod__apply_detail(radius, unit + 3 * i, scale[i], noise[i], NULL, heights + i,
+                               NULL, detail ? detail + i : NULL);
 }
 
 /* The detail field on top of the map's height and normal at dir (first
@@ -239,7 +292,7 @@ static void plod__blend_apply(const plod_planet *planet, const double unit[3], d
             for (int c = 0; c < 3; c++)
                 g[c] += w * (g_from[c] - g[c]);
     }
-    plod__apply_detail(planet, unit, m, noise, g, height, normal, detail);
+    plod__apply_detail(planet->radius, unit, m, noise, g, height, normal, detail);
 }
 
 static void plod__add_detail(const plod_planet *planet, const double dir[3], double m,
@@ -254,7 +307,7 @@ static void plod__add_detail(const plod_planet *planet, const double dir[3], dou
     if (!(w > 0.0)) {
         plod_detail_noise_n(planet->detail, 1, unit, &octaves, &normal_octaves, &noise,
                             normal ? g : NULL);
-        plod__apply_detail(planet, unit, m, noise, g, height, normal, detail);
+        plod__apply_detail(planet->radius, unit, m, noise, g, height, normal, detail);
         return;
     }
     double from, g_from[3] = {0.0, 0.0, 0.0};
@@ -313,7 +366,7 @@ static void plod__add_detail_run(const plod_planet *planet, size_t count, const 
         double *normal = normals ? normals + 3 * i : NULL;
         double *d = detail ? detail + i : NULL;
         if (!(w > 0.0)) {
-            plod__apply_detail(planet, unit + 3 * j, modulation[i], noise[all_at[j]],
+            plod__apply_detail(planet->radius, unit + 3 * j, modulation[i], noise[all_at[j]],
                                g + 3 * all_at[j], heights + i, normal, d);
             continue;
         }
@@ -389,14 +442,8 @@ static double plod__global_surface(const plod_planet *planet, const double dir[3
         plod__difference_normal(planet, dir, planet->radius + height, normal);
         return height;
     }
-    if (plod_cubemap_sample_face_d(planet->normalmap, *face, *u, *v, sample)) {
-        double m[3] = {2.0 * sample[0] - 1.0, 2.0 * sample[1] - 1.0, 2.0 * sample[2] - 1.0};
-        double len2 = m[0] * m[0] + m[1] * m[1] + m[2] * m[2];
-        if (len2 > 0.25) { /* else interpolated across a fold: keep radial */
-            double inv_len = 1.0 / sqrt(len2);
-            normal[0] = m[0] * inv_len, normal[1] = m[1] * inv_len, normal[2] = m[2] * inv_len;
-        }
-    }
+    if (plod_cubemap_sample_face_d(planet->normalmap, *face, *u, *v, sample))
+        plod__decode_normal(sample, 1, normal);
     return height;
 }
 
@@ -512,6 +559,7 @@ void plod_planet_surface_detail_n(const plod_planet *planet, size_t n, const dou
     int faces[CHUNK];
     double u[CHUNK], v[CHUNK], modulation[CHUNK];
     double unit[3 * CHUNK], scale[CHUNK], noise[CHUNK], gradient[3 * CHUNK];
+    double height_live[CHUNK], normal_live[3 * CHUNK], detail_live[CHUNK];
     size_t index[CHUNK];
     int band_live[CHUNK], normal_band_live[CHUNK];
     double sample[4 * CHUNK], normal_sample[3 * CHUNK]; /* maps have 1..4 channels */
@@ -528,19 +576,7 @@ void plod_planet_surface_detail_n(const plod_planet *planet, size_t n, const dou
             heights[first + i] =
                 faces[i] < 0 ? NAN : plod__metres(planet, sample[i * height_channels]);
         if (normals) {
-            for (size_t i = 0; i < count; i++) {
-                if (faces[i] < 0)
-                    continue;
-                const double *s = normal_sample + 3 * i;
-                double m[3] = {2.0 * s[0] - 1.0, 2.0 * s[1] - 1.0, 2.0 * s[2] - 1.0};
-                double len2 = m[0] * m[0] + m[1] * m[1] + m[2] * m[2];
-                if (len2 > 0.25) { /* as plod_planet_surface */
-                    double inv_len = 1.0 / sqrt(len2);
-                    double *normal = normals + 3 * (first + i);
-                    normal[0] = m[0] * inv_len, normal[1] = m[1] * inv_len,
-                    normal[2] = m[2] * inv_len;
-                }
-            }
+            plod__decode_normals(count, faces, normal_sample, normals + 3 * first);
         }
         if (!planet->detail)
             continue;
@@ -554,20 +590,28 @@ void plod_planet_surface_detail_n(const plod_planet *planet, size_t n, const dou
             int band = octaves ? octaves[at] : all;
             if (!(m != 0.0) || band <= 0)
                 continue; /* sea (m = 0) or NaN map: unchanged (and detail 0) */
-            plod__unit_dir(dirs + 3 * at, unit + 3 * live);
+            memcpy(unit + 3 * live, dirs + 3 * at, 3 * sizeof *unit);
+            height_live[live] = heights[at];
+            if (normals)
+                memcpy(normal_live + 3 * live, normals + 3 * at, 3 * sizeof *normal_live);
             index[live] = at;
             scale[live] = m;
             band_live[live] = band;
             normal_band_live[live] = normal_octaves ? normal_octaves[at] : all;
             live++;
         }
+        plod__unit_dirs(live, unit);
         plod_detail_noise_n(planet->detail, live, unit, band_live, normal_band_live, noise,
                             normals ? gradient : NULL);
+        plod__apply_detail_n(planet->radius, live, unit, scale, noise, gradient, height_live,
+                             normals ? normal_live : NULL, detail ? detail_live : NULL);
         for (size_t j = 0; j < live; j++) {
             size_t at = index[j];
-            plod__apply_detail(planet, unit + 3 * j, scale[j], noise[j], gradient + 3 * j,
-                               heights + at, normals ? normals + 3 * at : NULL,
-                               detail ? detail + at : NULL);
+            heights[at] = height_live[j];
+            if (normals)
+                memcpy(normals + 3 * at, normal_live + 3 * j, 3 * sizeof *normals);
+            if (detail)
+                detail[at] = detail_live[j];
         }
     }
 }
