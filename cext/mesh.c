@@ -274,13 +274,11 @@ size_t plod_mesh_count_sectors(const plod_mesh_sector_source *sectors)
  * (resolution 6e-8 of a turn), so libm's last bits are wasted there.
  * Octant reduction to a = lo/hi in [0, 1], then a near-minimax odd
  * polynomial of degree 19 (fitted offline; max error 9.1e-10 on [0, 1]). */
-static double plod__atan2(double y, double x)
+PLOD_LANE_INLINE double plod__atan2(double y, double x)
 {
     double ax = fabs(x), ay = fabs(y);
     double hi = ax > ay ? ax : ay, lo = ax > ay ? ay : ax;
-    if (hi == 0.0)
-        return 0.0;
-    double a = lo / hi, a2 = a * a;
+    double a = lo / hi, a2 = a * a; /* branch-free: hi 0 is selected away */
     double p = -0.001508915608072453;
     p = p * a2 + 0.009565248310473062;
     p = p * a2 - 0.028485991375904976;
@@ -292,11 +290,61 @@ static double plod__atan2(double y, double x)
     p = p * a2 - 0.33333179705687827;
     p = p * a2 + 0.9999999804035231;
     double r = p * a;
-    if (ay > ax)
-        r = PLOD_PI / 2 - r;
-    if (x < 0.0)
-        r = PLOD_PI - r;
-    return y < 0.0 ? -r : r;
+    r = ay > ax ? PLOD_PI / 2 - r : r;
+    r = x < 0.0 ? PLOD_PI - r : r;
+    r = y < 0.0 ? -r : r;
+    return hi == 0.0 ? 0.0 : r;
+}
+
+/* A row of sampled vertices into the float outputs (relative to the
+ * origin; uv: longitude unwrapped around lon_ref, latitude) and the
+ * positions in double, branch-free so that the loop vectorises.  Outputs
+ * the caller does not want are NULL (normals and detail are then not
+ * read). */
+typedef struct plod__row {
+    double *position;             /* 3 per vertex */
+    float *positions, *normals;   /* 3 per vertex */
+    float *uv;                    /* 2 per vertex */
+    float *detail;
+} plod__row;
+
+PLOD_LANE_CLONES PLOD_LANE_LOOPS static void plod__row_outputs(
+    size_t count, const double *dirs, const double *heights, const double *normals,
+    const double *detail, double radius, const double origin[3], double lon_ref,
+    const plod__row *out)
+{
+    /* the pointers read once: with -fno-strict-aliasing a float store
+     * might otherwise change them, and the loops would not vectorise */
+    double *position = out->position;
+    float *positions = out->positions, *normals_f = out->normals, *uv = out->uv;
+    float *detail_f = out->detail;
+    for (size_t j = 0; j < count; j++) {
+        const double *dir = dirs + 3 * j;
+        double r = radius + heights[j];
+        for (int c = 0; c < 3; c++) {
+            double p = dir[c] * r;
+            position[3 * j + c] = p;
+            positions[3 * j + c] = (float)(p - origin[c]);
+        }
+    }
+    if (normals_f)
+        for (size_t j = 0; j < 3 * count; j++)
+            normals_f[j] = (float)normals[j];
+    if (uv)
+        for (size_t j = 0; j < count; j++) {
+            const double *dir = dirs + 3 * j;
+            double horizontal = sqrt(dir[0] * dir[0] + dir[1] * dir[1]);
+            double lon = plod__atan2(dir[1], dir[0]);
+            lon = lon - lon_ref > PLOD_PI ? lon - 2 * PLOD_PI : lon;
+            lon = lon - lon_ref < -PLOD_PI ? lon + 2 * PLOD_PI : lon;
+            lon = horizontal > 1e-12 ? lon : lon_ref; /* at a pole: the sector's */
+            double lat = plod__atan2(dir[2], horizontal);
+            uv[2 * j] = (float)(lon / (2 * PLOD_PI) + 0.5);
+            uv[2 * j + 1] = (float)(lat / PLOD_PI + 0.5);
+        }
+    if (detail_f)
+        for (size_t j = 0; j < count; j++)
+            detail_f[j] = (float)detail[j];
 }
 
 /* Corners finite, roughly unit, no two (nearly) antipodal: every weighted
@@ -698,6 +746,8 @@ static void plod__compute_vertices(const plod__emitter *e, const plod_mesh_secto
      * detail field's SIMD lanes want long batches */
     enum { ROW = (1 << PLOD_MAX_TEMPLATE_LEVEL) + 1, GROUP = ROW + 160 };
     double dirs[3 * GROUP], heights[GROUP], normals[3 * GROUP], detail[GROUP];
+    double position_scratch[3 * GROUP];
+    float positions_scratch[3 * GROUP];
     int octaves[GROUP], normal_octaves[GROUP], band[4];
     if (e->banded)
         plod__detail_bands(e, corners, n, band);
@@ -724,45 +774,24 @@ static void plod__compute_vertices(const plod__emitter *e, const plod_mesh_secto
                                   e->banded ? octaves : NULL,
                                   e->banded ? normal_octaves : NULL, heights,
                                   want_normal ? normals : NULL, want_detail ? detail : NULL);
-        for (int j = 0; j < row; j++, v++, b++) {
-            const double *dir = dirs + 3 * j, *normal = normals + 3 * j;
-            double r = planet->radius + heights[j];
-            double p[3] = {dir[0] * r, dir[1] * r, dir[2] * r};
-            if (out->positions)
-                for (int c = 0; c < 3; c++)
-                    out->positions[3 * v + c] = (float)(p[c] - params->origin[c]);
-            float nf[3], uvf[2];
-            if (want_normal)
-                for (int c = 0; c < 3; c++)
-                    nf[c] = (float)normal[c];
-            if (out->normals)
-                memcpy(out->normals + 3 * v, nf, sizeof nf);
-            if (want_uv) {
-                double horizontal = sqrt(dir[0] * dir[0] + dir[1] * dir[1]);
-                double lon = lon_ref;
-                if (horizontal > 1e-12) {
-                    lon = plod__atan2(dir[1], dir[0]);
-                    if (lon - lon_ref > PLOD_PI)
-                        lon -= 2 * PLOD_PI;
-                    else if (lon - lon_ref < -PLOD_PI)
-                        lon += 2 * PLOD_PI;
-                }
-                double lat = plod__atan2(dir[2], horizontal);
-                uvf[0] = (float)(lon / (2 * PLOD_PI) + 0.5);
-                uvf[1] = (float)(lat / PLOD_PI + 0.5);
-                if (out->uv)
-                    memcpy(out->uv + 2 * v, uvf, sizeof uvf);
-            }
-            float df = want_detail ? (float)detail[j] : 0.0f;
-            if (out->detail)
-                out->detail[v] = df;
-            if (block) {
-                memcpy(block->position + 3 * b, p, sizeof p);
-                memcpy(block->normal + 3 * b, nf, sizeof nf);
-                memcpy(block->uv + 2 * b, uvf, sizeof uvf);
-                block->detail[b] = df;
-            }
-        }
+        /* the outputs written in place where they are wanted, the block's
+         * copied from them (positions in double only into the block) */
+        plod__row row_out = {
+            block ? block->position + 3 * b : position_scratch,
+            out->positions ? out->positions + 3 * v : positions_scratch,
+            !want_normal ? NULL : (out->normals ? out->normals + 3 * v : block->normal + 3 * b),
+            !want_uv ? NULL : (out->uv ? out->uv + 2 * v : block->uv + 2 * b),
+            !want_detail ? NULL : (out->detail ? out->detail + v : block->detail + b)};
+        plod__row_outputs((size_t)row, dirs, heights, normals, detail, planet->radius,
+                          params->origin, lon_ref, &row_out);
+        if (block && out->normals)
+            memcpy(block->normal + 3 * b, row_out.normals, 3 * (size_t)row * sizeof(float));
+        if (block && out->uv)
+            memcpy(block->uv + 2 * b, row_out.uv, 2 * (size_t)row * sizeof(float));
+        if (block && out->detail)
+            memcpy(block->detail + b, row_out.detail, (size_t)row * sizeof(float));
+        v += (size_t)row;
+        b += (size_t)row;
     }
 }
 
