@@ -26,6 +26,8 @@
 #include "plod_cubemap.h"
 
 #include <assert.h>
+#include <float.h>
+#include <stdint.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -389,19 +391,6 @@ static void plod__bilinear(const plod_cubemap *m, int face, double s, double t, 
     plod__lerp_taps((const double (*)[4])tap, wu, wv, m->channels, acc);
 }
 
-static inline __attribute__((always_inline)) void
-plod__bilinear_typed(const plod_cubemap *m, int face, double s, double t, double *acc,
-                     plod_texel_type type, int channels)
-{
-    double fi = floor(s), fj = floor(t);
-    int i0 = (int)fi, j0 = (int)fj;
-    if (!plod__interior(m, i0, j0)) {
-        plod__bilinear(m, face, s, t, acc);
-        return;
-    }
-    plod__lerp_interior(m, face, i0, j0, s - fi, t - fj, acc, type, channels);
-}
-
 static double plod__clamp_unit(double x)
 {
     return x < -1.0 ? -1.0 : x > 1.0 ? 1.0 : x;
@@ -477,15 +466,126 @@ void plod_cubemap_locate_n(const plod_cubemap *m, size_t n, const double *dirs, 
     (void)plod_dir_to_face_n(m->projection, n, dirs, faces, u, v, NULL);
 }
 
+/* Batches are sampled a block at a time in three passes: where each point
+ * falls and its weights (a lane loop), the taps of the points inside a
+ * face's texel grid (gathered), and their blend (a lane loop); points on
+ * a face's last row or column go through plod__bilinear, unlocated ones
+ * get NaN.  Every operation is plod__bilinear's, so the same bits. */
+enum { PLOD__SAMPLE_BLOCK = 64 };
+
+typedef struct plod__sample_plan {
+    int64_t at[PLOD__SAMPLE_BLOCK]; /* texel of the first tap, from the map's start; -1: not interior */
+    int valid[PLOD__SAMPLE_BLOCK];  /* located on a face */
+    double s[PLOD__SAMPLE_BLOCK], t[PLOD__SAMPLE_BLOCK];   /* texel coordinates */
+    double wu[PLOD__SAMPLE_BLOCK], wv[PLOD__SAMPLE_BLOCK]; /* weights */
+} plod__sample_plan;
+
+PLOD_LANE_CLONES PLOD_LANE_LOOPS static void
+plod__plan_samples(int width, int height, int face_count, size_t n, const int *faces,
+                   const double *u, const double *v, plod__sample_plan *plan)
+{
+    int64_t face_texels = (int64_t)width * (int64_t)height;
+    for (size_t i = 0; i < n; i++) {
+        double uu = u[i], vv = v[i];
+        int face = faces[i];
+        /* plod__face_point: finite, on a face, clamped */
+        int valid = (fabs(uu) <= DBL_MAX) & (fabs(vv) <= DBL_MAX) & (face >= 0) &
+                    (face < face_count);
+        uu = uu < -1.0 ? -1.0 : (uu > 1.0 ? 1.0 : uu);
+        vv = vv < -1.0 ? -1.0 : (vv > 1.0 ? 1.0 : vv);
+        double s = valid ? (uu + 1.0) * 0.5 * width - 0.5 : 0.0;
+        double t = valid ? (vv + 1.0) * 0.5 * height - 0.5 : 0.0;
+        double fi = floor(s), fj = floor(t);
+        int i0 = (int)fi, j0 = (int)fj;
+        int interior = (i0 >= 0) & (j0 >= 0) & (i0 + 1 < width) & (j0 + 1 < height);
+        plan->at[i] = valid & interior
+                          ? (int64_t)face * face_texels + (int64_t)j0 * width + i0
+                          : -1;
+        plan->valid[i] = valid;
+        plan->s[i] = s, plan->t[i] = t;
+        plan->wu[i] = s - fi, plan->wv[i] = t - fj;
+    }
+}
+
+/* The four taps of channel c at the planned interior points, tap[k][i]
+ * (k: (i0, j0), (i0 + 1, j0), (i0, j0 + 1), (i0 + 1, j0 + 1)), converted
+ * as plod__lerp_interior does; the other points get 0. */
+static inline __attribute__((always_inline)) void
+plod__gather_taps(const plod_cubemap *m, size_t n, const plod__sample_plan *plan, int c,
+                  plod_texel_type type, int channels, double tap[4][PLOD__SAMPLE_BLOCK])
+{
+    size_t row = (size_t)m->width * (size_t)channels;
+    for (size_t i = 0; i < n; i++) {
+        if (plan->at[i] < 0) {
+            tap[0][i] = tap[1][i] = tap[2][i] = tap[3][i] = 0.0;
+            continue;
+        }
+        size_t at = (size_t)plan->at[i] * (size_t)channels + (size_t)c;
+        size_t offset[4] = {at, at + (size_t)channels, at + row, at + row + (size_t)channels};
+        for (int k = 0; k < 4; k++)
+            switch (type) {
+            case PLOD_TEXEL_U8: tap[k][i] = m->texels[offset[k]] * (1.0 / 255.0); break;
+            case PLOD_TEXEL_U16:
+                tap[k][i] = ((const uint16_t *)m->texels)[offset[k]] * (1.0 / 65535.0);
+                break;
+            default: tap[k][i] = ((const float *)m->texels)[offset[k]]; break;
+            }
+    }
+}
+
+/* plod__lerp_taps at every planned interior point, into out[i * stride] */
+PLOD_LANE_CLONES PLOD_LANE_LOOPS static void
+plod__blend_taps(size_t n, const plod__sample_plan *plan, const double tap[4][PLOD__SAMPLE_BLOCK],
+                 double *out, size_t stride)
+{
+    for (size_t i = 0; i < n; i++) {
+        double wu = plan->wu[i], wv = plan->wv[i];
+        double bottom = tap[0][i] + wu * (tap[1][i] - tap[0][i]);
+        double top = tap[2][i] + wu * (tap[3][i] - tap[2][i]);
+        double value = bottom + wv * (top - bottom);
+        out[i * stride] = plan->at[i] >= 0 ? value : out[i * stride];
+    }
+}
+
+/* Points the blend leaves alone: NaN where unlocated, plod__bilinear on a
+ * face's border. */
+static void plod__sample_rest(const plod_cubemap *m, size_t n, const int *faces,
+                              const plod__sample_plan *plan, double *out)
+{
+    for (size_t i = 0; i < n; i++) {
+        if (plan->at[i] >= 0)
+            continue;
+        double *acc = out + i * (size_t)m->channels;
+        if (!plan->valid[i])
+            for (int c = 0; c < m->channels; c++)
+                acc[c] = NAN;
+        else
+            plod__bilinear(m, faces[i], plan->s[i], plan->t[i], acc);
+    }
+}
+
+/* One map's channels over a planned block. */
+static inline __attribute__((always_inline)) void
+plod__sample_block(const plod_cubemap *m, size_t n, const int *faces,
+                   const plod__sample_plan *plan, plod_texel_type type, int channels,
+                   double *out)
+{
+    double tap[4][PLOD__SAMPLE_BLOCK];
+    plod__sample_rest(m, n, faces, plan, out);
+    for (int c = 0; c < channels; c++) {
+        plod__gather_taps(m, n, plan, c, type, channels, tap);
+        plod__blend_taps(n, plan, (const double (*)[PLOD__SAMPLE_BLOCK])tap, out + c,
+                         (size_t)channels);
+    }
+}
+
 #define PLOD__SAMPLE_LOOP(TYPE, CHANNELS)                                                \
-    for (size_t i = 0; i < n; i++) {                                                     \
-        double *acc = out + i * (size_t)(CHANNELS), s, t;                                \
-        if (!plod__face_point(m, faces[i], u[i], v[i], &s, &t)) {                        \
-            for (int c = 0; c < (CHANNELS); c++)                                         \
-                acc[c] = NAN;                                                            \
-            continue;                                                                    \
-        }                                                                                \
-        plod__bilinear_typed(m, faces[i], s, t, acc, (TYPE), (CHANNELS));                \
+    for (size_t first = 0; first < n; first += PLOD__SAMPLE_BLOCK) {                     \
+        size_t count = n - first < PLOD__SAMPLE_BLOCK ? n - first : PLOD__SAMPLE_BLOCK;   \
+        plod__plan_samples(m->width, m->height, m->face_count, count, faces + first,      \
+                           u + first, v + first, &plan);                                  \
+        plod__sample_block(m, count, faces + first, &plan, (TYPE), (CHANNELS),            \
+                           out + first * (size_t)(CHANNELS));                             \
     }
 
 void plod_cubemap_sample_face_n(const plod_cubemap *m, size_t n, const int *faces,
@@ -493,6 +593,7 @@ void plod_cubemap_sample_face_n(const plod_cubemap *m, size_t n, const int *face
 {
     /* the layouts meshes sample per vertex (heights, u16x3 normals) get
      * their own loops; any other layout takes the generic one */
+    plod__sample_plan plan;
     if (m->type == PLOD_TEXEL_U8 && m->channels == 1) {
         PLOD__SAMPLE_LOOP(PLOD_TEXEL_U8, 1)
     } else if (m->type == PLOD_TEXEL_U16 && m->channels == 1) {
@@ -510,23 +611,13 @@ void plod_cubemap_sample_face_n(const plod_cubemap *m, size_t n, const int *face
 /* A height map (1 channel) and its u16x3 normal map on one texel grid:
  * the location, weights and seam test are computed once for both. */
 #define PLOD__PAIR_LOOP(TYPE)                                                            \
-    for (size_t i = 0; i < n; i++) {                                                     \
-        double s, t;                                                                     \
-        if (!plod__face_point(a, faces[i], u[i], v[i], &s, &t)) {                        \
-            out_a[i] = NAN;                                                              \
-            out_b[3 * i] = out_b[3 * i + 1] = out_b[3 * i + 2] = NAN;                    \
-            continue;                                                                    \
-        }                                                                                \
-        double fi = floor(s), fj = floor(t);                                             \
-        int i0 = (int)fi, j0 = (int)fj;                                                  \
-        if (plod__interior(a, i0, j0)) {                                                 \
-            plod__lerp_interior(a, faces[i], i0, j0, s - fi, t - fj, out_a + i, (TYPE), 1); \
-            plod__lerp_interior(b, faces[i], i0, j0, s - fi, t - fj, out_b + 3 * i,      \
-                                PLOD_TEXEL_U16, 3);                                      \
-        } else {                                                                         \
-            plod__bilinear(a, faces[i], s, t, out_a + i);                                \
-            plod__bilinear(b, faces[i], s, t, out_b + 3 * i);                            \
-        }                                                                                \
+    for (size_t first = 0; first < n; first += PLOD__SAMPLE_BLOCK) {                     \
+        size_t count = n - first < PLOD__SAMPLE_BLOCK ? n - first : PLOD__SAMPLE_BLOCK;   \
+        plod__plan_samples(a->width, a->height, a->face_count, count, faces + first,      \
+                           u + first, v + first, &plan);                                  \
+        plod__sample_block(a, count, faces + first, &plan, (TYPE), 1, out_a + first);     \
+        plod__sample_block(b, count, faces + first, &plan, PLOD_TEXEL_U16, 3,             \
+                           out_b + 3 * first);                                            \
     }
 
 void plod_cubemap_sample_pair_n(const plod_cubemap *a, const plod_cubemap *b, size_t n,
@@ -536,6 +627,7 @@ void plod_cubemap_sample_pair_n(const plod_cubemap *a, const plod_cubemap *b, si
     int paired = a->channels == 1 && b->channels == 3 && b->type == PLOD_TEXEL_U16 &&
                  a->width == b->width && a->height == b->height &&
                  a->face_count == b->face_count;
+    plod__sample_plan plan;
     if (!paired) {
         plod_cubemap_sample_face_n(a, n, faces, u, v, out_a);
         plod_cubemap_sample_face_n(b, n, faces, u, v, out_b);

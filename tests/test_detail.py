@@ -420,6 +420,42 @@ def test_batched_surface_is_the_point_path_on_a_map(planetlod, style):
     assert np.std(list(heights)) > 10.0
 
 
+def renormalised(d):
+    """d divided by its length until that changes nothing (None if it
+    keeps changing): a unit direction as surface() would compute it."""
+    for _ in range(6):
+        length = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+        e = (d[0] / length, d[1] / length, d[2] / length)
+        if e == d:
+            return d
+        d = e
+    return None
+
+
+def test_batched_map_samples_are_the_point_path(planetlod, earth_plain, earth_detail):
+    """surface() samples the height and normal maps a block at a time
+    (texel weights and blends in SIMD lanes, the taps gathered; points on a
+    face's last texel row or column one by one): every height is height()'s,
+    the point path, bit for bit, on face edges and corners, on the border
+    texels and inside."""
+    rng = np.random.default_rng(8)
+    size = earth_plain.heightmap.size
+    border = [1.0, 1.0 - 0.5 / size, 1.0 - 1.0 / size, 1.0 - 1.5 / size, 1.0 - 3.0 / size]
+    edge_uv = [(f * a, g * b) for a in border for b in border + [0.0, 0.37]
+               for f in (-1, 1) for g in (-1, 1)]
+    dirs = [planetlod.face_to_dir("qsc", face, a, b) for face in range(6) for a, b in edge_uv]
+    dirs += [tuple(d) for d in rng.normal(size=(600, 3))]
+    # surface() renormalises what it is given (height() does not): feed
+    # directions its renormalisation leaves as they are
+    dirs = [d for d in map(renormalised, dirs) if d]
+    assert len(dirs) > 1200
+    flat = [c for d in dirs for c in d]
+    for planet in (earth_plain, earth_detail):
+        heights, _normals = planet.surface(flat)
+        for k, d in enumerate(dirs):
+            assert heights[k] == planet.height(*d), (k, d)
+
+
 @pytest.mark.parametrize("style", ["hills", "mountains", "craters"])
 def test_styles_on_a_map_free_body(planetlod, style):
     """Without a map the field alone makes the relief (modulation 1); the
