@@ -1113,6 +1113,11 @@ void plod_refiner_reset(plod_refiner *refiner)
     plod_lodtree_reset(&refiner->tree);
 }
 
+plod_workers *plod_refiner_workers(const plod_refiner *refiner)
+{
+    return refiner ? refiner->workers : NULL;
+}
+
 const plod_sector *plod_refiner_sectors(const plod_refiner *refiner, size_t *count)
 {
     if (count)

@@ -1160,19 +1160,39 @@ static void plod__weigh(void *context, size_t begin, size_t end)
     }
 }
 
-/* Chunk t = [cut[t], cut[t + 1]) of [0, count): equal work by the cache's
- * hits and misses; 0 (equal counts) when out of memory. */
-static int plod__cut_by_work(const plod_mesh_cache *cache, plod_mesh_sector_fn source,
-                             const void *context, size_t count, int threads, size_t *cut)
+/* plod_parallel_for on the caller's persistent workers when it lends
+ * them (chunks of `grain`), else on threads started for the loop. */
+static void plod__parallel(const plod_mesh_params *params, size_t count, int threads,
+                           size_t grain, plod_range_fn range, void *context)
 {
-    unsigned char *weight = malloc(count);
-    if (!weight)
-        return 0;
-    plod__weighing w = {source, context, cache, weight};
-    plod_parallel_for(count, threads, plod__weigh, &w);
-    uint64_t total = 0, done = 0;
+    if (params->workers && threads > 1)
+        plod_workers_for(params->workers, count, grain, range, context);
+    else
+        plod_parallel_for(count, threads, range, context);
+}
+
+/* Each sector's work (plod__weigh) into weight[0, count), on one thread
+ * below PLOD__PARALLEL_WEIGHING sectors (a cache lookup each: a thread
+ * would cost more); returns the total, or UINT64_MAX when out of memory. */
+#define PLOD__PARALLEL_WEIGHING 4096
+static uint64_t plod__weigh_all(const plod_mesh_params *params, plod_mesh_sector_fn source,
+                                const void *context, size_t count, unsigned char *weight)
+{
+    plod__weighing w = {source, context, params->cache, weight};
+    plod__parallel(params, count, count < PLOD__PARALLEL_WEIGHING ? 1 : params->threads, 1024,
+                   plod__weigh, &w);
+    uint64_t total = 0;
     for (size_t s = 0; s < count; s++)
         total += weight[s];
+    return total;
+}
+
+/* Chunk t = [cut[t], cut[t + 1]) of [0, count): equal work by the
+ * weights. */
+static void plod__cut_by_work(const unsigned char *weight, uint64_t total, size_t count,
+                              int threads, size_t *cut)
+{
+    uint64_t done = 0;
     int t = 1;
     cut[0] = 0;
     for (size_t s = 0; s < count && t < threads; s++) {
@@ -1182,12 +1202,14 @@ static int plod__cut_by_work(const plod_mesh_cache *cache, plod_mesh_sector_fn s
     }
     while (t <= threads)
         cut[t++] = count;
-    free(weight);
-    return 1;
 }
 
-/* Below this many sectors a second thread costs more than it saves. */
-#define PLOD__MIN_SECTORS_PER_THREAD 4
+/* A thread takes tens of microseconds to start, a persistent worker a few
+ * to wake: each must have at least this much work (in hits, a miss
+ * counting PLOD__MISS_WEIGHT; a hit is about a microsecond), or the
+ * emission runs on fewer. */
+#define PLOD__MIN_WORK_PER_THREAD 96
+#define PLOD__MIN_WORK_PER_WORKER 16
 
 plod_status plod_mesh_emit(const plod_mesh_params *params,
                            const plod_mesh_sector_source *sectors,
@@ -1222,8 +1244,10 @@ plod_status plod_mesh_emit(const plod_mesh_params *params,
         changed_index = malloc(count * sizeof *changed_index);
         if (unchanged && changed_index) {
             plod__unchanged_search search = {&emitter, cache, source, context, unchanged};
-            int search_threads = count < 64 ? 1 : params->threads;
-            plod_parallel_for(count, search_threads, plod__find_unchanged, &search);
+            /* ~0.1 us a sector: a thread (tens of us to start) pays from
+             * about a thousand */
+            int search_threads = count < 1024 ? 1 : params->threads;
+            plod__parallel(params, count, search_threads, 256, plod__find_unchanged, &search);
             /* the changed sectors as a source of their own, so that the
              * threads' chunks share them evenly (they cluster near the eye) */
             size_t n = 0;
@@ -1242,24 +1266,41 @@ plod_status plod_mesh_emit(const plod_mesh_params *params,
         }
     }
 
+    /* the work: with a cache each sector weighed (hits copy, misses
+     * compute), without one every sector a miss */
+    unsigned char *weight = cache && count > 0 ? malloc(count) : NULL;
+    uint64_t work = weight ? plod__weigh_all(params, source, context, count, weight)
+                           : (uint64_t)count * PLOD__MISS_WEIGHT;
+    uint64_t min_work = params->workers ? PLOD__MIN_WORK_PER_WORKER : PLOD__MIN_WORK_PER_THREAD;
     int threads = params->threads;
-    if ((size_t)threads * PLOD__MIN_SECTORS_PER_THREAD > count)
-        threads = (int)(count / PLOD__MIN_SECTORS_PER_THREAD);
+    if ((uint64_t)threads * min_work > work)
+        threads = (int)(work / min_work);
     if (threads < 1)
         threads = 1;
 
+    /* the chunks: one a thread, or with workers several (a worker that
+     * wakes late still finds some) */
+    int parts = threads;
+    if (params->workers && threads > 1) {
+        uint64_t most = work / PLOD__MIN_WORK_PER_WORKER;
+        parts = 4 * threads < PLOD_MESH_MAX_THREADS ? 4 * threads : PLOD_MESH_MAX_THREADS;
+        parts = (uint64_t)parts > most ? (int)most : parts;
+        parts = parts < threads ? threads : parts;
+    }
     plod__chunk chunks[PLOD_MESH_MAX_THREADS];
     size_t cut[PLOD_MESH_MAX_THREADS + 1];
-    int by_work = cache && threads > 1 &&
-                  plod__cut_by_work(cache, source, context, count, threads, cut);
+    int by_work = weight && parts > 1;
+    if (by_work)
+        plod__cut_by_work(weight, work, count, parts, cut);
+    free(weight);
     size_t total = 0;
     /* Contiguous split of [0, count): by work with a cache, else by count. */
-    for (int t = 0; t < threads; t++) {
+    for (int t = 0; t < parts; t++) {
         chunks[t].emitter = &emitter;
         chunks[t].source = source;
         chunks[t].context = context;
-        chunks[t].begin = by_work ? cut[t] : count * (size_t)t / (size_t)threads;
-        chunks[t].end = by_work ? cut[t + 1] : count * (size_t)(t + 1) / (size_t)threads;
+        chunks[t].begin = by_work ? cut[t] : count * (size_t)t / (size_t)parts;
+        chunks[t].end = by_work ? cut[t + 1] : count * (size_t)(t + 1) / (size_t)parts;
         chunks[t].emitted = 0;
         for (size_t s = chunks[t].begin; s < chunks[t].end; s++)
             chunks[t].emitted += source(context, s, NULL) ? 1 : 0;
@@ -1288,17 +1329,17 @@ plod_status plod_mesh_emit(const plod_mesh_params *params,
         /* the entries held now may all be evicted at the end, but they
          * count until then: each thread gets an equal share of the rest */
         size_t room = cache->max_bytes > cache->bytes ? cache->max_bytes - cache->bytes : 0;
-        for (int t = 0; t < threads; t++) {
+        for (int t = 0; t < parts; t++) {
             chunks[t].cache = cache;
             chunks[t].slots = slots;
-            chunks[t].budget = room / (size_t)threads;
+            chunks[t].budget = room / (size_t)parts;
         }
     }
 
-    /* one chunk a thread: the chunks, not the threads, decide the slots */
-    plod_parallel_for((size_t)threads, threads, plod__run_chunks, chunks);
+    /* the chunks, not the threads, decide the slots */
+    plod__parallel(params, (size_t)parts, threads, 1, plod__run_chunks, chunks);
     st = PLOD_OK;
-    for (int t = 0; t < threads; t++)
+    for (int t = 0; t < parts; t++)
         if (chunks[t].status != PLOD_OK && st == PLOD_OK)
             st = chunks[t].status;
     if (cache) { /* an emission of nothing leaves nothing cached */

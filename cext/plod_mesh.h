@@ -124,6 +124,10 @@ typedef struct plod_mesh_params {
                                    (subtracted in double, then cast) */
     int threads;                /* 1..PLOD_MESH_MAX_THREADS; output is
                                    identical for any value */
+    plod_workers *workers;      /* NULL: threads started for the emission;
+                                   else persistent workers to run them on
+                                   (borrowed, called from this thread only
+                                   while the emission runs; plod_base.h) */
     /* Geomorphing: odd template vertices blend toward the midpoint of their
      * two even neighbours along the template line on which their even weight
      * is constant (for an edge vertex: along the sector edge).  The factor
@@ -152,8 +156,8 @@ typedef struct plod_mesh_params {
     int changed_only;
 } plod_mesh_params;
 
-/* Defaults: origin 0, threads 1, morph off, ramp 0.5, scale = radius,
- * rate 2, no cache. */
+/* Defaults: origin 0, threads 1, no workers, morph off, ramp 0.5, scale =
+ * radius, rate 2, no cache. */
 void plod_mesh_params_init(plod_mesh_params *params, const plod_planet *planet,
                            int template_level);
 /* Surface point nearest the eye: d = eye/|eye|, d * (radius + height(d)),

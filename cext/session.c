@@ -24,6 +24,7 @@ struct plod_session {
     plod_cubemap *normalmap;   /* owned, or NULL */
     plod_refiner *refiner;     /* owned; reads &planet */
     plod_mesh_cache *mesh_cache; /* owned; created by the first cached emission */
+    plod_workers *mesh_workers; /* owned; emissions' workers while the refiner has none */
     size_t mesh_cache_max_bytes;
     plod_camera camera;        /* last refine's */
     plod_refine_params params;
@@ -106,6 +107,7 @@ void plod_session_destroy(plod_session *session)
         return;
     plod_refiner_destroy(session->refiner);
     plod_mesh_cache_destroy(session->mesh_cache);
+    plod_workers_destroy(session->mesh_workers);
     plod_cubemap_destroy(session->normalmap);
     plod_detail_destroy(session->detail);
     pthread_mutex_destroy(&session->lock);
@@ -267,6 +269,27 @@ plod_status plod_session_emit(plod_session *session, const plod_mesh_params *par
     plod_mesh_params mp = *params;
     mp.planet = &session->planet;
     mp.cache = NULL;
+    /* persistent workers, as many as the threads asked for (under the
+     * session's lock): the refiner's, else the session's own, started by
+     * an emission on threads (none if they cannot start: threads started
+     * per emission then) */
+    mp.workers = NULL;
+    if (mp.threads >= 2) {
+        plod_workers *refiner_workers = plod_refiner_workers(session->refiner);
+        if (refiner_workers && plod_workers_threads(refiner_workers) == mp.threads) {
+            mp.workers = refiner_workers;
+        } else {
+            if (session->mesh_workers &&
+                plod_workers_threads(session->mesh_workers) != mp.threads) {
+                plod_workers_destroy(session->mesh_workers);
+                session->mesh_workers = NULL;
+            }
+            if (!session->mesh_workers && mp.threads <= PLOD_MAX_THREADS &&
+                plod_workers_create(&session->mesh_workers, mp.threads) != PLOD_OK)
+                session->mesh_workers = NULL;
+            mp.workers = session->mesh_workers;
+        }
+    }
     if (use_cache) {
         if (!session->mesh_cache &&
             plod_mesh_cache_create(&session->mesh_cache, session->mesh_cache_max_bytes) !=
@@ -289,6 +312,27 @@ plod_status plod_session_instances(plod_session *session, const plod_mesh_params
     plod_mesh_params mp = *params;
     mp.planet = &session->planet;
     mp.cache = NULL;
+    /* persistent workers, as many as the threads asked for (under the
+     * session's lock): the refiner's, else the session's own, started by
+     * an emission on threads (none if they cannot start: threads started
+     * per emission then) */
+    mp.workers = NULL;
+    if (mp.threads >= 2) {
+        plod_workers *refiner_workers = plod_refiner_workers(session->refiner);
+        if (refiner_workers && plod_workers_threads(refiner_workers) == mp.threads) {
+            mp.workers = refiner_workers;
+        } else {
+            if (session->mesh_workers &&
+                plod_workers_threads(session->mesh_workers) != mp.threads) {
+                plod_workers_destroy(session->mesh_workers);
+                session->mesh_workers = NULL;
+            }
+            if (!session->mesh_workers && mp.threads <= PLOD_MAX_THREADS &&
+                plod_workers_create(&session->mesh_workers, mp.threads) != PLOD_OK)
+                session->mesh_workers = NULL;
+            mp.workers = session->mesh_workers;
+        }
+    }
     plod__leaf_source leaves;
     plod_mesh_sector_source sectors = plod__leaf_source_init(session, 1, &leaves);
     plod_surface_source surface = plod_planet_surface_source(&session->planet);

@@ -405,7 +405,9 @@ MESH_OUTPUTS = ("positions", "normals", "uv", "morph", "triangles", "sector_leve
 def test_sector_cache_output_identical_along_a_flight(planetlod, moon):
     """mesh() copies the sectors kept from the previous frame; every output
     must equal an uncached emission, frame after frame, while the camera
-    descends and turns (splits, merges, a moving origin) and with morph."""
+    descends and turns (splits, merges, a moving origin) and with morph, on
+    any number of threads (the refiner's persistent workers when it has
+    them, else the planet's own)."""
     refiner_available(planetlod)
     radius = 1737.4e3
     planet = planetlod.Planet(radius, heightmap=moon, height_scale=10e3)
@@ -416,8 +418,8 @@ def test_sector_cache_output_identical_along_a_flight(planetlod, moon):
         eye = (radius + 10e3 + alt, 0.1 * radius * math.sin(a), 0.0)
         target = (radius * math.cos(a + 0.05), radius * math.sin(a + 0.05), 0.0)
         planet.refine(planetlod.Camera(look_at(eye, target), clip_start=1.0, clip_end=1e8),
-                      max_level=22)
-        for morph, threads in ((False, 1), (True, 2)):
+                      max_level=22, threads=1 + k % 2)
+        for morph, threads in ((False, 1), (True, 2), (False, 4)):
             cached = planet.mesh(template_level=3, morph=morph, threads=threads)
             info = planet.mesh_cache_info
             plain = planet.mesh(template_level=3, morph=morph, threads=1, cache=False)
