@@ -1173,7 +1173,7 @@ static void plod__parallel(const plod_mesh_params *params, size_t count, int thr
 
 /* Each sector's work (plod__weigh) into weight[0, count), on one thread
  * below PLOD__PARALLEL_WEIGHING sectors (a cache lookup each: a thread
- * would cost more); returns the total, or UINT64_MAX when out of memory. */
+ * would cost more); returns the total. */
 #define PLOD__PARALLEL_WEIGHING 4096
 static uint64_t plod__weigh_all(const plod_mesh_params *params, plod_mesh_sector_fn source,
                                 const void *context, size_t count, unsigned char *weight)
@@ -1327,7 +1327,7 @@ plod_status plod_mesh_emit(const plod_mesh_params *params,
     }
     if (slots) {
         /* the entries held now may all be evicted at the end, but they
-         * count until then: each thread gets an equal share of the rest */
+         * count until then: each chunk gets an equal share of the rest */
         size_t room = cache->max_bytes > cache->bytes ? cache->max_bytes - cache->bytes : 0;
         for (int t = 0; t < parts; t++) {
             chunks[t].cache = cache;

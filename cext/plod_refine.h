@@ -169,11 +169,11 @@ void plod_refiner_reset(plod_refiner *refiner);
 plod_status plod_refiner_update(plod_refiner *refiner, const plod_camera *camera,
                                 const plod_refine_params *params,
                                 plod_refine_stats *stats);
-/* Every leaf sector (visible or not), valid until the next update/reset. */
 /* The refiner's persistent workers (NULL with one thread): the refiner's
  * owner may lend them to other stages between updates, from the thread
  * that updates. */
 plod_workers *plod_refiner_workers(const plod_refiner *refiner);
+/* Every leaf sector (visible or not), valid until the next update/reset. */
 const plod_sector *plod_refiner_sectors(const plod_refiner *refiner,
                                         size_t *count);
 /* This frame's visible sectors as indices into plod_refiner_sectors(), in

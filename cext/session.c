@@ -259,6 +259,28 @@ size_t plod_session_sector_count(const plod_session *session, int visible_only)
     return plod__leaf_source_init(session, visible_only, &leaves).count;
 }
 
+/* Persistent workers for an emission on `threads` threads, as many as
+ * that (called under the session's lock): the refiner's, else the
+ * session's own, started by the first such emission and kept until the
+ * count changes; NULL for one thread or when none can start (the
+ * emission then starts threads of its own). */
+static plod_workers *plod__emission_workers(plod_session *session, int threads)
+{
+    if (threads < 2)
+        return NULL;
+    plod_workers *refiner_workers = plod_refiner_workers(session->refiner);
+    if (refiner_workers && plod_workers_threads(refiner_workers) == threads)
+        return refiner_workers;
+    if (session->mesh_workers && plod_workers_threads(session->mesh_workers) != threads) {
+        plod_workers_destroy(session->mesh_workers);
+        session->mesh_workers = NULL;
+    }
+    if (!session->mesh_workers && threads <= PLOD_MAX_THREADS &&
+        plod_workers_create(&session->mesh_workers, threads) != PLOD_OK)
+        session->mesh_workers = NULL;
+    return session->mesh_workers;
+}
+
 plod_status plod_session_emit(plod_session *session, const plod_mesh_params *params,
                               int visible_only, int use_cache,
                               const plod_mesh_buffers *out, size_t *vertex_count,
@@ -269,27 +291,7 @@ plod_status plod_session_emit(plod_session *session, const plod_mesh_params *par
     plod_mesh_params mp = *params;
     mp.planet = &session->planet;
     mp.cache = NULL;
-    /* persistent workers, as many as the threads asked for (under the
-     * session's lock): the refiner's, else the session's own, started by
-     * an emission on threads (none if they cannot start: threads started
-     * per emission then) */
-    mp.workers = NULL;
-    if (mp.threads >= 2) {
-        plod_workers *refiner_workers = plod_refiner_workers(session->refiner);
-        if (refiner_workers && plod_workers_threads(refiner_workers) == mp.threads) {
-            mp.workers = refiner_workers;
-        } else {
-            if (session->mesh_workers &&
-                plod_workers_threads(session->mesh_workers) != mp.threads) {
-                plod_workers_destroy(session->mesh_workers);
-                session->mesh_workers = NULL;
-            }
-            if (!session->mesh_workers && mp.threads <= PLOD_MAX_THREADS &&
-                plod_workers_create(&session->mesh_workers, mp.threads) != PLOD_OK)
-                session->mesh_workers = NULL;
-            mp.workers = session->mesh_workers;
-        }
-    }
+    mp.workers = plod__emission_workers(session, mp.threads);
     if (use_cache) {
         if (!session->mesh_cache &&
             plod_mesh_cache_create(&session->mesh_cache, session->mesh_cache_max_bytes) !=
@@ -312,27 +314,6 @@ plod_status plod_session_instances(plod_session *session, const plod_mesh_params
     plod_mesh_params mp = *params;
     mp.planet = &session->planet;
     mp.cache = NULL;
-    /* persistent workers, as many as the threads asked for (under the
-     * session's lock): the refiner's, else the session's own, started by
-     * an emission on threads (none if they cannot start: threads started
-     * per emission then) */
-    mp.workers = NULL;
-    if (mp.threads >= 2) {
-        plod_workers *refiner_workers = plod_refiner_workers(session->refiner);
-        if (refiner_workers && plod_workers_threads(refiner_workers) == mp.threads) {
-            mp.workers = refiner_workers;
-        } else {
-            if (session->mesh_workers &&
-                plod_workers_threads(session->mesh_workers) != mp.threads) {
-                plod_workers_destroy(session->mesh_workers);
-                session->mesh_workers = NULL;
-            }
-            if (!session->mesh_workers && mp.threads <= PLOD_MAX_THREADS &&
-                plod_workers_create(&session->mesh_workers, mp.threads) != PLOD_OK)
-                session->mesh_workers = NULL;
-            mp.workers = session->mesh_workers;
-        }
-    }
     plod__leaf_source leaves;
     plod_mesh_sector_source sectors = plod__leaf_source_init(session, 1, &leaves);
     plod_surface_source surface = plod_planet_surface_source(&session->planet);
