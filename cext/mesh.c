@@ -396,6 +396,46 @@ static void plod__vertex_direction(const double corners[3][3], const int k[3],
     dir[2] = v[2] * inv_len;
 }
 
+/* Template row i's directions, k = (n - i - j, j, i) for j = 0..n - i:
+ * its two ends one by one, between them (k0 and k1 non-zero) the bit
+ * rule's sums written out, in lanes. */
+PLOD_LANE_CLONES PLOD_LANE_LOOPS static void plod__row_directions(const double corners[3][3],
+                                                                 int n, int i, double inv_n,
+                                                                 double *dirs)
+{
+    int last = n - i;
+    plod__vertex_direction(corners, (const int[3]){last, 0, i}, inv_n, dirs);
+    if (last == 0)
+        return;
+    plod__vertex_direction(corners, (const int[3]){0, last, i}, inv_n, dirs + 3 * last);
+    /* the corners and the third term read once (the stores could alias
+     * them as far as the compiler knows) */
+    double a[3], b[3], t[3], w2 = (double)i * inv_n;
+    for (int c = 0; c < 3; c++) {
+        a[c] = corners[0][c];
+        b[c] = corners[1][c];
+        t[c] = w2 * corners[2][c];
+    }
+#define PLOD__ROW_LOOP(THIRD)                                                                 \
+    for (int j = 1; j < last; j++) {                                                          \
+        double w0 = (double)(last - j) * inv_n, w1 = (double)j * inv_n, v[3];                 \
+        for (int c = 0; c < 3; c++)                                                           \
+            v[c] = THIRD(w0 * a[c] + w1 * b[c], t[c]);                                        \
+        double inv_len = 1.0 / sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);                 \
+        for (int c = 0; c < 3; c++)                                                           \
+            dirs[3 * j + c] = v[c] * inv_len;                                                 \
+    }
+#define PLOD__PLUS(sum, term) ((sum) + (term))
+#define PLOD__ALONE(sum, term) (sum)
+    if (i != 0)
+        PLOD__ROW_LOOP(PLOD__PLUS)
+    else
+        PLOD__ROW_LOOP(PLOD__ALONE)
+#undef PLOD__ALONE
+#undef PLOD__PLUS
+#undef PLOD__ROW_LOOP
+}
+
 /* ---- one sector ---------------------------------------------------------------- */
 
 typedef struct plod__emitter {
@@ -758,18 +798,18 @@ static void plod__compute_vertices(const plod__emitter *e, const plod_mesh_secto
     for (int i = 0; i <= n;) {
         /* whole rows at a time: directions, then the surface's batched sampling */
         int row = 0;
-        for (; i <= n && row + (n - i + 1) <= GROUP; i++)
-            for (int j = 0; j <= n - i; j++, row++) {
+        for (; i <= n && row + (n - i + 1) <= GROUP; i++) {
+            plod__row_directions(corners, n, i, inv_n, dirs + 3 * row);
+            for (int j = 0; j <= n - i && e->banded; j++) {
                 int k[3] = {n - i - j, j, i};
-                double *dir = dirs + 3 * row;
-                plod__vertex_direction(corners, k, inv_n, dir);
-                if (e->banded) {
-                    octaves[row] = plod__vertex_band(e, k, band, dir, normal_octaves + row);
-                    if (block && (k[0] == n || k[1] == n || k[2] == n)) /* a corner */
-                        block->corner_band[k[0] == n ? 0 : (k[1] == n ? 1 : 2)] =
-                            normal_octaves[row];
-                }
+                octaves[row + j] = plod__vertex_band(e, k, band, dirs + 3 * (row + j),
+                                                     normal_octaves + row + j);
+                if (block && (k[0] == n || k[1] == n || k[2] == n)) /* a corner */
+                    block->corner_band[k[0] == n ? 0 : (k[1] == n ? 1 : 2)] =
+                        normal_octaves[row + j];
             }
+            row += n - i + 1;
+        }
         e->surface->ops->sample_n(e->surface->self, (size_t)row, dirs,
                                   e->banded ? octaves : NULL,
                                   e->banded ? normal_octaves : NULL, heights,
