@@ -46,15 +46,21 @@ static inline void plod_cross3(const double a[3], const double b[3], double out[
  * and selects if-converted, which needs leave to evaluate both arms of a
  * floating-point select (no traps; the values are the same either way).
  * fp-contract stays off: no fused multiply-adds, the roundings of the
- * point path.  Where the processor has AVX2, GCC on Linux also builds a
- * 4-lane version of a PLOD_LANE_CLONES function, chosen at load time; its
- * results are the same bits (IEEE double arithmetic, no FMA).
- * PLOD_LANE_INLINE: helpers inlined into them. */
+ * point path.  On x86-64 Linux, GCC also builds a PLOD_LANE_CLONES
+ * function for AVX2 (4 lanes) and for x86-64-v4 (AVX-512: 8 lanes, 64-bit
+ * integer multiplies for the lattice hashes), the one the processor has
+ * chosen at load time; every version gives the same bits (IEEE double
+ * arithmetic, no FMA: test_cpu_paths.py).  PLOD_NO_CLONES builds the
+ * plain version alone.  PLOD_LANE_INLINE: helpers inlined into them. */
 #if defined(__GNUC__) && !defined(__clang__)
 #define PLOD_LANE_LOOPS __attribute__((optimize("O3", "no-trapping-math", "fp-contract=off")))
 #define PLOD_LANE_INLINE static inline __attribute__((always_inline))
 #if defined(__x86_64__) && defined(__linux__) && !defined(PLOD_NO_CLONES)
+#if __GNUC__ >= 12
+#define PLOD_LANE_CLONES __attribute__((target_clones("arch=x86-64-v4", "avx2", "default")))
+#else
 #define PLOD_LANE_CLONES __attribute__((target_clones("avx2", "default")))
+#endif
 #endif
 #endif
 #ifndef PLOD_LANE_LOOPS
