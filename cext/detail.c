@@ -445,15 +445,17 @@ double plod_detail_noise_from(const plod_detail *detail, const double dir[3], in
  * masked, not computed differently), so every lane is bit for bit
  * plod_detail_noise. */
 #define PLOD__LANES 64
+/* lanes are run in whole vectors of up to 8 doubles (AVX-512): a partial
+ * vector would fall to the loops' scalar remainder */
+#define PLOD__LANE_ROUND(count) (((count) + 7) & ~7)
 
 typedef struct plod__lanes {
-    int count; /* lanes in use, rounded up to a multiple of 4 (idle ones masked) */
+    int count; /* lanes in use, PLOD__LANE_ROUNDed (idle ones masked) */
     double dir[3][PLOD__LANES];
     double value_count[PLOD__LANES], gradient_count[PLOD__LANES]; /* octaves */
     double first[PLOD__LANES]; /* the lane's first octave (those before it idle) */
     double p[3][PLOD__LANES];    /* lattice point */
     double frac[3][PLOD__LANES]; /* position inside the lattice cell */
-    double q[8][3][PLOD__LANES]; /* the 8 corners' gradients */
     double n[PLOD__LANES], g[3][PLOD__LANES];
     double sum[PLOD__LANES], weight[PLOD__LANES];
     double acc[3][PLOD__LANES], dweight[3][PLOD__LANES];
@@ -469,14 +471,13 @@ PLOD_LANE_INLINE double plod__floor_exact(double x)
 }
 
 /* lane k of octave o's gradient noise (n, and g when gradient): the
- * arithmetic of plod__gnoise_kernel after the hashes.  Corner c's gradient
- * component a is q[(3 c + a) * corner_stride + k * lane_step]: the lanes'
- * own (l->q) or, where every lane is in one lattice cell, one set for all
- * (lane_step 0): the same values, so the same bits. */
-PLOD_LANE_INLINE void plod__lane_blend(plod__lanes *l, int k, int gradient, const double *q,
-                                        int corner_stride, int lane_step)
+ * arithmetic of plod__gnoise_kernel after the hashes, with q[c][a] corner
+ * c's gradient component a (the lane's own, or one set for all lanes where
+ * they share a lattice cell: the same values, so the same bits) */
+PLOD_LANE_INLINE void plod__lane_blend(plod__lanes *l, int k, int gradient,
+                                        const double q[8][3])
 {
-#define PLOD__Q(c, a) q[(3 * (c) + (a)) * corner_stride + k * lane_step]
+#define PLOD__Q(c, a) q[c][a]
     double x = l->frac[0][k], y = l->frac[1][k], z = l->frac[2][k];
     double x1 = x - 1, y1 = y - 1, z1 = z - 1;
     double val0 = PLOD__Q(0, 0) * x + PLOD__Q(0, 1) * y + PLOD__Q(0, 2) * z;
@@ -534,6 +535,20 @@ PLOD_LANE_INLINE double plod__grad_component(uint32_t packed, uint64_t hash)
     return (double)((int32_t)((packed >> shift) & 3u) - 1);
 }
 
+/* the 8 corners' gradients of the lattice cell hashed to `base`, from
+ * plod__grad packed per axis (shifts and masks instead of table gathers:
+ * the same values) */
+PLOD_LANE_INLINE void plod__lane_corners(uint64_t base, double q[8][3])
+{
+    for (int c = 0; c < 8; c++) {
+        uint64_t hash = plod__mix_fast(base + ((c & 1) ? PLOD__HX : 0) +
+                                       ((c & 2) ? PLOD__HY : 0) + ((c & 4) ? PLOD__HZ : 0));
+        q[c][0] = plod__grad_component(PLOD__GRAD_X, hash);
+        q[c][1] = plod__grad_component(PLOD__GRAD_Y, hash);
+        q[c][2] = plod__grad_component(PLOD__GRAD_Z, hash);
+    }
+}
+
 /* octave o's gradient noise at every lane (n, and g when gradient) */
 PLOD_LANE_CLONES PLOD_LANE_LOOPS static void plod__lanes_noise(plod__lanes *l, const plod__octave *o,
                                                            int gradient)
@@ -570,39 +585,28 @@ PLOD_LANE_CLONES PLOD_LANE_LOOPS static void plod__lanes_noise(plod__lanes *l, c
         /* every lane in one lattice cell (the coarse octaves of a sector):
          * its corners hashed once */
         double q[8][3];
-        for (int c = 0; c < 8; c++) {
-            uint64_t hash = plod__mix_fast(base[0] + ((c & 1) ? PLOD__HX : 0) +
-                                           ((c & 2) ? PLOD__HY : 0) + ((c & 4) ? PLOD__HZ : 0));
-            q[c][0] = plod__grad_component(PLOD__GRAD_X, hash);
-            q[c][1] = plod__grad_component(PLOD__GRAD_Y, hash);
-            q[c][2] = plod__grad_component(PLOD__GRAD_Z, hash);
-        }
+        plod__lane_corners(base[0], q);
         if (gradient)
             for (int k = 0; k < l->count; k++)
-                plod__lane_blend(l, k, 1, &q[0][0], 1, 0);
+                plod__lane_blend(l, k, 1, q);
         else
             for (int k = 0; k < l->count; k++)
-                plod__lane_blend(l, k, 0, &q[0][0], 1, 0);
+                plod__lane_blend(l, k, 0, q);
         return;
     }
-    for (int c = 0; c < 8; c++) {
-        uint64_t corner = ((c & 1) ? PLOD__HX : 0) + ((c & 2) ? PLOD__HY : 0) +
-                          ((c & 4) ? PLOD__HZ : 0);
-        /* the corner's gradient from plod__grad packed per axis (shifts
-         * and masks instead of table gathers: the same values) */
-        for (int k = 0; k < l->count; k++) {
-            uint64_t hash = plod__mix_fast(base[k] + corner);
-            l->q[c][0][k] = plod__grad_component(PLOD__GRAD_X, hash);
-            l->q[c][1][k] = plod__grad_component(PLOD__GRAD_Y, hash);
-            l->q[c][2][k] = plod__grad_component(PLOD__GRAD_Z, hash);
-        }
-    }
+    /* each lane's corners hashed inside the blend's loop: kept in registers */
     if (gradient)
-        for (int k = 0; k < l->count; k++)
-            plod__lane_blend(l, k, 1, &l->q[0][0][0], PLOD__LANES, 1);
+        for (int k = 0; k < l->count; k++) {
+            double q[8][3];
+            plod__lane_corners(base[k], q);
+            plod__lane_blend(l, k, 1, q);
+        }
     else
-        for (int k = 0; k < l->count; k++)
-            plod__lane_blend(l, k, 0, &l->q[0][0][0], PLOD__LANES, 1);
+        for (int k = 0; k < l->count; k++) {
+            double q[8][3];
+            plod__lane_corners(base[k], q);
+            plod__lane_blend(l, k, 0, q);
+        }
 }
 
 /* An octave's weight and rotation, copied out of the octave: the lane
@@ -730,7 +734,7 @@ void plod_detail_noise_from_n(const plod_detail *detail, size_t n, const double 
         }
         for (int k = 0; k < count; k++)
             lane_of[per_depth[depth_of[k]]++] = k;
-        int padded = (count + 3) & ~3, earliest = detail->count;
+        int padded = PLOD__LANE_ROUND(count), earliest = detail->count;
         /* idle lanes are masked and may read any lattice point: the batch's
          * first direction keeps them in its cells (plod__lanes_noise's
          * one-cell octaves) */
@@ -775,7 +779,7 @@ void plod_detail_noise_from_n(const plod_detail *detail, size_t n, const double 
                 continue; /* no lane has started (lanes only ever drop out below) */
             while (active > 0 && depth[active - 1] <= i)
                 active--;
-            l->count = (active + 3) & ~3;
+            l->count = PLOD__LANE_ROUND(active);
             const plod__octave *o = &detail->octaves[i];
             int gradient = i < deepest_gradient; /* a lane wants it */
             if (o->noise_weight != 0.0) {
