@@ -448,6 +448,8 @@ double plod_detail_noise_from(const plod_detail *detail, const double dir[3], in
 /* lanes are run in whole vectors of up to 8 doubles (AVX-512): a partial
  * vector would fall to the loops' scalar remainder */
 #define PLOD__LANE_ROUND(count) (((count) + 7) & ~7)
+/* points sorted by depth together, then run PLOD__LANES at a time */
+#define PLOD__SORT_SPAN 256
 
 typedef struct plod__lanes {
     int count; /* lanes in use, PLOD__LANE_ROUNDed (idle ones masked) */
@@ -693,6 +695,112 @@ plod__lanes_accumulate(plod__lanes *l, const plod__octave *o, int ridged, int i,
 
 static const double plod__idle_dir[3] = {1.0, 0.0, 0.0};
 
+/* One batch of up to PLOD__LANES lanes: lane k is point lane_of[k] (deepest
+ * first), depth_of[] the octaves each point evaluates. */
+static void plod__noise_batch(const plod_detail *detail, int ridged, plod__lanes *l,
+                              const double *dirs, const int *first_octaves,
+                              const int *octaves, const int *gradient_octaves,
+                              const int *lane_of, const int *depth_of, int count,
+                              double *sums, double *gradients)
+{
+    int deepest = 0, deepest_gradient = 0, depth[PLOD__LANES];
+    int padded = PLOD__LANE_ROUND(count), earliest = detail->count;
+    /* idle lanes are masked and may read any lattice point: the batch's
+     * first direction keeps them in its cells (plod__lanes_noise's
+     * one-cell octaves) */
+    const double *idle_dir = plod__idle_dir;
+    for (int k = 0; k < count; k++)
+        if (plod__unit_range(dirs + 3 * (size_t)lane_of[k])) {
+            idle_dir = dirs + 3 * (size_t)lane_of[k];
+            break;
+        }
+    for (int k = 0; k < padded; k++) {
+        int v = 0, g = 0, f = 0;
+        const double *dir = idle_dir;
+        if (k < count) {
+            size_t at = (size_t)lane_of[k];
+            v = octaves[at] < detail->count ? octaves[at] : detail->count;
+            g = !gradients ? 0
+                           : (gradient_octaves[at] < detail->count ? gradient_octaves[at]
+                                                                   : detail->count);
+            if (plod__unit_range(dirs + 3 * at))
+                dir = dirs + 3 * at;
+            else
+                v = g = 0;
+            f = first_octaves && first_octaves[at] > 0 ? first_octaves[at] : 0;
+            earliest = f < earliest ? f : earliest;
+        }
+        l->first[k] = f;
+        for (int a = 0; a < 3; a++)
+            l->dir[a][k] = dir[a];
+        l->value_count[k] = v;
+        l->gradient_count[k] = g;
+        depth[k] = k < count ? depth_of[lane_of[k]] : 0;
+        deepest = depth[k] > deepest ? depth[k] : deepest;
+        deepest_gradient = g > deepest_gradient ? g : deepest_gradient;
+        l->sum[k] = 0.0;
+        l->weight[k] = 1.0;
+        for (int a = 0; a < 3; a++)
+            l->acc[a][k] = l->dweight[a][k] = 0.0;
+    }
+    int active = count;
+    for (int i = 0; i < deepest; i++) {
+        if (i < earliest)
+            continue; /* no lane has started (lanes only ever drop out below) */
+        while (active > 0 && depth[active - 1] <= i)
+            active--;
+        l->count = PLOD__LANE_ROUND(active);
+        const plod__octave *o = &detail->octaves[i];
+        int gradient = i < deepest_gradient; /* a lane wants it */
+        if (o->noise_weight != 0.0) {
+            plod__lanes_noise(l, o, gradient);
+            plod__lanes_accumulate(l, o, ridged, i, gradient);
+        }
+        if (o->crater_weight == 0.0)
+            continue;
+        /* craters: lane by lane, neighbouring lanes mostly in one cell */
+        plod__crater_cell cell = {NAN, NAN, NAN, 0, {0.0, 0.0, 0.0}, 0.0};
+        for (int k = 0; k < active; k++) {
+            int started = i >= l->first[k];
+            int add_sum = started && i < l->value_count[k];
+            int add_gradient = started && i + PLOD_DETAIL_CRATER_NORMAL_LAG <
+                                              l->gradient_count[k];
+            if (!add_sum && !add_gradient)
+                continue;
+            double cp[3] = {l->p[0][k] + 0.5, l->p[1][k] + 0.5, l->p[2][k] + 0.5}, g[3];
+            if (o->noise_weight == 0.0) /* the lattice point was not computed */
+                for (int a = 0; a < 3; a++)
+                    cp[a] = o->m[a][0] * l->dir[0][k] + o->m[a][1] * l->dir[1][k] +
+                            o->m[a][2] * l->dir[2][k] + o->offset[a] + 0.5;
+            double centre[3] = {o->offset[0] + 0.5, o->offset[1] + 0.5,
+                                o->offset[2] + 0.5};
+            double fx = plod__floor(cp[0]), fy = plod__floor(cp[1]), fz = plod__floor(cp[2]);
+            if (fx != cell.fx || fy != cell.fy || fz != cell.fz)
+                plod__crater_cell_of(fx, fy, fz, centre, o->frequency, o->crater_seed,
+                                     detail->params.crater_density, &cell);
+            double value = plod__crater_at(cp, &cell, g);
+            if (value == 0.0)
+                continue;
+            if (add_sum)
+                l->sum[k] += o->crater_weight * value;
+            if (add_gradient) {
+                double acc[3] = {l->acc[0][k], l->acc[1][k], l->acc[2][k]};
+                plod__add_gradient(o, g, o->crater_weight, acc);
+                for (int a = 0; a < 3; a++)
+                    l->acc[a][k] = acc[a];
+            }
+        }
+    }
+    for (int k = 0; k < count; k++) {
+        size_t at = (size_t)lane_of[k];
+        int unit = plod__unit_range(dirs + 3 * at);
+        sums[at] = unit ? l->sum[k] : NAN;
+        if (gradients)
+            for (int a = 0; a < 3; a++)
+                gradients[3 * at + a] = unit ? l->acc[a][k] : NAN;
+    }
+}
+
 void plod_detail_noise_n(const plod_detail *detail, size_t n, const double *dirs,
                          const int *octaves, const int *gradient_octaves, double *sums,
                          double *gradients)
@@ -706,15 +814,16 @@ void plod_detail_noise_from_n(const plod_detail *detail, size_t n, const double 
 {
     int ridged = detail->params.style == PLOD_DETAIL_MOUNTAINS;
     plod__lanes lanes, *l = &lanes;
-    int depth_of[PLOD__LANES], lane_of[PLOD__LANES], depth[PLOD__LANES];
+    int depth_of[PLOD__SORT_SPAN], order[PLOD__SORT_SPAN];
     int per_depth[PLOD_DETAIL_MAX_OCTAVES + 2];
-    for (size_t first = 0; first < n; first += PLOD__LANES) {
-        int count = (int)(n - first < PLOD__LANES ? n - first : PLOD__LANES);
-        int deepest = 0, deepest_gradient = 0;
-        /* lanes deepest first (a counting sort on the octaves to evaluate),
-         * so that the lanes still going at an octave are a prefix */
+    for (size_t first = 0; first < n; first += PLOD__SORT_SPAN) {
+        int span = (int)(n - first < PLOD__SORT_SPAN ? n - first : PLOD__SORT_SPAN);
+        /* the span's lanes deepest first (a stable counting sort on the
+         * octaves to evaluate): in each batch the lanes still going at an
+         * octave are a prefix, and the few deep ones (a sector's corners)
+         * share a batch */
         memset(per_depth, 0, sizeof per_depth);
-        for (int k = 0; k < count; k++) {
+        for (int k = 0; k < span; k++) {
             size_t at = first + (size_t)k;
             int v = octaves[at] < detail->count ? octaves[at] : detail->count;
             int g = !gradients ? 0
@@ -732,103 +841,14 @@ void plod_detail_noise_from_n(const plod_detail *detail, size_t n, const double 
             per_depth[d] = start;
             start += here;
         }
-        for (int k = 0; k < count; k++)
-            lane_of[per_depth[depth_of[k]]++] = k;
-        int padded = PLOD__LANE_ROUND(count), earliest = detail->count;
-        /* idle lanes are masked and may read any lattice point: the batch's
-         * first direction keeps them in its cells (plod__lanes_noise's
-         * one-cell octaves) */
-        const double *idle_dir = plod__idle_dir;
-        for (int k = 0; k < count; k++)
-            if (plod__unit_range(dirs + 3 * (first + (size_t)lane_of[k]))) {
-                idle_dir = dirs + 3 * (first + (size_t)lane_of[k]);
-                break;
-            }
-        for (int k = 0; k < padded; k++) {
-            int v = 0, g = 0, f = 0;
-            const double *dir = idle_dir;
-            if (k < count) {
-                size_t at = first + (size_t)lane_of[k];
-                v = octaves[at] < detail->count ? octaves[at] : detail->count;
-                g = !gradients ? 0
-                               : (gradient_octaves[at] < detail->count ? gradient_octaves[at]
-                                                                       : detail->count);
-                if (plod__unit_range(dirs + 3 * at))
-                    dir = dirs + 3 * at;
-                else
-                    v = g = 0;
-                f = first_octaves && first_octaves[at] > 0 ? first_octaves[at] : 0;
-                earliest = f < earliest ? f : earliest;
-            }
-            l->first[k] = f;
-            for (int a = 0; a < 3; a++)
-                l->dir[a][k] = dir[a];
-            l->value_count[k] = v;
-            l->gradient_count[k] = g;
-            depth[k] = k < count ? depth_of[lane_of[k]] : 0;
-            deepest = depth[k] > deepest ? depth[k] : deepest;
-            deepest_gradient = g > deepest_gradient ? g : deepest_gradient;
-            l->sum[k] = 0.0;
-            l->weight[k] = 1.0;
-            for (int a = 0; a < 3; a++)
-                l->acc[a][k] = l->dweight[a][k] = 0.0;
-        }
-        int active = count;
-        for (int i = 0; i < deepest; i++) {
-            if (i < earliest)
-                continue; /* no lane has started (lanes only ever drop out below) */
-            while (active > 0 && depth[active - 1] <= i)
-                active--;
-            l->count = PLOD__LANE_ROUND(active);
-            const plod__octave *o = &detail->octaves[i];
-            int gradient = i < deepest_gradient; /* a lane wants it */
-            if (o->noise_weight != 0.0) {
-                plod__lanes_noise(l, o, gradient);
-                plod__lanes_accumulate(l, o, ridged, i, gradient);
-            }
-            if (o->crater_weight == 0.0)
-                continue;
-            /* craters: lane by lane, neighbouring lanes mostly in one cell */
-            plod__crater_cell cell = {NAN, NAN, NAN, 0, {0.0, 0.0, 0.0}, 0.0};
-            for (int k = 0; k < active; k++) {
-                int started = i >= l->first[k];
-                int add_sum = started && i < l->value_count[k];
-                int add_gradient = started && i + PLOD_DETAIL_CRATER_NORMAL_LAG <
-                                                  l->gradient_count[k];
-                if (!add_sum && !add_gradient)
-                    continue;
-                double cp[3] = {l->p[0][k] + 0.5, l->p[1][k] + 0.5, l->p[2][k] + 0.5}, g[3];
-                if (o->noise_weight == 0.0) /* the lattice point was not computed */
-                    for (int a = 0; a < 3; a++)
-                        cp[a] = o->m[a][0] * l->dir[0][k] + o->m[a][1] * l->dir[1][k] +
-                                o->m[a][2] * l->dir[2][k] + o->offset[a] + 0.5;
-                double centre[3] = {o->offset[0] + 0.5, o->offset[1] + 0.5,
-                                    o->offset[2] + 0.5};
-                double fx = plod__floor(cp[0]), fy = plod__floor(cp[1]), fz = plod__floor(cp[2]);
-                if (fx != cell.fx || fy != cell.fy || fz != cell.fz)
-                    plod__crater_cell_of(fx, fy, fz, centre, o->frequency, o->crater_seed,
-                                         detail->params.crater_density, &cell);
-                double value = plod__crater_at(cp, &cell, g);
-                if (value == 0.0)
-                    continue;
-                if (add_sum)
-                    l->sum[k] += o->crater_weight * value;
-                if (add_gradient) {
-                    double acc[3] = {l->acc[0][k], l->acc[1][k], l->acc[2][k]};
-                    plod__add_gradient(o, g, o->crater_weight, acc);
-                    for (int a = 0; a < 3; a++)
-                        l->acc[a][k] = acc[a];
-                }
-            }
-        }
-        for (int k = 0; k < count; k++) {
-            size_t at = first + (size_t)lane_of[k];
-            int unit = plod__unit_range(dirs + 3 * at);
-            sums[at] = unit ? l->sum[k] : NAN;
-            if (gradients)
-                for (int a = 0; a < 3; a++)
-                    gradients[3 * at + a] = unit ? l->acc[a][k] : NAN;
-        }
+        for (int k = 0; k < span; k++)
+            order[per_depth[depth_of[k]]++] = k;
+        for (int batch = 0; batch < span; batch += PLOD__LANES)
+            plod__noise_batch(detail, ridged, l, dirs + 3 * first,
+                              first_octaves ? first_octaves + first : NULL, octaves + first,
+                              gradients ? gradient_octaves + first : NULL, order + batch,
+                              depth_of, span - batch < PLOD__LANES ? span - batch : PLOD__LANES,
+                              sums + first, gradients ? gradients + 3 * first : NULL);
     }
 }
 

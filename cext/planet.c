@@ -323,7 +323,11 @@ static void plod__add_detail(const plod_planet *planet, const double dir[3], dou
     plod__blend_apply(planet, unit, m, w, noise, g, from, g_from, height, normal, detail);
 }
 
-/* plod__add_detail at a run of points (count <= 64) whose map heights,
+/* Points sampled together: a sector's vertices at the usual template
+ * levels, so that the detail field's batches see its corners together. */
+#define PLOD__SURFACE_CHUNK 256
+
+/* plod__add_detail at a run of points (count <= PLOD__SURFACE_CHUNK) whose map heights,
  * normals, modulations and inset weights are known: the field in batches
  * (all octaves where w < 1, the inset's from its first where w > 0), the
  * same bits per point. */
@@ -332,7 +336,7 @@ static void plod__add_detail_run(const plod_planet *planet, size_t count, const 
                                  const int *normal_octaves, const plod_inset_weight *insets,
                                  double *heights, double *normals, double *detail)
 {
-    enum { RUN = 64 };
+    enum { RUN = PLOD__SURFACE_CHUNK };
     double unit[3 * RUN], all_unit[3 * RUN], from_unit[3 * RUN];
     double noise[RUN], g[3 * RUN], from[RUN], g_from[3 * RUN];
     int all_oct[RUN], all_noct[RUN], from_first[RUN], from_oct[RUN], from_noct[RUN];
@@ -496,7 +500,7 @@ void plod_planet_surface_detail_n(const plod_planet *planet, size_t n, const dou
 {
     if (!normal_octaves)
         normal_octaves = octaves;
-    enum { CHUNK = 64 };
+    enum { CHUNK = PLOD__SURFACE_CHUNK };
     if (normals)
         memcpy(normals, dirs, 3 * n * sizeof *normals);
     if (detail)
