@@ -873,35 +873,57 @@ static int plod__corners_current(const plod__emitter *e, const plod_mesh_sector 
            bands[2] == block->corner_band[2];
 }
 
+/* Corners of cached sectors whose normals this emission samples again,
+ * gathered over a chunk's sectors so that the surface samples them in
+ * full batches (a sector has at most three). */
+enum { PLOD__CORNER_BATCH = 192 };
+typedef struct plod__corner_batch {
+    size_t count;
+    double dirs[3 * PLOD__CORNER_BATCH];
+    int octaves[PLOD__CORNER_BATCH], normal_octaves[PLOD__CORNER_BATCH];
+    size_t vertex[PLOD__CORNER_BATCH]; /* output vertex */
+} plod__corner_batch;
+
+static void plod__flush_corners(const plod__emitter *e, plod__corner_batch *batch)
+{
+    if (!batch->count)
+        return;
+    double heights[PLOD__CORNER_BATCH], normals[3 * PLOD__CORNER_BATCH];
+    e->surface->ops->sample_n(e->surface->self, batch->count, batch->dirs, batch->octaves,
+                              batch->normal_octaves, heights, normals, NULL);
+    for (size_t c = 0; c < batch->count; c++)
+        for (int k = 0; k < 3; k++)
+            e->out->normals[3 * batch->vertex[c] + k] = (float)normals[3 * c + k];
+    batch->count = 0;
+}
+
 static void plod__corner_normals(const plod__emitter *e, const plod_mesh_sector *sector,
                                  size_t vbase, const plod__block *block,
-                                 plod__slot_cache *sc)
+                                 plod__slot_cache *sc, plod__corner_batch *batch)
 {
-    size_t at[3], to[3];
+    size_t at[3];
     plod__corner_positions(e->n, at);
-    double all_dirs[9], dirs[9], heights[3], normals[9];
+    double dirs[9];
     int32_t bands[3];
-    int octaves[3], normal_octaves[3], count = 0;
-    plod__corner_bands(e, sector, all_dirs, bands);
-    for (int c = 0; c < 3; c++) { /* the corners whose band changed, in one batch */
+    plod__corner_bands(e, sector, dirs, bands);
+    int changed = 0;
+    for (int c = 0; c < 3; c++) { /* the corners whose band changed */
         if (bands[c] == block->corner_band[c])
             continue;
-        for (int k = 0; k < 3; k++)
-            dirs[3 * count + k] = all_dirs[3 * c + k];
-        octaves[count] = PLOD_DETAIL_MAX_OCTAVES;
-        normal_octaves[count] = bands[c];
-        to[count++] = at[c];
+        if (batch->count == PLOD__CORNER_BATCH)
+            plod__flush_corners(e, batch);
+        size_t i = batch->count++;
+        memcpy(batch->dirs + 3 * i, dirs + 3 * c, 3 * sizeof(double));
+        batch->octaves[i] = PLOD_DETAIL_MAX_OCTAVES;
+        batch->normal_octaves[i] = bands[c];
+        batch->vertex[i] = vbase + at[c];
+        changed = 1;
     }
-    if (!count)
+    if (!changed)
         return;
     sc->corners_changed = 1;
     for (int c = 0; c < 3; c++)
         sc->corner_band[c] = bands[c];
-    e->surface->ops->sample_n(e->surface->self, (size_t)count, dirs, octaves, normal_octaves,
-                              heights, normals, NULL);
-    for (int c = 0; c < count; c++)
-        for (int k = 0; k < 3; k++)
-            e->out->normals[3 * (vbase + to[c]) + k] = (float)normals[3 * c + k];
 }
 
 /* The same outputs from a cache entry: (float)(p - origin) as computed. */
@@ -929,7 +951,7 @@ static void plod__copy_vertices(const plod__emitter *e, size_t vbase, const plod
 
 static plod_status plod__emit_sector(const plod__emitter *e, const plod_mesh_sector *sector,
                                      size_t slot, const plod_mesh_cache *cache,
-                                     plod__slot_cache *sc)
+                                     plod__slot_cache *sc, plod__corner_batch *corners)
 {
     if (!plod__sector_ok(sector))
         return PLOD_ERR_BAD_COORD;
@@ -944,7 +966,7 @@ static plod_status plod__emit_sector(const plod__emitter *e, const plod_mesh_sec
         plod__block_view(cache->entries[sc->hit].data, e->vertices_per_sector, &block);
         plod__copy_vertices(e, vbase, &block);
         if (e->banded && out->normals)
-            plod__corner_normals(e, sector, vbase, &block, sc);
+            plod__corner_normals(e, sector, vbase, &block, sc, corners);
     } else if (sc && sc->fresh) {
         plod__block_view(sc->fresh, e->vertices_per_sector, &block);
         plod__compute_vertices(e, sector, vbase, &block);
@@ -991,6 +1013,8 @@ static void plod__run_chunk(plod__chunk *chunk)
     const plod_mesh_cache *cache = chunk->cache;
     size_t slot = chunk->first_slot;
     plod_mesh_sector sector;
+    plod__corner_batch corners;
+    corners.count = 0;
     chunk->status = PLOD_OK;
     for (size_t s = chunk->begin; s < chunk->end; s++) {
         sector.key = 0;
@@ -1010,13 +1034,14 @@ static void plod__run_chunk(plod__chunk *chunk)
                     chunk->budget -= need;
             }
         }
-        plod_status st = plod__emit_sector(e, &sector, slot, cache, sc);
+        plod_status st = plod__emit_sector(e, &sector, slot, cache, sc, &corners);
         slot++;
         if (st != PLOD_OK) {
             chunk->status = st;
             break;
         }
     }
+    plod__flush_corners(e, &corners);
 }
 
 /* plod_parallel_for's range: chunks [begin, end). */
