@@ -1,5 +1,8 @@
-"""Shared fixtures: the built module and the real planetary maps."""
+"""Shared fixtures: the built module, the real planetary maps and the C
+unit tests' builds."""
 import os
+import shutil
+import subprocess
 
 import pytest
 
@@ -21,6 +24,35 @@ def data_path(name):
 def planetlod():
     import planetlod as module
     return module
+
+
+# the core's C flags (setup.py), warnings as errors
+C_TEST_FLAGS = ["-std=c11", "-O2", "-Wall", "-Wextra", "-Werror", "-Wno-missing-field-initializers",
+                "-ffp-contract=off", "-fno-math-errno", "-fno-strict-aliasing",
+                "-D_POSIX_C_SOURCE=200809L"]
+
+
+@pytest.fixture
+def run_c_test(tmp_path):
+    """run(name, core_sources, extra_flags=()): builds tests/c/<name>.c with
+    those cext/ sources, runs it and returns its stdout (the build and the
+    run must succeed)."""
+    if shutil.which("gcc") is None:
+        pytest.skip("needs gcc")
+
+    def run(name, core_sources, extra_flags=()):
+        exe = tmp_path / name
+        cmd = ["gcc", *C_TEST_FLAGS, *extra_flags, "-I", os.path.join(ROOT, "cext"),
+               os.path.join(ROOT, "tests", "c", name + ".c")]
+        cmd += [os.path.join(ROOT, "cext", s) for s in core_sources]
+        cmd += ["-lm", "-lpthread", "-o", str(exe)]
+        build = subprocess.run(cmd, capture_output=True, text=True)
+        assert build.returncode == 0, build.stderr
+        result = subprocess.run([str(exe)], capture_output=True, text=True, timeout=120)
+        assert result.returncode == 0, result.stderr + result.stdout
+        return result.stdout
+
+    return run
 
 
 # tests/blender/ holds scripts that run inside Blender (driven by
