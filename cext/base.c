@@ -58,9 +58,13 @@ void plod_parallel_for(size_t count, int threads, plod_range_fn range, void *con
  * on its own CPU: a wake through the condition variable, while the caller
  * keeps its CPU busy, took ~0.5-1 ms on a 2-CPU machine (the wakee waits
  * behind the caller), a polling worker answers plod_workers_begin within
- * ~0.15 ms.  Spinning only within begin..end: there a spinning thread
- * slowed the caller's other work. */
+ * ~0.15 ms.  Spinning only within begin..end and PLOD__LINGER_NS after
+ * it: longer, a spinning thread slowed the caller's other work; the
+ * linger covers the step from one call to the next of a frame (a refine,
+ * then its emission), which a polling worker would join ~0.1 ms late, the
+ * whole of a small emission. */
 #define PLOD__SPIN_NS 2000000
+#define PLOD__LINGER_NS 100000
 #define PLOD__POLL_NS 100000
 #define PLOD__IDLE_NS 100000000
 #define PLOD__CHUNKS_SHIFT 20
@@ -78,6 +82,7 @@ struct plod_workers {
     atomic_int sleeping;     /* workers asleep or going to sleep */
     atomic_uint_fast64_t hint; /* bumped by plod_workers_begin */
     atomic_int spin;         /* 1 between plod_workers_begin and _end */
+    atomic_uint_fast64_t linger_until; /* clock: spin on after _end until then */
     atomic_int quit;
     /* the loop: `next` holds its generation, its chunk count and its next
      * chunk (PLOD__GEN_SHIFT, PLOD__CHUNKS_SHIFT), so a claim is one
@@ -151,12 +156,13 @@ static void *plod__worker(void *arg)
             spinning = 1;
             idle = plod__clock_ns();
         }
-        if (spinning && atomic_load(&w->spin) && (k & 255)) {
+        if (spinning && (k & 255)) {
             plod__relax();
             continue;
         }
         uint64_t now = plod__clock_ns();
-        if (spinning && (!atomic_load(&w->spin) || now - idle > PLOD__SPIN_NS)) {
+        int wanted = atomic_load(&w->spin) || now < atomic_load(&w->linger_until);
+        if (spinning && (!wanted || now - idle > PLOD__SPIN_NS)) {
             spinning = 0; /* no loop came while spinning: poll */
             idle = now;
         }
@@ -212,6 +218,7 @@ plod_status plod_workers_create(plod_workers **out, int threads)
     atomic_init(&w->sleeping, 0);
     atomic_init(&w->hint, 0);
     atomic_init(&w->spin, 0);
+    atomic_init(&w->linger_until, 0);
     atomic_init(&w->quit, 0);
     atomic_init(&w->next, 0);
     atomic_init(&w->done, 0);
@@ -262,8 +269,10 @@ void plod_workers_begin(plod_workers *w)
 
 void plod_workers_end(plod_workers *w)
 {
-    if (w)
-        atomic_store(&w->spin, 0);
+    if (!w)
+        return;
+    atomic_store(&w->linger_until, plod__clock_ns() + PLOD__LINGER_NS);
+    atomic_store(&w->spin, 0);
 }
 
 void *plod_grow(void *array, size_t *capacity, size_t need, size_t size, size_t first)

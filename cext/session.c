@@ -302,7 +302,12 @@ plod_status plod_session_emit(plod_session *session, const plod_mesh_params *par
     plod__leaf_source leaves;
     plod_mesh_sector_source sectors = plod__leaf_source_init(session, visible_only, &leaves);
     plod_surface_source surface = plod_planet_surface_source(&session->planet);
-    return plod_mesh_emit(&mp, &sectors, &surface, out, vertex_count, triangle_count);
+    /* the workers spin from here (the emission's setup) to its loops, and
+     * linger after it for the next call */
+    plod_workers_begin(mp.workers);
+    plod_status st = plod_mesh_emit(&mp, &sectors, &surface, out, vertex_count, triangle_count);
+    plod_workers_end(mp.workers);
+    return st;
 }
 
 plod_status plod_session_instances(plod_session *session, const plod_mesh_params *params,
