@@ -480,11 +480,16 @@ typedef struct plod__sample_plan {
     double wu[PLOD__SAMPLE_BLOCK], wv[PLOD__SAMPLE_BLOCK]; /* weights */
 } plod__sample_plan;
 
+/* ghosts: 1 for a grid whose faces carry a ring of their neighbours'
+ * texels (a bundle): `at` then counts in it and covers the faces' last
+ * rows and columns too, all but the cells at a face's corners (whose
+ * corner ghost is an average, plod__fetch_cube). */
 PLOD_LANE_CLONES PLOD_LANE_LOOPS static void
-plod__plan_samples(int width, int height, int face_count, size_t n, const int *faces,
-                   const double *u, const double *v, plod__sample_plan *plan)
+plod__plan_samples(int width, int height, int face_count, int ghosts, size_t n,
+                   const int *faces, const double *u, const double *v, plod__sample_plan *plan)
 {
-    int64_t face_texels = (int64_t)width * (int64_t)height;
+    int64_t stride = (int64_t)width + 2 * ghosts;
+    int64_t face_texels = stride * ((int64_t)height + 2 * ghosts);
     for (size_t i = 0; i < n; i++) {
         double uu = u[i], vv = v[i];
         int face = faces[i];
@@ -497,10 +502,12 @@ plod__plan_samples(int width, int height, int face_count, size_t n, const int *f
         double t = valid ? (vv + 1.0) * 0.5 * height - 0.5 : 0.0;
         double fi = floor(s), fj = floor(t);
         int i0 = (int)fi, j0 = (int)fj;
-        int interior = (i0 >= 0) & (j0 >= 0) & (i0 + 1 < width) & (j0 + 1 < height);
-        plan->at[i] = valid & interior
-                          ? (int64_t)face * face_texels + (int64_t)j0 * width + i0
-                          : -1;
+        int edge_i = (i0 < 0) | (i0 + 1 >= width), edge_j = (j0 < 0) | (j0 + 1 >= height);
+        int interior = (i0 >= -ghosts) & (j0 >= -ghosts) & (i0 + 1 < width + ghosts) &
+                       (j0 + 1 < height + ghosts) & !(edge_i & edge_j & (ghosts > 0));
+        plan->at[i] = valid & interior ? (int64_t)face * face_texels +
+                                             (int64_t)(j0 + ghosts) * stride + (i0 + ghosts)
+                                       : -1;
         plan->valid[i] = valid;
         plan->s[i] = s, plan->t[i] = t;
         plan->wu[i] = s - fi, plan->wv[i] = t - fj;
@@ -582,7 +589,7 @@ plod__sample_block(const plod_cubemap *m, size_t n, const int *faces,
 #define PLOD__SAMPLE_LOOP(TYPE, CHANNELS)                                                \
     for (size_t first = 0; first < n; first += PLOD__SAMPLE_BLOCK) {                     \
         size_t count = n - first < PLOD__SAMPLE_BLOCK ? n - first : PLOD__SAMPLE_BLOCK;   \
-        plod__plan_samples(m->width, m->height, m->face_count, count, faces + first,      \
+        plod__plan_samples(m->width, m->height, m->face_count, 0, count, faces + first,   \
                            u + first, v + first, &plan);                                  \
         plod__sample_block(m, count, faces + first, &plan, (TYPE), (CHANNELS),            \
                            out + first * (size_t)(CHANNELS));                             \
@@ -613,7 +620,7 @@ void plod_cubemap_sample_face_n(const plod_cubemap *m, size_t n, const int *face
 #define PLOD__PAIR_LOOP(TYPE)                                                            \
     for (size_t first = 0; first < n; first += PLOD__SAMPLE_BLOCK) {                     \
         size_t count = n - first < PLOD__SAMPLE_BLOCK ? n - first : PLOD__SAMPLE_BLOCK;   \
-        plod__plan_samples(a->width, a->height, a->face_count, count, faces + first,      \
+        plod__plan_samples(a->width, a->height, a->face_count, 0, count, faces + first,   \
                            u + first, v + first, &plan);                                  \
         plod__sample_block(a, count, faces + first, &plan, (TYPE), 1, out_a + first);     \
         plod__sample_block(b, count, faces + first, &plan, PLOD_TEXEL_U16, 3,             \
@@ -640,6 +647,198 @@ void plod_cubemap_sample_pair_n(const plod_cubemap *a, const plod_cubemap *b, si
     }
 }
 #undef PLOD__PAIR_LOOP
+
+/* ---- maps sampled together ------------------------------------------------- */
+
+/* One texel of a bundle: the height's raw value (u8 and u16 values are
+ * exact in a float, f32 is itself), the normal's three u16, the extra u8. */
+typedef struct plod__bundle_texel {
+    float height;
+    uint16_t normal[3];
+    uint8_t extra;
+    uint8_t pad[5]; /* 16 bytes: two taps of a row in one aligned half line */
+} plod__bundle_texel;
+
+struct plod_cubemap_bundle {
+    const plod_cubemap *heights, *normals, *extra;
+    double height_scale; /* raw height -> the sampled value, as plod__gather_taps */
+    int ghosts;          /* cube maps: 1, each face ringed by its neighbours' texels */
+    size_t stride;       /* texels a row */
+    plod__bundle_texel *texels;
+};
+
+/* Texel (i, j) of face f of the maps into x. */
+static void plod__bundle_fill(const plod_cubemap_bundle *b, int f, int i, int j,
+                              plod__bundle_texel *x)
+{
+    const plod_cubemap *h = b->heights;
+    size_t t = (size_t)f * (size_t)h->width * (size_t)h->height + (size_t)j * (size_t)h->width +
+               (size_t)i;
+    switch (h->type) {
+    case PLOD_TEXEL_U8: x->height = (float)h->texels[t]; break;
+    case PLOD_TEXEL_U16: x->height = (float)((const uint16_t *)h->texels)[t]; break;
+    default: x->height = ((const float *)h->texels)[t]; break;
+    }
+    const uint16_t *n16 = (const uint16_t *)b->normals->texels;
+    for (int c = 0; c < 3; c++)
+        x->normal[c] = n16[3 * t + (size_t)c];
+    x->extra = b->extra ? b->extra->texels[t] : 0;
+}
+
+static int plod__same_grid(const plod_cubemap *a, const plod_cubemap *b)
+{
+    return a->projection == b->projection && a->width == b->width && a->height == b->height &&
+           a->face_count == b->face_count;
+}
+
+plod_status plod_cubemap_bundle_create(plod_cubemap_bundle **out, const plod_cubemap *heights,
+                                       const plod_cubemap *normals, const plod_cubemap *extra)
+{
+    if (!out || !heights || !normals)
+        return PLOD_ERR_NULL;
+    *out = NULL;
+    if (heights->channels != 1 || normals->channels != 3 || normals->type != PLOD_TEXEL_U16 ||
+        !plod__same_grid(heights, normals) ||
+        (extra && (extra->channels != 1 || extra->type != PLOD_TEXEL_U8 ||
+                   !plod__same_grid(heights, extra))))
+        return PLOD_OK;
+    int ghosts = heights->face_count == PLOD_FACE_COUNT ? 1 : 0;
+    size_t stride = (size_t)heights->width + 2 * (size_t)ghosts;
+    size_t rows = (size_t)heights->height + 2 * (size_t)ghosts;
+    size_t count = (size_t)heights->face_count * stride * rows;
+    if (count > PLOD_CUBEMAP_BUNDLE_MAX_BYTES / sizeof(plod__bundle_texel))
+        return PLOD_OK;
+    plod_cubemap_bundle *b = calloc(1, sizeof *b);
+    plod__bundle_texel *texels = calloc(count, sizeof *texels);
+    if (!b || !texels) {
+        free(b);
+        free(texels);
+        return PLOD_ERR_NO_MEMORY;
+    }
+    b->heights = heights;
+    b->normals = normals;
+    b->extra = extra;
+    b->height_scale = plod__scale(heights->type);
+    b->ghosts = ghosts;
+    b->stride = stride;
+    b->texels = texels;
+    int w = heights->width, h = heights->height;
+    for (int f = 0; f < heights->face_count; f++) {
+        plod__bundle_texel *face = texels + (size_t)f * stride * rows;
+        for (int j = -ghosts; j < h + ghosts; j++)
+            for (int i = -ghosts; i < w + ghosts; i++) {
+                int out_i = i < 0 || i >= w, out_j = j < 0 || j >= h;
+                if (out_i && out_j)
+                    continue; /* a corner ghost: never read (plod__plan_samples) */
+                int g = f, gi = i, gj = j;
+                if (out_i) /* the neighbour's texel, as plod__fetch_cube */
+                    plod__across(heights, f, i < 0 ? 0 : 1, j, &g, &gi, &gj);
+                else if (out_j)
+                    plod__across(heights, f, j < 0 ? 2 : 3, i, &g, &gi, &gj);
+                plod__bundle_fill(b, g, gi, gj,
+                                  face + (size_t)(j + ghosts) * stride + (size_t)(i + ghosts));
+            }
+    }
+    *out = b;
+    return PLOD_OK;
+}
+
+void plod_cubemap_bundle_destroy(plod_cubemap_bundle *bundle)
+{
+    if (!bundle)
+        return;
+    free(bundle->texels);
+    free(bundle);
+}
+
+int plod_cubemap_bundle_holds(const plod_cubemap_bundle *bundle, const plod_cubemap *heights,
+                              const plod_cubemap *normals, const plod_cubemap *extra)
+{
+    return bundle && bundle->heights == heights && bundle->normals == normals &&
+           bundle->extra == extra;
+}
+
+size_t plod_cubemap_bundle_bytes(const plod_cubemap_bundle *bundle)
+{
+    if (!bundle)
+        return 0;
+    const plod_cubemap *m = bundle->heights;
+    size_t rows = (size_t)m->height + 2 * (size_t)bundle->ghosts;
+    return sizeof *bundle +
+           (size_t)m->face_count * bundle->stride * rows * sizeof(plod__bundle_texel);
+}
+
+/* The four taps of every channel at the planned interior points (as
+ * plod__gather_taps: the same converted values), one pass over the
+ * points: tap[channel][k][i], channels height, normal x, y, z, extra. */
+static void plod__gather_bundle(const plod_cubemap_bundle *b, size_t n,
+                                const plod__sample_plan *plan, int extra,
+                                double tap[5][4][PLOD__SAMPLE_BLOCK])
+{
+    size_t row = b->stride;
+    double hs = b->height_scale;
+    for (size_t i = 0; i < n; i++) {
+        if (plan->at[i] < 0) {
+            for (int c = 0; c < 5; c++)
+                tap[c][0][i] = tap[c][1][i] = tap[c][2][i] = tap[c][3][i] = 0.0;
+            continue;
+        }
+        const plod__bundle_texel *x = b->texels + plan->at[i];
+        const plod__bundle_texel *taps[4] = {x, x + 1, x + row, x + row + 1};
+        for (int k = 0; k < 4; k++) {
+            tap[0][k][i] = (double)taps[k]->height * hs;
+            for (int c = 0; c < 3; c++)
+                tap[1 + c][k][i] = taps[k]->normal[c] * (1.0 / 65535.0);
+            tap[4][k][i] = extra ? taps[k]->extra * (1.0 / 255.0) : 0.0;
+        }
+    }
+}
+
+void plod_cubemap_bundle_sample_n(const plod_cubemap_bundle *b, size_t n, const int *faces,
+                                  const double *u, const double *v, double *heights_out,
+                                  double *normals_out, double *extra_out)
+{
+    const plod_cubemap *m = b->heights;
+    int extra = b->extra && extra_out;
+    enum { AHEAD = 4 };
+    plod__sample_plan plans[AHEAD];
+    double tap[5][4][PLOD__SAMPLE_BLOCK];
+    for (size_t first = 0; first < n; first += PLOD__SAMPLE_BLOCK) {
+        size_t count = n - first < PLOD__SAMPLE_BLOCK ? n - first : PLOD__SAMPLE_BLOCK;
+        size_t block = first / PLOD__SAMPLE_BLOCK % AHEAD;
+        if (block == 0) /* the next blocks planned and their taps' lines requested */
+            for (size_t a = 0; a < AHEAD && first + a * PLOD__SAMPLE_BLOCK < n; a++) {
+                size_t at = first + a * PLOD__SAMPLE_BLOCK;
+                size_t c = n - at < PLOD__SAMPLE_BLOCK ? n - at : PLOD__SAMPLE_BLOCK;
+                plod__plan_samples(m->width, m->height, m->face_count, b->ghosts, c,
+                                   faces + at, u + at, v + at, &plans[a]);
+                for (size_t i = 0; i < c; i++)
+                    if (plans[a].at[i] >= 0) {
+                        const plod__bundle_texel *x = b->texels + plans[a].at[i];
+                        __builtin_prefetch(x);
+                        __builtin_prefetch(x + 1);
+                        __builtin_prefetch(x + b->stride);
+                        __builtin_prefetch(x + b->stride + 1);
+                    }
+            }
+        const plod__sample_plan *plan = &plans[block];
+        /* the cells at the faces' corners (CAR: the last rows and columns)
+         * from the maps themselves */
+        plod__sample_rest(b->heights, count, faces + first, plan, heights_out + first);
+        plod__sample_rest(b->normals, count, faces + first, plan, normals_out + 3 * first);
+        if (extra)
+            plod__sample_rest(b->extra, count, faces + first, plan, extra_out + first);
+        plod__gather_bundle(b, count, plan, extra, tap);
+        plod__blend_taps(count, plan, (const double (*)[PLOD__SAMPLE_BLOCK])tap[0],
+                         heights_out + first, 1);
+        for (int c = 0; c < 3; c++)
+            plod__blend_taps(count, plan, (const double (*)[PLOD__SAMPLE_BLOCK])tap[1 + c],
+                             normals_out + 3 * first + c, 3);
+        if (extra)
+            plod__blend_taps(count, plan, (const double (*)[PLOD__SAMPLE_BLOCK])tap[4],
+                             extra_out + first, 1);
+    }
+}
 
 static int plod__sample_dir_d(const plod_cubemap *m, const double dir[3], double *acc)
 {

@@ -560,6 +560,11 @@ void plod_planet_surface_detail_n(const plod_planet *planet, size_t n, const dou
         return;
     }
     const plod_cubemap *mod = planet->detail ? plod_detail_modulation(planet->detail) : NULL;
+    const plod_cubemap_bundle *bundle =
+        normals && plod_cubemap_bundle_holds(planet->bundle, planet->heightmap,
+                                             planet->normalmap, mod)
+            ? planet->bundle
+            : NULL;
     int faces[CHUNK];
     double u[CHUNK], v[CHUNK], modulation[CHUNK];
     double unit[3 * CHUNK], scale[CHUNK], noise[CHUNK], gradient[3 * CHUNK];
@@ -571,7 +576,10 @@ void plod_planet_surface_detail_n(const plod_planet *planet, size_t n, const dou
     for (size_t first = 0; first < n; first += CHUNK) {
         size_t count = n - first < CHUNK ? n - first : CHUNK;
         plod_cubemap_locate_n(planet->heightmap, count, dirs + 3 * first, faces, u, v);
-        if (normals)
+        if (bundle) /* the three maps in one pass (modulation's values used below) */
+            plod_cubemap_bundle_sample_n(bundle, count, faces, u, v, sample, normal_sample,
+                                         mod ? modulation : NULL);
+        else if (normals)
             plod_cubemap_sample_pair_n(planet->heightmap, planet->normalmap, count, faces, u, v,
                                        sample, normal_sample);
         else
@@ -584,7 +592,7 @@ void plod_planet_surface_detail_n(const plod_planet *planet, size_t n, const dou
         }
         if (!planet->detail)
             continue;
-        if (mod)
+        if (mod && !bundle)
             plod_cubemap_sample_face_n(mod, count, faces, u, v, modulation);
         /* the points with detail (land), their field in one batch */
         size_t live = 0;

@@ -119,6 +119,39 @@ void plod_cubemap_sample_pair_n(const plod_cubemap *a, const plod_cubemap *b, si
                                 const int *faces, const double *u, const double *v,
                                 double *out_a, double *out_b);
 
+/* ---- maps sampled together ------------------------------------------------- */
+/* A 1-channel height map, its u16x3 normal map and optionally a 1-channel
+ * 8-bit map (the detail's modulation), all on one texel grid, interleaved
+ * texel by texel: a bilinear sample of the three reads two or three cache
+ * lines where the maps apart read six or more.  Sampling vertices texels
+ * apart (a planet seen from orbit) is bound by those misses.  The bundle
+ * borrows the maps (points on a face's last row or column are sampled
+ * from them) and copies their texels: caller keeps the maps alive and
+ * unchanged while it lives. */
+typedef struct plod_cubemap_bundle plod_cubemap_bundle;
+
+/* Largest bundle plod_cubemap_bundle_create makes (16 bytes a texel): a
+ * face of 1024^2 texels.  Bigger maps are sampled map by map. */
+#define PLOD_CUBEMAP_BUNDLE_MAX_BYTES ((size_t)6 * 1024 * 1024 * 16)
+
+/* *out: the bundle of `heights` (1 channel, any type), `normals` (3
+ * channels u16) and `extra` (1 channel u8, or NULL), or NULL (PLOD_OK)
+ * when they do not share a grid and layout or it would exceed
+ * PLOD_CUBEMAP_BUNDLE_MAX_BYTES.  PLOD_ERR_NULL, PLOD_ERR_NO_MEMORY. */
+plod_status plod_cubemap_bundle_create(plod_cubemap_bundle **out, const plod_cubemap *heights,
+                                       const plod_cubemap *normals, const plod_cubemap *extra);
+void plod_cubemap_bundle_destroy(plod_cubemap_bundle *bundle);
+/* Non-zero when bundle holds exactly these maps (extra NULL: none). */
+int plod_cubemap_bundle_holds(const plod_cubemap_bundle *bundle, const plod_cubemap *heights,
+                              const plod_cubemap *normals, const plod_cubemap *extra);
+/* plod_cubemap_sample_pair_n(heights, normals) and, when the bundle has an
+ * extra map, plod_cubemap_sample_face_n(extra) into extra_out (n doubles),
+ * bit for bit. */
+void plod_cubemap_bundle_sample_n(const plod_cubemap_bundle *bundle, size_t n, const int *faces,
+                                  const double *u, const double *v, double *heights_out,
+                                  double *normals_out, double *extra_out);
+size_t plod_cubemap_bundle_bytes(const plod_cubemap_bundle *bundle);
+
 /* ---- normal maps ----------------------------------------------------------- */
 /* Unit outward normals of the surface dir * (radius + height_scale * h) at
  * every texel centre of `heights` (channel 0), from central differences of

@@ -32,6 +32,12 @@ typedef struct plod_planet {
                                       height_scale (plod_planet_build_normals);
                                       NULL: normals from height differences
                                       (slower) */
+    const plod_cubemap_bundle *bundle; /* borrowed, optional: heightmap,
+                                      normalmap and the detail's modulation
+                                      interleaved (plod_cubemap_bundle_create)
+                                      for the vertices' samples; used only
+                                      while it holds exactly those maps; the
+                                      same values as the maps apart */
     int has_sea_level;          /* non-zero: sea_level is set */
     double sea_level;           /* metres; sectors whose heights are all
                                    <= sea_level may be skipped */

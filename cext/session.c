@@ -22,6 +22,7 @@ struct plod_session {
     plod_planet planet;        /* copy; normalmap / detail may point below */
     plod_detail *detail;       /* owned, or NULL (planet.detail borrowed) */
     plod_cubemap *normalmap;   /* owned, or NULL */
+    plod_cubemap_bundle *bundle; /* owned, or NULL: the maps the vertices sample */
     plod_refiner *refiner;     /* owned; reads &planet */
     plod_mesh_cache *mesh_cache; /* owned; created by the first cached emission */
     plod_workers *mesh_workers; /* owned; emissions' workers while the refiner has none */
@@ -108,6 +109,7 @@ void plod_session_destroy(plod_session *session)
     plod_refiner_destroy(session->refiner);
     plod_mesh_cache_destroy(session->mesh_cache);
     plod_workers_destroy(session->mesh_workers);
+    plod_cubemap_bundle_destroy(session->bundle);
     plod_cubemap_destroy(session->normalmap);
     plod_detail_destroy(session->detail);
     pthread_mutex_destroy(&session->lock);
@@ -195,6 +197,13 @@ plod_status plod_session_build_normals(plod_session *session)
     if (st != PLOD_OK)
         return st;
     session->planet.normalmap = session->normalmap;
+    /* the height, normal and modulation maps interleaved for the vertices:
+     * where it cannot be made, they are sampled map by map */
+    const plod_cubemap *modulation =
+        session->planet.detail ? plod_detail_modulation(session->planet.detail) : NULL;
+    if (plod_cubemap_bundle_create(&session->bundle, session->planet.heightmap,
+                                   session->normalmap, modulation) == PLOD_OK)
+        session->planet.bundle = session->bundle;
     return PLOD_OK;
 }
 
