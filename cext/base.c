@@ -146,8 +146,8 @@ static void *plod__worker(void *arg)
         uint64_t generation = plod__generation(w);
         if (generation != served) {
             served = generation;
-            spinning = 0;
             plod__run_chunks(w, generation);
+            spinning = 1; /* for the next loop while the caller wants it (below) */
             idle = plod__clock_ns();
             continue;
         }
