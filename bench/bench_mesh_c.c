@@ -245,7 +245,7 @@ int main(int argc, char **argv)
     earth.heightmap = heights;
     earth.height_scale = 8848.0;
     double t0 = bench__now();
-    if (plod_planet_build_normals(&earth, &normals) != PLOD_OK)
+    if (plod_planet_build_normals(&earth, &normals, 1) != PLOD_OK)
         return 1;
     printf("(normal map 6 x 1024^2 built in %.1f ms, once per planet)\n", 1e3 * (bench__now() - t0));
     earth.normalmap = normals;

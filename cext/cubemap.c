@@ -29,6 +29,7 @@
 #include <float.h>
 #include <stdint.h>
 #include <math.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -948,8 +949,61 @@ static uint16_t plod__unorm16(double x)
     return (uint16_t)(q < 0.0 ? 0.0 : q > 65535.0 ? 65535.0 : q);
 }
 
+/* The normal map in bands of rows, each with its own three rolling rows of
+ * points (a ghost column at both ends): a band's texels depend on the
+ * height map alone, so any split into bands and threads writes the same
+ * map. */
+#define PLOD__NORMAL_BANDS 8 /* per face */
+
+typedef struct plod__normal_job {
+    const plod_cubemap *heights;
+    plod_cubemap *normals;
+    double radius, height_scale;
+    atomic_int failed; /* a band found no memory for its rows */
+} plod__normal_job;
+
+static void plod__normal_bands(void *context, size_t begin, size_t end)
+{
+    plod__normal_job *job = context;
+    const plod_cubemap *heights = job->heights;
+    int w = heights->width, h = heights->height;
+    size_t row_doubles = (size_t)(w + 2) * 4;
+    double *rows = malloc(3 * row_doubles * sizeof *rows);
+    if (!rows) {
+        atomic_store(&job->failed, 1);
+        return;
+    }
+    for (size_t band = begin; band < end; band++) {
+        int f = (int)(band / PLOD__NORMAL_BANDS), b = (int)(band % PLOD__NORMAL_BANDS);
+        int first = (int)((int64_t)h * b / PLOD__NORMAL_BANDS);
+        int last = (int)((int64_t)h * (b + 1) / PLOD__NORMAL_BANDS); /* rows [first, last) */
+        uint16_t *texels = (uint16_t *)(job->normals->texels + (size_t)f * job->normals->face_bytes);
+        for (int j = first - 1; j <= last && first < last; j++) {
+            double *row = rows + (size_t)((j + 3) % 3) * row_doubles;
+            int ghost_row = j < 0 || j >= h;
+            for (int i = ghost_row ? 0 : -1; i <= (ghost_row ? w - 1 : w); i++)
+                plod__texel_point(heights, f, i, j, job->height_scale, row + 4 * (i + 1));
+            if (j < first + 1)
+                continue;
+            int jc = j - 1; /* complete now: its row and both neighbours */
+            const double *below = rows + (size_t)((jc + 2) % 3) * row_doubles;
+            const double *centre = rows + (size_t)((jc + 3) % 3) * row_doubles;
+            for (int i = 0; i < w; i++) {
+                const double *c = centre + 4 * (i + 1);
+                double normal[3];
+                plod__grid_normal(c, c - 4, c + 4, below + 4 * (i + 1), row + 4 * (i + 1),
+                                  job->radius, normal);
+                uint16_t *texel = texels + 3 * ((size_t)jc * (size_t)w + (size_t)i);
+                for (int k = 0; k < 3; k++)
+                    texel[k] = plod__unorm16(isfinite(normal[k]) ? normal[k] : 0.0);
+            }
+        }
+    }
+    free(rows);
+}
+
 plod_status plod_cubemap_build_normals(plod_cubemap **out, const plod_cubemap *heights,
-                                       double radius, double height_scale)
+                                       double radius, double height_scale, int threads)
 {
     if (!out || !heights)
         return PLOD_ERR_NULL;
@@ -961,38 +1015,14 @@ plod_status plod_cubemap_build_normals(plod_cubemap **out, const plod_cubemap *h
                                          PLOD_TEXEL_U16);
     if (st != PLOD_OK)
         return st;
-    int w = heights->width, h = heights->height;
-    /* Three rolling rows of points, each with a ghost column at both ends. */
-    size_t row_doubles = (size_t)(w + 2) * 4;
-    double *rows = malloc(3 * row_doubles * sizeof *rows);
-    if (!rows) {
+    plod__normal_job job = {heights, normals, radius, height_scale};
+    atomic_init(&job.failed, 0);
+    plod_parallel_for((size_t)heights->face_count * PLOD__NORMAL_BANDS, threads,
+                      plod__normal_bands, &job);
+    if (atomic_load(&job.failed)) {
         plod_cubemap_destroy(normals);
         return PLOD_ERR_NO_MEMORY;
     }
-    for (int f = 0; f < heights->face_count; f++) {
-        uint16_t *texels = (uint16_t *)(normals->texels + (size_t)f * normals->face_bytes);
-        for (int j = -1; j <= h; j++) {
-            double *row = rows + (size_t)((j + 3) % 3) * row_doubles;
-            int ghost_row = j < 0 || j >= h;
-            for (int i = ghost_row ? 0 : -1; i <= (ghost_row ? w - 1 : w); i++)
-                plod__texel_point(heights, f, i, j, height_scale, row + 4 * (i + 1));
-            if (j < 1)
-                continue;
-            int jc = j - 1; /* complete now: its row and both neighbours */
-            const double *below = rows + (size_t)((jc + 2) % 3) * row_doubles;
-            const double *centre = rows + (size_t)((jc + 3) % 3) * row_doubles;
-            for (int i = 0; i < w; i++) {
-                const double *c = centre + 4 * (i + 1);
-                double normal[3];
-                plod__grid_normal(c, c - 4, c + 4, below + 4 * (i + 1), row + 4 * (i + 1),
-                                  radius, normal);
-                uint16_t *texel = texels + 3 * ((size_t)jc * (size_t)w + (size_t)i);
-                for (int k = 0; k < 3; k++)
-                    texel[k] = plod__unorm16(isfinite(normal[k]) ? normal[k] : 0.0);
-            }
-        }
-    }
-    free(rows);
     *out = normals;
     return PLOD_OK;
 }

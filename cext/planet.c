@@ -76,7 +76,8 @@ plod_status plod_planet_check(const plod_planet *planet)
     return PLOD_OK;
 }
 
-plod_status plod_planet_build_normals(const plod_planet *planet, plod_cubemap **out)
+plod_status plod_planet_build_normals(const plod_planet *planet, plod_cubemap **out,
+                                      int threads)
 {
     if (!out)
         return PLOD_ERR_NULL;
@@ -86,7 +87,7 @@ plod_status plod_planet_build_normals(const plod_planet *planet, plod_cubemap **
     /* the offset moves the whole surface: a sphere of radius + offset */
     return plod_cubemap_build_normals(out, planet->heightmap,
                                       planet->radius + planet->height_offset,
-                                      planet->height_scale);
+                                      planet->height_scale, threads);
 }
 
 

@@ -159,10 +159,11 @@ size_t plod_cubemap_bundle_bytes(const plod_cubemap_bundle *bundle);
  * CAR wrap, as in sampling).  *out: a new map of the same projection and
  * size, 3 channels u16, n = 2 * sample - 1 (renormalise after sampling);
  * caller owns it.  PLOD_ERR_NULL, PLOD_ERR_BAD_PARAM (radius not finite
- * and > 0, height_scale not finite), PLOD_ERR_NO_MEMORY.
+ * and > 0, height_scale not finite), PLOD_ERR_NO_MEMORY.  Built on
+ * `threads` threads (< 1 counts as 1): the same map for any count.
  * Meshes sample it at each vertex instead of differencing heights there. */
 plod_status plod_cubemap_build_normals(plod_cubemap **out, const plod_cubemap *heights,
-                                       double radius, double height_scale);
+                                       double radius, double height_scale, int threads);
 
 /* ---- min/max pyramid (culling bounds) ----------------------------------- */
 /* Builds the min/max pyramid of channel 0 (idempotent; call again after

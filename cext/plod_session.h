@@ -100,7 +100,7 @@ plod_status plod_session_reserve(plod_session *session, size_t sectors);
  * of differencing heights.  PLOD_ERR_NO_MEMORY, or
  * plod_cubemap_build_normals' PLOD_ERR_BAD_PARAM for a radius + height
  * offset that is not positive. */
-plod_status plod_session_build_normals(plod_session *session);
+plod_status plod_session_build_normals(plod_session *session, int threads);
 
 /* ---- emission ------------------------------------------------------------------ */
 

@@ -462,7 +462,7 @@ static PyObject *plod__mesh_from_corners(PyObject *module, PyObject *args, PyObj
     }
     plod_cubemap *normals = NULL;
     if (planet.heightmap && normal_map && !instances) {
-        plod_status st = plod_planet_build_normals(&planet, &normals);
+        plod_status st = plod_planet_build_normals(&planet, &normals, params.threads);
         if (st != PLOD_OK) {
             plod_py_raise(st, "mesh (normal map)");
             goto done;

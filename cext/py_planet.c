@@ -737,11 +737,11 @@ static int plod__template_level_arg(const plod_py_planet *self, PyObject *level_
 
 /* Once per planet (the map and the planet never change); then each vertex
  * samples its normal instead of differencing four heights. */
-static int plod__ensure_normalmap(plod_py_planet *self, const char *context)
+static int plod__ensure_normalmap(plod_py_planet *self, const char *context, int threads)
 {
     plod_status st;
     Py_BEGIN_ALLOW_THREADS
-    st = plod_session_build_normals(self->session);
+    st = plod_session_build_normals(self->session, threads);
     Py_END_ALLOW_THREADS
     if (st != PLOD_OK) {
         plod_py_raise(st, context);
@@ -776,7 +776,7 @@ static PyObject *plod__planet_surface(plod_py_planet *self, PyObject *args, PyOb
         }
         d[0] /= len, d[1] /= len, d[2] /= len;
     }
-    if (plod__ensure_normalmap(self, "surface (normal map)") < 0) {
+    if (plod__ensure_normalmap(self, "surface (normal map)", 1) < 0) {
         free(dirs);
         return NULL;
     }
@@ -809,8 +809,9 @@ static PyObject *plod__planet_mesh(plod_py_planet *self, PyObject *args, PyObjec
     int level;
     if (plod__template_level_arg(self, level_obj, &level) < 0)
         return NULL;
-    if (plod__ensure_normalmap(self, "mesh (normal map)") < 0)
-        return NULL;
+    if (threads >= 1 && threads <= PLOD_MESH_MAX_THREADS &&
+        plod__ensure_normalmap(self, "mesh (normal map)", threads) < 0)
+        return NULL; /* (a bad thread count is reported by the emission) */
     return plod_py_mesh_emit(self->session, level, morph, threads, visible_only, use_cache,
                              changed_only);
 }

@@ -189,11 +189,11 @@ plod_status plod_session_reserve(plod_session *session, size_t sectors)
     return plod_refiner_reserve(session->refiner, sectors);
 }
 
-plod_status plod_session_build_normals(plod_session *session)
+plod_status plod_session_build_normals(plod_session *session, int threads)
 {
     if (!session->planet.heightmap || session->planet.normalmap)
         return PLOD_OK;
-    plod_status st = plod_planet_build_normals(&session->planet, &session->normalmap);
+    plod_status st = plod_planet_build_normals(&session->planet, &session->normalmap, threads);
     if (st != PLOD_OK)
         return st;
     session->planet.normalmap = session->normalmap;

@@ -80,8 +80,21 @@ static int check(plod_projection projection, plod_texel_type type, int with_extr
     if (plod_cubemap_create(&heights, projection, size, 1, type) != PLOD_OK)
         return 1;
     fill_random(heights);
-    if (plod_cubemap_build_normals(&normals, heights, 1000.0, 50.0) != PLOD_OK)
+    if (plod_cubemap_build_normals(&normals, heights, 1000.0, 50.0, 1) != PLOD_OK)
         return 1;
+    /* the normal map is the same on any number of threads */
+    plod_cubemap *threaded = NULL;
+    if (plod_cubemap_build_normals(&threaded, heights, 1000.0, 50.0, 3) != PLOD_OK)
+        return 1;
+    for (int f = 0; f < plod_cubemap_face_count(normals); f++)
+        if (memcmp(plod_cubemap_face_data_const(normals, f),
+                   plod_cubemap_face_data_const(threaded, f),
+                   plod_cubemap_face_bytes(normals)) != 0) {
+            printf("FAIL projection %d type %d: normal map on 3 threads\n", (int)projection,
+                   (int)type);
+            failures++;
+        }
+    plod_cubemap_destroy(threaded);
     if (with_extra) {
         if (plod_cubemap_create(&extra, projection, size, 1, PLOD_TEXEL_U8) != PLOD_OK)
             return 1;
