@@ -1343,12 +1343,14 @@ plod_status plod_mesh_emit(const plod_mesh_params *params,
     if (threads < 1)
         threads = 1;
 
-    /* the chunks: one a thread, or with workers several (a worker that
-     * wakes late still finds some) */
+    /* the chunks: one a thread, or with workers sixteen a thread, claimed
+     * in turn: a worker that wakes late still finds some, and the sectors
+     * near the eye (more octaves than a miss's weight says) do not leave
+     * one thread finishing alone */
     int parts = threads;
     if (params->workers && threads > 1) {
         uint64_t most = work / PLOD__MIN_WORK_PER_WORKER;
-        parts = 4 * threads < PLOD_MESH_MAX_THREADS ? 4 * threads : PLOD_MESH_MAX_THREADS;
+        parts = 16 * threads < PLOD_MESH_MAX_THREADS ? 16 * threads : PLOD_MESH_MAX_THREADS;
         parts = (uint64_t)parts > most ? (int)most : parts;
         parts = parts < threads ? threads : parts;
     }
