@@ -130,9 +130,10 @@ void plod_cubemap_sample_pair_n(const plod_cubemap *a, const plod_cubemap *b, si
  * unchanged while it lives. */
 typedef struct plod_cubemap_bundle plod_cubemap_bundle;
 
-/* Largest bundle plod_cubemap_bundle_create makes (16 bytes a texel): a
- * face of 1024^2 texels.  Bigger maps are sampled map by map. */
-#define PLOD_CUBEMAP_BUNDLE_MAX_BYTES ((size_t)6 * 1024 * 1024 * 16)
+/* Largest bundle plod_cubemap_bundle_create makes (16 bytes a texel):
+ * six faces of 1024^2 texels and their rings.  Bigger maps are sampled map
+ * by map. */
+#define PLOD_CUBEMAP_BUNDLE_MAX_BYTES ((size_t)6 * 1026 * 1026 * 16)
 
 /* *out: the bundle of `heights` (1 channel, any type), `normals` (3
  * channels u16) and `extra` (1 channel u8, or NULL), or NULL (PLOD_OK)

@@ -78,9 +78,9 @@ plod_status plod_planet_check_numbers(const plod_planet *planet, char *message,
  * would reach the emitted vertices. */
 size_t plod_planet_nan_count(const plod_planet *planet);
 /* The normal map of planet's height map (plod_cubemap_build_normals for
- * the sphere of radius + height_offset and height_scale), for
- * planet->normalmap, on `threads` threads; caller owns *out.  PLOD_ERR_NULL without a height
- * map; else plod_cubemap_build_normals' statuses. */
+ * the sphere of radius + height_offset and height_scale, on `threads`
+ * threads), for planet->normalmap; caller owns *out.  PLOD_ERR_NULL
+ * without a height map; else plod_cubemap_build_normals' statuses. */
 plod_status plod_planet_build_normals(const plod_planet *planet, plod_cubemap **out,
                                       int threads);
 

@@ -94,8 +94,10 @@ void plod_session_reset(plod_session *session);
 /* plod_refiner_reserve. */
 plod_status plod_session_reserve(plod_session *session, size_t sectors);
 
-/* Builds the normal map of the planet's height map once (a no-op without a
- * height map or with one already, the caller's included); emissions and
+/* Builds the normal map of the planet's height map once, on `threads`
+ * threads (a no-op without a height map or with one already, the caller's
+ * included), and the bundle of the maps the vertices sample
+ * (plod_cubemap_bundle; none where it cannot be made); emissions and
  * plod_planet_surface on the session's planet then sample normals instead
  * of differencing heights.  PLOD_ERR_NO_MEMORY, or
  * plod_cubemap_build_normals' PLOD_ERR_BAD_PARAM for a radius + height
