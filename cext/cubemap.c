@@ -657,7 +657,7 @@ typedef struct plod__bundle_texel {
     float height;
     uint16_t normal[3];
     uint8_t extra;
-    uint8_t pad[5]; /* 16 bytes: two taps of a row in one aligned half line */
+    uint8_t pad[5]; /* 16 bytes: a row's two taps share a cache line three times in four */
 } plod__bundle_texel;
 
 struct plod_cubemap_bundle {
