@@ -668,6 +668,8 @@ struct plod_cubemap_bundle {
     plod__bundle_texel *texels;
 };
 
+static float plod__raw0(const plod_cubemap *m, const unsigned char *base, size_t texel);
+
 /* Texel (i, j) of face f of the maps into x. */
 static void plod__bundle_fill(const plod_cubemap_bundle *b, int f, int i, int j,
                               plod__bundle_texel *x)
@@ -675,11 +677,7 @@ static void plod__bundle_fill(const plod_cubemap_bundle *b, int f, int i, int j,
     const plod_cubemap *h = b->heights;
     size_t t = (size_t)f * (size_t)h->width * (size_t)h->height + (size_t)j * (size_t)h->width +
                (size_t)i;
-    switch (h->type) {
-    case PLOD_TEXEL_U8: x->height = (float)h->texels[t]; break;
-    case PLOD_TEXEL_U16: x->height = (float)((const uint16_t *)h->texels)[t]; break;
-    default: x->height = ((const float *)h->texels)[t]; break;
-    }
+    x->height = plod__raw0(h, h->texels, t);
     const uint16_t *n16 = (const uint16_t *)b->normals->texels;
     for (int c = 0; c < 3; c++)
         x->normal[c] = n16[3 * t + (size_t)c];
