@@ -757,16 +757,6 @@ int plod_cubemap_bundle_holds(const plod_cubemap_bundle *bundle, const plod_cube
            bundle->extra == extra;
 }
 
-size_t plod_cubemap_bundle_bytes(const plod_cubemap_bundle *bundle)
-{
-    if (!bundle)
-        return 0;
-    const plod_cubemap *m = bundle->heights;
-    size_t rows = (size_t)m->height + 2 * (size_t)bundle->ghosts;
-    return sizeof *bundle +
-           (size_t)m->face_count * bundle->stride * rows * sizeof(plod__bundle_texel);
-}
-
 /* The four taps of every channel at the planned interior points (as
  * plod__gather_taps: the same converted values), one pass over the
  * points: tap[channel][k][i], channels height, normal x, y, z, extra. */

@@ -151,7 +151,6 @@ int plod_cubemap_bundle_holds(const plod_cubemap_bundle *bundle, const plod_cube
 void plod_cubemap_bundle_sample_n(const plod_cubemap_bundle *bundle, size_t n, const int *faces,
                                   const double *u, const double *v, double *heights_out,
                                   double *normals_out, double *extra_out);
-size_t plod_cubemap_bundle_bytes(const plod_cubemap_bundle *bundle);
 
 /* ---- normal maps ----------------------------------------------------------- */
 /* Unit outward normals of the surface dir * (radius + height_scale * h) at
