@@ -56,6 +56,14 @@ struct plod_refiner {
                                     ordering left sorted (0: none) */
     uint32_t *scratch_index;     /* 3 * order_capacity: the kept, the new */
     uint64_t *scratch_keys;      /* and the radix sort's scratch lists */
+    uint8_t *order_kept;         /* order_capacity: the last order's entries kept */
+    /* per leaf slot, its entry in the last order and that entry's key
+     * (UINT32_MAX: none): the ordering then reads the leaves in slot order
+     * and writes only the refiner's arrays, not leaves the workers have
+     * just written */
+    uint32_t *order_position;
+    uint64_t *position_key;
+    size_t position_capacity;
     uint32_t order_counts[PLOD__ORDER_DIGITS][PLOD__ORDER_RADIX]; /* digit counts */
     /* the memos of the distance tests (plod_bound_memo): the thresholds
      * memo_key names, and the eye's path since it was issued */
@@ -688,7 +696,11 @@ static plod_status plod__order_reserve(plod_refiner *r, size_t need)
     if (!scratch_keys)
         return PLOD_ERR_NO_MEMORY;
     r->scratch_keys = scratch_keys;
-    r->order_capacity = capacity; /* only once all four have grown */
+    uint8_t *kept = realloc(r->order_kept, capacity * sizeof *kept);
+    if (!kept)
+        return PLOD_ERR_NO_MEMORY;
+    r->order_kept = kept;
+    r->order_capacity = capacity; /* only once all five have grown */
     return PLOD_OK;
 }
 
@@ -733,10 +745,6 @@ static void plod__radix_sort(uint64_t *keys, uint32_t *index, size_t n, uint64_t
     }
 }
 
-/* a leaf whose entry the ordering kept from the last frame (set and
- * cleared within plod__order_visible) */
-#define PLOD__SECTOR_LISTED (1u << 15)
-
 /* The visible leaves' indices sorted by plod__order_key.  From one frame
  * to the next most of them stay: the last frame's sorted entries whose
  * leaf is still there and visible are kept in their order, only the others
@@ -753,32 +761,50 @@ static plod_status plod__order_visible(plod_refiner *r, size_t visible)
     if (st != PLOD_OK)
         return st;
     plod_lodtree *t = &r->tree;
+    if (t->count > r->position_capacity) {
+        size_t was = r->position_capacity, capacity = was;
+        uint32_t *position = plod_grow(r->order_position, &capacity, t->count,
+                                       sizeof *position, 256);
+        if (!position)
+            return PLOD_ERR_NO_MEMORY;
+        r->order_position = position;
+        uint64_t *key = realloc(r->position_key, capacity * sizeof *key);
+        if (!key)
+            return PLOD_ERR_NO_MEMORY;
+        r->position_key = key;
+        for (size_t i = was; i < capacity; i++)
+            position[i] = UINT32_MAX;
+        r->position_capacity = capacity; /* only once both have grown */
+    }
     size_t capacity = r->order_capacity;
     uint64_t *kept_keys = r->scratch_keys, *new_keys = r->scratch_keys + capacity;
     uint32_t *kept_index = r->scratch_index, *new_index = r->scratch_index + capacity;
-    size_t kept = 0;
-    for (size_t j = 0; j < previous; j++) {
-        uint32_t i = r->order[j];
-        if (i >= t->count)
-            continue;
-        plod_sector *sec = &t->leaves[i];
-        if (!(sec->flags & PLOD_SECTOR_VISIBLE) || plod__order_key(sec->id) != r->order_keys[j])
-            continue;
-        sec->flags |= PLOD__SECTOR_LISTED;
-        kept_keys[kept] = r->order_keys[j];
-        kept_index[kept++] = i;
-    }
+    if (previous == 0) /* no last order (a reset, a failure): no entry to point at */
+        memset(r->order_position, 0xFF, r->position_capacity * sizeof *r->order_position);
+    memset(r->order_kept, 0, previous);
     size_t added = 0;
     for (size_t i = 0; i < t->count; i++) {
-        plod_sector *sec = &t->leaves[i];
+        const plod_sector *sec = &t->leaves[i];
         if (!(sec->flags & PLOD_SECTOR_VISIBLE))
             continue;
-        if (sec->flags & PLOD__SECTOR_LISTED) {
-            sec->flags &= (uint16_t)~PLOD__SECTOR_LISTED;
+        uint64_t key = plod__order_key(sec->id);
+        uint32_t j = r->order_position[i];
+        if (j != UINT32_MAX && r->position_key[i] == key) {
+            assert(j < previous && r->order[j] == i);
+            r->order_kept[j] = 1;
             continue;
         }
-        new_keys[added] = plod__order_key(sec->id);
+        new_keys[added] = key;
         new_index[added++] = (uint32_t)i;
+    }
+    size_t kept = 0;
+    for (size_t j = 0; j < previous; j++) {
+        if (!r->order_kept[j]) {
+            r->order_position[r->order[j]] = UINT32_MAX; /* gone from the order */
+            continue;
+        }
+        kept_keys[kept] = r->order_keys[j];
+        kept_index[kept++] = r->order[j];
     }
     assert(kept + added == visible);
     plod__radix_sort(new_keys, new_index, added, r->scratch_keys + 2 * capacity,
@@ -798,6 +824,10 @@ static plod_status plod__order_visible(plod_refiner *r, size_t visible)
         r->order[n] = new_index[b];
     }
     r->order_count = r->order_sorted = n;
+    for (size_t k = 0; k < n; k++) {
+        r->order_position[r->order[k]] = (uint32_t)k;
+        r->position_key[r->order[k]] = r->order_keys[k];
+    }
     return PLOD_OK;
 }
 
@@ -1084,6 +1114,9 @@ void plod_refiner_destroy(plod_refiner *refiner)
     free(refiner->order_keys);
     free(refiner->scratch_index);
     free(refiner->scratch_keys);
+    free(refiner->order_kept);
+    free(refiner->order_position);
+    free(refiner->position_key);
     free(refiner->split_marks);
     free(refiner->merge_nodes);
     free(refiner);
