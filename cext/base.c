@@ -67,7 +67,7 @@ void plod_parallel_for(size_t count, int threads, plod_range_fn range, void *con
 #define PLOD__LINGER_NS 100000
 #define PLOD__POLL_NS 100000
 #define PLOD__IDLE_NS 100000000
-#define PLOD__CHUNKS_SHIFT 20
+#define PLOD__BACK_SHIFT 20
 #define PLOD__GEN_SHIFT 40
 #define PLOD__MAX_CHUNKS ((1u << 20) - 1)
 #define PLOD__FIELD (((uint64_t)1 << 20) - 1)
@@ -84,9 +84,10 @@ struct plod_workers {
     atomic_int spin;         /* 1 between plod_workers_begin and _end */
     atomic_uint_fast64_t linger_until; /* clock: spin on after _end until then */
     atomic_int quit;
-    /* the loop: `next` holds its generation, its chunk count and its next
-     * chunk (PLOD__GEN_SHIFT, PLOD__CHUNKS_SHIFT), so a claim is one
-     * compare-exchange that fails for any other loop */
+    /* the loop: `next` holds its generation, its first unclaimed chunk and
+     * one past its last (PLOD__GEN_SHIFT, PLOD__BACK_SHIFT), so a claim
+     * from either end is one compare-exchange that fails for any other
+     * loop */
     plod_range_fn range;
     void *context;
     size_t count_items, grain;
@@ -111,19 +112,25 @@ static uint64_t plod__clock_ns(void)
     return (uint64_t)ts.tv_sec * 1000000000u + (uint64_t)ts.tv_nsec;
 }
 
-/* Claims and runs chunks of generation `generation` until none is left
- * (after a successful claim the loop's fields are its own: the caller
- * changes them only once every chunk has run). */
-static void plod__run_chunks(plod_workers *w, uint64_t generation)
+/* Claims and runs chunks of generation `generation` until none is left:
+ * the caller from the front, the workers from the back (after a
+ * successful claim the loop's fields are its own: the caller changes them
+ * only once every chunk has run).  From both ends, each thread keeps
+ * mostly the same items from one loop to the next (a refine's leaves, frame
+ * after frame): what it writes stays in its own core's cache instead of
+ * moving to the other thread's. */
+static void plod__run_chunks(plod_workers *w, uint64_t generation, int from_front)
 {
     for (;;) {
         uint_fast64_t seen = atomic_load(&w->next);
-        if ((seen >> PLOD__GEN_SHIFT) != generation ||
-            (seen & PLOD__FIELD) >= (seen >> PLOD__CHUNKS_SHIFT & PLOD__FIELD))
+        uint_fast64_t front = seen & PLOD__FIELD, back = seen >> PLOD__BACK_SHIFT & PLOD__FIELD;
+        if ((seen >> PLOD__GEN_SHIFT) != generation || front >= back)
             return;
-        if (!atomic_compare_exchange_weak(&w->next, &seen, seen + 1))
+        uint_fast64_t claimed = from_front ? seen + 1 : seen - ((uint_fast64_t)1 << PLOD__BACK_SHIFT);
+        if (!atomic_compare_exchange_weak(&w->next, &seen, claimed))
             continue;
-        size_t begin = (size_t)(seen & PLOD__FIELD) * w->grain;
+        size_t chunk = (size_t)(from_front ? front : back - 1);
+        size_t begin = chunk * w->grain;
         size_t end = begin + w->grain < w->count_items ? begin + w->grain : w->count_items;
         w->range(w->context, begin, end);
         atomic_fetch_add(&w->done, 1);
@@ -146,7 +153,7 @@ static void *plod__worker(void *arg)
         uint64_t generation = plod__generation(w);
         if (generation != served) {
             served = generation;
-            plod__run_chunks(w, generation);
+            plod__run_chunks(w, generation, 0);
             spinning = 1; /* for the next loop while the caller wants it (below) */
             idle = plod__clock_ns();
             continue;
@@ -315,9 +322,9 @@ void plod_workers_for(plod_workers *w, size_t count, size_t grain, plod_range_fn
     if (w->generation == 0)
         w->generation = 1; /* 0 is the pool's first, empty generation */
     atomic_store(&w->next, (uint_fast64_t)w->generation << PLOD__GEN_SHIFT |
-                               (uint_fast64_t)chunks << PLOD__CHUNKS_SHIFT); /* publishes it */
+                               (uint_fast64_t)chunks << PLOD__BACK_SHIFT); /* publishes it */
     plod__wake_sleepers(w);
-    plod__run_chunks(w, w->generation);
+    plod__run_chunks(w, w->generation, 1);
     while (atomic_load(&w->done) < chunks) /* chunks the workers claimed */
         plod__relax();
 }
