@@ -119,23 +119,6 @@ static PyObject *plod__origin_tuple(const double origin[3])
     return Py_BuildValue("(ddd)", origin[0], origin[1], origin[2]);
 }
 
-/* A Buffer of `count` 4-byte items ('Q': 8-byte) over uninitialised
- * malloc'ed storage. */
-static PyObject *plod__uninit_buffer(char format, size_t count, void **data)
-{
-    *data = NULL;
-    size_t itemsize = format == 'Q' ? 8 : 4;
-    if (count > PY_SSIZE_T_MAX / itemsize)
-        return PyErr_NoMemory();
-    void *storage = malloc(count ? count * itemsize : 1);
-    if (!storage)
-        return PyErr_NoMemory();
-    PyObject *buffer = plod_py_buffer_steal(format, count, storage);
-    if (buffer)
-        *data = storage;
-    return buffer;
-}
-
 /* One emission into caller-sized buffers (plod_mesh_emit's contract). */
 typedef plod_status (*plod__emit_fn)(const void *context, const plod_mesh_buffers *out,
                                      size_t *vertex_count, size_t *triangle_count);
@@ -144,9 +127,10 @@ typedef plod_status (*plod__instances_fn)(const void *context, float *corners, f
                                           float *morph, size_t *instance_count);
 
 /* Emits at most `sectors` sectors through `emit` into a new Mesh (its
- * buffers cut to what was emitted); the GIL is released meanwhile. */
+ * buffers cut to what was emitted, their storage from `pool`); the GIL is
+ * released meanwhile. */
 static PyObject *plod__mesh_build(const plod_mesh_params *params, size_t sectors,
-                                  plod__emit_fn emit, const void *context)
+                                  plod__emit_fn emit, const void *context, plod_py_pool *pool)
 {
     size_t vb = plod_mesh_vertex_bound(sectors, params->template_level);
     size_t tb = plod_mesh_triangle_bound(sectors, params->template_level);
@@ -165,17 +149,19 @@ static PyObject *plod__mesh_build(const plod_mesh_params *params, size_t sectors
     mesh->template_level = params->template_level;
     PyObject_GC_Track(mesh);
 
-    /* Every item gets written by the emitter: no zero fill (malloc + steal). */
+    /* Every item gets written by the emitter: no zero fill.  The pool then
+     * holds as much as this mesh takes, for the next. */
     plod_mesh_buffers out;
-    mesh->positions = plod__uninit_buffer('f', 3 * vb, (void **)&out.positions);
-    mesh->normals = plod__uninit_buffer('f', 3 * vb, (void **)&out.normals);
-    mesh->uv = plod__uninit_buffer('f', 2 * vb, (void **)&out.uv);
-    mesh->morph = plod__uninit_buffer('f', vb, (void **)&out.morph);
-    mesh->triangles = plod__uninit_buffer('i', 3 * tb, (void **)&out.triangles);
-    mesh->sector_level = plod__uninit_buffer('i', tb, (void **)&out.sector_level);
-    mesh->face = plod__uninit_buffer('i', tb, (void **)&out.face);
-    mesh->detail = plod__uninit_buffer('f', vb, (void **)&out.detail);
-    mesh->sector_ids = plod__uninit_buffer('Q', sectors, (void **)&out.keys);
+    plod_py_pool_keep(pool, 4 * (10 * vb + 5 * tb) + 8 * sectors);
+    mesh->positions = plod_py_buffer_pooled(pool, 'f', 3 * vb, (void **)&out.positions);
+    mesh->normals = plod_py_buffer_pooled(pool, 'f', 3 * vb, (void **)&out.normals);
+    mesh->uv = plod_py_buffer_pooled(pool, 'f', 2 * vb, (void **)&out.uv);
+    mesh->morph = plod_py_buffer_pooled(pool, 'f', vb, (void **)&out.morph);
+    mesh->triangles = plod_py_buffer_pooled(pool, 'i', 3 * tb, (void **)&out.triangles);
+    mesh->sector_level = plod_py_buffer_pooled(pool, 'i', tb, (void **)&out.sector_level);
+    mesh->face = plod_py_buffer_pooled(pool, 'i', tb, (void **)&out.face);
+    mesh->detail = plod_py_buffer_pooled(pool, 'f', vb, (void **)&out.detail);
+    mesh->sector_ids = plod_py_buffer_pooled(pool, 'Q', sectors, (void **)&out.keys);
     mesh->origin = plod__origin_tuple(params->origin);
     if (!mesh->positions || !mesh->normals || !mesh->uv || !mesh->morph ||
         !mesh->triangles || !mesh->sector_level || !mesh->face || !mesh->detail ||
@@ -296,8 +282,9 @@ static int plod__emission_args(int template_level, int threads)
     return 0;
 }
 
-PyObject *plod_py_mesh_emit(plod_session *session, int template_level, int morph,
-                            int threads, int visible_only, int use_cache, int changed_only)
+PyObject *plod_py_mesh_emit(plod_session *session, plod_py_pool *pool, int template_level,
+                            int morph, int threads, int visible_only, int use_cache,
+                            int changed_only)
 {
     if (plod__emission_args(template_level, threads) < 0)
         return NULL;
@@ -308,7 +295,7 @@ PyObject *plod_py_mesh_emit(plod_session *session, int template_level, int morph
     plod_session_mesh_params(session, template_level, morph, threads, &e.params);
     e.params.changed_only = changed_only;
     return plod__mesh_build(&e.params, plod_session_sector_count(session, visible_only),
-                            plod__session_emit, &e);
+                            plod__session_emit, &e, pool);
 }
 
 PyObject *plod_py_instances(plod_session *session, int template_level)
@@ -473,7 +460,7 @@ static PyObject *plod__mesh_from_corners(PyObject *module, PyObject *args, PyObj
                                       plod_planet_surface_source(&planet)};
     result = instances
                  ? plod__instances_build(&params, count, plod__corner_instances, &emission)
-                 : plod__mesh_build(&params, count, plod__corner_emit, &emission);
+                 : plod__mesh_build(&params, count, plod__corner_emit, &emission, NULL);
     plod_cubemap_destroy(normals);
 done:
     free(corners);

@@ -241,6 +241,7 @@ typedef struct {
     PyObject *heightmap;  /* the CubeMap (or TiledMap) keeping the height data alive */
     plod_height_source source; /* the session planet's source for a TiledMap */
     plod_insets *insets;       /* owned; the session planet's insets */
+    plod_py_pool *mesh_pool;   /* a reference: the storage of its meshes' buffers */
 } plod_py_planet;
 
 static void plod__planet_lock(plod_py_planet *self)
@@ -467,6 +468,8 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
         return -1;
     }
     self->session = session;
+    if (!self->mesh_pool)
+        self->mesh_pool = plod_py_pool_new(); /* none: meshes use malloc */
     return 0;
 }
 
@@ -476,6 +479,8 @@ static void plod__planet_dealloc(plod_py_planet *self)
     self->session = NULL;
     plod_insets_destroy(self->insets);
     self->insets = NULL;
+    plod_py_pool_release(self->mesh_pool);
+    self->mesh_pool = NULL;
     Py_CLEAR(self->heightmap);
     PyTypeObject *tp = Py_TYPE((PyObject *)self);
     plod_py_free((PyObject *)self);
@@ -812,8 +817,8 @@ static PyObject *plod__planet_mesh(plod_py_planet *self, PyObject *args, PyObjec
     if (threads >= 1 && threads <= PLOD_MESH_MAX_THREADS &&
         plod__ensure_normalmap(self, "mesh (normal map)", threads) < 0)
         return NULL; /* (a bad thread count is reported by the emission) */
-    return plod_py_mesh_emit(self->session, level, morph, threads, visible_only, use_cache,
-                             changed_only);
+    return plod_py_mesh_emit(self->session, self->mesh_pool, level, morph, threads,
+                             visible_only, use_cache, changed_only);
 }
 
 static PyObject *plod__planet_instances(plod_py_planet *self, PyObject *args, PyObject *kwds)

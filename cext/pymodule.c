@@ -28,7 +28,97 @@ typedef struct {
     Py_ssize_t itemsize;
     Py_ssize_t exports;
     char format[2];
+    plod_py_pool *pool; /* a reference: data goes back to it (NULL: freed) */
+    size_t capacity;    /* bytes of data */
 } plod_py_buffer;
+
+/* ---- storage pool ---------------------------------------------------------- */
+
+/* Blocks below this size come from malloc's own free lists anyway. */
+#define PLOD__POOL_MIN_BYTES ((size_t)64 << 10)
+#define PLOD__POOL_BLOCKS 32
+
+struct plod_py_pool {
+    Py_ssize_t references;
+    size_t keep_bytes;  /* the most it holds: 1.5 times the latest mesh's buffers */
+    size_t kept_bytes;
+    int count;          /* blocks held, oldest first */
+    void *block[PLOD__POOL_BLOCKS];
+    size_t bytes[PLOD__POOL_BLOCKS];
+};
+
+plod_py_pool *plod_py_pool_new(void)
+{
+    plod_py_pool *pool = calloc(1, sizeof *pool);
+    if (pool)
+        pool->references = 1;
+    return pool;
+}
+
+static void plod__pool_drop_oldest(plod_py_pool *pool)
+{
+    free(pool->block[0]);
+    pool->kept_bytes -= pool->bytes[0];
+    pool->count--;
+    memmove(pool->block, pool->block + 1, (size_t)pool->count * sizeof pool->block[0]);
+    memmove(pool->bytes, pool->bytes + 1, (size_t)pool->count * sizeof pool->bytes[0]);
+}
+
+void plod_py_pool_release(plod_py_pool *pool)
+{
+    if (!pool || --pool->references > 0)
+        return;
+    while (pool->count > 0)
+        plod__pool_drop_oldest(pool);
+    free(pool);
+}
+
+void plod_py_pool_keep(plod_py_pool *pool, size_t bytes)
+{
+    if (!pool)
+        return;
+    pool->keep_bytes = bytes + bytes / 2; /* with the blocks' slack (below) */
+    while (pool->count > 0 && pool->kept_bytes > pool->keep_bytes)
+        plod__pool_drop_oldest(pool);
+}
+
+/* A held block of `need` to 2 `need` bytes (the smallest), or NULL. */
+static void *plod__pool_take(plod_py_pool *pool, size_t need, size_t *bytes)
+{
+    int best = -1;
+    for (int k = 0; k < pool->count; k++)
+        if (pool->bytes[k] >= need && pool->bytes[k] / 2 <= need &&
+            (best < 0 || pool->bytes[k] < pool->bytes[best]))
+            best = k;
+    if (best < 0)
+        return NULL;
+    void *block = pool->block[best];
+    *bytes = pool->bytes[best];
+    pool->kept_bytes -= *bytes;
+    pool->count--;
+    memmove(pool->block + best, pool->block + best + 1,
+            (size_t)(pool->count - best) * sizeof pool->block[0]);
+    memmove(pool->bytes + best, pool->bytes + best + 1,
+            (size_t)(pool->count - best) * sizeof pool->bytes[0]);
+    return block;
+}
+
+/* A buffer's storage back to its pool (the newest block; the oldest go
+ * while it holds too much), or freed. */
+static void plod__pool_give(plod_py_pool *pool, void *block, size_t bytes)
+{
+    if (bytes < PLOD__POOL_MIN_BYTES || bytes > pool->keep_bytes) {
+        free(block);
+        return;
+    }
+    if (pool->count == PLOD__POOL_BLOCKS)
+        plod__pool_drop_oldest(pool);
+    pool->block[pool->count] = block;
+    pool->bytes[pool->count++] = bytes;
+    pool->kept_bytes += bytes;
+    while (pool->kept_bytes > pool->keep_bytes)
+        plod__pool_drop_oldest(pool);
+}
 
 static Py_ssize_t plod__itemsize(char format)
 {
@@ -63,6 +153,8 @@ static PyObject *plod__buffer_alloc(char format, size_t count, void *data)
     self->exports = 0;
     self->format[0] = format;
     self->format[1] = '\0';
+    self->pool = NULL;
+    self->capacity = 0;
     return (PyObject *)self;
 }
 
@@ -99,6 +191,41 @@ PyObject *plod_py_buffer_steal(char format, size_t count, void *data)
     return plod__buffer_alloc(format, count, data);
 }
 
+PyObject *plod_py_buffer_pooled(plod_py_pool *pool, char format, size_t count, void **data)
+{
+    *data = NULL;
+    Py_ssize_t itemsize = plod__itemsize(format);
+    if (itemsize == 0) {
+        PyErr_Format(PyExc_SystemError, "planetlod: bad buffer format '%c'", format);
+        return NULL;
+    }
+    if (count > (size_t)PY_SSIZE_T_MAX / (size_t)itemsize)
+        return PyErr_NoMemory();
+    size_t need = (count ? count : 1) * (size_t)itemsize, bytes = need;
+    void *storage = pool && need >= PLOD__POOL_MIN_BYTES ? plod__pool_take(pool, need, &bytes)
+                                                         : NULL;
+    if (!storage && pool && need >= PLOD__POOL_MIN_BYTES) {
+        /* a quarter more: the next frames' meshes, a little larger, fit */
+        bytes = need + need / 4;
+        storage = malloc(bytes);
+    }
+    if (!storage)
+        storage = malloc(bytes = need);
+    if (!storage)
+        return PyErr_NoMemory();
+    PyObject *buffer = plod__buffer_alloc(format, count, storage);
+    if (!buffer)
+        return NULL; /* (storage freed) */
+    if (pool) {
+        plod_py_buffer *self = (plod_py_buffer *)buffer;
+        self->pool = pool;
+        self->capacity = bytes;
+        pool->references++;
+    }
+    *data = storage;
+    return buffer;
+}
+
 int plod_py_buffer_truncate(PyObject *obj, size_t count)
 {
     if (!PyObject_TypeCheck(obj, plod_py_buffer_type)) {
@@ -131,7 +258,12 @@ void *plod_py_buffer_data(PyObject *obj, size_t *count, char *format)
 static void plod__buffer_dealloc(plod_py_buffer *self)
 {
     PyTypeObject *type = Py_TYPE((PyObject *)self);
-    free(self->data);
+    if (self->pool) {
+        plod__pool_give(self->pool, self->data, self->capacity);
+        plod_py_pool_release(self->pool);
+    } else {
+        free(self->data);
+    }
     PyObject_Free(self);
     Py_DECREF(type);
 }

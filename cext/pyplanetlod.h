@@ -52,6 +52,21 @@ int plod_py_buffer_truncate(PyObject *buffer, size_t count);
 /* Storage pointer of a planetlod.Buffer (NULL + TypeError otherwise). */
 void *plod_py_buffer_data(PyObject *buffer, size_t *count, char *format);
 
+/* A pool of buffer storage, so that one frame's mesh buffers reuse the
+ * memory of a mesh freed before instead of new pages, which the kernel
+ * faults in and zeroes (up to half of a cached frame's emission).  It
+ * holds at most 1.5 times plod_py_pool_keep's bytes (a mesh's buffers with
+ * their slack), oldest blocks going first.  Reference counted (under the
+ * GIL): the owner's and one per buffer. */
+typedef struct plod_py_pool plod_py_pool;
+plod_py_pool *plod_py_pool_new(void); /* NULL: no memory */
+void plod_py_pool_release(plod_py_pool *pool); /* NULL: nothing */
+void plod_py_pool_keep(plod_py_pool *pool, size_t bytes);
+/* A buffer of `count` uninitialised items from a held block of its size
+ * (up to twice it) or malloc; its storage returns to `pool` (NULL: is
+ * freed) when it goes. */
+PyObject *plod_py_buffer_pooled(plod_py_pool *pool, char format, size_t count, void **data);
+
 /* ---- errors (pymodule.c) -------------------------------------------------
  * Raises the exception for `status` ("context: message") and returns NULL.
  * Mapping: argument errors -> planetlod.InvalidArgument (a ValueError),
@@ -111,8 +126,10 @@ PyObject *plod_py_cubemap_from_image(const char *path, plod_projection projectio
  * refine (plod_session_mesh_params), through the session's cache when
  * use_cache.  InvalidArgument for a template level outside 0..7 or
  * threads outside 1..64. */
-PyObject *plod_py_mesh_emit(plod_session *session, int template_level, int morph,
-                            int threads, int visible_only, int use_cache, int changed_only);
+/* pool: where the mesh's buffers take and return their storage (NULL: malloc) */
+PyObject *plod_py_mesh_emit(plod_session *session, plod_py_pool *pool, int template_level,
+                            int morph, int threads, int visible_only, int use_cache,
+                            int changed_only);
 PyObject *plod_py_instances(plod_session *session, int template_level);
 
 /* ---- per-stage registration (each py_*.c defines one) --------------------- */

@@ -433,6 +433,50 @@ def test_sector_cache_output_identical_along_a_flight(planetlod, moon):
     assert hits > 0
 
 
+def storage_address(buffer):
+    """Address of a planetlod.Buffer's storage (through ctypes: writable)."""
+    import ctypes
+    view = (ctypes.c_char * memoryview(buffer).nbytes).from_buffer(buffer)
+    address = ctypes.addressof(view)
+    del view
+    return address
+
+
+def test_mesh_storage_reused_after_a_mesh_is_freed(planetlod, moon):
+    """A planet's mesh() takes its buffers' storage from the meshes of that
+    planet freed before, instead of new pages the kernel must fault in and
+    zero each frame; what it emits there equals an emission into new memory
+    (nothing left over from the mesh before shows), and a mesh outlives its
+    planet."""
+    refiner_available(planetlod)
+    radius = 1737.4e3
+
+    def camera(alt):
+        eye = (radius + alt, 0.0, 0.0)
+        return planetlod.Camera(look_at(eye, (radius, 5.0 * alt, 0.0)), clip_start=1.0,
+                                clip_end=1e8)
+
+    planet = planetlod.Planet(radius, heightmap=moon, height_scale=10e3)
+    planet.refine(camera(30e3), max_level=22)
+    first = planet.mesh(template_level=4, cache=False)
+    assert first.vertex_count * 12 >= 1 << 16  # large enough to be pooled
+    addresses = {storage_address(getattr(first, name)) for name in MESH_OUTPUTS}
+    del first
+    planet.refine(camera(33e3), max_level=22)
+    again = planet.mesh(template_level=4, cache=False)
+    reused = {storage_address(getattr(again, name)) for name in MESH_OUTPUTS} & addresses
+    assert storage_address(again.positions) in reused
+    fresh = planetlod.Planet(radius, heightmap=moon, height_scale=10e3)
+    fresh.refine(camera(33e3), max_level=22)
+    plain = fresh.mesh(template_level=4, cache=False)
+    assert again.vertex_count == plain.vertex_count
+    for name in MESH_OUTPUTS + ("detail", "sector_ids"):
+        assert bytes(getattr(again, name)) == bytes(getattr(plain, name)), name
+    del planet, fresh
+    assert bytes(again.positions) == bytes(plain.positions)
+    del again, plain
+
+
 def test_sector_cache_budget_and_template_change(planetlod, moon):
     refiner_available(planetlod)
     radius = 1737.4e3
