@@ -158,17 +158,30 @@ static PyObject *plod__buffer_alloc(char format, size_t count, void *data)
     return (PyObject *)self;
 }
 
-PyObject *plod_py_buffer_new(char format, size_t count, void **data)
+/* Bytes of a buffer of `count` items of `format` (an empty one keeps one
+ * item: malloc(0) may return NULL); -1 with an exception when there is no
+ * such buffer. */
+static int plod__storage_bytes(char format, size_t count, size_t *bytes)
 {
     Py_ssize_t itemsize = plod__itemsize(format);
     if (itemsize == 0) {
         PyErr_Format(PyExc_SystemError, "planetlod: bad buffer format '%c'", format);
-        return NULL;
+        return -1;
     }
-    if (count > (size_t)PY_SSIZE_T_MAX / (size_t)itemsize)
-        return PyErr_NoMemory();
-    /* calloc(0) may return NULL legitimately; keep one item of slack. */
-    void *storage = calloc(count ? count : 1, (size_t)itemsize);
+    if (count > (size_t)PY_SSIZE_T_MAX / (size_t)itemsize) {
+        PyErr_NoMemory();
+        return -1;
+    }
+    *bytes = (count ? count : 1) * (size_t)itemsize;
+    return 0;
+}
+
+PyObject *plod_py_buffer_new(char format, size_t count, void **data)
+{
+    size_t bytes;
+    if (plod__storage_bytes(format, count, &bytes) < 0)
+        return NULL;
+    void *storage = calloc(bytes, 1);
     if (!storage)
         return PyErr_NoMemory();
     PyObject *buffer = plod__buffer_alloc(format, count, storage);
@@ -177,31 +190,13 @@ PyObject *plod_py_buffer_new(char format, size_t count, void **data)
     return buffer;
 }
 
-PyObject *plod_py_buffer_steal(char format, size_t count, void *data)
-{
-    if (!data && count > 0) {
-        PyErr_SetString(PyExc_SystemError, "planetlod: NULL buffer storage");
-        return NULL;
-    }
-    if (!data) {
-        data = malloc(1);
-        if (!data)
-            return PyErr_NoMemory();
-    }
-    return plod__buffer_alloc(format, count, data);
-}
-
 PyObject *plod_py_buffer_pooled(plod_py_pool *pool, char format, size_t count, void **data)
 {
     *data = NULL;
-    Py_ssize_t itemsize = plod__itemsize(format);
-    if (itemsize == 0) {
-        PyErr_Format(PyExc_SystemError, "planetlod: bad buffer format '%c'", format);
+    size_t need;
+    if (plod__storage_bytes(format, count, &need) < 0)
         return NULL;
-    }
-    if (count > (size_t)PY_SSIZE_T_MAX / (size_t)itemsize)
-        return PyErr_NoMemory();
-    size_t need = (count ? count : 1) * (size_t)itemsize, bytes = need;
+    size_t bytes = need;
     void *storage = pool && need >= PLOD__POOL_MIN_BYTES ? plod__pool_take(pool, need, &bytes)
                                                          : NULL;
     if (!storage && pool && need >= PLOD__POOL_MIN_BYTES) {

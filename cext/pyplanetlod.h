@@ -44,8 +44,6 @@ static inline void plod_py_free(PyObject *self)
 
 /* New zero-filled buffer of `count` items; *data receives its storage. */
 PyObject *plod_py_buffer_new(char format, size_t count, void **data);
-/* Wraps memory from malloc (ownership moves to the buffer, even on failure). */
-PyObject *plod_py_buffer_steal(char format, size_t count, void *data);
 /* Shortens a buffer nothing has exported yet to its first `count` items
  * (a result filled below its bound); -1 with an exception otherwise. */
 int plod_py_buffer_truncate(PyObject *buffer, size_t count);
