@@ -126,7 +126,8 @@ static void plod__run_chunks(plod_workers *w, uint64_t generation, int from_fron
         uint_fast64_t front = seen & PLOD__FIELD, back = seen >> PLOD__BACK_SHIFT & PLOD__FIELD;
         if ((seen >> PLOD__GEN_SHIFT) != generation || front >= back)
             return;
-        uint_fast64_t claimed = from_front ? seen + 1 : seen - ((uint_fast64_t)1 << PLOD__BACK_SHIFT);
+        uint_fast64_t claimed =
+            from_front ? seen + 1 : seen - ((uint_fast64_t)1 << PLOD__BACK_SHIFT);
         if (!atomic_compare_exchange_weak(&w->next, &seen, claimed))
             continue;
         size_t chunk = (size_t)(from_front ? front : back - 1);

@@ -98,13 +98,14 @@ void *plod_grow(void *array, size_t *capacity, size_t need, size_t size, size_t 
 /* Persistent workers, for loops of a few hundred microseconds, where
  * starting threads (tens of microseconds each) would eat the gain.  A loop
  * is cut into chunks that the caller claims from the front and the workers
- * from the back (so each keeps mostly the same items from one loop to
- * the next); the caller never waits for a worker to start, only for the chunks a worker
- * has claimed, so a worker that is slow to be scheduled (or gone: after
- * fork()) costs nothing but its share.  Between plod_workers_begin and
- * plod_workers_end (and ~0.1 ms after it) idle workers spin for the next
- * loop; otherwise they look for one every ~0.1 ms for a while, then sleep.  The pool belongs to its
- * creator, who calls it from one thread at a time. */
+ * from the back (so each keeps mostly the same items from one loop to the
+ * next); the caller never waits for a worker to start, only for the
+ * chunks a worker has claimed, so a worker that is slow to be scheduled
+ * (or gone: after fork()) costs nothing but its share.  Between
+ * plod_workers_begin and plod_workers_end (and ~0.1 ms after it) idle
+ * workers spin for the next loop; otherwise they look for one every
+ * ~0.1 ms for a while, then sleep.  The pool belongs to its creator, who
+ * calls it from one thread at a time. */
 typedef struct plod_workers plod_workers;
 
 /* `threads` - 1 workers (threads counts the caller).  PLOD_ERR_BAD_PARAM
