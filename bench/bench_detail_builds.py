@@ -18,14 +18,20 @@ defaults to this checkout).  Both modules are loaded into one process
 the new build (descent by descent for the lone descents), so load from
 other tasks falls on both alike.  Per measure:
 the median and mean over the frames of each build and the median of the
-per-frame ratios base / new.  Not a test: figures only.
+per-frame ratios base / new.  Before and after, one cache line's round
+trip between CPUs 0 and 1 (bench/core_latency.c): on a shared VM the two
+vCPUs are sometimes close, sometimes far apart, and threaded figures move
+with it.  Not a test: figures only.
 """
 import argparse
 import importlib.machinery
 import importlib.util
 import math
 import os
+import shutil
 import statistics
+import subprocess
+import tempfile
 import time
 
 from bench import bench_refine
@@ -59,6 +65,24 @@ def load_build(folder):
 
 
 LOADED = []
+
+
+def core_round_trip(folder):
+    """One cache line's round trip between CPUs 0 and 1 (bench/core_latency.c,
+    built into `folder`), as the line it prints: how far apart the two
+    threads of the measures sit on a shared machine."""
+    exe = os.path.join(folder, "core_latency")
+    if not os.path.exists(exe):
+        cc = shutil.which("gcc") or shutil.which("cc")
+        if not cc:
+            return "(no C compiler)"
+        built = subprocess.run([cc, "-std=c11", "-O2", "-o", exe,
+                                os.path.join(ROOT, "bench", "core_latency.c"), "-lpthread"],
+                               capture_output=True, text=True)
+        if built.returncode != 0:
+            return "(core_latency.c did not build)"
+    run = subprocess.run([exe], capture_output=True, text=True)
+    return run.stdout.strip() or "(no result)"
 
 
 def data_path(name):
@@ -235,14 +259,17 @@ def main():
     for name, lod in builds.items():
         print(f"{name}: {lod.__file__}")
     skip = set(args.skip.split(","))
-    if "refine" not in skip:
-        refine(builds, presets, args)
-    if "alone" not in skip:
-        refine_alone(builds, presets, args)
-    if "emission" not in skip:
-        emission(builds, presets, args)
-    if "viewport" not in skip:
-        viewport(builds, presets, surface, args)
+    with tempfile.TemporaryDirectory() as tmp:
+        print(f"CPUs 0 and 1 before: {core_round_trip(tmp)}")
+        if "refine" not in skip:
+            refine(builds, presets, args)
+        if "alone" not in skip:
+            refine_alone(builds, presets, args)
+        if "emission" not in skip:
+            emission(builds, presets, args)
+        if "viewport" not in skip:
+            viewport(builds, presets, surface, args)
+        print(f"\nCPUs 0 and 1 after: {core_round_trip(tmp)}")
 
 
 if __name__ == "__main__":
