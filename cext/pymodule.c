@@ -55,13 +55,22 @@ plod_py_pool *plod_py_pool_new(void)
     return pool;
 }
 
+/* Block k, no longer held (the caller's to use or free). */
+static void *plod__pool_remove(plod_py_pool *pool, int k)
+{
+    void *block = pool->block[k];
+    pool->kept_bytes -= pool->bytes[k];
+    pool->count--;
+    memmove(pool->block + k, pool->block + k + 1,
+            (size_t)(pool->count - k) * sizeof pool->block[0]);
+    memmove(pool->bytes + k, pool->bytes + k + 1,
+            (size_t)(pool->count - k) * sizeof pool->bytes[0]);
+    return block;
+}
+
 static void plod__pool_drop_oldest(plod_py_pool *pool)
 {
-    free(pool->block[0]);
-    pool->kept_bytes -= pool->bytes[0];
-    pool->count--;
-    memmove(pool->block, pool->block + 1, (size_t)pool->count * sizeof pool->block[0]);
-    memmove(pool->bytes, pool->bytes + 1, (size_t)pool->count * sizeof pool->bytes[0]);
+    free(plod__pool_remove(pool, 0));
 }
 
 void plod_py_pool_release(plod_py_pool *pool)
@@ -92,22 +101,15 @@ static void *plod__pool_take(plod_py_pool *pool, size_t need, size_t *bytes)
             best = k;
     if (best < 0)
         return NULL;
-    void *block = pool->block[best];
     *bytes = pool->bytes[best];
-    pool->kept_bytes -= *bytes;
-    pool->count--;
-    memmove(pool->block + best, pool->block + best + 1,
-            (size_t)(pool->count - best) * sizeof pool->block[0]);
-    memmove(pool->bytes + best, pool->bytes + best + 1,
-            (size_t)(pool->count - best) * sizeof pool->bytes[0]);
-    return block;
+    return plod__pool_remove(pool, best);
 }
 
 /* A buffer's storage back to its pool (the newest block; the oldest go
  * while it holds too much), or freed. */
 static void plod__pool_give(plod_py_pool *pool, void *block, size_t bytes)
 {
-    if (bytes < PLOD__POOL_MIN_BYTES || bytes > pool->keep_bytes) {
+    if (bytes > pool->keep_bytes) {
         free(block);
         return;
     }
@@ -196,10 +198,11 @@ PyObject *plod_py_buffer_pooled(plod_py_pool *pool, char format, size_t count, v
     size_t need;
     if (plod__storage_bytes(format, count, &need) < 0)
         return NULL;
+    if (need < PLOD__POOL_MIN_BYTES)
+        pool = NULL;
     size_t bytes = need;
-    void *storage = pool && need >= PLOD__POOL_MIN_BYTES ? plod__pool_take(pool, need, &bytes)
-                                                         : NULL;
-    if (!storage && pool && need >= PLOD__POOL_MIN_BYTES) {
+    void *storage = pool ? plod__pool_take(pool, need, &bytes) : NULL;
+    if (!storage && pool) {
         /* a quarter more: the next frames' meshes, a little larger, fit */
         bytes = need + need / 4;
         storage = malloc(bytes);

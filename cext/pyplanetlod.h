@@ -61,8 +61,9 @@ plod_py_pool *plod_py_pool_new(void); /* NULL: no memory */
 void plod_py_pool_release(plod_py_pool *pool); /* NULL: nothing */
 void plod_py_pool_keep(plod_py_pool *pool, size_t bytes);
 /* A buffer of `count` uninitialised items from a held block of its size
- * (up to twice it) or malloc; its storage returns to `pool` (NULL: is
- * freed) when it goes. */
+ * (up to twice it) or malloc; its storage returns to `pool` when it goes
+ * (is freed where pool is NULL or the buffer below 64 KB, which malloc
+ * serves from its own free lists). */
 PyObject *plod_py_buffer_pooled(plod_py_pool *pool, char format, size_t count, void **data);
 
 /* ---- errors (pymodule.c) -------------------------------------------------
