@@ -5,7 +5,10 @@ same with detail, each build flying whole descents alone, in turns; the
 detail field's emission (cold and flyby, the Earth preset along
 bench_refine.py's descent, as bench_detail.py) and an artist's viewport
 refresh with the GPU preview (refine with hysteresis + mesh() +
-surface.preview_data, per planet preset, as bench_viewport_detail.py).
+surface.preview_data, per planet preset, as bench_viewport_detail.py); the
+sector-cached emission along the whole refine descent, frames below the
+25 M vertices/s target and their page faults (after the first-touch cost
+of a page, bench/page_fault_cost.c).
 
     /usr/bin/python3 -m bench.bench_detail_builds --base DIR [--new DIR]
         [--refine-frames 240] [--refine-threads 1] [--passes 2]
@@ -28,6 +31,7 @@ import importlib.machinery
 import importlib.util
 import math
 import os
+import resource
 import shutil
 import statistics
 import subprocess
@@ -67,22 +71,27 @@ def load_build(folder):
 LOADED = []
 
 
-def core_round_trip(folder):
-    """One cache line's round trip between CPUs 0 and 1 (bench/core_latency.c,
-    built into `folder`), as the line it prints: how far apart the two
-    threads of the measures sit on a shared machine."""
-    exe = os.path.join(folder, "core_latency")
+def run_probe(folder, name, flags=()):
+    """Builds bench/NAME.c into `folder` (once) and runs it: the line it
+    prints, or why there is none."""
+    exe = os.path.join(folder, name)
     if not os.path.exists(exe):
         cc = shutil.which("gcc") or shutil.which("cc")
         if not cc:
             return "(no C compiler)"
         built = subprocess.run([cc, "-std=c11", "-O2", "-o", exe,
-                                os.path.join(ROOT, "bench", "core_latency.c"), "-lpthread"],
+                                os.path.join(ROOT, "bench", name + ".c"), *flags],
                                capture_output=True, text=True)
         if built.returncode != 0:
-            return "(core_latency.c did not build)"
+            return f"({name}.c did not build)"
     run = subprocess.run([exe], capture_output=True, text=True)
     return run.stdout.strip() or "(no result)"
+
+
+def core_round_trip(folder):
+    """One cache line's round trip between CPUs 0 and 1 (bench/core_latency.c):
+    how far apart the two threads of the measures sit on a shared machine."""
+    return run_probe(folder, "core_latency", ("-lpthread",))
 
 
 def data_path(name):
@@ -133,6 +142,64 @@ def emission(builds, presets, args):
           f"{args.threads} threads")
     report("emission, cold (mesh(cache=False))", "M vert/s", cold, True)
     report("emission, flyby (sector cache)", "M vert/s", flyby, True)
+
+
+def flyby(builds, presets, args):
+    """The sector-cached emission along the refine descent (--refine-frames,
+    240), --passes passes with fresh planets, both builds frame by frame
+    (each first every other frame): the frames below the 25 M vertices/s
+    target per pass, which ones and how often, with the minor page faults
+    of their mesh() (first touches of memory: a growing mesh and sector
+    cache fault their new pages in, ~1.5 us a 4 KB page on this VM)."""
+    detail = presets.detail_settings("EARTH")
+    below = {name: [] for name in builds}
+    slow = {name: {} for name in builds}
+    rates = {name: [[] for _ in range(args.refine_frames)] for name in builds}
+    faults = {name: [] for name in builds}
+    for _ in range(args.passes):
+        planets = {name: lod.Planet(R, heightmap=data_path("earth-topology.png"),
+                                    height_scale=8848.0, sea_level=0.0, detail=detail)
+                   for name, lod in builds.items()}
+        for p in planets.values():
+            p.reserve(1 << 16)
+            p.mesh_cache_max_bytes = 1 << 30
+        top = planets["base"].height_range()[1]
+        path = list(bench_refine.descent(args.refine_frames, terrain_top=top))
+        count = {name: 0 for name in builds}
+        faulted = {name: 0 for name in builds}
+        meshes = {}
+        for k, (_alt, m) in enumerate(path):
+            order = list(builds.items())
+            for name, lod in (order if k % 2 == 0 else order[::-1]):
+                p = planets[name]
+                p.refine(camera(lod, m), template_level=4, max_level=48, threads=args.threads)
+                f0 = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+                t0 = time.perf_counter()
+                mesh = p.mesh(threads=args.threads)
+                t = time.perf_counter() - t0
+                f = resource.getrusage(resource.RUSAGE_SELF).ru_minflt - f0
+                meshes[name] = mesh  # the frame before's freed now, untimed
+                rate = mesh.vertex_count / t / 1e6
+                rates[name][k].append(rate)
+                faulted[name] += f
+                if rate < 25.0:
+                    count[name] += 1
+                    seen, most = slow[name].get(k, (0, 0))
+                    slow[name][k] = (seen + 1, max(most, f))
+        for name in builds:
+            below[name].append(count[name])
+            faults[name].append(faulted[name])
+    print(f"\nEarth preset's detail, {args.refine_frames}-frame descent, mesh() with the sector "
+          f"cache, {args.threads} threads, {args.passes} passes")
+    for name in builds:
+        median = [statistics.median(r) for r in rates[name]]
+        ground = median[int(0.77 * len(median)):]
+        print(f"{name}: per-frame median {statistics.median(median):.1f} M vert/s (the last "
+              f"quarter, the ground: {statistics.median(ground):.1f}); frames below 25 M/s per "
+              f"pass {below[name]} (median {statistics.median(below[name])}); "
+              f"page faults in mesh() per pass {faults[name]}")
+        print("    frame: passes below, most faults in that mesh(): " +
+              ", ".join(f"{k}: {n}, {f}" for k, (n, f) in sorted(slow[name].items())))
 
 
 def refine(builds, presets, args):
@@ -253,7 +320,7 @@ def main():
     parser.add_argument("--passes", type=int, default=2, help="refine: descents per build")
     parser.add_argument("--skip", default="",
                         help="measures to leave out: 'refine', 'alone', 'emission', "
-                             "'viewport', comma-separated")
+                             "'flyby', 'viewport', comma-separated")
     args = parser.parse_args()
     builds = {"base": load_build(args.base), "new": load_build(args.new)}
     for name, lod in builds.items():
@@ -267,6 +334,9 @@ def main():
             refine_alone(builds, presets, args)
         if "emission" not in skip:
             emission(builds, presets, args)
+        if "flyby" not in skip:
+            print(f"\nThis machine's {run_probe(tmp, 'page_fault_cost')}")
+            flyby(builds, presets, args)
         if "viewport" not in skip:
             viewport(builds, presets, surface, args)
         print(f"\nCPUs 0 and 1 after: {core_round_trip(tmp)}")
