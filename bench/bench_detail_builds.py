@@ -115,7 +115,9 @@ def report(title, unit, figures, higher_is_better):
           f"{statistics.median(ratios):5.2f}x")
 
 
-def emission(builds, presets, args):
+def earth_planets(builds, presets):
+    """A planet per build: the Earth map and preset's detail, refiner room
+    reserved, a sector cache of 1 GiB (nothing evicted along a descent)."""
     detail = presets.detail_settings("EARTH")
     planets = {name: lod.Planet(R, heightmap=data_path("earth-topology.png"),
                                 height_scale=8848.0, sea_level=0.0, detail=detail)
@@ -123,6 +125,11 @@ def emission(builds, presets, args):
     for p in planets.values():
         p.reserve(1 << 16)
         p.mesh_cache_max_bytes = 1 << 30
+    return planets
+
+
+def emission(builds, presets, args):
+    planets = earth_planets(builds, presets)
     top = planets["base"].height_range()[1]
     path = bench_refine.descent(args.frames, terrain_top=top)
     cold = {name: [] for name in builds}
@@ -151,18 +158,12 @@ def flyby(builds, presets, args):
     target per pass, which ones and how often, with the minor page faults
     of their mesh() (first touches of memory: a growing mesh and sector
     cache fault their new pages in, ~1.5 us a 4 KB page on this VM)."""
-    detail = presets.detail_settings("EARTH")
     below = {name: [] for name in builds}
     slow = {name: {} for name in builds}
     rates = {name: [[] for _ in range(args.refine_frames)] for name in builds}
     faults = {name: [] for name in builds}
     for _ in range(args.passes):
-        planets = {name: lod.Planet(R, heightmap=data_path("earth-topology.png"),
-                                    height_scale=8848.0, sea_level=0.0, detail=detail)
-                   for name, lod in builds.items()}
-        for p in planets.values():
-            p.reserve(1 << 16)
-            p.mesh_cache_max_bytes = 1 << 30
+        planets = earth_planets(builds, presets)
         top = planets["base"].height_range()[1]
         path = list(bench_refine.descent(args.refine_frames, terrain_top=top))
         count = {name: 0 for name in builds}
