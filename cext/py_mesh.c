@@ -150,7 +150,9 @@ static PyObject *plod__mesh_build(const plod_mesh_params *params, size_t sectors
     PyObject_GC_Track(mesh);
 
     /* Every item gets written by the emitter: no zero fill.  The pool then
-     * holds as much as this mesh takes, for the next. */
+     * holds as much as this mesh takes, for the next: the buffers below, 10
+     * floats a vertex (positions 3, normals 3, uv 2, morph, detail), 5 ints
+     * a triangle (3 indices, level, face) and an id a sector. */
     plod_mesh_buffers out;
     plod_py_pool_keep(pool, 4 * (10 * vb + 5 * tb) + 8 * sectors);
     mesh->positions = plod_py_buffer_pooled(pool, 'f', 3 * vb, (void **)&out.positions);
