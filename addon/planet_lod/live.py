@@ -211,9 +211,18 @@ def view_clip(obj, planet, params):
     if distance > 0.0:
         ground = planet.radius + planet.height(*(c / distance for c in eye))
         near = max(near, 0.1 * (distance - ground))
-    near = max(near, far * 1e-6, 1e-3)
+    near = _depth_safe_near(near, far)
     scale = _scale(obj)
     return near * scale, far * scale
+
+
+def _depth_safe_near(near, far):
+    """A clip start no more than a million times shorter than the clip end (and
+    at least 1 mm): below the highest peak Gasiński's clip start is ~0, and a
+    rasterizer's depth buffer (the viewport, EEVEE) then cannot order surfaces
+    kilometres away -- the far side beyond the horizon shows through the
+    ground in front of it."""
+    return max(near, far * 1e-6, 1e-3)
 
 
 def fit_view_clips(scene):
@@ -288,7 +297,7 @@ def apply_camera_clip(scene, depsgraph=None, cam_matrix=None):
             n, f = planet.recommended_clip(planet_settings.make_camera(params))
         except core.REPORTED_ERRORS:
             continue
-        n, f = n * _scale(obj), f * _scale(obj)
+        n, f = _depth_safe_near(n, f) * _scale(obj), f * _scale(obj)
         near = n if near is None else min(near, n)
         far = f if far is None else max(far, f)
     if near is None:

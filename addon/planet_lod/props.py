@@ -238,7 +238,8 @@ class PLOD_PG_settings(bpy.types.PropertyGroup):
                                     update=_camera_clip_changed,
                                     description="Set the render camera's clip start and end "
                                                 "from its height and the horizon, so the "
-                                                "whole visible planet renders")
+                                                "whole visible planet renders and no far side "
+                                                "shows through (EEVEE)")
     view_clip_from_horizon: BoolProperty(name="Viewport Clip to Horizon", default=True,
                                          update=_changed,
                                          description="Keep the viewport's clip start and end "

@@ -61,7 +61,10 @@ def main():
 
     # "Camera clip from horizon": before a render the camera's clip range is set
     # from the horizon -- it keeps the nearest terrain and everything up to the
-    # horizon of the highest peaks, and no more.
+    # horizon of the highest peaks, and no more; its start is at most a million
+    # times shorter than its end, also below the highest peak (frame 3), where
+    # the horizon's clip start is ~0: EEVEE's depth buffer could not order the
+    # ground towards the horizon, and the far side showed through it.
     import math
     from planet_lod import core
     radius = planet.planet_lod.radius
@@ -82,6 +85,7 @@ def main():
         print(f"frame {frame}: camera {d - radius:.0f} m up, clip {near:.3f} .. {far:.0f} "
               f"(horizon {horizon:.0f})")
         assert 0.0 < near <= max(d - top, 0.0) + 1e-3 or near <= 1.0, near
+        assert far <= 1.0e6 * near * (1.0 + 1e-6), (near, far)
         assert math.sqrt(d * d - radius * radius) <= far <= 1.02 * horizon, far
     planet.planet_lod.clip_from_horizon = False
 
