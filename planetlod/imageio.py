@@ -20,7 +20,8 @@ Errors carry the message without context; the extension adds its own
 ("planetlod.CubeMap.from_image: ..."): `FileError` for missing, unreadable
 or unwritable files, `ImageError` for corrupt or unsupported images,
 `InvalidArgument` for a file type that cannot hold the pixels, MemoryError.
-A missing OpenImageIO raises ImportError naming what to install.
+A missing OpenImageIO (or NumPy) raises `MissingModule`, an ImportError and a
+`PlanetLODError` (the add-on reports it), naming what to install.
 """
 import os
 import stat
@@ -46,6 +47,24 @@ def _errors():
     return FileError, ImageError, InvalidArgument
 
 
+_missing_class = None
+
+
+def _missing(message):
+    """MissingModule(message): the class is made on first use, from the
+    extension's PlanetLODError (or its stand-in)."""
+    global _missing_class
+    if _missing_class is None:
+        from . import PlanetLODError
+
+        class MissingModule(PlanetLODError, ImportError):
+            """A module planetlod needs for image files cannot be imported."""
+
+        MissingModule.__qualname__ = "MissingModule"
+        _missing_class = MissingModule
+    return _missing_class(message)
+
+
 def _blender_site_packages():
     """Site-packages of the Python a `bpy` wheel bundles (None outside one)."""
     bpy = sys.modules.get("bpy")
@@ -64,7 +83,8 @@ def _blender_site_packages():
 
 
 def openimageio():
-    """OpenImageIO's Python module; ImportError naming what to install."""
+    """OpenImageIO's Python module; MissingModule (an ImportError) naming what
+    to install."""
     global _openimageio
     if _openimageio is not None:
         return _openimageio
@@ -84,13 +104,13 @@ def openimageio():
         try:  # its arrays are NumPy's
             import numpy  # noqa: F401
         except ImportError:
-            raise ImportError(
+            raise _missing(
                 "planetlod reads and writes images with OpenImageIO's Python module, whose "
                 f"arrays need NumPy, which this Python ({sys.executable}) cannot import: "
                 "install it (python3 -m pip install numpy; Debian: apt install "
                 "python3-numpy)") from None
     if OpenImageIO is None:
-        raise ImportError(
+        raise _missing(
             "planetlod reads and writes images with OpenImageIO's Python module, which "
             f"this Python ({sys.executable}, {sys.version.split()[0]}) cannot import: "
             "install the OpenImageIO wheel (python3 -m pip install OpenImageIO); for "
