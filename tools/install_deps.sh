@@ -65,15 +65,19 @@ if [ ${#missing[@]} -gt 0 ]; then
     $SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
 fi
 
-# A python3 on PATH other than Debian's: the OpenImageIO wheel (and NumPy).
-case " $* " in
-*" fuzz "*) [ $# -eq 1 ] && exit 0 ;;
-esac
-if command -v python3 >/dev/null; then
+# A python3 on PATH other than Debian's: the OpenImageIO wheel (and NumPy);
+# every command but fuzz runs Python that reads images.
+reads_images=0
+for command in "$@"; do
+    [ "$command" = fuzz ] || reads_images=1
+done
+if [ "$reads_images" = 1 ] && command -v python3 >/dev/null; then
     plain=$(python3 -c 'import sys; print(sys.executable)')
     if [ "$(readlink -f "$plain")" != "$(readlink -f /usr/bin/python3)" ] &&
         ! python3 -c 'import OpenImageIO, numpy' 2>/dev/null; then
         echo "planetlod: installing the OpenImageIO wheel for $plain"
-        python3 -m pip install --quiet --disable-pip-version-check OpenImageIO numpy
+        python3 -m pip install --quiet --disable-pip-version-check OpenImageIO numpy ||
+            echo "planetlod: WARNING: no OpenImageIO wheel for $plain (no route to PyPI?):" \
+                "it cannot read image files; /usr/bin/python3 can" >&2
     fi
 fi
