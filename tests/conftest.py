@@ -3,10 +3,19 @@ unit tests' builds."""
 import os
 import shutil
 import subprocess
+import sys
 
 import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+# The module under test is the installed wheel: tools/build.sh unpacks it
+# into build/site.  $PLANET_LOD_NATIVE names another folder that holds a
+# planetlod/ package; with neither, the checkout's own build.
+NATIVE_DIR = os.environ.get("PLANET_LOD_NATIVE") or os.path.join(ROOT, "build", "site")
+if not os.path.isdir(os.path.join(NATIVE_DIR, "planetlod")):
+    NATIVE_DIR = ROOT
+sys.path.insert(0, NATIVE_DIR)
 
 DATA_DIRS = [os.path.join(ROOT, "data"), os.path.join(os.path.dirname(ROOT), "shared", "data")]
 

@@ -6,8 +6,9 @@ dist/.
 
 The compiler is Zig's `zig cc` (Clang with the C libraries of every target:
 glibc 2.17 for manylinux2014, mingw-w64 for Windows, the macOS SDK's stubs),
-from the `ziglang` wheel on PyPI.  Without one importable here, it is
-installed into a virtual environment under ~/.cache/planetlod/toolchain.
+from the `ziglang` wheel on PyPI, installed on first use (with auditwheel,
+which checks the Linux wheels) into a virtual environment under
+~/.cache/planetlod/toolchain.
 
   linux-x64     manylinux2014 x86_64 (glibc 2.17): links libc, libm, libpthread
   linux-arm64   manylinux2014 aarch64
@@ -24,6 +25,7 @@ import library is made from the symbols the objects import.
 """
 import argparse
 import base64
+import concurrent.futures
 import csv
 import glob
 import hashlib
@@ -40,6 +42,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
 ZIGLANG_VERSION = "0.17.1"
+AUDITWHEEL_VERSION = "6.8.2"
 TOOLCHAIN = os.path.join(os.path.expanduser("~"), ".cache", "planetlod", "toolchain")
 LIMITED_API = "0x030B0000"  # Python 3.11
 ABI_TAG = "cp311-abi3"
@@ -67,25 +70,31 @@ PLATFORMS = {
 DATA_SYMBOL = re.compile(r"^(PyExc_\w+|_Py_\w+Struct|_Py_EllipsisObject|Py\w+_Type)$")
 
 
+def toolchain_python():
+    """The Python of the cached toolchain venv, with ziglang and auditwheel
+    (installed from PyPI on first use)."""
+    python = os.path.join(TOOLCHAIN, "Scripts" if os.name == "nt" else "bin",
+                          "python.exe" if os.name == "nt" else "python")
+    if not os.path.exists(python):
+        print(f"build_wheels: making the toolchain venv {TOOLCHAIN}", flush=True)
+        subprocess.run([sys.executable, "-m", "venv", TOOLCHAIN], check=True)
+    probe = subprocess.run([python, "-c", f"import ziglang, auditwheel, importlib.metadata as m; "
+                                          f"assert m.version('ziglang') == '{ZIGLANG_VERSION}'"],
+                           capture_output=True)
+    if probe.returncode != 0:
+        print(f"build_wheels: installing ziglang {ZIGLANG_VERSION} and auditwheel "
+              f"{AUDITWHEEL_VERSION}", flush=True)
+        subprocess.run([python, "-m", "pip", "install", "-q", "--disable-pip-version-check",
+                        f"ziglang=={ZIGLANG_VERSION}", f"auditwheel=={AUDITWHEEL_VERSION}"],
+                       check=True)
+    return python
+
+
 def zig_command():
-    """The command that runs zig: ZIG from the environment, else the ziglang
-    module of this Python or of the cached toolchain (installed on first use)."""
+    """The command that runs zig: $ZIG, else the toolchain venv's ziglang."""
     if os.environ.get("ZIG"):
         return os.environ["ZIG"].split()
-    try:
-        import ziglang  # noqa: F401
-        return [sys.executable, "-m", "ziglang"]
-    except ImportError:
-        pass
-    python = os.path.join(TOOLCHAIN, "bin", "python")
-    if not os.path.exists(python):
-        print(f"build_wheels: installing ziglang {ZIGLANG_VERSION} into {TOOLCHAIN}", flush=True)
-        subprocess.run([sys.executable, "-m", "venv", TOOLCHAIN], check=True)
-    probe = subprocess.run([python, "-c", "import ziglang"], capture_output=True)
-    if probe.returncode != 0:
-        subprocess.run([python, "-m", "pip", "install", "-q", f"ziglang=={ZIGLANG_VERSION}"],
-                       check=True)
-    return [python, "-m", "ziglang"]
+    return [toolchain_python(), "-m", "ziglang"]
 
 
 def project_version():
@@ -103,7 +112,13 @@ def python_headers(build, system):
     if system == "windows":
         config = os.path.join(ROOT, "tools", "wheel", "pyconfig_windows.h")
     else:
-        config = sysconfig.get_config_h_filename()  # the multiarch one, not the dispatcher
+        config = sysconfig.get_config_h_filename()
+        multiarch = sysconfig.get_config_var("MULTIARCH")
+        if multiarch:  # Debian's pyconfig.h includes the one of the machine's architecture
+            version = "python%d.%d" % sys.version_info[:2]
+            specific = os.path.join(os.path.dirname(source), multiarch,
+                                    version, "pyconfig.h")
+            config = specific if os.path.exists(specific) else config
     shutil.copyfile(config, os.path.join(folder, "pyconfig.h"))
     return folder
 
@@ -119,11 +134,15 @@ def compile_objects(zig, spec, build, include, sources):
         flags += ["-fPIC", "-D_POSIX_C_SOURCE=200809L"]
     if spec["system"] == "macos":
         flags += ["-D_DARWIN_C_SOURCE"]  # with POSIX's, the BSD names macOS's headers hide
-    objects = []
-    for source in sources:
-        obj = os.path.join(build, os.path.basename(source)[:-2] + ".o")
-        subprocess.run(zig + ["cc", *flags, "-c", source, "-o", obj], check=True)
-        objects.append(obj)
+    objects = [os.path.join(build, os.path.basename(s)[:-2] + ".o") for s in sources]
+    with concurrent.futures.ThreadPoolExecutor(os.cpu_count() or 1) as pool:
+        runs = [pool.submit(subprocess.run, zig + ["cc", *flags, "-c", s, "-o", o],
+                            capture_output=True, text=True) for s, o in zip(sources, objects)]
+        for source, run in zip(sources, runs):
+            result = run.result()
+            sys.stderr.write(result.stderr)
+            if result.returncode != 0:
+                raise SystemExit(f"build_wheels: compiling {os.path.relpath(source, ROOT)} failed")
     return objects
 
 
@@ -226,17 +245,48 @@ def build_platform(zig, key, dist, build_root):
     return write_wheel(dist, spec["tag"], module, module_name), module
 
 
+def host_platform():
+    """The PLATFORMS key of this machine, or None."""
+    machine = {"amd64": "x64", "x86_64": "x64", "arm64": "arm64", "aarch64": "arm64"}.get(
+        __import__("platform").machine().lower())
+    system = {"linux": "linux", "win32": "windows", "darwin": "macos"}.get(sys.platform)
+    key = f"{system}-{machine}"
+    return key if key in PLATFORMS else None
+
+
+def install(wheel, target):
+    """Unpacks `wheel` into `target` as pip install --target does (a wheel
+    is a zip of the installed files), replacing the planetlod there."""
+    os.makedirs(target, exist_ok=True)
+    for old in glob.glob(os.path.join(target, "planetlod*")):
+        shutil.rmtree(old) if os.path.isdir(old) else os.remove(old)
+    with zipfile.ZipFile(wheel) as archive:
+        archive.extractall(target)
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--platform", action="append", choices=sorted(PLATFORMS),
                         help="build only this platform (repeatable; default: all)")
     parser.add_argument("--dist", default=os.path.join(ROOT, "dist"))
     parser.add_argument("--build", default=os.path.join(ROOT, "build", "wheels"))
+    parser.add_argument("--host", action="store_true",
+                        help="build this machine's platform only")
+    parser.add_argument("--install", metavar="DIR",
+                        help="also unpack this machine's wheel into DIR (a folder for sys.path)")
     args = parser.parse_args(argv)
+    keys = args.platform or ([host_platform()] if args.host else list(PLATFORMS))
+    if None in keys or (args.install and host_platform() not in keys):
+        raise SystemExit(f"build_wheels: no wheel for this machine ({sys.platform}, "
+                         f"{__import__('platform').machine()})")
     zig = zig_command()
-    for key in args.platform or list(PLATFORMS):
+    for key in keys:
         wheel, _ = build_platform(zig, key, args.dist, args.build)
         print(f"build_wheels: {key}: {os.path.relpath(wheel, ROOT)}", flush=True)
+        if args.install and key == host_platform():
+            install(wheel, args.install)
+            print(f"build_wheels: installed into {os.path.relpath(args.install, ROOT)}",
+                  flush=True)
 
 
 if __name__ == "__main__":
