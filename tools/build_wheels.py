@@ -179,7 +179,10 @@ def link(zig, spec, build, objects, output):
     elif spec["system"] == "windows":
         command += [python3_import_library(zig, build, objects), "-s"]
     else:
-        command += ["-Wl,-undefined,dynamic_lookup"]
+        # Python's symbols resolve in the process that loads it; the install
+        # name is the module's own, not a path of this machine
+        command += ["-Wl,-undefined,dynamic_lookup",
+                    "-Wl,-install_name,@rpath/" + os.path.basename(output)]
     subprocess.run(command, check=True)
     for leftover in glob.glob(output[:-len(os.path.splitext(output)[1])] + ".pdb") + \
             glob.glob(os.path.join(os.path.dirname(output), "*.lib")):
