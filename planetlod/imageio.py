@@ -174,19 +174,39 @@ def _check_file(path):
                          "than the file)")
 
 
+_SGI_EXTENSIONS = (".sgi", ".rgb", ".rgba", ".bw", ".int", ".inta")
+
+
+def _is_sgi(path):
+    if os.path.splitext(path)[1].lower() in _SGI_EXTENSIONS:
+        return True
+    try:
+        with open(path, "rb") as f:
+            return f.read(2) == b"\x01\xda"  # the SGI magic number, big-endian 474
+    except OSError:
+        return False
+
+
+def _refuse_sgi(path):
+    # OpenImageIO 2.4's SGI reader writes past the caller's buffer on corrupt
+    # RLE data and news negative sizes; heightmaps do not come as SGI, so it
+    # is refused, by name and by its magic number before any reader sees
+    # it, rather than trusted with the process's heap.
+    _, ImageError, _ = _errors()
+    raise ImageError(f"'{path}' is an SGI image; SGI is not supported (use PNG, TIFF or EXR)")
+
+
 def _open_input(path):
     _, ImageError, _ = _errors()
     oiio = openimageio()
+    if _is_sgi(path):
+        _refuse_sgi(path)
     image = oiio.ImageInput.open(path)
     if image is None:
         raise ImageError(f"'{path}' is not a readable image{_why(oiio.geterror())}")
-    # OpenImageIO 2.4's SGI reader writes past the caller's buffer on corrupt
-    # RLE data and news negative sizes; heightmaps do not come as SGI, so it
-    # is refused rather than trusted with the process's heap.
     if image.format_name() == "sgi":
         image.close()
-        raise ImageError(f"'{path}' is an SGI image; SGI is not supported (use PNG, TIFF or "
-                         "EXR)")
+        _refuse_sgi(path)
     return image
 
 
@@ -330,13 +350,14 @@ class RowReader:
         if not _exr_header_plausible(path, os.path.getsize(path)):
             raise ImageError(f"'{path}' is a corrupt OpenEXR file")
         oiio = openimageio()
-        image = oiio.ImageInput.open(path)
-        if image is None:
+        image = None if _is_sgi(path) else oiio.ImageInput.open(path)
+        if image is None and not _is_sgi(path):
             raise ImageError(f"'{path}' is not a readable image{_why(oiio.geterror())}")
-        spec = image.spec()
-        if (image.format_name() == "sgi" or spec.width <= 0 or spec.height <= 0
+        spec = image.spec() if image is not None else None
+        if (image is None or image.format_name() == "sgi" or spec.width <= 0 or spec.height <= 0
                 or spec.depth != 1 or spec.deep or spec.nchannels < 1):
-            image.close()
+            if image is not None:
+                image.close()
             raise ImageError(f"'{path}' has an unsupported format or layout")
         base = _basetype(oiio, spec)
         self.path = path
