@@ -17,6 +17,27 @@ if not os.path.isdir(os.path.join(NATIVE_DIR, "planetlod")):
     NATIVE_DIR = ROOT
 sys.path.insert(0, NATIVE_DIR)
 
+
+def _stale_installed_sources():
+    """The checkout's planetlod/*.py that differ from the installed copies."""
+    if NATIVE_DIR == ROOT or not os.path.isdir(os.path.join(ROOT, "planetlod")):
+        return []
+    stale = []
+    for name in sorted(os.listdir(os.path.join(ROOT, "planetlod"))):
+        if not name.endswith(".py"):
+            continue
+        installed = os.path.join(NATIVE_DIR, "planetlod", name)
+        with open(os.path.join(ROOT, "planetlod", name), "rb") as f:
+            source = f.read()
+        if not os.path.exists(installed) or open(installed, "rb").read() != source:
+            stale.append(name)
+    return stale
+
+
+if _stale_installed_sources():
+    pytest.exit(f"planetlod/{', '.join(_stale_installed_sources())} changed since the wheel in "
+                f"{NATIVE_DIR} was built: run tools/build.sh", returncode=4)
+
 DATA_DIRS = [os.path.join(ROOT, "data"), os.path.join(os.path.dirname(ROOT), "shared", "data")]
 
 
