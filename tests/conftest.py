@@ -65,7 +65,7 @@ C_TEST_FLAGS = ["-std=c11", "-O2", "-Wall", "-Wextra", "-Werror", "-Wno-missing-
 @pytest.fixture
 def run_c_test(tmp_path):
     """run(name, core_sources, extra_flags=()): builds tests/c/<name>.c with
-    those cext/ sources, runs it and returns its stdout (the build and the
+    those cext/ sources and the platform layer, runs it and returns its stdout (the build and the
     run must succeed)."""
     if shutil.which("gcc") is None:
         pytest.skip("needs gcc")
@@ -74,7 +74,9 @@ def run_c_test(tmp_path):
         exe = tmp_path / name
         cmd = ["gcc", *C_TEST_FLAGS, *extra_flags, "-I", os.path.join(ROOT, "cext"),
                os.path.join(ROOT, "tests", "c", name + ".c")]
-        cmd += [os.path.join(ROOT, "cext", s) for s in core_sources]
+        # the platform layer with them: base.c's threads and clocks need it
+        sources = list(core_sources) + ["platform_posix.c", "platform_win32.c"]
+        cmd += [os.path.join(ROOT, "cext", s) for s in dict.fromkeys(sources)]
         cmd += ["-lm", "-lpthread", "-o", str(exe)]
         build = subprocess.run(cmd, capture_output=True, text=True)
         assert build.returncode == 0, build.stderr
