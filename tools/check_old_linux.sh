@@ -3,8 +3,8 @@
 # a Debian 11 (bullseye, glibc 2.31) root made with debootstrap.  Bullseye's
 # own Python is 3.9, older than the wheel's stable ABI (3.11), so CPython
 # 3.11 is built from Debian 12's source package inside the root, the way a
-# user of an older system would get one.  NumPy and pytest come as wheels
-# from PyPI (manylinux2014).  Everything is cached under
+# user of an older system would get one.  NumPy, pytest and OpenImageIO (the
+# image files) come as wheels from PyPI (manylinux2014 or _2_28).  Everything is cached under
 # $PLANET_LOD_CACHE/bullseye (default ~/.cache/planetlod); the first run
 # downloads ~300 MB and builds Python (tens of minutes on two cores).
 #
@@ -58,7 +58,7 @@ PIP_PYTHON=python3
 [ -x "$CACHE/toolchain/bin/python" ] && PIP_PYTHON=$CACHE/toolchain/bin/python  # tools/build_wheels.py's venv has pip
 "$PIP_PYTHON" -m pip download -q --disable-pip-version-check --only-binary=:all: \
     --python-version 3.11 --implementation cp --platform manylinux2014_x86_64 \
-    -d "$wheels" numpy pytest
+    --platform manylinux_2_28_x86_64 -d "$wheels" numpy pytest OpenImageIO
 cp "$wheel" "$wheels/"
 rm -rf "$ROOTFS/opt/planetlod" && mkdir -p "$ROOTFS/opt/planetlod/site"
 for w in "$wheels"/*.whl; do
@@ -67,7 +67,7 @@ for w in "$wheels"/*.whl; do
 done
 rm -rf "$wheels"
 # the tests and what they read, not the checkout's planetlod/ (the wheel's is tested)
-tar cf - tests tools presets data pytest.ini | tar xf - -C "$ROOTFS/opt/planetlod"
+tar cf - tests tools presets data addon pytest.ini | tar xf - -C "$ROOTFS/opt/planetlod"
 echo "check_old_linux: $(chroot "$ROOTFS" ldd --version | head -1); $(chroot "$ROOTFS" $PY --version)"
 chroot "$ROOTFS" env -i PATH=/usr/bin:/bin HOME=/tmp PLANET_LOD_NATIVE=/opt/planetlod/site \
     PYTHONPATH=/opt/planetlod/site sh -c "cd /opt/planetlod && $PY -m pytest -q -p no:cacheprovider ${TESTS[*]}"
