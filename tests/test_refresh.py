@@ -8,7 +8,8 @@ import pytest
 
 from planetlod import presets, surface
 from planetlod.refresh import ProgressiveSplits, SurfaceWork, mesh_digest, preview_key
-from test_mesh import look_at, refiner_available
+from test_mesh import refiner_available
+from test_refine import look_at
 
 RADIUS = 6371000.0
 
