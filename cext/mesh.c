@@ -258,16 +258,6 @@ size_t plod_mesh_triangle_bound(size_t sector_count, int template_level)
     return sector_count * per;
 }
 
-size_t plod_mesh_count_sectors(const plod_mesh_sector_source *sectors)
-{
-    size_t emitted = 0;
-    if (!sectors || !sectors->sector)
-        return 0;
-    for (size_t s = 0; s < sectors->count; s++)
-        emitted += sectors->sector(sectors->context, s, NULL) ? 1 : 0;
-    return emitted;
-}
-
 /* ---- per-vertex geometry ---------------------------------------------------- */
 
 /* atan2 to 1e-9 rad, 2-3x faster than libm's: the uv outputs are float32

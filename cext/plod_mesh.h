@@ -52,8 +52,9 @@ typedef struct plod_mesh_sector {
     int level;            /* written to the sector_level attribute */
     int face;             /* written to the face attribute */
     uint64_t key;         /* identity for plod_mesh_cache (the refiner's
-                             sector id); 0 = never cached.  The emitter sets
-                             it to 0 before each source call. */
+                             sector id); 0 = never cached.  plod_mesh_emit
+                             sets it to 0 before each source call;
+                             plod_mesh_instances neither sets nor reads it. */
 } plod_mesh_sector;
 
 /* Returns 1 if sector `index` (0..count-1) is emitted and then fills
@@ -220,8 +221,6 @@ typedef struct plod_mesh_buffers {
  * the count would not fit int32 indices. */
 size_t plod_mesh_vertex_bound(size_t sector_count, int template_level);
 size_t plod_mesh_triangle_bound(size_t sector_count, int template_level);
-/* Number of sectors `sectors` emits (the counting pass); 0 for NULL. */
-size_t plod_mesh_count_sectors(const plod_mesh_sector_source *sectors);
 
 /* Emits every sector `sectors` accepts, in index order, with heights,
  * normals and detail sampled from `surface`, splitting the index

@@ -144,8 +144,9 @@ typedef struct plod_refiner plod_refiner; /* opaque */
  * PLOD_ERR_NO_MEMORY.  Destroy with plod_refiner_destroy (NULL: no-op). */
 plod_status plod_refiner_create(plod_refiner **out, const plod_planet *planet);
 void plod_refiner_destroy(plod_refiner *refiner);
-/* Room for `sectors` leaf sectors (their internal nodes, edges, split
- * queue and visible order) allocated now, and all but the visible order
+/* Room for `sectors` leaf sectors (the leaves with their neighbour links,
+ * the internal nodes, the pending and deferred splits, the merge
+ * candidates and the visible order) allocated now, and all but the visible order
  * touched, so that plod_refiner_update does not grow its arrays, or fault
  * in fresh pages, until the set exceeds it: a planet's first descent then
  * runs at steady-state cost.  Never shrinks (reset

@@ -77,9 +77,8 @@ const plod_refiner *plod_session_refiner(const plod_session *session);
 /* The last successful refine's camera; NULL before one and after a reset. */
 const plod_camera *plod_session_camera(const plod_session *session);
 /* The last successful refine's parameters (plod_refine_params_default
- * before one) and statistics (zero before one). */
+ * before one). */
 const plod_refine_params *plod_session_refine_params(const plod_session *session);
-const plod_refine_stats *plod_session_refine_stats(const plod_session *session);
 
 /* ---- per frame --------------------------------------------------------------- */
 

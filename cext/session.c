@@ -29,7 +29,6 @@ struct plod_session {
     size_t mesh_cache_max_bytes;
     plod_camera camera;        /* last refine's */
     plod_refine_params params;
-    plod_refine_stats stats;
     int has_camera;
     pthread_mutex_t lock;
 };
@@ -155,11 +154,6 @@ const plod_refine_params *plod_session_refine_params(const plod_session *session
     return &session->params;
 }
 
-const plod_refine_stats *plod_session_refine_stats(const plod_session *session)
-{
-    return &session->stats;
-}
-
 /* ---- per frame ---------------------------------------------------------------------- */
 
 plod_status plod_session_refine(plod_session *session, const plod_camera *camera,
@@ -171,7 +165,6 @@ plod_status plod_session_refine(plod_session *session, const plod_camera *camera
         return st;
     session->camera = *camera;
     session->params = *params;
-    session->stats = frame;
     session->has_camera = 1;
     if (stats)
         *stats = frame;
