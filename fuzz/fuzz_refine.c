@@ -176,7 +176,7 @@ static void fuzz__emit(fuzz_input *in, plod_session *session, int finite_heights
         FUZZ_CHECK(fuzz__finite3(mp.origin), "origin not finite");
     if (flags & 4) {
         mp.morph = 1;
-        plod_mesh_set_morph_scale(&mp, camera, rp);
+        plod_session_set_morph_scale(&mp, camera, rp);
         if (flags & 8) {
             mp.morph_lod_scale = fuzz_double(in);
             mp.morph_level_rate = fuzz_double(in);
