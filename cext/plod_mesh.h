@@ -22,6 +22,7 @@
 #define PLOD_MESH_H
 
 #include "plod_planet.h"
+#include "plod_surface.h"
 
 #ifdef __cplusplus
 extern "C" {

@@ -6,6 +6,7 @@
 
 #include "plod_cubemap.h"
 #include "plod_heightsource.h"
+#include "plod_surface.h"
 
 #ifdef __cplusplus
 extern "C" {
