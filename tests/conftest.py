@@ -3,30 +3,32 @@ unit tests' builds."""
 import os
 import shutil
 import subprocess
-import sys
 
 import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 # The module under test is the installed wheel: tools/build.sh unpacks it
-# into build/site.  $PLANET_LOD_NATIVE names another folder that holds a
-# planetlod/ package; with neither, the checkout's own build.
-NATIVE_DIR = os.environ.get("PLANET_LOD_NATIVE") or os.path.join(ROOT, "build", "site")
+# into build/site, which pytest.ini puts first on sys.path (without it, the
+# checkout's own build).  NATIVE_DIR: that folder, which tests that start
+# Blender hand on ($PLANET_LOD_NATIVE).
+NATIVE_DIR = os.path.join(ROOT, "build", "site")
 if not os.path.isdir(os.path.join(NATIVE_DIR, "planetlod")):
     NATIVE_DIR = ROOT
-sys.path.insert(0, NATIVE_DIR)
+import planetlod as _planetlod  # noqa: E402  the package under test
+
+IMPORTED_DIR = os.path.dirname(os.path.dirname(os.path.abspath(_planetlod.__file__)))
 
 
 def _stale_installed_sources():
     """The checkout's planetlod/*.py that differ from the installed copies."""
-    if NATIVE_DIR == ROOT or not os.path.isdir(os.path.join(ROOT, "planetlod")):
+    if os.path.samefile(IMPORTED_DIR, ROOT) or not os.path.isdir(os.path.join(ROOT, "planetlod")):
         return []
     stale = []
     for name in sorted(os.listdir(os.path.join(ROOT, "planetlod"))):
         if not name.endswith(".py"):
             continue
-        installed = os.path.join(NATIVE_DIR, "planetlod", name)
+        installed = os.path.join(IMPORTED_DIR, "planetlod", name)
         with open(os.path.join(ROOT, "planetlod", name), "rb") as f:
             source = f.read()
         if not os.path.exists(installed) or open(installed, "rb").read() != source:
@@ -35,8 +37,8 @@ def _stale_installed_sources():
 
 
 if _stale_installed_sources():
-    pytest.exit(f"planetlod/{', '.join(_stale_installed_sources())} changed since the wheel in "
-                f"{NATIVE_DIR} was built: run tools/build.sh", returncode=4)
+    pytest.exit(f"planetlod/{', '.join(_stale_installed_sources())} changed since the package in "
+                f"{IMPORTED_DIR} was built: run tools/build.sh", returncode=4)
 
 DATA_DIRS = [os.path.join(ROOT, "data"), os.path.join(os.path.dirname(ROOT), "shared", "data")]
 

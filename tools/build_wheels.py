@@ -39,7 +39,6 @@ import sysconfig
 import zipfile
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, ROOT)
 
 ZIGLANG_VERSION = "0.17.1"
 AUDITWHEEL_VERSION = "6.8.2"
