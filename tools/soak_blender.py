@@ -53,7 +53,7 @@ def datablocks():
 def main(argv):
     args = parse(argv)
     flyby.enable_addon()
-    from planet_lod import live, placement
+    live, placement = flyby.addon("live"), flyby.addon("placement")
     scene = bpy.context.scene
     for obj in list(bpy.data.objects):
         bpy.data.objects.remove(obj)

@@ -75,9 +75,11 @@ def register():
     bpy.types.VIEW3D_MT_mesh_add.append(operators.menu_func)
     draw.add_draw_handler()
     live.add_handlers()
+    render.add_handlers()
 
 
 def unregister():
+    render.remove_handlers()
     live.remove_handlers()
     draw.remove_draw_handler()
     bpy.types.VIEW3D_MT_mesh_add.remove(operators.menu_func)

@@ -8,9 +8,11 @@ the full path (render-farm splits).
 import math
 import os
 import sys
+import threading
 import time
 
 import bpy
+from bpy.app.handlers import persistent
 from bpy.props import IntProperty, StringProperty, FloatProperty
 
 from . import core, live, placement
@@ -19,6 +21,50 @@ from .core import report as flyby_report  # `report` is the progress callback he
 def _log(message):
     print(message, flush=True)
     sys.stdout.flush()
+
+
+# ---- batch renders: a frame whose planet could not be built is not written -----
+
+def batch_failure(scene):
+    """The message for a frame of `scene` that cannot be right (a planet that
+    could not be built: a missing or bad map, bad settings), else ""."""
+    bad = [f"{obj.name}: {live.state(obj).error}" for obj in live.planet_objects(scene)
+           if not obj.hide_render and live.state(obj).error]
+    if not bad:
+        return ""
+    return f"planet_lod: cannot render frame {scene.frame_current}: " + "; ".join(bad)
+
+
+def fail_batch_render(message):
+    """Ends a headless Blender at once with exit status 1, before the frame is
+    written: a handler's exception would only be printed, and Blender would
+    go on to save the wrong picture and exit 0."""
+    print(message, file=sys.stderr, flush=True)
+    sys.stdout.flush()
+    os._exit(1)
+
+
+@persistent
+def on_render_pre_check(scene, depsgraph=None):
+    """Runs after live's render_pre refresh: in a headless render (`blender -b
+    file.blend -a`, scripts, farm tasks) a planet in error stops the render;
+    the interactive UI reports the error in the panel and renders on."""
+    if not bpy.app.background or threading.current_thread() is not threading.main_thread():
+        return
+    message = batch_failure(scene)
+    if message:
+        fail_batch_render(message)
+
+
+def add_handlers():
+    """After live.add_handlers(): the check runs after the render refresh."""
+    if on_render_pre_check not in bpy.app.handlers.render_pre:
+        bpy.app.handlers.render_pre.append(on_render_pre_check)
+
+
+def remove_handlers():
+    while on_render_pre_check in bpy.app.handlers.render_pre:
+        bpy.app.handlers.render_pre.remove(on_render_pre_check)
 
 
 def render_flyby(scene, planet_obj, first, last, out_dir, path_frames, report=_log):

@@ -1,0 +1,128 @@
+"""Headless renders as a farm worker runs them (`blender -b -y FILE.blend ...
+-a`, Flamenco's command line; tools/flyby.py): a planet that cannot be built
+stops the render with the reason and a non-zero exit, and writes no frame;
+tools/flyby.py finds the add-on whatever module name Blender gave it.
+
+Needs Debian's Blender ($BLENDER); the extension test needs a bpy wheel of
+4.2 or later (tools/blender_versions.py).
+"""
+import glob
+import os
+import shutil
+import subprocess
+
+import pytest
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+BLENDER = os.environ.get("BLENDER", shutil.which("blender") or "blender")
+MAKE_BLEND = os.path.join(ROOT, "tests", "blender", "batch_planet_blend.py")
+FLYBY = os.path.join(ROOT, "tools", "flyby.py")
+
+from tools import blender_versions  # noqa: E402
+
+
+def user_env(tmp_path, name="user"):
+    """A worker's Blender: the add-on linked into its own user-scripts folder."""
+    scripts = tmp_path / name / "scripts"
+    os.makedirs(scripts / "addons")
+    os.makedirs(tmp_path / name / "config")
+    os.symlink(os.path.join(ROOT, "addon", "planet_lod"), scripts / "addons" / "planet_lod")
+    env = dict(os.environ)
+    env["BLENDER_USER_SCRIPTS"] = str(scripts)
+    env["BLENDER_USER_CONFIG"] = str(tmp_path / name / "config")
+    env.setdefault("PLANET_LOD_NATIVE", ROOT)
+    return env
+
+
+def blender(args, env, timeout=300):
+    proc = subprocess.run([BLENDER] + args, env=env, capture_output=True, text=True,
+                          timeout=timeout)
+    return proc.returncode, proc.stdout + proc.stderr
+
+
+def make_blend(tmp_path, env, blend, preset="earth", heightmap=None):
+    rc, output = blender(["-b", "--factory-startup", "--python-exit-code", "1", "--python",
+                          MAKE_BLEND, "--", str(blend), preset] + ([heightmap] if heightmap else []),
+                         env)
+    assert rc == 0 and "PLOD-BATCH saved" in output, output[-4000:]
+
+
+def render_animation(blend, out, env, frames=(1, 2)):
+    """Flamenco's worker command line for a .blend: -b -y FILE ... -a."""
+    return blender(["-b", "-y", "--addons", "planet_lod", str(blend), "--render-output",
+                    str(out / "frame_####"), "-s", str(frames[0]), "-e", str(frames[1]), "-a"],
+                   env)
+
+
+def test_missing_map_stops_blend_render(tmp_path):
+    """A .blend whose height map is not there: `-a` exits non-zero, names the
+    planet and the map, and writes no frame; with the map back it renders."""
+    env = user_env(tmp_path)
+    maps = tmp_path / "shot" / "maps"
+    os.makedirs(maps)
+    shutil.copy(os.path.join(ROOT, "data", "earth-topology.png"), maps / "earth.png")
+    blend = tmp_path / "shot" / "shot.blend"
+    make_blend(tmp_path, env, blend, heightmap="//maps/earth.png")
+    hidden = tmp_path / "shot" / "hidden.png"
+    os.rename(maps / "earth.png", hidden)
+    rc, output = render_animation(blend, tmp_path / "out", env)
+    assert rc != 0, output[-4000:]
+    assert "planet_lod: cannot render frame 1: Earth: height map not found" in output, \
+        output[-4000:]
+    assert glob.glob(str(tmp_path / "out" / "*")) == []
+    os.rename(hidden, maps / "earth.png")
+    rc, output = render_animation(blend, tmp_path / "out", env)
+    assert rc == 0, output[-4000:]
+    assert sorted(os.listdir(tmp_path / "out")) == ["frame_0001.png", "frame_0002.png"]
+
+
+def test_flyby_without_maps_fails(tmp_path):
+    """tools/flyby.py with an add-on install that lacks its maps: a non-zero
+    exit with the reason, no frame."""
+    addon = tmp_path / "scripts" / "addons" / "planet_lod"
+    shutil.copytree(os.path.join(ROOT, "addon", "planet_lod"), addon,
+                    ignore=shutil.ignore_patterns("__pycache__"))
+    env = dict(os.environ)
+    env["BLENDER_USER_SCRIPTS"] = str(tmp_path / "scripts")
+    env["PLANET_LOD_NATIVE"] = ROOT  # the package, but not the repository's data/
+    out = tmp_path / "flyby"
+    rc, output = blender(["-b", "--factory-startup", "--python-exit-code", "1", "--python",
+                          FLYBY, "--", "--frames", "1-2", "--path-frames", "4",
+                          "--resolution", "32x18", "--samples", "1", "--out",
+                          str(out)], env)
+    assert rc != 0, output[-4000:]
+    assert "map not found" in output, output[-4000:]
+    assert glob.glob(str(out / "frame_*")) == []
+
+
+def _oldest_bpy():
+    installed = [(v, python) for v, python in blender_versions.installed()]
+    return installed[0] if installed else (None, None)
+
+
+def test_flyby_finds_extension(tmp_path):
+    """The add-on installed as an extension (bl_ext.user_default.planet_lod,
+    Blender 4.2+): tools/flyby.py finds it and renders."""
+    label, python = _oldest_bpy()
+    if python is None:
+        pytest.skip("no bpy wheel installed (python3 tools/blender_versions.py install)")
+    env = dict(os.environ)
+    for var, sub in (("BLENDER_USER_SCRIPTS", "scripts"), ("BLENDER_USER_CONFIG", "config"),
+                     ("BLENDER_USER_EXTENSIONS", "extensions")):
+        env[var] = str(tmp_path / sub)
+        os.makedirs(env[var])
+    os.makedirs(tmp_path / "extensions" / "user_default")
+    os.symlink(os.path.join(ROOT, "addon", "planet_lod"),
+               tmp_path / "extensions" / "user_default" / "planet_lod")
+    env["PLANET_LOD_NATIVE"] = ROOT
+    env.pop("PYTHONPATH", None)
+    out = tmp_path / "flyby"
+    proc = subprocess.run([python, blender_versions.RUNNER, FLYBY, "--", "--frames", "2-3",
+                           "--path-frames", "4", "--resolution", "32x18", "--quality", "draft",
+                           "--samples", "1", "--out", str(out)],
+                          env=env, capture_output=True, text=True, timeout=300)
+    output = proc.stdout + proc.stderr
+    assert proc.returncode == 0, output[-4000:]
+    assert "bl_ext.user_default.planet_lod" in output, output[-4000:]
+    assert sorted(p for p in os.listdir(out) if p.startswith("frame_")) == \
+        ["frame_0002.png", "frame_0003.png"]
