@@ -41,6 +41,7 @@ def blender(args, env, timeout=300):
 
 
 def make_blend(tmp_path, env, blend, preset="earth", heightmap=None):
+    os.makedirs(blend.parent, exist_ok=True)
     rc, output = blender(["-b", "--factory-startup", "--python-exit-code", "1", "--python",
                           MAKE_BLEND, "--", str(blend), preset] + ([heightmap] if heightmap else []),
                          env)
@@ -126,3 +127,72 @@ def test_flyby_finds_extension(tmp_path):
     assert "bl_ext.user_default.planet_lod" in output, output[-4000:]
     assert sorted(p for p in os.listdir(out) if p.startswith("frame_")) == \
         ["frame_0002.png", "frame_0003.png"]
+
+
+def png_picture(path):
+    """A PNG's size and pixels (IHDR + IDAT), without the text chunks that
+    carry the render time."""
+    import struct
+    with open(path, "rb") as f:
+        data = f.read()
+    picture, at = [], 8
+    while at < len(data):
+        length, kind = struct.unpack(">I4s", data[at:at + 8])
+        if kind in (b"IHDR", b"IDAT"):
+            picture.append(data[at + 8:at + 8 + length])
+        at += 12 + length
+    return b"".join(picture)
+
+
+def installed_env(tmp_path, name):
+    """Another user's Blender: its own home, user-scripts folder and a copy of
+    the add-on with its maps (as tools/install_addon.py installs it)."""
+    home = tmp_path / name
+    addon = home / "scripts" / "addons" / "planet_lod"
+    shutil.copytree(os.path.join(ROOT, "addon", "planet_lod"), addon,
+                    ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copytree(os.path.join(ROOT, "data"), addon / "data")
+    os.makedirs(home / "config")
+    env = dict(os.environ)
+    env.update(HOME=str(home), BLENDER_USER_SCRIPTS=str(home / "scripts"),
+               BLENDER_USER_CONFIG=str(home / "config"), PLANET_LOD_NATIVE=ROOT)
+    return env, home
+
+
+@pytest.mark.parametrize("preset", ["earth", "moon", "mars", "asteroid"])
+def test_preset_blend_travels(tmp_path, preset):
+    """A .blend saved from a preset names no path of the add-on install that
+    made it (nor its data folder), and renders the same frames under another home and another
+    add-on install after the first one is gone."""
+    env_a, home_a = installed_env(tmp_path, "artist")
+    blend = tmp_path / "shot" / "shot.blend"
+    make_blend(tmp_path, env_a, blend, preset=preset)
+    saved = blend.read_bytes()
+    assert str(home_a / "scripts").encode() not in saved and b"planet_lod/data" not in saved
+    rc, output = render_animation(blend, tmp_path / "out_a", env_a)
+    assert rc == 0, output[-4000:]
+    shutil.rmtree(home_a)
+    env_b, _home_b = installed_env(tmp_path, "worker")
+    rc, output = render_animation(blend, tmp_path / "out_b", env_b)
+    assert rc == 0, output[-4000:]
+    for frame in ("frame_0001.png", "frame_0002.png"):
+        assert png_picture(tmp_path / "out_a" / frame) == png_picture(tmp_path / "out_b" / frame)
+
+
+def test_relative_user_map_follows_the_folder(tmp_path):
+    """A .blend whose height map is //maps/earth.png renders the same after its
+    folder moves."""
+    env = user_env(tmp_path)
+    shot = tmp_path / "shot"
+    os.makedirs(shot / "maps")
+    shutil.copy(os.path.join(ROOT, "data", "earth-topology.png"), shot / "maps" / "earth.png")
+    make_blend(tmp_path, env, shot / "shot.blend", heightmap="//maps/earth.png")
+    rc, output = render_animation(shot / "shot.blend", tmp_path / "before", env, frames=(3, 3))
+    assert rc == 0, output[-4000:]
+    moved = tmp_path / "elsewhere" / "shot moved"
+    os.makedirs(moved.parent)
+    os.rename(shot, moved)
+    rc, output = render_animation(moved / "shot.blend", tmp_path / "after", env, frames=(3, 3))
+    assert rc == 0, output[-4000:]
+    assert png_picture(tmp_path / "before" / "frame_0003.png") == \
+        png_picture(tmp_path / "after" / "frame_0003.png")

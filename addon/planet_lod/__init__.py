@@ -5,6 +5,8 @@ checks it):
   compat, core, nodes          Blender version differences; the bpy-free
                                `planetlod` package and the domain error;
                                node-tree arithmetic
+  prefs, mappaths              add-on preferences (map search folders, path
+                               mapping); map references that travel
   state                        per-planet runtime state and the anchor
   atmosphere, materials,       scene helpers: sky and materials, camera placement,
   placement, framing           framing a new planet
@@ -25,7 +27,7 @@ bl_info = {
 
 if "bpy" in locals():  # script reload (F3 > Reload Scripts)
     import importlib
-    for _name in ("compat", "core", "nodes", "runtime", "atmosphere", "materials", "placement",
+    for _name in ("compat", "core", "prefs", "mappaths", "nodes", "runtime", "atmosphere", "materials", "placement",
                   "framing", "live", "draw", "props", "operators", "render", "ui"):
         if _name in locals():
             importlib.reload(locals()[_name])
@@ -33,7 +35,7 @@ if "bpy" in locals():  # script reload (F3 > Reload Scripts)
 import bpy  # noqa: E402
 from bpy.props import PointerProperty  # noqa: E402
 
-from . import (compat, core, nodes, runtime, atmosphere, materials, placement,  # noqa: E402
+from . import (compat, core, prefs, mappaths, nodes, runtime, atmosphere, materials, placement,  # noqa: E402
                framing, live, draw, props, operators, render, ui)
 
 classes = (
@@ -69,6 +71,8 @@ _register_classes, _unregister_classes = bpy.utils.register_classes_factory(clas
 
 def register():
     core.load_native()
+    prefs.register()
+    mappaths.register()
     _register_classes()
     bpy.types.Object.planet_lod = PointerProperty(type=props.PLOD_PG_settings)
     bpy.types.Object.planet_lod_geo = PointerProperty(type=props.PLOD_PG_geo)
@@ -86,3 +90,5 @@ def unregister():
     del bpy.types.Object.planet_lod_geo
     del bpy.types.Object.planet_lod
     _unregister_classes()
+    mappaths.unregister()
+    prefs.unregister()

@@ -3,7 +3,7 @@
     blender -b --factory-startup --python tests/blender/batch_planet_blend.py -- \\
         OUT.blend PRESET [HEIGHTMAP]
 
-Saves a small .blend (Workbench, 48x27) with a planet from PRESET, a sun and
+Saves a small .blend (Cycles, 1 sample, 48x27) with a planet from PRESET, a sun and
 the flyby camera over frames 1-4 (placed by the add-on's frame-change
 handler).  With HEIGHTMAP the planet's height map is that path, as typed
 (e.g. //maps/earth.png, relative to the .blend).
@@ -24,7 +24,11 @@ for obj in list(bpy.data.objects):
     bpy.data.objects.remove(obj)
 scene.render.resolution_x, scene.render.resolution_y = 48, 27
 scene.render.resolution_percentage = 100
-scene.render.engine = 'BLENDER_WORKBENCH'
+scene.render.engine = 'CYCLES'
+scene.cycles.device = 'CPU'
+scene.cycles.samples = 1
+scene.cycles.use_denoising = False
+scene.cycles.use_adaptive_sampling = False
 scene.render.image_settings.file_format = 'PNG'
 sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", 'SUN'))
 sun.rotation_euler = (0.9, 0.0, 2.2)
