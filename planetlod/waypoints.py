@@ -337,6 +337,42 @@ class Path:
                         pitch=pitch)
 
 
+def pose_to_waypoint(matrix, radius, frame, base=0.0):
+    """The Waypoint of a camera matrix (row-major, planet space, float64):
+    its longitude, latitude, altitude above radius + base, heading and pitch
+    (roll is not kept).  Path.pose gives the matrix back (Record Path)."""
+    location = (matrix[0][3], matrix[1][3], matrix[2][3])
+    r = _norm(location)
+    if r == 0.0:
+        raise PathError("a camera at the planet's centre has no longitude or latitude")
+    d = _scale(location, 1.0 / r)
+    longitude, latitude = lon_lat(d)
+    forward = (-matrix[0][2], -matrix[1][2], -matrix[2][2])
+    forward = _scale(forward, 1.0 / _norm(forward))
+    east = _cross((0.0, 0.0, 1.0), d)
+    if _norm(east) < 1e-12:  # at a pole: geo_pose's east of longitude 0
+        east = (0.0, 1.0, 0.0)
+    east = _scale(east, 1.0 / _norm(east))
+    north = _cross(d, east)
+    pitch = math.degrees(math.asin(max(-1.0, min(1.0, _dot(forward, d)))))
+    heading = math.degrees(math.atan2(_dot(forward, east), _dot(forward, north))) % 360.0
+    return Waypoint(int(frame), longitude, latitude, r - radius - base, heading, pitch)
+
+
+_saved = {}
+
+
+def saved_path(text):
+    """The Path of CSV text kept on a camera (parsed once per text)."""
+    path = _saved.get(text)
+    if path is None:
+        path = parse_csv(text, "the camera's path")
+        if len(_saved) > 16:
+            _saved.clear()
+        _saved[text] = path
+    return path
+
+
 def _unwrap(angles):
     out = [angles[0]]
     for a in angles[1:]:

@@ -196,3 +196,42 @@ def test_relative_user_map_follows_the_folder(tmp_path):
     assert rc == 0, output[-4000:]
     assert png_picture(tmp_path / "before" / "frame_0003.png") == \
         png_picture(tmp_path / "after" / "frame_0003.png")
+
+
+def flyby(args, env, out):
+    return blender(["-b", "--factory-startup", "--python-exit-code", "1", "--python", FLYBY, "--",
+                    "--resolution", "32x18", "--samples", "1", "--quality", "draft",
+                    "--out", str(out)] + args, env)
+
+
+WAYPOINTS = ["--waypoint", "1,7.0,46.0,6000,90,-20", "--waypoint", "3,7.03,46.01,3500,95,-12",
+             "--waypoint", "4,7.04,46.01,3200,97,-10", "--altitude-reference", "sea"]
+
+
+def test_flyby_on_waypoints(tmp_path):
+    """tools/flyby.py flies waypoints given on the command line: every frame gets
+    its stats row and the contact sheet; a chunk renders the whole run's
+    pictures; frames outside the path and bad path files are refused before
+    any frame is written."""
+    env = user_env(tmp_path)
+    rc, output = flyby(WAYPOINTS, env, tmp_path / "whole")
+    assert rc == 0, output[-4000:]
+    with open(tmp_path / "whole" / "stats.csv") as f:
+        rows = f.read().splitlines()
+    assert rows[0].startswith("frame,") and [r.split(",")[0] for r in rows[1:]] == \
+        ["1", "2", "3", "4"]
+    assert (tmp_path / "whole" / "contact_sheet.png").stat().st_size > 0
+    rc, output = flyby(WAYPOINTS + ["--frames", "3-4"], env, tmp_path / "part")
+    assert rc == 0, output[-4000:]
+    for frame in ("frame_0003.png", "frame_0004.png"):
+        assert png_picture(tmp_path / "whole" / frame) == png_picture(tmp_path / "part" / frame)
+
+    rc, output = flyby(WAYPOINTS + ["--frames", "4-5"], env, tmp_path / "outside")
+    assert rc != 0 and "frames 4-5 are outside the path (frames 1-4)" in output, output[-4000:]
+    assert not glob.glob(str(tmp_path / "outside" / "frame_*"))
+    bad = tmp_path / "bad.gpx"
+    bad.write_text("<gpx><trk><trkseg><trkpt lat='46' lon='7'/></trkseg></trk></gpx>")
+    rc, output = flyby(["--path", str(bad)], env, tmp_path / "bad")
+    assert rc != 0 and "bad.gpx: a track needs at least 2 points, found 1" in output, \
+        output[-4000:]
+    assert not glob.glob(str(tmp_path / "bad" / "frame_*"))

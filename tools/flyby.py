@@ -5,7 +5,13 @@
 
 Builds a scene with one planet (a preset), a sun and a flyby camera whose path
 (orbit -> descent -> skim at a few metres) is a pure function of the frame
-number over --path-frames frames; renders the chosen frames with Cycles (CPU,
+number over --path-frames frames, or flies a path of your own:
+
+    blender -b --python tools/flyby.py -- --path alps.gpx --path-frames 240
+    blender -b --python tools/flyby.py -- --waypoint 1,7.0,46.0,3000,90,-20 \
+        --waypoint 120,7.1,46.0,2,90,-5 --altitude-reference ground
+
+(planetlod/waypoints.py: CSV, GPX and KML files); renders the chosen frames with Cycles (CPU,
 no denoising) to DIR/frame_####.png and writes DIR/stats.csv and
 DIR/contact_sheet.png.  Frames are independent: `--frames 31-60` renders the
 same LOD and images as frames 31-60 of a `--frames 1-120` run, so a long flyby
@@ -30,8 +36,22 @@ def parse(argv):
     p = argparse.ArgumentParser(prog="blender -b --python tools/flyby.py --")
     p.add_argument("--preset", default="earth", choices=["earth", "moon", "mars", "asteroid"])
     p.add_argument("--quality", default="preview", choices=["draft", "preview", "final"])
-    p.add_argument("--frames", default="1-120")
-    p.add_argument("--path-frames", type=int, default=120)
+    p.add_argument("--frames", default=None,
+                   help="frames to render, e.g. 31-60 (default: the whole path)")
+    p.add_argument("--path-frames", type=int, default=None,
+                   help="frames of the orbit-descent-skim path (default 120), or over "
+                        "which a GPX/KML track is spread (default: one frame per point)")
+    p.add_argument("--path", metavar="FILE",
+                   help="fly waypoints from a .csv, .gpx or .kml file instead of the "
+                        "orbit, descent and skim")
+    p.add_argument("--waypoint", action="append", metavar="F,LON,LAT,ALT[,HEADING[,PITCH]]",
+                   help="a waypoint (repeat for each; instead of --path): frame, degrees, "
+                        "metres, degrees from north, degrees above the horizon")
+    p.add_argument("--altitude-reference", choices=["ground", "sea", "radius"],
+                   help="waypoint altitudes are above the ground (default for --waypoint), "
+                        "the sea level or the planet's radius")
+    p.add_argument("--min-clearance", type=float, default=None,
+                   help="metres the camera stays above the ground (default 0.5)")
     p.add_argument("--resolution", default="640x360")
     p.add_argument("--samples", type=int, default=16)
     p.add_argument("--engine", default="CYCLES", choices=["CYCLES", "BLENDER_EEVEE"])
@@ -106,19 +126,41 @@ def build_scene(args):
     return scene, bpy.context.object
 
 
+def read_path(args, waypoints):
+    """The waypoint path the arguments give (None: orbit, descent and skim)."""
+    if args.path and args.waypoint:
+        raise waypoints.PathError("give --path or --waypoint, not both")
+    if args.path:
+        return waypoints.read_path(args.path, path_frames=args.path_frames,
+                                   reference=args.altitude_reference,
+                                   min_clearance=args.min_clearance)
+    if args.waypoint:
+        return waypoints.Path([waypoints.parse_waypoint(w) for w in args.waypoint],
+                              args.altitude_reference or "ground",
+                              0.5 if args.min_clearance is None else args.min_clearance)
+    return None
+
+
 def main(argv):
     args = parse(argv)
     from_t = time.perf_counter()
     enable_addon()
     core, render = addon("core"), addon("render")
-    first, last = core.report.parse_frames(args.frames)
+    path = read_path(args, core.waypoints)  # a bad path file fails before Blender works
+    path_frames = path.last if path is not None else (args.path_frames or 120)
+    frames = args.frames or (f"{path.first}-{path.last}" if path is not None
+                             else f"1-{path_frames}")
+    first, last = core.report.parse_frames(frames)
+    render.check_flyby_frames(first, last, path_frames, path)
     scene, planet = build_scene(args)
-    scene.frame_start, scene.frame_end = 1, args.path_frames
-    print(f"planet_lod flyby: {planet.name} frames {first}-{last} of {args.path_frames} "
+    scene.frame_start = path.first if path is not None else 1
+    scene.frame_end = path_frames
+    print(f"planet_lod flyby: {planet.name} frames {first}-{last} of "
+          f"{'the path ' + str(path.first) + '-' + str(path.last) if path else path_frames} "
           f"at {args.resolution}, {args.samples} samples, Blender {bpy.app.version_string}, "
           f"add-on {_package} -> {args.out}", flush=True)
     rows = render.render_flyby(scene, planet, first, last, os.path.abspath(args.out),
-                               args.path_frames)
+                               path_frames, path=path)
     print(f"planet_lod flyby: {len(rows)} frames, stats.csv and contact_sheet.png in "
           f"{args.out} ({time.perf_counter() - from_t:.1f} s)", flush=True)
 

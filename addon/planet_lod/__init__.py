@@ -13,7 +13,7 @@ checks it):
   live                         refreshing planets: LOD cameras, refinement, mesh,
                                timers and handlers
   draw, props, operators,      the GPU preview, settings, operators, flyby
-  render, ui                   rendering and panels
+  render, recordpath, ui       rendering, recording a camera path, panels
 """
 bl_info = {
     "name": "Planet LOD",
@@ -27,16 +27,18 @@ bl_info = {
 
 if "bpy" in locals():  # script reload (F3 > Reload Scripts)
     import importlib
-    for _name in ("compat", "core", "prefs", "mappaths", "nodes", "runtime", "atmosphere", "materials", "placement",
-                  "framing", "live", "draw", "props", "operators", "render", "ui"):
+    for _name in ("compat", "core", "prefs", "mappaths", "nodes", "runtime", "atmosphere",
+                  "materials", "placement", "framing", "live", "draw", "props", "operators",
+                  "render", "recordpath", "ui"):
         if _name in locals():
             importlib.reload(locals()[_name])
 
 import bpy  # noqa: E402
 from bpy.props import PointerProperty  # noqa: E402
 
-from . import (compat, core, prefs, mappaths, nodes, runtime, atmosphere, materials, placement,  # noqa: E402
-               framing, live, draw, props, operators, render, ui)
+from . import (compat, core, prefs, mappaths, nodes, runtime, atmosphere,  # noqa: E402
+               materials, placement, framing, live, draw, props, operators, render,
+               recordpath, ui)
 
 classes = (
     props.PLOD_PG_inset,
@@ -80,9 +82,11 @@ def register():
     draw.add_draw_handler()
     live.add_handlers()
     render.add_handlers()
+    recordpath.register()
 
 
 def unregister():
+    recordpath.unregister()
     render.remove_handlers()
     live.remove_handlers()
     draw.remove_draw_handler()

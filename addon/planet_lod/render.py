@@ -30,6 +30,16 @@ def batch_failure(scene):
     could not be built: a missing or bad map, bad settings), else ""."""
     bad = [f"{obj.name}: {live.state(obj).error}" for obj in live.planet_objects(scene)
            if not obj.hide_render and live.state(obj).error]
+    cam = scene.camera
+    if cam is not None and cam.get(placement.FLYBY_KEY) and cam.get(placement.PATH_KEY):
+        try:
+            path = core.waypoints.saved_path(cam[placement.PATH_KEY])
+        except core.REPORTED_ERRORS as exc:
+            bad.append(f"{cam.name}: {exc}")
+        else:
+            if not path.first <= scene.frame_current <= path.last:
+                bad.append(f"{cam.name}: frame {scene.frame_current} is outside its path "
+                           f"(frames {path.first}-{path.last})")
     if not bad:
         return ""
     return f"planet_lod: cannot render frame {scene.frame_current}: " + "; ".join(bad)
@@ -67,9 +77,25 @@ def remove_handlers():
         bpy.app.handlers.render_pre.remove(on_render_pre_check)
 
 
-def render_flyby(scene, planet_obj, first, last, out_dir, path_frames, report=_log):
+def check_flyby_frames(first, last, path_frames, path=None):
+    """Frames first..last must lie on the path: frames 1..path_frames of the
+    default one, or the frames of `path` (a planetlod.waypoints.Path)."""
+    lo, hi = (path.first, path.last) if path is not None else (1, path_frames)
+    if first > last:
+        raise core.PlanetLODError(f"frames {first}-{last}: the first comes after the last")
+    if first < lo or last > hi:
+        raise core.PlanetLODError(f"frames {first}-{last} are outside the path "
+                                  f"(frames {lo}-{hi})")
+
+
+def render_flyby(scene, planet_obj, first, last, out_dir, path_frames, report=_log, path=None):
     """Renders frames first..last of the flyby to out_dir/frame_####.png; writes
-    stats.csv and contact_sheet.png.  Returns the list of per-frame stat dicts."""
+    stats.csv and contact_sheet.png.  Returns the list of per-frame stat dicts.
+    `path` (a planetlod.waypoints.Path) replaces the orbit, descent and skim;
+    path_frames is then its last frame."""
+    if path is not None:
+        path_frames = path.last
+    check_flyby_frames(first, last, path_frames, path)
     try:
         os.makedirs(out_dir, exist_ok=True)
     except OSError as exc:  # the artist's output folder
@@ -77,7 +103,8 @@ def render_flyby(scene, planet_obj, first, last, out_dir, path_frames, report=_l
     saved = _SceneState(scene, planet_obj)
     try:
         saved.add_sun(planet_obj)
-        rows = _render_frames(scene, planet_obj, first, last, out_dir, path_frames, report)
+        rows = _render_frames(scene, planet_obj, first, last, out_dir, path_frames, report,
+                              path)
     except BaseException:
         # cancelled (Esc, a failed frame, KeyboardInterrupt): put the scene back
         saved.restore()
@@ -144,8 +171,13 @@ class _SceneState:
         scene.frame_set(self.frame)  # handlers rebuild the LOD for the restored camera
 
 
-def _render_frames(scene, planet_obj, first, last, out_dir, path_frames, report):
-    placement.ensure_flyby_camera(scene, planet_obj, path_frames)
+def _render_frames(scene, planet_obj, first, last, out_dir, path_frames, report, path=None):
+    cam = bpy.data.objects.get("Flyby " + planet_obj.name)
+    if cam is not None:  # placed by the default path until this run's is set
+        cam.pop(placement.PATH_KEY, None)
+    cam = placement.ensure_flyby_camera(scene, planet_obj, path_frames)
+    if path is not None:
+        cam[placement.PATH_KEY] = core.waypoints.write_csv(path)
     wm = bpy.context.window_manager
     rows = []
     csv_path = os.path.join(out_dir, "stats.csv")
@@ -246,6 +278,10 @@ class PLOD_OT_flyby(bpy.types.Operator):
                              description="Frames of the whole path (fixes the camera per frame)")
     directory: StringProperty(name="Output", subtype='DIR_PATH', default="//flyby/")
     skim_height: FloatProperty(name="Skim height", default=5.0, min=0.1, max=1e5)
+    path_file: StringProperty(name="Path", subtype='FILE_PATH', default="",
+                              description="Waypoints to fly instead of the orbit, descent "
+                                          "and skim (.csv, .gpx or .kml; Record Path writes "
+                                          "the .csv)")
 
     @classmethod
     def poll(cls, context):
@@ -259,8 +295,11 @@ class PLOD_OT_flyby(bpy.types.Operator):
         try:
             first, last = flyby_report.parse_frames(self.frames)
             out_dir = bpy.path.abspath(self.directory)
+            path = (core.waypoints.read_path(bpy.path.abspath(self.path_file),
+                                             path_frames=self.path_frames)
+                    if self.path_file else None)
             rows = render_flyby(context.scene, context.object, first, last, out_dir,
-                                self.path_frames)
+                                self.path_frames, path=path)
         except core.REPORTED_ERRORS as exc:
             self.report({'ERROR'}, f"Flyby failed: {exc}")
             return {'CANCELLED'}
