@@ -108,6 +108,10 @@ def build_scene(args):
     compat = addon("compat")
     scene.render.engine = compat.render_engine(args.engine)
     scene.render.film_transparent = args.transparent
+    # no date or render time in the PNGs: a frame's file is the same whichever
+    # machine, chunk or run rendered it
+    scene.render.use_stamp_date = False
+    scene.render.use_stamp_render_time = False
     if args.engine == "CYCLES":
         scene.cycles.device = 'CPU'
         scene.cycles.samples = args.samples

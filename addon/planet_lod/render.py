@@ -203,6 +203,7 @@ def _render_frames(scene, planet_obj, first, last, out_dir, path_frames, report,
                 t0 = time.perf_counter()
                 if 'CANCELLED' in bpy.ops.render.render(write_still=True):
                     raise core.Cancelled(f"flyby cancelled at frame {frame}")
+                drop_timings(path)
                 row = dict(st.stats)
                 row["frame"] = frame
                 row["render_s"] = round(time.perf_counter() - t0, 3)
@@ -230,6 +231,28 @@ def _render_frames(scene, planet_obj, first, last, out_dir, path_frames, report,
     contact_sheet([os.path.join(out_dir, f"frame_{f:04d}.png") for f in frames],
                   os.path.join(out_dir, "contact_sheet.png"))
     return rows
+
+
+def drop_timings(png_path):
+    """Removes the render's timings (Cycles' `...time` text chunks) from a PNG,
+    so that a frame's file is the same from every run, machine and chunk."""
+    import struct
+    with open(png_path, "rb") as f:
+        data = f.read()
+    if data[:8] != b"\x89PNG\r\n\x1a\n":
+        return
+    kept, at = [data[:8]], 8
+    while at + 8 <= len(data):
+        length, kind = struct.unpack(">I4s", data[at:at + 8])
+        chunk = data[at:at + 12 + length]
+        key = data[at + 8:at + 8 + length].split(b"\0", 1)[0] if kind == b"tEXt" else b""
+        if not key.endswith(b"_time"):
+            kept.append(chunk)
+        at += 12 + length
+    cleaned = b"".join(kept)
+    if cleaned != data:
+        with open(png_path, "wb") as f:
+            f.write(cleaned)
 
 
 def contact_sheet(paths, out_path, thumb_width=160):

@@ -30,6 +30,8 @@ scene.cycles.samples = 1
 scene.cycles.use_denoising = False
 scene.cycles.use_adaptive_sampling = False
 scene.render.image_settings.file_format = 'PNG'
+scene.render.use_stamp_date = False  # the same file from every run
+scene.render.use_stamp_render_time = False
 sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", 'SUN'))
 sun.rotation_euler = (0.9, 0.0, 2.2)
 scene.collection.objects.link(sun)
