@@ -235,3 +235,36 @@ def test_flyby_on_waypoints(tmp_path):
     assert rc != 0 and "bad.gpx: a track needs at least 2 points, found 1" in output, \
         output[-4000:]
     assert not glob.glob(str(tmp_path / "bad" / "frame_*"))
+
+
+def test_older_files_and_moved_map_folders(tmp_path):
+    """A .blend saved with an absolute path into the add-on's data folder (as
+    older versions saved bundled maps) renders under another install once
+    that one is gone; a map whose folder moved is found through a path
+    mapping or a map search folder from the worker's environment, and is
+    not found without them."""
+    env_a, home_a = installed_env(tmp_path, "artist")
+    old = tmp_path / "old" / "old.blend"
+    absolute = str(home_a / "scripts" / "addons" / "planet_lod" / "data" / "earth-topology.png")
+    make_blend(tmp_path, dict(env_a, PLOD_SAVE_AS_OLDER="1"), old, heightmap=absolute)
+    assert absolute.encode() in old.read_bytes()
+    shutil.rmtree(home_a)
+    env_b, _home_b = installed_env(tmp_path, "worker")
+    rc, output = render_animation(old, tmp_path / "old_out", env_b, frames=(1, 1))
+    assert rc == 0, output[-4000:]
+
+    maps = tmp_path / "mnt" / "projects" / "maps"
+    os.makedirs(maps)
+    shutil.copy(os.path.join(ROOT, "data", "earth-topology.png"), maps / "earth.png")
+    shot = tmp_path / "shot" / "shot.blend"
+    make_blend(tmp_path, env_b, shot, heightmap=str(maps / "earth.png"))
+    os.makedirs(tmp_path / "srv")
+    os.rename(tmp_path / "mnt" / "projects", tmp_path / "srv" / "projects")
+    rc, output = render_animation(shot, tmp_path / "lost", env_b, frames=(1, 1))
+    assert rc != 0 and "height map not found" in output, output[-4000:]
+    mapped = dict(env_b, PLANET_LOD_PATH_MAP=f"{tmp_path / 'mnt'}={tmp_path / 'srv'}")
+    rc, output = render_animation(shot, tmp_path / "mapped", mapped, frames=(1, 1))
+    assert rc == 0, output[-4000:]
+    searched = dict(env_b, PLANET_LOD_MAP_FOLDERS=str(tmp_path / "srv" / "projects" / "maps"))
+    rc, output = render_animation(shot, tmp_path / "searched", searched, frames=(1, 1))
+    assert rc == 0, output[-4000:]

@@ -6,8 +6,11 @@
 Saves a small .blend (Cycles, 1 sample, 48x27) with a planet from PRESET, a sun and
 the flyby camera over frames 1-4 (placed by the add-on's frame-change
 handler).  With HEIGHTMAP the planet's height map is that path, as typed
-(e.g. //maps/earth.png, relative to the .blend).
+(e.g. //maps/earth.png, relative to the .blend); with $PLOD_SAVE_AS_OLDER
+it is saved as older versions saved it (an absolute path of a bundled map
+stays as it is).
 """
+import os
 import sys
 
 import addon_utils
@@ -42,5 +45,8 @@ placement.ensure_flyby_camera(scene, planet, 4)
 bpy.ops.wm.save_as_mainfile(filepath=blend_path)
 if heightmap:
     planet.planet_lod.heightmap = heightmap
+    if os.environ.get("PLOD_SAVE_AS_OLDER"):  # saved as before map tokens: the path as is
+        from planet_lod import mappaths
+        bpy.app.handlers.save_pre.remove(mappaths.on_save_pre)
     bpy.ops.wm.save_as_mainfile(filepath=blend_path)
 print("PLOD-BATCH saved", blend_path, repr(planet.planet_lod.heightmap))
