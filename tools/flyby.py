@@ -77,6 +77,12 @@ def addon_module_name():
     return names[0] if names else ADDON_NAME
 
 
+def package():
+    """The enabled add-on's package (its functions for scripts: planets(),
+    refresh_planet(), render_flyby() ...)."""
+    return importlib.import_module(_package)
+
+
 def addon(submodule):
     """A module of the enabled add-on (`core`, `render` ...), whatever its package."""
     return importlib.import_module(f"{_package}.{submodule}")

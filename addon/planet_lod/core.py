@@ -46,8 +46,8 @@ def _import_package():
 
 
 planetlod = _import_package()
-from planetlod import (flyby, mappaths, planets, presets, report, surface,  # noqa: E402,F401
-                       waypoints)
+from planetlod import (flyby, mappaths, planets, presets, refresh, report,  # noqa: E402,F401
+                       surface, waypoints)
 from planetlod import Cancelled, FileError, ImageError, PlanetLODError  # noqa: E402,F401
 
 # What operators and handlers report to the artist instead of raising: the

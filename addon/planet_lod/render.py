@@ -15,7 +15,7 @@ import bpy
 from bpy.app.handlers import persistent
 from bpy.props import IntProperty, StringProperty, FloatProperty
 
-from . import core, live, placement
+from . import core, placement, runtime
 from .core import report as flyby_report  # `report` is the progress callback here
 
 def _log(message):
@@ -28,8 +28,8 @@ def _log(message):
 def batch_failure(scene):
     """The message for a frame of `scene` that cannot be right (a planet that
     could not be built: a missing or bad map, bad settings), else ""."""
-    bad = [f"{obj.name}: {live.state(obj).error}" for obj in live.planet_objects(scene)
-           if not obj.hide_render and live.state(obj).error]
+    bad = [f"{obj.name}: {runtime.state(obj).error}" for obj in runtime.planet_objects(scene)
+           if not obj.hide_render and runtime.state(obj).error]
     cam = scene.camera
     if cam is not None and cam.get(placement.FLYBY_KEY) and cam.get(placement.PATH_KEY):
         try:
@@ -56,7 +56,7 @@ def fail_batch_render(message):
 
 @persistent
 def on_render_pre_check(scene, depsgraph=None):
-    """Runs after live's render_pre refresh: in a headless render (`blender -b
+    """Runs after the render_pre refresh (handlers.py): in a headless render (`blender -b
     file.blend -a`, scripts, farm tasks) a planet in error stops the render;
     the interactive UI reports the error in the panel and renders on."""
     if not bpy.app.background or threading.current_thread() is not threading.main_thread():
@@ -67,7 +67,7 @@ def on_render_pre_check(scene, depsgraph=None):
 
 
 def add_handlers():
-    """After live.add_handlers(): the check runs after the render refresh."""
+    """After handlers.add_handlers(): the check runs after the render refresh."""
     if on_render_pre_check not in bpy.app.handlers.render_pre:
         bpy.app.handlers.render_pre.append(on_render_pre_check)
 
@@ -127,8 +127,8 @@ class _SceneState:
         self.filepath = scene.render.filepath
         self.file_format = scene.render.image_settings.file_format
         self.planet_name = planet_obj.name
-        anchor = planet_obj.get(live.ANCHOR_KEY)
-        self.anchor = None if anchor is None else list(live.anchor(planet_obj))
+        anchor = planet_obj.get(runtime.ANCHOR_KEY)
+        self.anchor = None if anchor is None else list(runtime.anchor(planet_obj))
         self.sun_name = None
 
     def add_sun(self, planet_obj):
@@ -164,10 +164,10 @@ class _SceneState:
         planet_obj = bpy.data.objects.get(self.planet_name)
         if planet_obj is not None:  # the floating origin where it was
             if self.anchor is None:
-                planet_obj.pop(live.ANCHOR_KEY, None)
+                planet_obj.pop(runtime.ANCHOR_KEY, None)
             else:
-                live.set_anchor(planet_obj, self.anchor)
-            live.mark_dirty(planet_obj)
+                runtime.set_anchor(planet_obj, self.anchor)
+            runtime.mark_dirty(planet_obj)
         scene.frame_set(self.frame)  # handlers rebuild the LOD for the restored camera
 
 
@@ -195,7 +195,7 @@ def _render_frames(scene, planet_obj, first, last, out_dir, path_frames, report,
             csv.write(",".join(flyby_report.CSV_FIELDS) + "\n")
             for index, frame in enumerate(frames):
                 scene.frame_set(frame)  # handlers: place camera, refine, rebuild mesh
-                st = live.state(planet_obj)
+                st = runtime.state(planet_obj)
                 if st.error:
                     raise core.PlanetLODError(st.error)
                 path = os.path.join(out_dir, f"frame_{frame:04d}.png")
@@ -208,7 +208,7 @@ def _render_frames(scene, planet_obj, first, last, out_dir, path_frames, report,
                 row["frame"] = frame
                 row["render_s"] = round(time.perf_counter() - t0, 3)
                 cam = scene.camera
-                local = live.to_planet_space(planet_obj, cam.matrix_world)
+                local = runtime.to_planet_space(planet_obj, cam.matrix_world)
                 distance = math.sqrt(sum(local[i][3] ** 2 for i in range(3)))
                 row["camera_altitude_m"] = round(distance - planet_obj.planet_lod.radius, 3)
                 ground = placement.terrain_height(planet_obj)
