@@ -352,15 +352,14 @@ def _height_image(path):
     a cube cross); images no material uses any more go with forget_height_images."""
     if not path or not os.path.isfile(path):
         return None
-    saved = mappaths.portable(path)  # what the .blend keeps: no per-user path
+    saved = mappaths.portable(path)  # kept in the .blend: a bundled map by its token
     image = next((i for i in bpy.data.images if i.get(HEIGHT_IMAGE_KEY) == saved), None)
     if image is None:
         try:
             image = bpy.data.images.load(path, check_existing=False)
         except RuntimeError as exc:  # Blender's "cannot read image"
             raise core.FileError(str(exc)) from exc
-        image[HEIGHT_IMAGE_KEY] = saved
-        image.colorspace_settings.name = 'Non-Color'
+        image[HEIGHT_IMAGE_KEY], image.colorspace_settings.name = saved, 'Non-Color'
     if is_cross_layout(*image.size):
         bpy.data.images.remove(image)
         return None
