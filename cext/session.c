@@ -80,7 +80,8 @@ plod_status plod_session_create(plod_session **out, const plod_planet *planet,
                                   st == PLOD_ERR_BAD_PARAM
                                       ? "invalid detail (amplitude in [0, 1e6], roughness in "
                                         "[0, 1), largest >= 0, smallest > 0, craters in [0, 4], "
-                                        "crater_density and plains in [0, 1], relief >= 0) or "
+                                        "crater_density and plains in [0, 1], relief >= 0, "
+                                        "hills in [plains, 1], highlands >= 0) or "
                                         "planet"
                                       : "detail field");
             plod_session_destroy(s);

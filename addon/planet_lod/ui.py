@@ -192,6 +192,9 @@ class PLOD_PT_detail(PLOD_PT_planet_sub, bpy.types.Panel):
         col.prop(s, "detail_smallest", text="Smallest")
         col.prop(s, "detail_craters")
         col.prop(s, "detail_plains")
+        col.prop(s, "detail_hills")
+        col.prop(s, "detail_relief")
+        col.prop(s, "detail_highlands")
         col.prop(s, "detail_seed")
 
 
