@@ -34,8 +34,10 @@
 #define PLOD__RIDGE_GAIN 2.0
 /* ridged term w (s - CENTRE): s = (1 - |n|)^2 averages ~0.7 over gradient
  * noise, so a centre of 0.5 would lift every mountain by a fifth of the
- * field's amplitude sum; the unit range [-CENTRE, 1 - CENTRE] holds 0 */
-#define PLOD__RIDGE_CENTRE 0.68
+ * field's amplitude sum; with the weights w, 0.63 leaves the field's mean
+ * near 0 (the Earth preset: 28 m of a 12 km range over 200,000
+ * directions); the unit range [-CENTRE, 1 - CENTRE] holds 0 */
+#define PLOD__RIDGE_CENTRE 0.63
 #define PLOD__CRATER_HILLS 0.35 /* the CRATERS style's hills, relative */
 
 typedef struct plod__octave {
@@ -57,6 +59,9 @@ struct plod_detail {
     int count;
     plod__octave octaves[PLOD_DETAIL_MAX_OCTAVES];
     double lo, hi;              /* bounds of N */
+    double deepest;             /* N's lowest value over a fixed sample of
+                                   directions (<= 0): how deep it digs in
+                                   practice, far above lo for many octaves */
     double tail_lo[PLOD_DETAIL_MAX_OCTAVES + 1], tail_hi[PLOD_DETAIL_MAX_OCTAVES + 1];
                                 /* bounds of the octaves from i on */
     double err[PLOD__ERR_COUNT];
@@ -72,6 +77,7 @@ void plod_detail_params_init(plod_detail_params *params)
     params->crater_density = 0.5;
     params->plains = 0.15;
     params->hills = 1.0;
+    params->fine_roughness = 0.5;
 }
 
 /* ---- hashing ------------------------------------------------------------- */
@@ -986,6 +992,31 @@ static int plod__compare(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
+/* N's lowest value at PLOD__DEPTH_SAMPLES directions drawn from the seed's
+ * hash (uniform in the cube, normalised: + - * / sqrt only, so the same
+ * bits everywhere). */
+#define PLOD__DEPTH_SAMPLES 4096
+static double plod__deepest(const plod_detail *d)
+{
+    double deepest = 0.0;
+    uint64_t h = plod__mix(d->params.seed ^ 0xdee9ULL);
+    for (int k = 0; k < PLOD__DEPTH_SAMPLES; k++) {
+        double v[3], len2 = 0.0;
+        for (int a = 0; a < 3; a++) {
+            h = plod__mix(h + 0x9E3779B97F4A7C15ULL);
+            v[a] = 2.0 * plod__unit(h) - 1.0;
+            len2 += v[a] * v[a];
+        }
+        if (!(len2 > 1e-6 && len2 <= 1.0))
+            continue; /* inside the unit ball: uniform directions */
+        double len = sqrt(len2);
+        double dir[3] = {v[0] / len, v[1] / len, v[2] / len};
+        double n = plod__noise_value(d, dir, 0, d->count);
+        deepest = n < deepest ? n : deepest;
+    }
+    return deepest;
+}
+
 /* The modulation map of planet's height map (see plod_detail.h). */
 static plod_status plod__build_modulation(plod_detail *d, const plod_planet *planet)
 {
@@ -1074,8 +1105,8 @@ static plod_status plod__build_modulation(plod_detail *d, const plod_planet *pla
                     m = m < 1.0 ? m : 1.0;
                 }
                 /* low coasts: the field's deepest half-range stays above the sea */
-                if (d->lo < 0.0) {
-                    double limit = 2.0 * above[(size_t)f * texels + t] / -d->lo;
+                if (d->deepest < 0.0) {
+                    double limit = 2.0 * above[(size_t)f * texels + t] / -d->deepest;
                     m = limit < m ? (limit > 0.0 ? limit : 0.0) : m;
                 }
             }
@@ -1095,7 +1126,8 @@ static int plod__params_ok(const plod_detail_params *p)
            p->craters <= 4.0 && p->crater_density >= 0.0 && p->crater_density <= 1.0 &&
            p->plains >= 0.0 && p->plains <= 1.0 && isfinite(p->relief) && p->relief >= 0.0 &&
            p->hills >= p->plains && p->hills <= 1.0 && isfinite(p->highlands) &&
-           p->highlands >= 0.0;
+           p->highlands >= 0.0 && p->fine_roughness >= 0.0 && p->fine_roughness < 1.0 &&
+           isfinite(p->fine_below) && p->fine_below >= 0.0;
 }
 
 plod_status plod_detail_create(plod_detail **out, const plod_detail_params *params,
@@ -1195,7 +1227,8 @@ plod_status plod_detail_create(plod_detail **out, const plod_detail_params *para
         o->slope = o->noise_weight * noise_slope + o->crater_weight * crater_slope;
         plod__matmul(rot, acc, acc);
         wavelength *= 0.5;
-        amplitude *= params->roughness;
+        amplitude *= wavelength < params->fine_below ? params->fine_roughness
+                                                      : params->roughness;
         count++;
     }
     d->count = count;
@@ -1206,6 +1239,7 @@ plod_status plod_detail_create(plod_detail **out, const plod_detail_params *para
     }
     for (int e = 0; e < PLOD__ERR_COUNT; e++)
         d->err[e] = plod__cell_error_exact(d, ldexp(1.0, e + PLOD__ERR_EXP_MIN));
+    d->deepest = plod__deepest(d);
     if (planet->heightmap) {
         plod_status st = plod__build_modulation(d, planet);
         if (st != PLOD_OK) {
@@ -1218,7 +1252,8 @@ plod_status plod_detail_create(plod_detail **out, const plod_detail_params *para
     const double vals[] = {params->amplitude, params->roughness, largest, params->smallest,
                            params->craters, params->crater_density, params->plains,
                            params->relief, planet->radius, planet->height_scale,
-                           (double)params->style, params->hills, params->highlands};
+                           (double)params->style, params->hills, params->highlands,
+                           params->fine_roughness, params->fine_below};
     for (size_t i = 0; i < sizeof vals / sizeof vals[0]; i++) {
         uint64_t bits;
         memcpy(&bits, &vals[i], sizeof bits);

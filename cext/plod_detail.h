@@ -4,7 +4,7 @@
  * D(d) = m(d) * N(d) of the unit direction d:
  *   - N is a sum of band-limited octaves i = 0..count-1 of wavelength
  *     largest * 2^-i (down to `smallest`) and amplitude amplitude *
- *     roughness^i, each a 3-D lattice function of the direction (gradient
+ *     roughness^i (fine_roughness per octave below `fine_below`), each a 3-D lattice function of the direction (gradient
  *     noise, ridged noise, impact craters) evaluated on the unit sphere in
  *     double precision: no seams at cube faces, poles or the date line.
  *     Lattice points are hashed with the seed (64-bit integer hash); only
@@ -25,8 +25,10 @@
  *     M. T. Brandon, "Topographic controls on erosion rates in
  *     tectonically active mountain ranges", EPSL, 2002); bench/
  *     bench_relief.py compares the Earth preset with real DEMs.  On low
- *     coasts m is at most twice the height above the sea over the field's
- *     lower bound (lowlands are not pushed under the sea); sampled
+ *     coasts m is at most twice the height above the sea over the deepest
+ *     value of N at 4,096 fixed directions (lowlands are not pushed under
+ *     the sea; the bound of many octaves' sum is far deeper than the field
+ *     ever reaches, and would flatten every lowland hill); sampled
  *     bilinearly at the height map's location, bounded over regions by its
  *     min/max pyramid.  Without a height map m = 1.
  * Styles (the octaves' shape):
@@ -92,11 +94,20 @@ typedef struct plod_detail_params {
     double highlands;  /* metres above the sea at which steep highlands reach
                           modulation 1; 0 = no elevation term (hills is then
                           the top) */
+    double fine_roughness; /* amplitude ratio to octaves of wavelength below
+                              fine_below, [0, 1) */
+    double fine_below; /* metres; 0 = roughness everywhere.  Relief of
+                          kilometres needs a slow fall-off (roughness ~0.6),
+                          but octaves much finer than a mesh cell add to the
+                          pixel criterion's error: a fall-off of 0.5 or
+                          faster there keeps the error proportional to the
+                          cell, so refinement near the ground stays
+                          bounded */
 } plod_detail_params;
 
 /* Defaults: MOUNTAINS, amplitude 0 (set it), roughness 0.5, largest 0,
  * smallest 0.1 m, seed 0, craters 0, density 0.5, plains 0.15, relief 0,
- * hills 1, highlands 0. */
+ * hills 1, highlands 0, fine_roughness 0.5, fine_below 0. */
 void plod_detail_params_init(plod_detail_params *params);
 
 /* Builds the field for `planet` (radius, projection, height map, height

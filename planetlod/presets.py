@@ -8,9 +8,10 @@ PLANETS = {
                   color_map="earth-blue-marble.jpg", height_scale=8848.0,
                   use_sea_level=True, sea_level=0.0, ocean_sphere=False,
                   projection="QSC", atmosphere="EARTH", use_detail=True,
-                  detail_style="MOUNTAINS", detail_amplitude=4200.0, detail_roughness=0.66,
-                  detail_craters=0.0, detail_plains=0.01, detail_relief=120.0,
-                  detail_hills=0.22, detail_highlands=5000.0),
+                  detail_style="MOUNTAINS", detail_amplitude=4000.0, detail_roughness=0.65,
+                  detail_craters=0.0, detail_plains=0.01, detail_relief=130.0,
+                  detail_hills=0.17, detail_highlands=3500.0,
+                  detail_fine_roughness=0.3, detail_fine_below=9000.0),
     "MOON": dict(label="Moon", radius=1737400.0, heightmap="lunar_bumpmap.jpg",
                  color_map="lunar_surface_2k.jpg", height_scale=19000.0,
                  use_sea_level=False, sea_level=0.0, ocean_sphere=False, projection="QSC",
@@ -66,6 +67,8 @@ def detail_kwargs(settings):
                 relief=float(settings.get("detail_relief", 0.0)),
                 hills=float(settings.get("detail_hills", 1.0)),
                 highlands=float(settings.get("detail_highlands", 0.0)),
+                fine_roughness=float(settings.get("detail_fine_roughness", 0.5)),
+                fine_below=float(settings.get("detail_fine_below", 0.0)),
                 seed=int(settings.get("detail_seed", DETAIL_SEED)))
 
 
