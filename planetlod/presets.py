@@ -52,6 +52,10 @@ DETAIL_STYLE_ITEMS = [
                            "bodies"),
 ]
 DETAIL_SEED = 1
+# the detail settings presets may leave out, at their neutral values (the
+# modulation's plains-to-hills law alone, one roughness for every octave)
+DETAIL_LAW_DEFAULTS = dict(detail_relief=0.0, detail_hills=1.0, detail_highlands=0.0,
+                           detail_fine_roughness=0.5, detail_fine_below=0.0)
 
 
 def detail_kwargs(settings):
@@ -83,7 +87,8 @@ QUALITY_ITEMS = [(key, value["label"], f"{value['label']} quality")
 
 def planet_settings(key, data_path):
     """Settings dict for planet preset `key`, with map names resolved by data_path."""
-    values = dict(PLANETS[key])
+    values = dict(DETAIL_LAW_DEFAULTS)  # a preset without them resets them
+    values.update(PLANETS[key])
     values.pop("label")
     values["heightmap"] = data_path(values["heightmap"]) if values["heightmap"] else ""
     values["color_map"] = data_path(values["color_map"]) if values["color_map"] else ""
