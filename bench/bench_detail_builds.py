@@ -24,12 +24,14 @@ the median and mean over the frames of each build and the median of the
 per-frame ratios base / new.  Before and after, one cache line's round
 trip between CPUs 0 and 1 (bench/core_latency.c): on a shared VM the two
 vCPUs are sometimes close, sometimes far apart, and threaded figures move
-with it.  Each build runs with its own presets (planetlod/presets.py in
-its folder, this checkout's where it has none), so a change of a preset's
-detail is measured with its cost.  Not a test: figures only.
+with it.  --base-detail JSON gives the base build the Earth detail of its
+own presets (a dict as planetlod.Planet(detail=...) takes it; default:
+this checkout's), so a change of the preset's detail is measured with its
+cost.  Not a test: figures only.
 """
 import argparse
 import importlib.machinery
+import json
 import importlib.util
 import math
 import os
@@ -73,16 +75,23 @@ def load_build(folder):
 LOADED = []
 
 
-def load_presets(folder):
-    """planetlod/presets.py of the checkout in `folder` (bpy-free data), or
-    this checkout's."""
-    path = os.path.join(os.path.abspath(folder), "planetlod", "presets.py")
-    if not os.path.exists(path):
-        return presets
-    spec = importlib.util.spec_from_file_location(f"bench_presets_{len(LOADED)}", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+class BuildPresets:
+    """The presets a build runs with: this checkout's, with the Earth
+    preset's detail replaced by `earth_detail` when given."""
+
+    def __init__(self, earth_detail=None):
+        self.PLANETS, self.QUALITY = presets.PLANETS, presets.QUALITY
+        self.earth_detail = earth_detail
+
+    def detail_settings(self, key):
+        if key == "EARTH" and self.earth_detail is not None:
+            return dict(self.earth_detail)
+        return presets.detail_settings(key)
+
+    def detail_kwargs(self, settings):
+        if settings is presets.PLANETS["EARTH"] and self.earth_detail is not None:
+            return dict(self.earth_detail)
+        return presets.detail_kwargs(settings)
 
 
 def run_probe(folder, name, flags=()):
@@ -329,6 +338,8 @@ def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--base", required=True, help="folder of the base build")
     parser.add_argument("--new", default=ROOT, help="folder of the new build")
+    parser.add_argument("--base-detail", default="",
+                        help="JSON: the base build's Earth detail (its presets')")
     parser.add_argument("--frames", type=int, default=48)
     parser.add_argument("--viewport-frames", type=int, default=16)
     parser.add_argument("--threads", type=int, default=2)
@@ -342,7 +353,8 @@ def main():
                              "'flyby', 'viewport', comma-separated")
     args = parser.parse_args()
     builds = {"base": load_build(args.base), "new": load_build(args.new)}
-    build_presets = {"base": load_presets(args.base), "new": load_presets(args.new)}
+    base_detail = json.loads(args.base_detail) if args.base_detail else None
+    build_presets = {"base": BuildPresets(base_detail), "new": BuildPresets()}
     for name, lod in builds.items():
         print(f"{name}: {lod.__file__}")
     skip = set(args.skip.split(","))

@@ -240,20 +240,6 @@ def _sea_mask(b, s):
         1.0 - b.smoothstep(s.sea_level + 0.25 * step, s.sea_level + 0.6 * step, metres), flooded)
 
 
-def _water(b, s, normal):
-    """Principled water: low roughness (sun glint), tinted by depth where the
-    height map has bathymetry."""
-    depth = b.socket(_attribute(b, "planet_sea_depth").outputs["Fac"], vector=False)
-    deep = 1.0 - b.exp(depth * (-1.0 / 40.0))
-    colour = b.mix(b.const((0.02, 0.10, 0.14)), b.const((0.004, 0.02, 0.06)), deep * 0.8 + 0.2)
-    water = b.node("ShaderNodeBsdfPrincipled")
-    b.link(colour, water.inputs["Base Color"])
-    water.inputs["Roughness"].default_value = 0.07
-    water.inputs["IOR"].default_value = 1.33
-    b.link(normal, water.inputs["Normal"])
-    return water
-
-
 def planet_material(obj):
     s = obj.planet_lod
     name = PLANET_PREFIX + obj.name
@@ -308,7 +294,7 @@ def planet_material(obj):
     b.links.new(bump.outputs["Normal"], ground.inputs["Normal"])
     surface = ground.outputs[0]
     if s.use_sea_level:
-        water = _water(b, s, normal)
+        water = terrain_shading.water(b, normal)
         sea = _sea_mask(b, s)
         mix = b.node("ShaderNodeMixShader")
         b.link(sea, mix.inputs["Fac"])

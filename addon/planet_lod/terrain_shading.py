@@ -204,3 +204,17 @@ def _poleward_facing(b, normal, latitude):
     towards_north = b.dot(normal, north) / b.maximum(b.length(north), 1e-4)
     hemisphere = 1.0 - b.less(latitude, 0.0) * 2.0
     return towards_north * hemisphere
+
+
+def water(b, normal):
+    """Principled water: low roughness (sun glint), tinted by depth where the
+    height map has bathymetry."""
+    depth = b.socket(attribute(b, "planet_sea_depth").outputs["Fac"], vector=False)
+    deep = 1.0 - b.exp(depth * (-1.0 / 40.0))
+    colour = b.mix(b.const((0.02, 0.10, 0.14)), b.const((0.004, 0.02, 0.06)), deep * 0.8 + 0.2)
+    water = b.node("ShaderNodeBsdfPrincipled")
+    b.link(colour, water.inputs["Base Color"])
+    water.inputs["Roughness"].default_value = 0.07
+    water.inputs["IOR"].default_value = 1.33
+    b.link(normal, water.inputs["Normal"])
+    return water
