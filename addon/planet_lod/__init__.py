@@ -8,7 +8,8 @@ tests/test_layout.py checks it):
   prefs, mappaths              add-on preferences (map search folders, path
                                mapping); map references that travel
   runtime                      per-planet runtime state and the anchor
-  atmosphere, materials        the planet's sky and materials
+  atmosphere, terrain_shading, the planet's sky, its ground shading and
+  materials                    materials
   cameras                      the LOD camera; clip ranges fitted to planets
   placement, framing           cameras and objects placed in planet space;
                                framing a new planet
@@ -51,9 +52,9 @@ bl_info = {
 if "bpy" in locals():  # script reload (F3 > Reload Scripts)
     import importlib
     for _name in ("compat", "core", "prefs", "mappaths", "nodes", "runtime", "atmosphere",
-                  "materials", "cameras", "placement", "framing", "refresh", "handlers", "draw",
-                  "props", "operators", "map_files", "preset_menus", "render", "recordpath",
-                  "ui"):
+                  "terrain_shading", "materials", "cameras", "placement", "framing", "refresh",
+                  "handlers", "draw", "props", "operators", "map_files", "preset_menus", "render",
+                  "recordpath", "ui"):
         if _name in locals():
             importlib.reload(locals()[_name])
 
@@ -61,8 +62,8 @@ import bpy  # noqa: E402
 from bpy.props import PointerProperty  # noqa: E402
 
 from . import (compat, core, prefs, mappaths, nodes, runtime, atmosphere,  # noqa: E402
-               materials, cameras, placement, framing, refresh, handlers, draw, props,
-               operators, map_files, preset_menus, render, recordpath, ui)
+               terrain_shading, materials, cameras, placement, framing, refresh, handlers,
+               draw, props, operators, map_files, preset_menus, render, recordpath, ui)
 
 classes = (
     props.PLOD_PG_inset,
