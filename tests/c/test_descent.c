@@ -261,7 +261,7 @@ static int fly(const plod_cubemap *map, int detail_on, int hysteresis, uint64_t 
         params.threads = 2; /* the refiner's workers; the same result as 1 */
         plod_refine_stats stats;
         if (ok)
-            ok = plod_session_refine(session, &camera, &params, &stats) == PLOD_OK;
+            ok = plod_session_refine(session, &camera, &params, &stats, NULL) == PLOD_OK;
         if (!ok)
             break;
         hash_stats(&hash, &stats);
