@@ -23,7 +23,11 @@
  * a few dot products (bounds hold cosines and sines, not angles; distance
  * thresholds are decided by square-root-free bounds where they clear them).
  * The values the tests read live in a frame context built by each update,
- * not in the refiner.
+ * not in the refiner.  The update's state across the passes of a frame
+ * (each leaf's evaluation, the split limits and which of them stopped a
+ * split) is the refiner's, not the tree's: the tree takes the limits with
+ * each split and reports the moves of its leaf slots to the refiner, which
+ * keeps the evaluations in an array parallel to the leaves.
  */
 #include "plod_lodtree.h"
 

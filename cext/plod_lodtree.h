@@ -1,9 +1,11 @@
 /* plod_lodtree.h -- the LOD tree of the refinement (lodtree.c): implicit
  * longest-edge-bisection ids, the leaf and internal-node stores with
  * their conforming neighbour links, split and merge, and the
- * invariants.  Mechanics only: when to split or merge is the LOD update's
- * (lodupdate.c), which drives the tree through these calls.  Internal to
- * the core: bindings use plod_refine.h.
+ * invariants.  Mechanics only: when to split or merge, the limits on
+ * splits and each frame's evaluation of the leaves are the LOD update's
+ * (lodupdate.c), which drives the tree through these calls and keeps its
+ * per-leaf state in arrays of its own (plod_lodtree_observer).  Internal
+ * to the core: bindings use plod_refine.h.
  *
  * Bit rules (libleb-style heap ids):
  *   id        = base << 56 | heap,  heap = 1 << level | path bits
