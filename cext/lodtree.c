@@ -532,13 +532,13 @@ static plod_status plod__pending_reserve(plod_lodtree *t, size_t extra)
 int plod_lodtree_split(plod_lodtree *t, size_t i, const plod_lodtree_limits *limits)
 {
     if (t->leaves[i].level >= PLOD_MAX_LEVEL)
-        return 1; /* edge of domain: a no-op */
+        return PLOD_LODTREE_SPLIT_DONE; /* edge of domain: a no-op */
     plod__settle_leaf(t, i);
     for (int attempt = 0; attempt < 2; attempt++) {
         int32_t n = plod__across(t, i, 2);
         assert(n >= 0);
         if (n < 0)
-            return 1;
+            return PLOD_LODTREE_SPLIT_DONE;
         plod__settle_leaf(t, (size_t)n);
         if (t->leaves[n].level == t->leaves[i].level) {
             /* a diamond splits two sectors; the first of an update always
@@ -558,7 +558,7 @@ int plod_lodtree_split(plod_lodtree *t, size_t i, const plod_lodtree_limits *lim
             return forced;
     }
     assert(!"forced split did not produce a diamond");
-    return 1;
+    return PLOD_LODTREE_SPLIT_DONE;
 }
 
 /* ---- merge ----------------------------------------------------------------- */
