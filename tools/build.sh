@@ -23,4 +23,6 @@ if [ "${PLANETLOD_BUILD:-wheel}" = inplace ]; then
     exit 0
 fi
 "$PYTHON" tools/build_wheels.py --host --install build/site
-cp build/site/planetlod/_native.abi3.so planetlod/_native.abi3.so
+# a new file renamed into place: a process that has the old one mapped keeps it
+cp build/site/planetlod/_native.abi3.so planetlod/_native.abi3.so.new
+mv -f planetlod/_native.abi3.so.new planetlod/_native.abi3.so
