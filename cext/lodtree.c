@@ -143,7 +143,9 @@ static plod_status plod__reserve(plod_lodtree *t, size_t extra)
         if (!job)
             return PLOD_ERR_NO_MEMORY;
         t->leaf_job = job;
-        t->capacity = capacity; /* only once all six have grown */
+        if (t->observer.reserve && t->observer.reserve(t->observer.context, capacity) != PLOD_OK)
+            return PLOD_ERR_NO_MEMORY;
+        t->capacity = capacity; /* only once all six (and the observer's) have grown */
     }
     return PLOD_OK;
 }
@@ -408,7 +410,6 @@ static void plod__settle_children(plod_lodtree *t, plod__corner_memo *memo, cons
         plod_lodtree_leaf *g = &t->geom[at[bit]];
         plod_bound_build(&t->setup, c, &memo->points, idx, &g->self);
         plod__store_corners(t, at[bit], memo, idx);
-        g->eval_frame = t->frame - 1;
         plod__apply_bound(c, &g->self);
     }
 }
@@ -464,12 +465,9 @@ static void plod__split_diamond(plod_lodtree *t, size_t i, size_t n)
     t->node_partner[node[1]] = node[0];
     t->node_child0[node[0]] = (int32_t)i; /* child 0 keeps its parent's slot */
     t->node_child0[node[1]] = (int32_t)n;
-    for (int k = 0; k < 2; k++) {
-        const plod_lodtree_leaf *g = &t->geom[pair[k]];
-        if (g->eval_frame == t->frame)
-            t->node_state[node[k]] =
-                (uint8_t)(PLOD_NODE_P_KNOWN | (g->eval_split ? PLOD_NODE_P_TRUE : 0u));
-    }
+    if (t->observer.split)
+        for (int k = 0; k < 2; k++)
+            t->observer.split(t->observer.context, pair[k], node[k]);
     for (int k = 0; k < 2; k++) {
         int32_t up = t->node_parent[node[k]];
         if (up >= 0)
@@ -488,6 +486,8 @@ static void plod__split_diamond(plod_lodtree *t, size_t i, size_t n)
             t->neighbours[at][2] = legs[k][bit];
             if (at != pair[k])
                 plod__relink(t, legs[k][bit], (int32_t)pair[k], (int32_t)at);
+            if (t->observer.made)
+                t->observer.made(t->observer.context, at);
         }
         if (t->defer) {
             plod_lodtree_job *job = &t->jobs[t->job_count];
@@ -495,7 +495,6 @@ static void plod__split_diamond(plod_lodtree *t, size_t i, size_t n)
             job->child[0] = child[k][0];
             job->child[1] = child[k][1];
             job->settled = 0;
-            t->geom[child[k][0]].eval_frame = t->geom[child[k][1]].eval_frame = t->frame - 1;
             t->leaf_job[child[k][0]] = t->leaf_job[child[k][1]] = (int32_t)t->job_count++;
         } else {
             plod__settle_children(t, &memo, child[k]);
@@ -529,40 +528,37 @@ static plod_status plod__pending_reserve(plod_lodtree *t, size_t extra)
 }
 
 /* Splits leaf i, first splitting the coarser neighbour across its
- * hypotenuse when needed.  Returns 0 when the sector cap stopped it. */
-int plod_lodtree_split(plod_lodtree *t, size_t i)
+ * hypotenuse when needed. */
+int plod_lodtree_split(plod_lodtree *t, size_t i, const plod_lodtree_limits *limits)
 {
     if (t->leaves[i].level >= PLOD_MAX_LEVEL)
-        return 1; /* edge of domain: a no-op */
+        return PLOD_LODTREE_SPLIT_DONE; /* edge of domain: a no-op */
     plod__settle_leaf(t, i);
     for (int attempt = 0; attempt < 2; attempt++) {
         int32_t n = plod__across(t, i, 2);
         assert(n >= 0);
         if (n < 0)
-            return 1;
+            return PLOD_LODTREE_SPLIT_DONE;
         plod__settle_leaf(t, (size_t)n);
         if (t->leaves[n].level == t->leaves[i].level) {
             /* a diamond splits two sectors; the first of an update always
              * may (progress whatever the limit) */
-            if (t->split_limit && t->splits > 0 && t->splits + 2 > t->split_limit) {
-                t->limited = 1;
-                return 0;
-            }
-            if (t->count + 2 > t->max_sectors || plod__reserve(t, 2) != PLOD_OK ||
+            if (limits->max_splits && t->splits > 0 && t->splits + 2 > limits->max_splits)
+                return PLOD_LODTREE_SPLIT_LIMITED;
+            if (t->count + 2 > limits->max_sectors || plod__reserve(t, 2) != PLOD_OK ||
                 plod__node_reserve(t, 2) != PLOD_OK || plod__pending_reserve(t, 2) != PLOD_OK ||
-                (t->defer && plod__job_reserve(t, 2) != PLOD_OK)) {
-                t->truncated = 1;
-                return 0;
-            }
+                (t->defer && plod__job_reserve(t, 2) != PLOD_OK))
+                return PLOD_LODTREE_SPLIT_CAPPED;
             plod__split_diamond(t, i, (size_t)n);
-            return 1;
+            return PLOD_LODTREE_SPLIT_DONE;
         }
         assert(t->leaves[n].level + 1 == t->leaves[i].level);
-        if (!plod_lodtree_split(t, (size_t)n))
-            return 0;
+        int forced = plod_lodtree_split(t, (size_t)n, limits);
+        if (forced != PLOD_LODTREE_SPLIT_DONE)
+            return forced;
     }
     assert(!"forced split did not produce a diamond");
-    return 1;
+    return PLOD_LODTREE_SPLIT_DONE;
 }
 
 /* ---- merge ----------------------------------------------------------------- */
@@ -578,6 +574,8 @@ static void plod__drop_unlinked(plod_lodtree *t, size_t x)
         memcpy(t->neighbours[x], t->neighbours[last], sizeof t->neighbours[x]);
         t->leaves[x] = t->leaves[last];
         t->geom[x] = t->geom[last];
+        if (t->observer.moved)
+            t->observer.moved(t->observer.context, last, x);
         t->corners[x] = t->corners[last];
         t->leaf_parent[x] = t->leaf_parent[last];
         t->leaf_job[x] = t->leaf_job[last];
@@ -689,8 +687,8 @@ static int plod__merge_diamond(plod_lodtree *t, size_t ia, int32_t pi,
     plod_sector p, q;
     plod__parent(a, &p);
     plod__parent(c, &q);
-    plod_lodtree_leaf gp = {.self = pn->bound, .eval_frame = t->frame - 1};
-    plod_lodtree_leaf gq = {.self = qn->bound, .eval_frame = t->frame - 1};
+    plod_lodtree_leaf gp = {.self = pn->bound};
+    plod_lodtree_leaf gq = {.self = qn->bound};
     p.birth = q.birth = t->frame;
     plod__apply_bound(&p, &gp.self);
     plod__apply_bound(&q, &gq.self);
@@ -727,6 +725,10 @@ static int plod__merge_diamond(plod_lodtree *t, size_t ia, int32_t pi,
         t->node_child0[gp_gq_parent[0]] = (int32_t)ia;
     t->leaves[ic_] = q;
     t->geom[ic_] = gq;
+    if (t->observer.made) {
+        t->observer.made(t->observer.context, ia);
+        t->observer.made(t->observer.context, ic_);
+    }
     t->leaf_parent[ic_] = gp_gq_parent[1];
     t->leaf_job[ic_] = -1;
     if (gp_gq_parent[1] >= 0 && !(q.id & 1))
@@ -776,7 +778,8 @@ static void plod__add_base(plod_lodtree *t, unsigned base, int face,
     plod_lodtree_leaf *g = &t->geom[at];
     memset(g, 0, sizeof *g);
     plod__compute_bound(t, at, &g->self);
-    g->eval_frame = t->frame - 1;
+    if (t->observer.made)
+        t->observer.made(t->observer.context, at);
     t->leaf_parent[at] = -1;
     t->leaf_job[at] = -1;
     plod__apply_bound(s, &g->self);

@@ -23,7 +23,11 @@
  * a few dot products (bounds hold cosines and sines, not angles; distance
  * thresholds are decided by square-root-free bounds where they clear them).
  * The values the tests read live in a frame context built by each update,
- * not in the refiner.
+ * not in the refiner.  The update's state across the passes of a frame
+ * (each leaf's evaluation, the split limits and which of them stopped a
+ * split) is the refiner's, not the tree's: the tree takes the limits with
+ * each split and reports the moves of its leaf slots to the refiner, which
+ * keeps the evaluations in an array parallel to the leaves.
  */
 #include "plod_lodtree.h"
 #include "plod_platform.h"
@@ -38,8 +42,22 @@
 #define PLOD__ORDER_DIGITS ((64 + PLOD__ORDER_BITS - 1) / PLOD__ORDER_BITS)
 #define PLOD__ORDER_RADIX (1u << PLOD__ORDER_BITS)
 
+/* A leaf's evaluation, cached for the frame it names. */
+typedef struct plod__leaf_eval {
+    uint32_t frame;
+    uint8_t split; /* P(leaf) */
+} plod__leaf_eval;
+
 struct plod_refiner {
     plod_lodtree tree;
+    /* per leaf slot, kept in step with the tree's slots (its observer):
+     * the evaluation of this frame where its frame is the tree's */
+    plod__leaf_eval *leaf_eval;
+    size_t leaf_eval_capacity;
+    /* this update's limits on the splits, and which of them stopped one */
+    plod_lodtree_limits limits;
+    int truncated;          /* limits.max_sectors (or memory) stopped a split */
+    int limited;            /* limits.max_splits stopped a split */
     /* the budget search, from one update to the next */
     int coarsen_step;       /* the budget's step of the last update: where the
                                next update's search starts (never its result) */
@@ -189,26 +207,25 @@ static uint16_t plod__leaf_flags(const plod__frame *f, const plod_sector *sec, u
 static int plod__eval_leaf(const plod__frame *f, size_t i)
 {
     plod_lodtree *t = f->tree;
-    plod_lodtree_leaf *g = &t->geom[i];
+    plod__leaf_eval *e = &f->refiner->leaf_eval[i];
     unsigned flags, planes;
-    g->eval_split = (uint8_t)plod__wants_split(f, &g->self, t->leaves[i].level, &flags,
-                                               plod__parent_planes(t, t->leaf_parent[i]),
-                                               &planes);
-    g->eval_frame = t->frame;
+    e->split = (uint8_t)plod__wants_split(f, &t->geom[i].self, t->leaves[i].level, &flags,
+                                          plod__parent_planes(t, t->leaf_parent[i]), &planes);
+    e->frame = t->frame;
     t->leaves[i].flags = plod__leaf_flags(f, &t->leaves[i], flags);
-    return g->eval_split;
+    return e->split;
 }
 
 /* P*(leaf), caching P(leaf) and its cull flags for this frame. */
 static int plod__leaf_wants_split(const plod__frame *f, size_t i)
 {
     plod_lodtree *t = f->tree;
-    plod_lodtree_leaf *g = &t->geom[i];
-    if (g->eval_frame != t->frame)
+    const plod__leaf_eval *e = &f->refiner->leaf_eval[i];
+    if (e->frame != t->frame)
         plod__eval_leaf(f, i);
     int32_t parent = t->leaf_parent[i];
-    if (!g->eval_split || parent < 0)
-        return g->eval_split;
+    if (!e->split || parent < 0)
+        return e->split;
     assert(t->nodes[parent].id == plod_lodtree_parent_id(t->leaves[i].id));
     return plod__node_wants(f, parent);
 }
@@ -441,6 +458,17 @@ static void plod__merge_pass(plod__frame *f)
     }
 }
 
+/* plod_lodtree_split under this update's limits, noting which stopped it. */
+static void plod__split(const plod__frame *f, size_t i)
+{
+    plod_refiner *r = f->refiner;
+    int done = plod_lodtree_split(f->tree, i, &r->limits);
+    if (done == PLOD_LODTREE_SPLIT_CAPPED)
+        r->truncated = 1;
+    else if (done == PLOD_LODTREE_SPLIT_LIMITED)
+        r->limited = 1;
+}
+
 /* Deferred splits (plod_lodtree_defer) settled in parallel: a wave's jobs
  * from PLOD__PARALLEL_JOBS on, in chunks of PLOD__JOB_GRAIN (a job, two
  * bounds and their evaluation, takes about half a microsecond). */
@@ -471,7 +499,7 @@ static void plod__visit(const plod__frame *f, size_t i)
 {
     plod_lodtree *t = f->tree;
     if (t->leaf_job[i] < 0 && plod__leaf_wants_split(f, i))
-        plod_lodtree_split(t, i);
+        plod__split(f, i);
 }
 
 /* The split pass in waves: the marked leaves that pass P* split, their
@@ -484,20 +512,21 @@ static void plod__visit(const plod__frame *f, size_t i)
 static void plod__split_waves(plod__frame *f)
 {
     plod_lodtree *t = f->tree;
-    const uint64_t *marks = f->refiner->split_marks;
+    const plod_refiner *r = f->refiner;
+    const uint64_t *marks = r->split_marks;
     plod_lodtree_defer(t, 1);
     size_t swept = t->count;
-    for (size_t w = 0; w * 64 < swept && !t->truncated; w++)
-        for (uint64_t bits = marks[w]; bits && !t->truncated; bits &= bits - 1)
+    for (size_t w = 0; w * 64 < swept && !r->truncated; w++)
+        for (uint64_t bits = marks[w]; bits && !r->truncated; bits &= bits - 1)
             plod__visit(f, w * 64 + (size_t)__builtin_ctzll(bits));
     for (size_t first = 0; first < t->job_count;) {
         size_t last = t->job_count;
         plod__wave wave = {f, first};
         plod_workers_for(last - first >= PLOD__PARALLEL_JOBS ? f->refiner->workers : NULL,
                          last - first, PLOD__JOB_GRAIN, plod__settle_range, &wave);
-        for (size_t j = first; j < last && !t->truncated; j++) {
+        for (size_t j = first; j < last && !r->truncated; j++) {
             plod__visit(f, plod_lodtree_job_child(t, j, 0));
-            if (!t->truncated)
+            if (!r->truncated)
                 plod__visit(f, plod_lodtree_job_child(t, j, 1));
         }
         first = last;
@@ -510,9 +539,10 @@ static void plod__split_waves(plod__frame *f)
 static void plod__split_leaf(const plod__frame *f, size_t i)
 {
     plod_lodtree *t = f->tree;
-    while (!t->truncated && !t->limited && plod__leaf_wants_split(f, i)) {
+    const plod_refiner *r = f->refiner;
+    while (!r->truncated && !r->limited && plod__leaf_wants_split(f, i)) {
         size_t before = t->splits;
-        plod_lodtree_split(t, i);
+        plod__split(f, i);
         if (t->splits == before)
             break; /* at PLOD_MAX_LEVEL or truncated */
     }
@@ -527,35 +557,36 @@ static void plod__split_leaf(const plod__frame *f, size_t i)
 static void plod__split_pass(plod__frame *f)
 {
     plod_lodtree *t = f->tree;
+    const plod_refiner *r = f->refiner;
     t->pending_count = 0;
     /* waves, unless a cap may stop the pass where the order of the splits
      * decides which were made and hysteresis carries that to later frames */
-    if (!t->split_limit && f->refiner->split_marks &&
-        (!f->params->hysteresis || t->max_sectors >= f->params->max_sectors)) {
+    if (!r->limits.max_splits && r->split_marks &&
+        (!f->params->hysteresis || r->limits.max_sectors >= f->params->max_sectors)) {
         plod__split_waves(f);
         return;
     }
-    if (t->split_limit) { /* progressive: breadth first (plod_refine_params) */
-        for (int again = 1; again && !t->truncated && !t->limited;) {
+    if (r->limits.max_splits) { /* progressive: breadth first (plod_refine_params) */
+        for (int again = 1; again && !r->truncated && !r->limited;) {
             again = 0;
             size_t swept = t->count; /* children appended now wait for the next sweep */
-            for (size_t i = 0; i < swept && !t->truncated && !t->limited; i++) {
+            for (size_t i = 0; i < swept && !r->truncated && !r->limited; i++) {
                 if (!plod__leaf_wants_split(f, i))
                     continue;
                 size_t before = t->splits;
-                plod_lodtree_split(t, i);
+                plod__split(f, i);
                 again |= t->splits != before;
             }
         }
         t->pending_count = 0;
         return;
     }
-    uint64_t *marks = f->refiner->split_marks;
+    uint64_t *marks = r->split_marks;
     size_t swept = 0;
     if (marks) {
         swept = t->count;
-        for (size_t w = 0; w * 64 < swept && !t->truncated; w++) {
-            while (marks[w] && !t->truncated) {
+        for (size_t w = 0; w * 64 < swept && !r->truncated; w++) {
+            while (marks[w] && !r->truncated) {
                 size_t i = w * 64 + (size_t)__builtin_ctzll(marks[w]);
                 marks[w] &= marks[w] - 1;
                 size_t queued = t->pending_count;
@@ -568,9 +599,9 @@ static void plod__split_pass(plod__frame *f)
             }
         }
     }
-    for (size_t i = swept; i < t->count && !t->truncated; i++)
+    for (size_t i = swept; i < t->count && !r->truncated; i++)
         plod__split_leaf(f, i);
-    while (t->pending_count && !t->truncated)
+    while (t->pending_count && !r->truncated)
         plod__split_leaf(f, t->pending[--t->pending_count]);
 }
 
@@ -581,8 +612,8 @@ static void plod__split_pass(plod__frame *f)
 static void plod__refine_pass(plod__frame *f, int step, size_t cap)
 {
     plod__sweep(f, step);
-    f->tree->max_sectors = cap;
-    f->tree->truncated = 0;
+    f->refiner->limits.max_sectors = cap;
+    f->refiner->truncated = 0;
     plod__merge_pass(f);
     plod__eval_leaves(f);
     plod__split_pass(f);
@@ -599,7 +630,7 @@ static int plod__fits(plod__frame *f, int step)
     const plod_refine_params *params = f->params;
     size_t cap = params->budget < params->max_sectors ? params->budget + 1 : params->max_sectors;
     plod__refine_pass(f, step, cap);
-    return !f->tree->truncated && f->tree->count <= params->budget;
+    return !f->refiner->truncated && f->tree->count <= params->budget;
 }
 
 /* A lower bound of the sectors step `step` keeps, from the current
@@ -649,7 +680,7 @@ static void plod__fit_budget(plod_refiner *r, plod__frame *f)
     } else {
         while (step < PLOD__MAX_COARSEN_STEP && !plod__fits(f, ++step))
             ;
-        if (f->tree->truncated) /* even the coarsest step does not fit: complete it */
+        if (r->truncated) /* even the coarsest step does not fit: complete it */
             plod__refine_pass(f, step, params->max_sectors);
     }
     r->coarsen_step = step;
@@ -898,8 +929,8 @@ static void plod__frame_init(plod__frame *f, plod_refiner *r, const plod_camera 
 static void plod__refine(plod_refiner *r, plod__frame *f)
 {
     r->tree.splits = r->tree.merges = 0;
-    r->tree.split_limit = f->params->max_splits;
-    r->tree.limited = 0;
+    r->limits.max_splits = f->params->max_splits;
+    r->limited = 0;
     if (f->params->max_splits) {
         /* progressive: the breadth-first pass, the budget as its cap (it
          * stops the view a level short where it binds, uniformly) */
@@ -942,7 +973,7 @@ static void plod__classify_range(void *context, size_t begin, size_t end)
     plod__class_counts c = {0, 0, 0, 0, 0};
     for (size_t i = begin; i < end; i++) {
         const plod_sector *sec = &t->leaves[i];
-        if (!job->evaluated && t->geom[i].eval_frame != t->frame)
+        if (!job->evaluated && f->refiner->leaf_eval[i].frame != t->frame)
             plod__eval_leaf(f, i); /* not visited (a pass stopped by a cap) */
         unsigned flags = sec->flags;
         c.deepest = sec->level > c.deepest ? sec->level : c.deepest;
@@ -970,7 +1001,7 @@ static size_t plod__classify(const plod__frame *f, plod_refine_stats *s)
     size_t count = f->tree->count;
     plod__class_job job;
     job.frame = f;
-    job.evaluated = !f->tree->truncated && !f->tree->limited;
+    job.evaluated = !f->refiner->truncated && !f->refiner->limited;
     job.grain = count / PLOD__CLASS_CHUNKS + 1;
     if (job.grain < PLOD__PARALLEL_GRAIN)
         job.grain = PLOD__PARALLEL_GRAIN;
@@ -1074,8 +1105,8 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
     s.merges = r->tree.merges;
     s.refine_us = t1 - t0;
     s.cull_us = t2 - t1;
-    s.truncated = r->tree.truncated;
-    s.pending = r->tree.limited;
+    s.truncated = r->truncated;
+    s.pending = r->limited;
     s.frame = r->tree.frame;
     if (stats)
         *stats = s;
@@ -1083,6 +1114,44 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
 }
 
 /* ---- the refiner ------------------------------------------------------------------ */
+
+/* The tree's observer: the leaves' evaluations follow their slots; a leaf
+ * made now has none yet (the frame before the tree's). */
+static plod_status plod__leaf_eval_reserve(void *context, size_t capacity)
+{
+    plod_refiner *r = context;
+    if (capacity <= r->leaf_eval_capacity)
+        return PLOD_OK;
+    plod__leaf_eval *fresh = realloc(r->leaf_eval, capacity * sizeof *fresh);
+    if (!fresh)
+        return PLOD_ERR_NO_MEMORY;
+    r->leaf_eval = fresh;
+    r->leaf_eval_capacity = capacity;
+    return PLOD_OK;
+}
+
+/* A split makes the leaf's node with P known when the leaf was evaluated
+ * this frame. */
+static void plod__leaf_eval_split(void *context, size_t slot, int32_t node)
+{
+    plod_refiner *r = context;
+    const plod__leaf_eval *e = &r->leaf_eval[slot];
+    if (e->frame == r->tree.frame)
+        r->tree.node_state[node] =
+            (uint8_t)(PLOD_NODE_P_KNOWN | (e->split ? PLOD_NODE_P_TRUE : 0u));
+}
+
+static void plod__leaf_eval_made(void *context, size_t slot)
+{
+    plod_refiner *r = context;
+    r->leaf_eval[slot].frame = r->tree.frame - 1;
+}
+
+static void plod__leaf_eval_moved(void *context, size_t from, size_t to)
+{
+    plod_refiner *r = context;
+    r->leaf_eval[to] = r->leaf_eval[from];
+}
 
 plod_status plod_refiner_create(plod_refiner **out, const plod_planet *planet)
 {
@@ -1100,6 +1169,16 @@ plod_status plod_refiner_create(plod_refiner **out, const plod_planet *planet)
         free(r);
         return st;
     }
+    /* the base sectors: not evaluated (frame 0, the tree's starts at 1) */
+    r->leaf_eval = calloc(r->tree.capacity, sizeof *r->leaf_eval);
+    if (!r->leaf_eval) {
+        plod_lodtree_free(&r->tree);
+        free(r);
+        return PLOD_ERR_NO_MEMORY;
+    }
+    r->leaf_eval_capacity = r->tree.capacity;
+    r->tree.observer = (plod_lodtree_observer){r, plod__leaf_eval_reserve, plod__leaf_eval_split,
+                                               plod__leaf_eval_made, plod__leaf_eval_moved};
     *out = r;
     return PLOD_OK;
 }
@@ -1110,6 +1189,7 @@ void plod_refiner_destroy(plod_refiner *refiner)
         return;
     plod_workers_destroy(refiner->workers);
     plod_lodtree_free(&refiner->tree);
+    free(refiner->leaf_eval);
     free(refiner->order);
     free(refiner->order_keys);
     free(refiner->scratch_index);
@@ -1128,7 +1208,11 @@ plod_status plod_refiner_reserve(plod_refiner *refiner, size_t sectors)
         return PLOD_ERR_NULL;
     if (sectors > PLOD_REFINER_MAX_RESERVE)
         return PLOD_ERR_BAD_PARAM;
+    size_t old_evals = refiner->leaf_eval_capacity;
     plod_status st = plod_lodtree_reserve(&refiner->tree, sectors);
+    if (st == PLOD_OK && refiner->leaf_eval_capacity > old_evals) /* touched now, as the tree's */
+        memset(refiner->leaf_eval + old_evals, 0,
+               (refiner->leaf_eval_capacity - old_evals) * sizeof *refiner->leaf_eval);
     if (st == PLOD_OK)
         st = plod__order_reserve(refiner, sectors);
     if (st == PLOD_OK)
@@ -1188,6 +1272,7 @@ size_t plod_refiner_memory_bytes(const plod_refiner *r)
     if (!r)
         return 0;
     return sizeof *r + plod_lodtree_memory_bytes(&r->tree) +
+           r->leaf_eval_capacity * sizeof *r->leaf_eval +
            r->order_capacity * 4 * (sizeof(uint32_t) + sizeof(uint64_t)) +
            r->split_mark_words * sizeof(uint64_t) + r->merge_capacity * sizeof(int32_t);
 }

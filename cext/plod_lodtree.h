@@ -1,9 +1,11 @@
 /* plod_lodtree.h -- the LOD tree of the refinement (lodtree.c): implicit
  * longest-edge-bisection ids, the leaf and internal-node stores with
  * their conforming neighbour links, split and merge, and the
- * invariants.  Mechanics only: when to split or merge is the LOD update's
- * (lodupdate.c), which drives the tree through these calls.  Internal to
- * the core: bindings use plod_refine.h.
+ * invariants.  Mechanics only: when to split or merge, the limits on
+ * splits and each frame's evaluation of the leaves are the LOD update's
+ * (lodupdate.c), which drives the tree through these calls and keeps its
+ * per-leaf state in arrays of its own (plod_lodtree_observer).  Internal
+ * to the core: bindings use plod_refine.h.
  *
  * Bit rules (libleb-style heap ids):
  *   id        = base << 56 | heap,  heap = 1 << level | path bits
@@ -42,13 +44,9 @@ static inline uint64_t plod_lodtree_parent_id(uint64_t id)
 
 /* ---- the stores ----------------------------------------------------------------- */
 
-/* A leaf's bound, and the slots where the LOD update caches its evaluation
- * of this frame (the tree moves them with the leaf and marks a new leaf's
- * stale; the evaluation's culling goes to the sector's flags). */
+/* A leaf's bound. */
 typedef struct plod_lodtree_leaf {
     plod_bound self;
-    uint32_t eval_frame;   /* frame of the cached evaluation below */
-    uint8_t eval_split;    /* predicate result */
 } plod_lodtree_leaf;
 
 /* A leaf's corner directions and, once a bound needed them, heights: kept
@@ -68,13 +66,31 @@ typedef struct plod_lodtree_node {
 } plod_lodtree_node;
 
 /* node_state bits: the LOD update's, valid for the current frame (cleared
- * by its sweep).  A split makes a node from a leaf that the update
- * evaluated this frame (the leaf's eval_split) with P known: the node has
+ * by its sweep).  A split makes a node from a leaf that the update may
+ * have evaluated this frame (plod_lodtree_observer.split): the node has
  * the leaf's bound, level and parent, so the same predicate. */
 enum {
     PLOD_NODE_P_KNOWN = 1, PLOD_NODE_P_TRUE = 2,        /* P(node) */
     PLOD_NODE_STAR_KNOWN = 4, PLOD_NODE_STAR_TRUE = 8   /* P*(node) */
 };
+
+/* Whoever keeps per-leaf data in arrays parallel to the tree's (the LOD
+ * update's evaluation of each leaf) follows the tree's changes of leaf
+ * slots through these calls.  The tree makes them on the thread that
+ * splits or merges, never from plod_lodtree_settle. */
+typedef struct plod_lodtree_observer {
+    void *context;
+    /* room for slots [0, capacity); the tree grows only once it succeeds */
+    plod_status (*reserve)(void *context, size_t capacity);
+    /* the leaf at `slot` becomes internal node `node`; called before a
+     * split writes the node's children (child 0 into `slot`) */
+    void (*split)(void *context, size_t slot, int32_t node);
+    /* `slot` holds a leaf made now (a split's child, a merge's parent, a
+     * base sector of a reset) */
+    void (*made)(void *context, size_t slot);
+    /* the leaf at `from` moved to `to` (a merge filling a hole) */
+    void (*moved)(void *context, size_t from, size_t to);
+} plod_lodtree_observer;
 
 /* Given: planet (borrowed).  Returned: everything else.  The arrays are
  * read directly by the LOD update; only these calls change their shape. */
@@ -118,14 +134,9 @@ typedef struct plod_lodtree {
                                     is a leaf (kept as leaves move) */
     size_t node_capacity, node_top, node_used; /* node_top: slots in use or
                                                   holes (id 0) */
-    uint32_t frame;              /* refine frame: births, stale evaluations */
-    size_t max_sectors;          /* a split that would exceed it stops */
-    int truncated;               /* 1: max_sectors stopped a split */
-    size_t split_limit;          /* 0, or: a diamond split that would take
-                                    `splits` over it stops (the first one of
-                                    a count from 0 never does) */
-    int limited;                 /* 1: split_limit stopped a split */
+    uint32_t frame;              /* refine frame: the births of sectors */
     size_t splits, merges;       /* counted since the caller zeroed them */
+    plod_lodtree_observer observer; /* all NULL: none */
 } plod_lodtree;
 
 /* ---- create / destroy ----------------------------------------------------------- */
@@ -143,13 +154,26 @@ size_t plod_lodtree_memory_bytes(const plod_lodtree *tree);
 
 /* ---- split / merge ------------------------------------------------------------- */
 
+/* The caller's limits on a split (its budget policy). */
+typedef struct plod_lodtree_limits {
+    size_t max_sectors;          /* a split that would exceed it stops */
+    size_t max_splits;           /* 0, or: a diamond split that would take
+                                    `splits` over it stops (the first one of
+                                    a count from 0 never does) */
+} plod_lodtree_limits;
+
+enum {
+    PLOD_LODTREE_SPLIT_LIMITED = -1, /* max_splits stopped it */
+    PLOD_LODTREE_SPLIT_CAPPED = 0,   /* max_sectors (or memory) stopped it */
+    PLOD_LODTREE_SPLIT_DONE = 1
+};
+
 /* Splits leaf i and, first, the coarser neighbours across its hypotenuse
  * (forced splits: the result conforms).  Leaf i's slot receives child 0 of
  * its split, its index is pushed on `pending`, new leaves are appended.
- * Returns 0 when max_sectors (or memory) stopped it (truncated = 1) or
- * split_limit did (limited = 1), 1 otherwise; at PLOD_MAX_LEVEL a no-op
- * returning 1. */
-int plod_lodtree_split(plod_lodtree *tree, size_t i);
+ * Returns a PLOD_LODTREE_SPLIT_* value; at PLOD_MAX_LEVEL a no-op returning
+ * PLOD_LODTREE_SPLIT_DONE.  A stop leaves the forced splits made before it. */
+int plod_lodtree_split(plod_lodtree *tree, size_t i, const plod_lodtree_limits *limits);
 
 /* Deferred splits (as many threads can compute the bounds of the children
  * as there are jobs).  plod_lodtree_defer(tree, 1) starts them: each split
