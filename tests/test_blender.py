@@ -3,12 +3,18 @@ supported Blender, the add-on linked into a temporary user-scripts folder:
 
 * `blender`: the executable $BLENDER (Debian's 3.4.1), with -b --factory-startup
   --python-exit-code 1;
-* `bpy-4.2`, `bpy-4.5`, `bpy-5.0`: Blender as a Python module (the bpy wheels
-  that tools/blender_versions.py installs; tools/run_tests.sh installs them),
-  through tools/bpy_run.py.  A version that is not installed is skipped.
+* `bpy-4.2`, `bpy-4.5`, `bpy-5.0`, `bpy-5.1`, `bpy-5.2`, `bpy-5.3`: Blender as
+  a Python module (the bpy wheels that tools/blender_versions.py installs;
+  tools/run_tests.sh installs them), through tools/bpy_run.py.  A version
+  that is not installed is skipped with the reason.
 
-$PLANET_LOD_BLENDERS (comma-separated labels, e.g. "blender,bpy-5.0") picks a
-subset.  The GPU-preview test needs a real window and runs in `blender` only.
+The whole suite runs in the oldest Blender (Debian's 3.4.1) and in the newest
+installed bpy; each Blender between gets the smoke tests: the installed
+package, adding a planet, a render and the farm split (SMOKE_SCRIPTS and the
+tests marked so below).  $PLANET_LOD_FULL_BLENDERS=all runs the whole suite
+in every one.  $PLANET_LOD_BLENDERS (comma-separated labels, e.g.
+"blender,bpy-5.0") picks a subset.  The GPU-preview test needs a real window
+and runs in `blender` only.
 
 The native module is the one built in the repository root (setup.py
 build_ext --inplace), or whatever $PLANET_LOD_NATIVE points to.
@@ -17,6 +23,7 @@ import csv
 import glob
 import os
 import shutil
+import struct
 import subprocess
 import sys
 
@@ -35,6 +42,23 @@ _chosen = os.environ.get("PLANET_LOD_BLENDERS")
 if _chosen:
     BLENDERS = [b for b in BLENDERS if b in _chosen.split(",")]
 
+# The whole suite: the oldest and the newest Blender; smoke tests in the others.
+_installed = [name for name, _python in blender_versions.installed()]
+FULL_BLENDERS = {"blender"} | set(_installed[-1:])
+if os.environ.get("PLANET_LOD_FULL_BLENDERS") == "all":
+    FULL_BLENDERS = set(BLENDERS)
+SMOKE_SCRIPTS = ("test_planet_add.py", "test_render.py")
+
+
+def _in_each(blenders, full_only=False):
+    """`which` parameters: in a Blender of the smoke set, full-suite tests are
+    deselected (collected as skipped, with the reason)."""
+    return [b if b in FULL_BLENDERS or not full_only else
+            pytest.param(b, marks=pytest.mark.skip(
+                reason=f"{b}: smoke tests only (the whole suite runs in "
+                       f"{', '.join(sorted(FULL_BLENDERS))}; PLANET_LOD_FULL_BLENDERS=all)"))
+            for b in blenders]
+
 
 def blender_command(which, script, args=()):
     """The command that runs `script` (with `args` after "--") in Blender `which`."""
@@ -44,7 +68,7 @@ def blender_command(which, script, args=()):
                 "--python", script] + args
     python = dict(blender_versions.installed()).get(which)
     if python is None:
-        pytest.skip(f"{which} not installed (python3 tools/blender_versions.py install)")
+        pytest.skip(blender_versions.missing_reason(which))
     return [python, blender_versions.RUNNER, script] + args
 
 
@@ -74,8 +98,16 @@ def run_blender(which, script, env, args=(), timeout=300):
     return proc, proc.stdout + proc.stderr
 
 
-@pytest.mark.parametrize("script", SCRIPTS)
-@pytest.mark.parametrize("which", BLENDERS)
+def _script_params():
+    params = []
+    for which in BLENDERS:
+        for script in SCRIPTS:
+            if which in FULL_BLENDERS or script in SMOKE_SCRIPTS:
+                params.append(pytest.param(which, script, id=f"{which}-{script}"))
+    return params
+
+
+@pytest.mark.parametrize("which,script", _script_params())
 def test_blender_script(which, script, user_scripts, tmp_path):
     proc, output = run_blender(which, os.path.join(BLENDER_TESTS, script),
                                blender_env(user_scripts, tmp_path))
@@ -113,21 +145,93 @@ def test_farm_split_gives_same_frames(which, user_scripts, tmp_path):
     assert os.path.getsize(tmp_path / "part" / "contact_sheet.png") > 0
 
 
+def _build_packages(out, wheels):
+    proc = subprocess.run([sys.executable, os.path.join(ROOT, "tools", "build_extension.py"),
+                           "--out", str(out), "--wheels", str(wheels)],
+                          capture_output=True, text=True, timeout=600)
+    return proc, proc.stdout + proc.stderr
+
+
 @pytest.fixture(scope="module")
 def packages(tmp_path_factory):
-    """The extension and legacy .zip built by tools/build_extension.py (validated
-    there with Blender's own extension tool from the newest bpy wheel)."""
+    """The Linux x86-64 extension and legacy .zip built by tools/build_extension.py
+    from the module built here (validated there with Blender's own extension
+    tool from the newest bpy wheel)."""
     if blender_versions.installed() == []:
         pytest.skip("no bpy wheel installed: Blender's extension tool ships in it")
     out = tmp_path_factory.mktemp("dist")
-    proc = subprocess.run([sys.executable, os.path.join(ROOT, "tools", "build_extension.py"),
-                           "--out", str(out)], capture_output=True, text=True, timeout=600)
-    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
-    assert "Success parsing TOML" in proc.stdout  # blender_ext.py validate
+    proc, output = _build_packages(out, out)
+    assert proc.returncode == 0, output[-6000:]
+    assert "Success parsing TOML" in output  # blender_ext.py validate
     built = {"extension": glob.glob(str(out / "planet_lod-*-linux_x64.zip")),
-             "legacy": glob.glob(str(out / "planet_lod-*-legacy.zip"))}
+             "legacy": glob.glob(str(out / "planet_lod-*-legacy-linux_x64.zip"))}
     assert all(len(v) == 1 for v in built.values()), built
     return {k: v[0] for k, v in built.items()}
+
+
+def _fake_wheel(folder, tag, module, data):
+    import zipfile
+    path = folder / f"planetlod-0.1.0-cp311-abi3-{tag}.whl"
+    with zipfile.ZipFile(path, "w") as z:
+        z.writestr("planetlod/__init__.py", "")
+        z.writestr(f"planetlod/{module}", data)
+    return path
+
+
+# Headers of binaries built for other platforms (what the wheels of
+# tools/build_wheels.py hold): a PE32+ DLL for x86-64, a universal Mach-O.
+WINDOWS_X64 = b"MZ" + bytes(58) + struct.pack("<I", 64) + b"PE\0\0" + struct.pack("<H", 0x8664)
+MACOS_UNIVERSAL = (b"\xca\xfe\xba\xbe" + struct.pack(">I", 2)
+                   + struct.pack(">IIIII", 0x01000007, 3, 4096, 4096, 12)
+                   + struct.pack(">IIIII", 0x0100000C, 0, 8192, 4096, 14))
+
+
+def test_packages_for_every_platform(tmp_path):
+    """One extension and one legacy .zip per platform the wheels serve, each
+    validated by Blender's own tool: the manifest names that one platform, the
+    zip holds that platform's native module, LICENSE and data/README.md; a
+    wheel whose binary is not built for its tag stops the build."""
+    import tomllib
+    import zipfile
+    if blender_versions.installed() == []:
+        pytest.skip("no bpy wheel installed: Blender's extension tool ships in it")
+    wheels = tmp_path / "wheels"
+    wheels.mkdir()
+    with open(os.path.join(ROOT, "planetlod", "_native.abi3.so"), "rb") as f:
+        linux = f.read()
+    _fake_wheel(wheels, "manylinux_2_17_x86_64.manylinux2014_x86_64", "_native.abi3.so", linux)
+    _fake_wheel(wheels, "win_amd64", "_native.pyd", WINDOWS_X64)
+    _fake_wheel(wheels, "macosx_11_0_universal2", "_native.abi3.so", MACOS_UNIVERSAL)
+    out = tmp_path / "dist"
+    proc, output = _build_packages(out, wheels)
+    assert proc.returncode == 0, output[-6000:]
+    expected = {"linux_x64": linux, "windows_x64": WINDOWS_X64, "macos_x64": MACOS_UNIVERSAL,
+                "macos_arm64": MACOS_UNIVERSAL}
+    made = sorted(os.path.basename(p) for p in glob.glob(str(out / "*.zip")))
+    assert made == sorted([f"planet_lod-0.1.0-{p}.zip" for p in expected] +
+                          [f"planet_lod-0.1.0-legacy-{p}.zip" for p in expected]), made
+    assert output.count("Success parsing TOML") == len(expected), output
+    for platform, binary in expected.items():
+        for kind in ("", "legacy-"):
+            with zipfile.ZipFile(out / f"planet_lod-0.1.0-{kind}{platform}.zip") as z:
+                names = z.namelist()
+                prefix = "planet_lod/" if kind else ""  # the legacy zip holds the folder
+                natives = [n for n in names if "/_native." in n]
+                assert len(natives) == 1 and z.read(natives[0]) == binary, natives
+                assert prefix + "LICENSE" in names and prefix + "data/README.md" in names
+                assert "maps" in z.read(prefix + "data/README.md").decode().lower()
+                if not kind:
+                    manifest = tomllib.loads(z.read("blender_manifest.toml").decode())
+                    assert manifest["platforms"] == [platform.replace("_", "-")]
+                    assert manifest["copyright"] and manifest["license"]
+                else:
+                    assert prefix + "blender_manifest.toml" not in names
+    # a wheel tagged for Windows holding a Linux binary: the platforms would lie
+    for wheel in wheels.iterdir():
+        wheel.unlink()
+    _fake_wheel(wheels, "win_amd64", "_native.pyd", linux)
+    proc, output = _build_packages(tmp_path / "lie", wheels)
+    assert proc.returncode != 0 and "tagged for windows-x64" in output, output[-3000:]
 
 
 @pytest.mark.parametrize("which", BLENDERS)
@@ -186,7 +290,7 @@ def _structure(luminance):
 DESCENT_STRUCTURE = 0.0035
 
 
-@pytest.mark.parametrize("which", BLENDERS)
+@pytest.mark.parametrize("which", _in_each(BLENDERS, full_only=True))
 def test_flyby_frames_show_surface_sky_and_sea(which, user_scripts, tmp_path):
     """Every frame of the README's flyby (orbit, descent, skim at 5 m) shows a lit
     surface; the descent (1-200 km up) shows ground detail below the horizon

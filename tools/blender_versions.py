@@ -102,6 +102,18 @@ def installed():
     return [(label(v), python_of(v)) for v in BPY_VERSIONS if python_of(v)]
 
 
+def missing_reason(name):
+    """Why the Blender labelled `name` ('bpy-5.1') is not installed, for a skip."""
+    version = next((v for v in BPY_VERSIONS if label(v) == name), None)
+    if version is None:
+        return f"{name} is not a pinned Blender"
+    cpython = cpython_of(version)
+    if base_python(cpython) is None:
+        return (f"{name}: the bpy {version} wheel needs CPython {cpython}, and none was found "
+                f"(set PLANET_LOD_PYTHON{cpython.replace('.', '')} or install it with pyenv)")
+    return f"{name} not installed (python3 tools/blender_versions.py install)"
+
+
 def _run(cmd):
     print("blender_versions:", " ".join(cmd), flush=True)
     subprocess.run(cmd, check=True)
