@@ -48,6 +48,8 @@ FULL_BLENDERS = {"blender"} | set(_installed[-1:])
 if os.environ.get("PLANET_LOD_FULL_BLENDERS") == "all":
     FULL_BLENDERS = set(BLENDERS)
 SMOKE_SCRIPTS = ("test_planet_add.py", "test_render.py")
+# the newest installed bpy (None: none is)
+NEWEST = _installed[-1] if _installed else None
 
 
 def _in_each(blenders, full_only=False):
@@ -163,7 +165,7 @@ def packages(tmp_path_factory):
     proc, output = _build_packages(out, out)
     assert proc.returncode == 0, output[-6000:]
     assert "Success parsing TOML" in output  # blender_ext.py validate
-    built = {"extension": glob.glob(str(out / "planet_lod-*-linux_x64.zip")),
+    built = {"extension": glob.glob(str(out / "planet_lod-[0-9]*[0-9]-linux_x64.zip")),
              "legacy": glob.glob(str(out / "planet_lod-*-legacy-linux_x64.zip"))}
     assert all(len(v) == 1 for v in built.values()), built
     return {k: v[0] for k, v in built.items()}
@@ -248,6 +250,83 @@ def test_installed_package(which, packages, tmp_path):
     env["PYTHONPATH"] = BLENDER_TESTS
     proc, output = run_blender(which, os.path.join(BLENDER_TESTS, "package_check.py"), env,
                                [packages[mode], mode])
+    assert proc.returncode == 0 and "PLOD-TEST PASS" in output, output[-6000:]
+
+
+# Native modules that cannot load, each as the loader meets it.
+_NEEDS_GONE_LIBRARY = "int plod_gone(void);\nint PyInit__native(void) { return plod_gone(); }\n"
+_NEEDS_MISSING_SYMBOL = ("int plod_missing_symbol(void);\n"
+                         "int PyInit__native(void) { return plod_missing_symbol(); }\n")
+
+
+def _broken_package(package, variant, tmp_path):
+    """A copy of the zip `package` whose planetlod/_native is `variant`: 'none'
+    (no binary), 'windows' (only a Windows DLL), 'library' (needs a library
+    that is not there), 'symbol' (needs a symbol no library has)."""
+    import zipfile
+    module = None
+    if variant in ("library", "symbol"):
+        if shutil.which("gcc") is None:
+            pytest.skip("needs gcc")
+        src = tmp_path / "stub.c"
+        src.write_text(_NEEDS_GONE_LIBRARY if variant == "library" else _NEEDS_MISSING_SYMBOL)
+        cmd = ["gcc", "-shared", "-fPIC", "-o", str(tmp_path / "_native.abi3.so"), str(src)]
+        if variant == "library":
+            (tmp_path / "gone.c").write_text("int plod_gone(void) { return 0; }\n")
+            subprocess.run(["gcc", "-shared", "-fPIC", "-o", str(tmp_path / "libplodgone.so"),
+                            str(tmp_path / "gone.c")], check=True)
+            cmd += ["-L", str(tmp_path), "-lplodgone"]
+        subprocess.run(cmd, check=True)
+        module = ("_native.abi3.so", (tmp_path / "_native.abi3.so").read_bytes())
+    elif variant == "windows":
+        module = ("_native.pyd", WINDOWS_X64)
+    broken = tmp_path / f"broken-{os.path.basename(package)}"
+    with zipfile.ZipFile(package) as src, zipfile.ZipFile(broken, "w") as dst:
+        for item in src.infolist():
+            if "planetlod/_native." in item.filename:
+                if module is not None:
+                    folder = item.filename.rsplit("/", 1)[0]
+                    dst.writestr(f"{folder}/{module[0]}", module[1])
+                continue
+            dst.writestr(item, src.read(item.filename))
+    return broken
+
+
+LOAD_FAILURES = [
+    ("blender", "legacy", "none", ["there is no native module for linux-x64",
+                                   "install the legacy add-on zip built for linux-x64"]),
+    ("blender", "legacy", "windows", ["built for windows-x64, not for this linux-x64 Blender"]),
+    ("blender", "legacy", "library", ["a library the native module needs is missing: "
+                                      "libplodgone.so", "cannot open shared object file"]),
+    ("blender", "legacy", "symbol", ["needs the symbol plod_missing_symbol",
+                                     "undefined symbol: plod_missing_symbol"]),
+    (NEWEST, "extension", "none", ["there is no native module for linux-x64",
+                                     "install the Planet LOD extension built for linux-x64",
+                                     "planet_lod-<version>-linux_x64.zip"]),
+    (NEWEST, "extension", "library", ["libplodgone.so", "Get Extensions > Install from Disk"]),
+]
+
+
+@pytest.mark.parametrize("which,mode,variant,expected", LOAD_FAILURES,
+                         ids=[f"{w}-{m}-{v}" for w, m, v, _ in LOAD_FAILURES])
+def test_load_failure_says_why(which, mode, variant, expected, packages, tmp_path):
+    """An installed add-on whose native module cannot load enables, and the
+    panel's text and Add Planet's report give the loader's reason and what to
+    do for that install (an extension or a legacy add-on)."""
+    if which is None:
+        pytest.skip("no bpy wheel installed")
+    if which not in BLENDERS:
+        pytest.skip(f"$PLANET_LOD_BLENDERS leaves out {which}")
+    broken = _broken_package(packages[mode], variant, tmp_path)
+    env = dict(os.environ)
+    env.pop("PLANET_LOD_NATIVE", None)
+    for var, sub in (("BLENDER_USER_SCRIPTS", "scripts"), ("BLENDER_USER_CONFIG", "config"),
+                     ("BLENDER_USER_EXTENSIONS", "extensions")):
+        env[var] = str(tmp_path / sub)
+        os.makedirs(env[var])
+    env["PYTHONPATH"] = BLENDER_TESTS
+    proc, output = run_blender(which, os.path.join(BLENDER_TESTS, "load_failure_check.py"), env,
+                               [str(broken), mode] + expected)
     assert proc.returncode == 0 and "PLOD-TEST PASS" in output, output[-6000:]
 
 
