@@ -94,7 +94,7 @@ def blender_env(user_scripts, out):
     return env
 
 
-def run_blender(which, script, env, args=(), timeout=300):
+def run_blender(which, script, env, args=(), timeout=1200):
     proc = subprocess.run(blender_command(which, script, args), env=env, capture_output=True,
                           text=True, timeout=timeout)
     return proc, proc.stdout + proc.stderr

@@ -158,22 +158,29 @@ def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = p.add_subparsers(dest="command", required=True)
     inst = sub.add_parser("install", help="create the missing venvs")
-    inst.add_argument("--newest", action="store_true", help="only the newest version")
+    inst.add_argument("--newest", action="store_true",
+                      help="only the newest version that installs (tried newest first)")
     sub.add_parser("list", help="LABEL PYTHON of each installed version")
     sub.add_parser("newest", help="PYTHON of the newest installed version (exit 1: none)")
     args = p.parse_args(argv)
     if args.command == "install":
-        for version in BPY_VERSIONS[-1:] if args.newest else BPY_VERSIONS:
+        for version in reversed(BPY_VERSIONS) if args.newest else BPY_VERSIONS:
             if python_of(version):
+                if args.newest:
+                    break
                 continue
             try:
                 install(version)
             except (OSError, subprocess.SubprocessError, RuntimeError) as exc:
                 # no route to PyPI (offline, or a proxy whose certificate this
-                # machine does not trust): the tests of this version are
-                # skipped with the reason, the flyby falls back to an older one
+                # machine does not trust) or no CPython for the wheel: the
+                # tests of this version are skipped with the reason, the
+                # flyby falls back to an older one
                 print(f"blender_versions: WARNING: bpy {version} could not be installed "
                       f"({exc}); its tests will be skipped", file=sys.stderr, flush=True)
+            else:
+                if args.newest:
+                    break
         return 0
     if args.command == "newest":
         if not installed():
