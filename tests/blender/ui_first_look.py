@@ -65,8 +65,9 @@ def test():
 
     def turned_and_refreshed():
         steps[0] += 1
+        swing = 0.01 if steps[0] // 8 % 2 == 0 else -0.01  # to and fro: the planet stays in view
         r3d.view_rotation = (r3d.view_rotation @ Vector((0.0, 0.0, 1.0)).rotation_difference(
-            Vector((0.01, 0.0, 1.0)))).normalized()
+            Vector((swing, 0.0, 1.0)))).normalized()
         return st.stats["frame"] - before >= wanted
     yield from ui.wait_until(turned_and_refreshed, what="refreshes while navigating",
                              step=max(0.05, live_module.REFRESH_INTERVAL_S / 2))
