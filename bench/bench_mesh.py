@@ -22,26 +22,9 @@ import tempfile
 import time
 
 import planetlod
+from bench.bench_refine import look_at
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-
-
-def look_at(eye, target):
-    import math
-    back = [e - t for e, t in zip(eye, target)]
-    n = math.sqrt(sum(b * b for b in back))
-    back = [b / n for b in back]
-    up = (0.0, 0.0, 1.0)
-    right = [up[1] * back[2] - up[2] * back[1], up[2] * back[0] - up[0] * back[2],
-             up[0] * back[1] - up[1] * back[0]]
-    n = math.sqrt(sum(r * r for r in right))
-    right = [r / n for r in right]
-    upv = [back[1] * right[2] - back[2] * right[1], back[2] * right[0] - back[0] * right[2],
-           back[0] * right[1] - back[1] * right[0]]
-    return [right[0], upv[0], back[0], eye[0],
-            right[1], upv[1], back[1], eye[1],
-            right[2], upv[2], back[2], eye[2],
-            0.0, 0.0, 0.0, 1.0]
 
 
 def best_time(fn, repeat):
@@ -140,7 +123,7 @@ def main():
         cube = planetlod.CubeMap.from_image(topo, projection="qsc", size=1024)
         planets.append(("earth-topology", planetlod.Planet(radius, heightmap=cube,
                                                            height_scale=8848.0)))
-    camera = planetlod.Camera(look_at((radius + 10e3, 0.0, 0.0), (radius, 50e3, 20e3)))
+    camera = planetlod.Camera(look_at((radius + 10e3, 0.0, 0.0), (radius, 50e3, 20e3), (0.0, 0.0, 1.0)))
     print(f"{'planet':>15} {'tl':>3} {'sectors':>8} {'vertices':>10} {'thr':>4} "
           f"{'ms':>8} {'Mvert/s':>8} {'morph Mv/s':>10} {'B/vert':>7}")
     for name, planet in planets:

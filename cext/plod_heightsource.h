@@ -2,8 +2,8 @@
  * in a cube map: a small interface (sample at a direction, conservative
  * bounds over a spherical cap, texel size, no-data count) and its
  * out-of-core implementation, a tiled equirectangular map read through a
- * bounded cache (plod_tiles); the surface interface the mesh emitter
- * samples (finished heights, normals, detail); regional insets.
+ * bounded cache (plod_tiles); regional insets.  (The finished surface the
+ * mesh emitter samples is plod_surface.h.)
  *
  * A tile file is written once from an equirectangular map (RAW/R16/HGT
  * grid, or any image the caller's reader gives a band of rows at a time): a header, the
@@ -47,37 +47,6 @@ typedef struct plod_height_source {
     const plod_height_source_ops *ops;
     const void *self;
 } plod_height_source;
-
-/* ---- the finished surface (what the mesh emitter samples) -----------------
- * plod_height_source above is raw data: map values and their bounds, which
- * the planet scales, blends and bounds.  A surface source is the other end:
- * heights in metres, unit normals and the detail field's part, with the
- * detail band chosen per point, as mesh vertices need them.  The planet is
- * one (plod_planet_surface_source); tests and other surfaces plug in the
- * same way. */
-typedef struct plod_surface_ops {
-    /* At n unit directions (dirs: 3 n doubles): heights[i] in metres above
-     * the radius, normals[3 i..] unit outward (NULL: not wanted), detail[i]
-     * the detail field's part of the height (NULL: not wanted).  octaves /
-     * normal_octaves (NULL: all): per point, the detail octaves the height
-     * and the normal keep.  A point's results depend on its direction and
-     * band only (not on n or its neighbours), bit for bit.  Called from
-     * several threads at once. */
-    void (*sample_n)(const void *self, size_t n, const double *dirs, const int *octaves,
-                     const int *normal_octaves, double *heights, double *normals,
-                     double *detail);
-    /* Detail octaves that cells of `cell` metres resolve.  NULL when the
-     * surface has no band-limited detail: every point keeps everything. */
-    int (*octaves_for_cell)(const void *self, double cell);
-    /* A value that changes whenever the surface's samples would (caches
-     * compare it); NULL: they never change while `self` lives. */
-    uint64_t (*stamp)(const void *self);
-} plod_surface_ops;
-
-typedef struct plod_surface_source {
-    const plod_surface_ops *ops;
-    const void *self;
-} plod_surface_source;
 
 /* Bounds of a width x height equirectangular map (u = lon / 180 deg,
  * v = lat / 90 deg) over the spherical cap (axis, angle), through the

@@ -23,8 +23,8 @@ def test():
         assert bpy.ops.mesh.planet_add(preset='EARTH') == {'FINISHED'}
     planet = bpy.context.object
     radius = planet.planet_lod.radius
-    from planet_lod import live
-    st = live.state(planet)
+    from planet_lod import runtime
+    st = runtime.state(planet)
     yield from ui.redraw(3)
     # the view, the camera and their clip ranges are outside / around the planet
     eye = space.region_3d.view_matrix.inverted().translation
@@ -54,7 +54,7 @@ def test():
     # navigating (the view turning a little at every step, like a drag; under
     # llvmpipe a step is a redraw, up to a second): the LOD follows during the
     # motion, not only once it stops
-    from planet_lod import live as live_module
+    from planet_lod import handlers
     r3d = space.region_3d
     # (the refiner's frame count: a refresh whose leaves did not change keeps
     # the preview's surface)
@@ -70,7 +70,7 @@ def test():
             Vector((swing, 0.0, 1.0)))).normalized()
         return st.stats["frame"] - before >= wanted
     yield from ui.wait_until(turned_and_refreshed, what="refreshes while navigating",
-                             step=max(0.05, live_module.REFRESH_INTERVAL_S / 2))
+                             step=max(0.05, handlers.REFRESH_INTERVAL_S / 2))
     print(f"navigation: {st.stats['frame'] - before} viewport refreshes during "
           f"{steps[0]} steps of motion", flush=True)
 
