@@ -26,7 +26,7 @@ def test_ui_script(script, user_scripts, tmp_path):  # noqa: F811
     cmd = [xvfb, "-a", "-s", "-screen 0 1920x1080x24", BLENDER, "--factory-startup",
            "--enable-event-simulate", "--python-exit-code", "1",
            "--python", os.path.join(BLENDER_TESTS, script)]
-    proc = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=1800)
+    proc = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=3600)
     output = proc.stdout + proc.stderr
     print(output[-3000:])
     assert proc.returncode == 0 and "PLOD-TEST PASS" in output, output[-6000:]
