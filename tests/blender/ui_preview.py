@@ -148,7 +148,7 @@ def refresh_job():
     refreshes; a refresh made while the job runs (an operator, a render) makes
     the job's result stale, and the planet refreshes again for the view."""
     planet = add('MOON')
-    from planet_lod import core, runtime
+    from planet_lod import core, refresh, runtime
     st = runtime.state(planet)
     yield from ui.refreshed(planet)
     gate, run = threading.Event(), core.refresh.SurfaceWork.run
