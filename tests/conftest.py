@@ -92,3 +92,37 @@ def run_c_test(tmp_path):
 # tests/blender/ holds scripts that run inside Blender (driven by
 # test_blender.py), not pytest modules.
 collect_ignore = ["blender"]
+
+
+# ---- time per part, printed at the end (CI keeps an eye on each) ------------
+
+_PART_OF = {}
+_PART_SECONDS = {}
+
+
+def _part(item):
+    which = getattr(getattr(item, "callspec", None), "params", {}).get("which")
+    module = os.path.basename(str(item.fspath))
+    if which is not None:
+        return f"Blender {which}"
+    return {"test_blender.py": "Blender: packages and the viewport",
+            "test_ui.py": "Blender blender: UI", "test_farm.py": "Blender blender: farm"}.get(
+                module, "no Blender")
+
+
+def pytest_collection_modifyitems(items):
+    for item in items:
+        _PART_OF[item.nodeid] = _part(item)
+
+
+def pytest_runtest_logreport(report):
+    part = _PART_OF.get(report.nodeid, "no Blender")
+    _PART_SECONDS[part] = _PART_SECONDS.get(part, 0.0) + report.duration
+
+
+def pytest_terminal_summary(terminalreporter):
+    if not _PART_SECONDS:
+        return
+    terminalreporter.section("time per part")
+    for part, seconds in sorted(_PART_SECONDS.items()):
+        terminalreporter.write_line(f"{part}: {seconds:.0f} s")

@@ -5,10 +5,12 @@
 # stats.csv (per-frame LOD statistics) and contact_sheet.png.
 # Extra arguments go to tools/flyby.py (e.g. --frames 31-60 --samples 32).
 #
-# The Blender: the newest supported one that installs here, Blender 5.0 as the
-# bpy wheel from PyPI (tools/blender_versions.py, cached in ~/.cache/planetlod),
-# run through tools/bpy_run.py; if that cannot be installed (no network),
-# Debian's Blender 3.4.  BLENDER=/path/to/blender picks a Blender binary.
+# The Blender: the newest supported one that installs here, Blender 5.3 as the
+# bpy wheel from PyPI (tools/blender_versions.py, cached in ~/.cache/planetlod;
+# CPython 3.13), run through tools/bpy_run.py; if that cannot be installed (no
+# network, no CPython 3.13), the next older pinned one that can, down to
+# Blender 4.2; with none, Debian's Blender 3.4.  BLENDER=/path/to/blender picks
+# a Blender binary.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash tools/install_deps.sh flyby
@@ -17,8 +19,8 @@ FLYBY_ARGS=(--preset earth --frames 1-48 --path-frames 48 --resolution 640x360 -
             --out out/flyby "$@")
 BPY=""
 if [ -z "${BLENDER:-}" ]; then
-    # install reports a wheel it cannot install and goes on; newest then says
-    # whether any bpy is there (exit 1: none)
+    # install reports a wheel it cannot install and goes on to the next older;
+    # newest then says whether any bpy is there (exit 1: none)
     /usr/bin/python3 tools/blender_versions.py install --newest
     if ! BPY=$(/usr/bin/python3 tools/blender_versions.py newest); then
         BPY=""

@@ -25,7 +25,7 @@ import struct
 
 import bpy
 
-from . import runtime
+from . import compat, runtime
 from . import nodes as node_maths
 
 WORLD_PREFIX = "PlanetLOD sky "
@@ -126,7 +126,7 @@ def _sun_depths(b, atm, point):
 
 def build_world(world, atm, strength=1.0):
     """The sky world: the atmosphere seen along each camera ray (black without one)."""
-    world.use_nodes = True
+    compat.use_node_tree(world)
     # the sky changes every frame with the camera: Cycles' world importance map
     # would be rebuilt per frame (seconds); the sun lamp lights the ground
     world.cycles.sampling_method = 'NONE'
@@ -261,10 +261,10 @@ def update(obj, scene, camera_matrix):
     values = {"plod_camera": camera, "plod_sun": sun, "plod_anchor": anchor,
               "plod_sun_strength": strength, "plod_detail_offset": runtime.detail_offset(anchor)}
     for material in obj.data.materials:
-        if material is not None and material.use_nodes:
+        if material is not None and compat.has_node_tree(material):
             _set_inputs(material.node_tree, values)
     world = bpy.data.worlds.get(WORLD_PREFIX + obj.name)
-    if world is not None and world.use_nodes:
+    if world is not None and compat.has_node_tree(world):
         _set_inputs(world.node_tree, values)
 
 

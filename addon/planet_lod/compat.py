@@ -1,7 +1,8 @@
 """Every difference between the supported Blenders, in one place.
 
 Supported: Blender 3.4 (Debian 12's, Python 3.11) as a legacy add-on, and
-Blender 4.2 LTS, 4.5 LTS and 5.0 as an extension or a legacy add-on.  The rest
+Blender 4.2 LTS, 4.5 LTS, 5.0, 5.1, 5.2 LTS and 5.3 as an extension or a
+legacy add-on.  The rest
 of the add-on calls these helpers instead of testing `bpy.app.version`, and
 names that changed between versions are looked up here:
 
@@ -19,6 +20,10 @@ names that changed between versions are looked up here:
   4.2 .. 4.5, "BLENDER_EEVEE" before and from 5.0).
 * `update_after_load()`: in a load_post handler objects' `matrix_world` is
   zero in 4.2+ until the view layer is evaluated (3.4 reads it from the file).
+* `use_node_tree(id_data)`, `has_node_tree(id_data)`: materials and worlds
+  switch their shader nodes on with `use_nodes` up to 4.5; from 5.0 every
+  material and world has its node tree and `use_nodes` is deprecated (gone
+  in 6.0).
 * `user_cache_dir(subdir)`: files the add-on may rebuild at any time go to
   the extension's user folder (`bpy.utils.extension_path_user`, 4.2+) or, for
   the legacy add-on, to Blender's user config folder.
@@ -43,6 +48,8 @@ PRINCIPLED_SPECULAR = "Specular IOR Level" if VERSION >= (4, 0, 0) else "Specula
 
 _LOOP_TOTAL_WRITABLE = VERSION < (3, 6, 0)
 
+_USE_NODES_SWITCH = VERSION < (5, 0, 0)
+
 
 def set_principled_specular(bsdf, value):
     """Sets the specular amount of a Principled BSDF node (0.5 = the default
@@ -61,6 +68,21 @@ def set_triangle_topology(mesh, triangles, triangle_count):
     mesh.polygons.foreach_set("loop_start", array("i", range(0, 3 * triangle_count, 3)))
     if _LOOP_TOTAL_WRITABLE:
         mesh.polygons.foreach_set("loop_total", array("i", [3]) * triangle_count)
+
+
+def use_node_tree(id_data):
+    """Makes the material or world `id_data` render with its shader node tree
+    and returns the tree."""
+    if _USE_NODES_SWITCH:
+        id_data.use_nodes = True
+    return id_data.node_tree
+
+
+def has_node_tree(id_data):
+    """Whether the material or world `id_data` renders with a shader node tree."""
+    if _USE_NODES_SWITCH:
+        return id_data.use_nodes
+    return id_data.node_tree is not None
 
 
 def calc_loop_normals(mesh):

@@ -23,7 +23,7 @@ LEVELS_NAME = "PlanetLOD levels"
 
 
 def _new_tree(material):
-    material.use_nodes = True
+    compat.use_node_tree(material)
     nodes = material.node_tree.nodes
     nodes.clear()
     out = nodes.new("ShaderNodeOutputMaterial")
@@ -251,7 +251,7 @@ def planet_material(obj):
            round(s.detail_amplitude, 3), 7)
     if material.get("planet_lod_key") == repr(key):
         return material
-    material.use_nodes = True
+    compat.use_node_tree(material)
     tree = material.node_tree
     tree.nodes.clear()
     out = tree.nodes.new("ShaderNodeOutputMaterial")
@@ -383,7 +383,7 @@ def ensure_ocean(obj):
         ocean.parent = obj
         water = bpy.data.materials.get("PlanetLOD ocean") or bpy.data.materials.new("PlanetLOD ocean")
         water.diffuse_color = (0.02, 0.08, 0.25, 1.0)
-        water.use_nodes = True
+        compat.use_node_tree(water)
         bsdf = water.node_tree.nodes.get("Principled BSDF")
         if bsdf is not None:
             bsdf.inputs["Base Color"].default_value = (0.01, 0.05, 0.2, 1.0)

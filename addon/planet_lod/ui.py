@@ -88,7 +88,7 @@ class PLOD_PT_planet(PLOD_PT_base, bpy.types.Panel):
         if core.load_native() is None:
             box = layout.box()
             box.alert = True
-            _wrapped(box, "The add-on's native module is missing: " + core.native_error,
+            _wrapped(box, "The add-on's native module did not load: " + core.native_error,
                      'ERROR', _line_width(context))
             return
         obj = _planet(context)

@@ -3,6 +3,11 @@ interface under xvfb-run (tests/test_ui.py): a test is a generator that yields
 the seconds to wait (the UI redraws and the add-on's timer runs meanwhile);
 screenshots come back as numpy arrays; panel draws are recorded.
 
+Waits end on the event they wait for (a redraw counted by a draw handler, a
+refresh of the planet, a panel drawn), never after a fixed time: on a busy
+machine under llvmpipe a redraw can take seconds.  Their limit, WAIT_LIMIT_S
+($PLOD_UI_WAIT_LIMIT_S, default 600 s), only stops a test that would hang.
+
 Blender runs with --enable-event-simulate, so the tests can click (the sidebar
 tabs have no Python API) and real input cannot interfere."""
 import os
@@ -39,26 +44,43 @@ def run(test):
     bpy.app.timers.register(step, first_interval=0.5)
 
 
-def wait_until(condition, timeout=20.0, what="condition", step=0.2):
-    """Generator: waits (letting the UI run) until condition() is true."""
+WAIT_LIMIT_S = float(os.environ.get("PLOD_UI_WAIT_LIMIT_S", "600"))
+
+
+def wait_until(condition, timeout=None, what="condition", step=0.1):
+    """Generator: waits (letting the UI run) until condition() is true; fails
+    after `timeout` seconds (default WAIT_LIMIT_S)."""
     import time
+    limit = WAIT_LIMIT_S if timeout is None else timeout
     start = time.monotonic()
     while not condition():
-        assert time.monotonic() - start < timeout, f"timed out waiting for {what}"
+        assert time.monotonic() - start < limit, f"timed out waiting for {what} ({limit:.0f} s)"
         yield step
 
 
-_draws = {"count": 0, "handle": None}
+_draws = {"count": 0, "handle": None, "sidebar": 0, "sidebar_handle": None}
 
 
 def _count_draw():
     _draws["count"] += 1
 
 
+def _count_sidebar_draw():
+    _draws["sidebar"] += 1
+
+
+def _sidebar_draws():
+    """The sidebar's draws so far (counted from the first call on)."""
+    if _draws["sidebar_handle"] is None:
+        _draws["sidebar_handle"] = bpy.types.SpaceView3D.draw_handler_add(
+            _count_sidebar_draw, (), 'UI', 'POST_PIXEL')
+    return _draws["sidebar"]
+
+
 def redraw(times=2, pause=0.3):
     """Generator: tags the 3D viewport and waits until it has really drawn `times`
     times more (llvmpipe is slow; a fixed sleep is not enough on a busy machine),
-    with the add-on's timer running in between."""
+    with the add-on's timer running in between (at least `pause` s each)."""
     if _draws["handle"] is None:
         _draws["handle"] = bpy.types.SpaceView3D.draw_handler_add(_count_draw, (), 'WINDOW',
                                                                   'POST_PIXEL')
@@ -68,6 +90,33 @@ def redraw(times=2, pause=0.3):
         view3d()[1].tag_redraw()
         yield from wait_until(lambda: _draws["count"] >= target, what="a viewport redraw",
                               step=0.05)
+
+
+def refreshed(planet, since=None):
+    """Generator: waits until the live refresh of `planet` is done and its
+    preview drawn, then for two real redraws.  A change of the planet's
+    settings marks it for a refresh at once; a change of the view only when
+    the add-on's timer notices it: then pass `since`, the state's refresh
+    serial read before the change, and the wait also needs a refresh begun
+    after it."""
+    from planet_lod import runtime
+    st = runtime.state(planet)
+    yield from wait_until(lambda: (since is None or st.serial > since) and st.settled()
+                          and st.preview is not None, what="the viewport refresh")
+    yield from redraw(2)
+
+
+def serial(planet):
+    """The planet's refresh serial now (for refreshed(planet, since=...))."""
+    from planet_lod import runtime
+    return runtime.state(planet).serial
+
+
+def settled(planet):
+    """Generator: waits until the planet has no refresh pending or running."""
+    from planet_lod import runtime
+    st = runtime.state(planet)
+    yield from wait_until(st.settled, what="the planet's refresh")
 
 
 def window():
@@ -205,6 +254,17 @@ class PanelRecorder:
         return {name for name, count in self.draws.items() if count > before.get(name, 0)}
 
 
+def _sidebar_redraw(area, times=2):
+    """Generator: tags the area and waits until its sidebar has drawn `times`
+    times more (the first may still show the state before a click)."""
+    for _ in range(times):
+        target = _sidebar_draws() + 1
+        area.tag_redraw()
+        yield 0.05
+        yield from wait_until(lambda: _draws["sidebar"] >= target, what="a sidebar redraw",
+                              step=0.05)
+
+
 def simulate_click(win, x, y):
     win.event_simulate(type='MOUSEMOVE', value='NOTHING', x=x, y=y)
     win.event_simulate(type='LEFTMOUSE', value='PRESS', x=x, y=y)
@@ -217,12 +277,12 @@ def open_sidebar_tab(recorder, panel="PLOD_PT_planet"):
     win, area, _, _ = view3d()
     area.spaces.active.show_region_ui = True
     area.tag_redraw()
-    yield 0.5
+    yield from wait_until(lambda: view3d()[3] is not None and view3d()[3].width > 1,
+                          what="the sidebar to open")
     _, _, _, ui_region = view3d()
-    assert ui_region is not None and ui_region.width > 1, "sidebar did not open"
+    yield from _sidebar_redraw(area)
     before = recorder.snapshot()
-    area.tag_redraw()
-    yield 0.25
+    yield from _sidebar_redraw(area)
     if panel in recorder.drawn_since(before):
         return
     x = ui_region.x + ui_region.width - 8
@@ -230,8 +290,7 @@ def open_sidebar_tab(recorder, panel="PLOD_PT_planet"):
     for y in range(top, ui_region.y + ui_region.height // 2, -12):
         before = recorder.snapshot()
         simulate_click(win, x, y)
-        area.tag_redraw()
-        yield 0.25
+        yield from _sidebar_redraw(area)
         if panel in recorder.drawn_since(before):
             return
     raise AssertionError(f"no sidebar tab shows {panel}")

@@ -73,8 +73,8 @@ def probe(engine, what):
     setup(scene, engine)
     lib.add_camera((0.0, -10.0, 0.0))
     world = bpy.data.worlds.new("probe")
-    world.use_nodes = True
-    tree = world.node_tree
+    from planet_lod import compat
+    tree = compat.use_node_tree(world)  # use_nodes is deprecated from 5.0
     background = tree.nodes["Background"]
     background.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
     if what == 'textured world':

@@ -60,14 +60,6 @@ def skyline(image):
     return rows / h, ground
 
 
-def refreshed(planet):
-    from planet_lod import runtime
-    st = runtime.state(planet)
-    yield from ui.wait_until(lambda: st.settled() and st.preview is not None,
-                             what="the viewport refresh")
-    yield from ui.redraw(2)
-
-
 def add(preset):
     from planet_lod import runtime
     for obj in [o for o in bpy.data.objects if o.type == 'MESH']:
@@ -91,8 +83,9 @@ def frame_and_render(name, planet, st):
     r3d.view_perspective = 'CAMERA'
     with ui.override():
         bpy.ops.view3d.view_center_camera()
-    yield 0.3
-    yield from ui.redraw(3)
+    yield from ui.redraw(3)  # the add-on's timer sees the camera view meanwhile
+    yield from ui.settled(planet)
+    yield from ui.redraw(2)
     camera = scene.camera
     view = ui.screenshot(f"{name}_camera.png")
     x0, y0, x1, y1 = ui.camera_frame_rect(scene, camera, region, r3d)
@@ -148,24 +141,24 @@ def test():
     scene.eevee.taa_render_samples = 4
     for preset in presets.PLANETS:
         planet, st = add(preset)
-        yield from refreshed(planet)
+        yield from ui.refreshed(planet)
         mask = ui.foreground(ui.screenshot(f"{preset.lower()}_added.png"))
         print(f"{preset}: after Add, the planet covers {mask.mean():.1%} of the view",
               flush=True)
         assert 0.1 < mask.mean() < 0.9, f"{preset}: the new planet is not in view"
 
+        since = ui.serial(planet)
         fly_to_ground(planet, r3d)
-        yield 0.3
-        yield from refreshed(planet)
+        yield from ui.refreshed(planet, since)
         ui.screenshot(f"{preset.lower()}_2km.png")
         assert not st.error and not st.warning, (st.error, st.warning)
         yield from frame_and_render(f"{preset.lower()}_2km", planet, st)
 
     # mountains: 3 km above the Alps, the ridges against the sky
     planet, st = add('EARTH')
+    since = ui.serial(planet)
     fly_to_ground(planet, r3d, up=direction(*ALPS), altitude=3000.0)
-    yield 0.3
-    yield from refreshed(planet)
+    yield from ui.refreshed(planet, since)
     yield from frame_and_render("earth_alps_3km", planet, st)
 
 

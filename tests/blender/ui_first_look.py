@@ -58,14 +58,21 @@ def test():
     r3d = space.region_3d
     # (the refiner's frame count: a refresh whose leaves did not change keeps
     # the preview's surface)
-    before, steps = st.stats["frame"], 8
-    for _ in range(steps):
+    # The view keeps turning, a step at every poll, until the LOD has
+    # refreshed `wanted` times: a refresh only once the motion stops would
+    # never come, and the wait would fail.
+    before, wanted, steps = st.stats["frame"], 4, [0]
+
+    def turned_and_refreshed():
+        steps[0] += 1
+        swing = 0.01 if steps[0] // 8 % 2 == 0 else -0.01  # to and fro: the planet stays in view
         r3d.view_rotation = (r3d.view_rotation @ Vector((0.0, 0.0, 1.0)).rotation_difference(
-            Vector((0.01, 0.0, 1.0)))).normalized()
-        yield max(0.05, handlers.REFRESH_INTERVAL_S)
-    during = st.stats["frame"] - before
-    print(f"navigation: {during} viewport refreshes during {steps} steps of motion", flush=True)
-    assert during >= steps // 2, "the LOD does not follow while navigating"
+            Vector((swing, 0.0, 1.0)))).normalized()
+        return st.stats["frame"] - before >= wanted
+    yield from ui.wait_until(turned_and_refreshed, what="refreshes while navigating",
+                             step=max(0.05, handlers.REFRESH_INTERVAL_S / 2))
+    print(f"navigation: {st.stats['frame'] - before} viewport refreshes during "
+          f"{steps[0]} steps of motion", flush=True)
 
     # frame a shot: look through the camera, move it closer, render F12
     r3d.view_perspective = 'CAMERA'
@@ -76,6 +83,7 @@ def test():
     scene.eevee.taa_render_samples = 4
     with ui.override():
         bpy.ops.view3d.view_center_camera()
+    yield from ui.redraw(3)  # the add-on's timer sees the camera view meanwhile
     yield from ui.wait_until(st.settled, what="the viewport refresh")
     yield from ui.redraw(4)
     view = ui.screenshot("framed_view.png")

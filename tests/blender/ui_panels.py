@@ -15,11 +15,16 @@ ALL = {"PLOD_PT_planet", "PLOD_PT_surface", "PLOD_PT_detail", "PLOD_PT_lod",
        "PLOD_PT_display", "PLOD_PT_render", "PLOD_PT_stats"}
 
 
-def redraw_and_check(recorder, expected, label):
+def redraw_and_check(recorder, expected, label, planet=None):
+    """Generator: (once `planet` has refreshed) waits until the `expected`
+    panels have drawn again."""
+    if planet is not None:
+        yield from ui.settled(planet)
     win, area, region, sidebar = ui.view3d()
     before = recorder.snapshot()
     area.tag_redraw()
-    yield 0.6
+    yield from ui.wait_until(lambda: expected <= recorder.drawn_since(before) or recorder.errors,
+                             what=f"{label}: the panels' redraw")
     drawn = recorder.drawn_since(before)
     print(f"{label}: drew {sorted(drawn)}", flush=True)
     assert not recorder.errors, recorder.errors
@@ -50,15 +55,13 @@ def test():
     for preset in ("EARTH", "MOON", "MARS", "ASTEROID"):
         with ui.override():
             assert bpy.ops.mesh.planet_add(preset=preset) == {'FINISHED'}
-        yield 0.5
-        yield from redraw_and_check(recorder, ALL, preset)
+        yield from redraw_and_check(recorder, ALL, preset, bpy.context.object)
         ui.screenshot(f"panels_{preset.lower()}.png", region='WINDOW')
     planet = bpy.context.object
     assert red_pixels("panels_ok.png") <= clean_red + 50
     # a bad path typed into the height map field: the panel says why, in red
     planet.planet_lod.heightmap = "/nonexistent/heights.png"
-    yield 0.5
-    yield from redraw_and_check(recorder, ALL, "bad height map")
+    yield from redraw_and_check(recorder, ALL, "bad height map", planet)
     red = red_pixels("panels_error.png")
     print(f"red pixels in the sidebar: {red} with the error, {clean_red} without", flush=True)
     assert red > clean_red + 200, "the error is not shown in the panel"
@@ -66,21 +69,18 @@ def test():
     assert "not found" in runtime.state(planet).error
     # fixed again: the error goes away
     planet.planet_lod.heightmap = ""
-    yield 0.8
-    yield from redraw_and_check(recorder, ALL, "height map cleared")
+    yield from redraw_and_check(recorder, ALL, "height map cleared", planet)
     assert runtime.state(planet).error == "", runtime.state(planet).error
     # an inset whose file is missing: the list draws, the panel says why
     inset = planet.planet_lod.insets.add()
     inset.use_box = True  # its box fields draw too
     inset.filepath = "/nonexistent/N45E006.hgt"
-    yield 0.5
-    yield from redraw_and_check(recorder, ALL, "missing inset")
+    yield from redraw_and_check(recorder, ALL, "missing inset", planet)
     assert red_pixels("panels_inset_error.png") > clean_red + 200, "inset error not shown"
     assert "inset not found" in runtime.state(planet).error, runtime.state(planet).error
     planet.planet_lod.insets.remove(0)
     planet.planet_lod.heightmap = ""  # the list's removal checks nothing by itself
-    yield 0.8
-    yield from redraw_and_check(recorder, ALL, "inset removed")
+    yield from redraw_and_check(recorder, ALL, "inset removed", planet)
     assert runtime.state(planet).error == "", runtime.state(planet).error
     # a Large Map whose tile file is not written: the panel says so and offers
     # to write it; written from the panel, the planet refreshes
@@ -89,8 +89,7 @@ def test():
     if os.path.exists(world + ".plodtiles"):
         os.remove(world + ".plodtiles")
     planet.planet_lod.heightmap, planet.planet_lod.heightmap_tiled = world, True
-    yield 0.8
-    yield from redraw_and_check(recorder, ALL, "Large Map, no tile file")
+    yield from redraw_and_check(recorder, ALL, "Large Map, no tile file", planet)
     assert "tile file is not written" in runtime.state(planet).error, runtime.state(planet).error
     assert red_pixels("panels_tiles_missing.png") > clean_red + 200, "tile error not shown"
     with ui.override():

@@ -24,15 +24,6 @@ def add(preset, **settings):
     return planet
 
 
-def refreshed(planet):
-    """Generator: waits for the viewport's refresh of `planet` and two redraws."""
-    from planet_lod import runtime
-    st = runtime.state(planet)
-    yield from ui.wait_until(lambda: st.settled() and st.preview is not None,
-                             what="the viewport refresh")
-    yield from ui.redraw(2)
-
-
 def ground_view(planet, altitude, pitch):
     """Points the viewport from `altitude` metres above the ground, `pitch`
     degrees below the horizon, heading east, upright."""
@@ -59,6 +50,7 @@ def relief(preset):
     Mars-like from 2% of its radius up towards the horizon (its slopes are
     gentle, 99% below 2%: the relief shows in the skyline)."""
     planet = add(preset)
+    since = ui.serial(planet)
     _, area, _, _ = ui.view3d()
     r3d = area.spaces.active.region_3d
     if preset == 'MARS':
@@ -69,13 +61,11 @@ def relief(preset):
         sun = next(o for o in bpy.data.objects if o.type == 'LIGHT' and o.data.type == 'SUN')
         side = r3d.view_rotation @ Vector((1.0, 0.0, 0.0))
         sun.rotation_euler = side.to_track_quat('Z', 'Y').to_euler()
-    yield 0.3
-    yield from refreshed(planet)
+    yield from ui.refreshed(planet, since)
     with_relief = ui.screenshot(f"relief_{preset.lower()}.png")
     mask = ui.foreground(with_relief)
     planet.planet_lod.height_scale = 0.0
-    yield 0.3
-    yield from refreshed(planet)
+    yield from ui.refreshed(planet)
     flat = ui.screenshot(f"relief_{preset.lower()}_flat.png")
     both = mask & ui.foreground(flat)
     a, b = ui.detail(with_relief, both), ui.detail(flat, both)
@@ -97,6 +87,7 @@ def far_side():
     clip start with Horizon Clip on, and the default clip start with a huge clip
     end and Horizon Clip off (culling alone).  All three must agree."""
     planet = add('EARTH')
+    since = ui.serial(planet)
     _, area, _, _ = ui.view3d()
     space = area.spaces.active
     r3d = space.region_3d
@@ -107,19 +98,18 @@ def far_side():
     s = planet.planet_lod
     s.view_clip_from_horizon = False
     space.clip_start, space.clip_end = 0.5 * (d - radius), math.sqrt(d * d - radius * radius)
-    yield 0.3
-    yield from refreshed(planet)
+    yield from ui.refreshed(planet, since)
     reference = ui.screenshot("far_reference.png")
     shots = {}
     s.view_clip_from_horizon = True
     space.clip_start, space.clip_end = 0.01, 1000.0  # Blender's defaults
     yield from ui.wait_until(lambda: space.clip_start > 1.0, what="the horizon clip")
-    yield from refreshed(planet)
+    yield from ui.refreshed(planet)
     shots["default clip start, Horizon Clip"] = ui.screenshot("far_managed.png")
     s.view_clip_from_horizon = False
     space.clip_start, space.clip_end = 0.01, 1.0e10
-    yield 0.3
-    yield from refreshed(planet)
+    yield from ui.redraw(2)  # the add-on's timer sees the clip range meanwhile
+    yield from ui.refreshed(planet)
     shots["default clip start, clip end 1e10, culling only"] = ui.screenshot("far_culled.png")
     mask = ui.foreground(reference)
     for name, shot in shots.items():
@@ -134,9 +124,9 @@ def budget():
     a budget far below what the view asks for: the ground still fills the view."""
     planet = add('ASTEROID', budget=1500)
     from planet_lod import runtime
+    since = ui.serial(planet)
     ground_view(planet, 2000.0, 15.0)
-    yield 0.5
-    yield from refreshed(planet)
+    yield from ui.refreshed(planet, since)
     st = runtime.state(planet)
     shot = ui.screenshot("budget_asteroid.png")
     mask = ui.foreground(shot)
@@ -146,7 +136,7 @@ def budget():
     assert st.stats["sectors_total"] <= 1500 and st.stats["visible"] > 100
     assert mask.mean() > 0.4, "the budget emptied the view"
     planet.planet_lod.budget = 0
-    yield from refreshed(planet)
+    yield from ui.refreshed(planet)
     print(f"unlimited: {st.stats['sectors_total']} sectors, {st.stats['visible']} drawn, "
           f"level {st.stats['max_level']}", flush=True)
 
@@ -160,14 +150,14 @@ def refresh_job():
     planet = add('MOON')
     from planet_lod import core, refresh, runtime
     st = runtime.state(planet)
-    yield from refreshed(planet)
+    yield from ui.refreshed(planet)
     gate, run = threading.Event(), core.refresh.SurfaceWork.run
     jobs = []
 
     def held(work):  # keeps a job in flight until the test lets it go
         if threading.current_thread() is not threading.main_thread():
             jobs.append(work)
-            gate.wait(30)
+            gate.wait(ui.WAIT_LIMIT_S)
         run(work)
     core.refresh.SurfaceWork.run = held
     try:
@@ -177,7 +167,7 @@ def refresh_job():
         yield 0.3  # ticks go on while the job works
         assert st.job is not None and st.preview is before and not st.dirty
         gate.set()
-        yield from refreshed(planet)
+        yield from ui.refreshed(planet)
         assert st.preview is not before and st.stats["visible"] > 100, st.stats
         # progressive: the jump filled in over several bounded refreshes, the
         # last one complete
@@ -194,7 +184,7 @@ def refresh_job():
         threading.Timer(0.3, gate.set).start()
         refresh.refresh(planet, bpy.context.scene)  # waits for the job's lock
         assert st.serial > serial
-        yield from refreshed(planet)
+        yield from ui.refreshed(planet)
         assert st.preview is not job_surface and not st.error
     finally:
         gate.set()
