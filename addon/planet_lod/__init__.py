@@ -10,6 +10,8 @@ checks it):
   placement, framing           framing a new planet
   live                         refreshing planets: LOD cameras, refinement, mesh,
                                timers and handlers
+  navigation                   finding the planet with Blender's views: framing,
+                               Go to Surface, altitude, pivot on the ground
   draw, props, operators,      the GPU preview, settings, operators, flyby
   render, ui                   rendering and panels
 """
@@ -26,7 +28,7 @@ bl_info = {
 if "bpy" in locals():  # script reload (F3 > Reload Scripts)
     import importlib
     for _name in ("compat", "core", "nodes", "runtime", "atmosphere", "materials", "placement",
-                  "framing", "live", "draw", "props", "operators", "render", "ui"):
+                  "framing", "live", "navigation", "draw", "props", "operators", "render", "ui"):
         if _name in locals():
             importlib.reload(locals()[_name])
 
@@ -34,7 +36,7 @@ import bpy  # noqa: E402
 from bpy.props import PointerProperty  # noqa: E402
 
 from . import (compat, core, nodes, runtime, atmosphere, materials, placement,  # noqa: E402
-               framing, live, draw, props, operators, render, ui)
+               framing, live, navigation, draw, props, operators, render, ui)
 
 classes = (
     props.PLOD_PG_inset,
@@ -75,9 +77,11 @@ def register():
     bpy.types.VIEW3D_MT_mesh_add.append(operators.menu_func)
     draw.add_draw_handler()
     live.add_handlers()
+    navigation.register()
 
 
 def unregister():
+    navigation.unregister()
     live.remove_handlers()
     draw.remove_draw_handler()
     bpy.types.VIEW3D_MT_mesh_add.remove(operators.menu_func)

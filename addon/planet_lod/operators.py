@@ -7,7 +7,7 @@ import bpy
 from bl_operators.presets import AddPresetBase
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
 
-from . import atmosphere, core, framing, live, materials
+from . import atmosphere, core, framing, live, materials, navigation
 from .core import planets, presets
 
 
@@ -322,9 +322,11 @@ class PLOD_OT_planet_apply_preset(bpy.types.Operator):
             return {'CANCELLED'}
         obj.planet_lod.assign(values)
         if self.planet != "NONE":
-            obj.planet_lod.preset = self.planet
+            navigation.planet_preset_applied(context, obj, self.planet)
         if self.quality != "NONE":
             obj.planet_lod.quality = self.quality
+            obj.planet_lod[PLOD_MT_quality_presets.active_key] = \
+                presets.QUALITY[self.quality]["label"]
         live.mark_dirty(obj, geometry=True, material=True)
         return {'FINISHED'}
 
@@ -449,20 +451,80 @@ def _preset_dirs(subdir):
     return out
 
 
-class PLOD_MT_planet_presets(bpy.types.Menu):
-    bl_label = "Planet Presets"
-    preset_subdir = "planet_lod"
+class PresetMenu:
+    """A menu of preset files (bundled and the user's), the active one ticked.
+
+    Not a bpy.types.Menu itself: in Blender 3.4 a registered menu subclassing
+    another registered menu leaves the parent without its Python class (it
+    opens empty), so each menu derives from this mixin and Menu separately."""
+    preset_subdir = ""
     preset_operator = "script.execute_preset"
+    default_label = ""
+
+    @classmethod
+    def active_name(cls, context):
+        """Display name of the preset last applied to the active planet ("" when none)."""
+        obj = _planet(context)
+        if obj is None:
+            return ""
+        return obj.planet_lod.get(cls.active_key, "") or cls.preset_name(obj.planet_lod)
+
+    @classmethod
+    def post_cb(cls, context):
+        """After script.execute_preset: remembers the preset on the planet (the
+        operator has just set the menu's bl_label to the file's display name)."""
+        obj = _planet(context)
+        if obj is not None:
+            obj.planet_lod[cls.active_key] = cls.bl_label
+
+    @classmethod
+    def button_text(cls, context):
+        return cls.active_name(context) or cls.default_label
 
     def draw(self, context):
-        self.path_menu(_preset_dirs(self.preset_subdir), self.preset_operator,
-                       props_default={"menu_idname": self.bl_idname},
-                       filter_ext=lambda ext: ext.lower() == ".py")
+        layout = self.layout
+        active = self.active_name(context)
+        files = []
+        for folder in _preset_dirs(self.preset_subdir):
+            for name in sorted(os.listdir(folder)):
+                if name.lower().endswith(".py") and not name.startswith((".", "_")):
+                    files.append(os.path.join(folder, name))
+        if not files:
+            layout.label(text="No presets")
+            return
+        shown = set()
+        for path in files:
+            name = bpy.path.display_name(os.path.basename(path), title_case=False)
+            if name in shown:  # a user's preset of the same name overrides the bundled one
+                continue
+            shown.add(name)
+            props = layout.operator(self.preset_operator, text=name,
+                                    icon='CHECKMARK' if name == active else 'BLANK1')
+            props.filepath = path
+            props.menu_idname = self.bl_idname
 
 
-class PLOD_MT_quality_presets(PLOD_MT_planet_presets):
+class PLOD_MT_planet_presets(PresetMenu, bpy.types.Menu):
+    bl_label = "Planet Presets"
+    preset_subdir = "planet_lod"
+    default_label = "Planet Presets"
+    active_key = "active_planet_preset"
+
+    @staticmethod
+    def preset_name(settings):
+        """The bundled preset file of the planet's preset ("Mars-like (procedural)": Mars-like)."""
+        return presets.PLANETS.get(settings.preset, {}).get("label", "").split(" (")[0]
+
+
+class PLOD_MT_quality_presets(PresetMenu, bpy.types.Menu):
     bl_label = "Quality Presets"
     preset_subdir = "planet_lod_quality"
+    default_label = "Quality Presets"
+    active_key = "active_quality_preset"
+
+    @staticmethod
+    def preset_name(settings):
+        return presets.QUALITY.get(settings.quality, {}).get("label", "")
 
 
 class PLOD_OT_preset_add(AddPresetBase, bpy.types.Operator):

@@ -106,7 +106,7 @@ class PLOD_PT_planet(PLOD_PT_base, bpy.types.Panel):
             _wrapped(layout.box(), message[0].upper() + message[1:], 'INFO',
                      _line_width(context))
         row = layout.row(align=True)
-        row.menu("PLOD_MT_planet_presets", text=PLOD_MT_planet_presets.bl_label)
+        row.menu("PLOD_MT_planet_presets", text=PLOD_MT_planet_presets.button_text(context))
         row.operator("object.planet_preset_add", text="", icon='ADD')
         row.operator("object.planet_preset_add", text="", icon='REMOVE').remove_active = True
         layout.use_property_split = True
@@ -202,7 +202,7 @@ class PLOD_PT_lod(PLOD_PT_planet_sub, bpy.types.Panel):
         s = context.object.planet_lod
         layout = self.layout
         row = layout.row(align=True)
-        row.menu("PLOD_MT_quality_presets", text=PLOD_MT_quality_presets.bl_label)
+        row.menu("PLOD_MT_quality_presets", text=PLOD_MT_quality_presets.button_text(context))
         row.operator("object.planet_quality_preset_add", text="", icon='ADD')
         row.operator("object.planet_quality_preset_add", text="",
                      icon='REMOVE').remove_active = True
