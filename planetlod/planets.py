@@ -189,6 +189,18 @@ def _overlap_by_file(exc, insets):
                            "each area may come from one inset only, remove one of them")
 
 
+def minimum_radius(settings):
+    """About the smallest radius the settings' heights allow: the native planet
+    refuses ground lower than half the radius below it or higher than ten
+    radii (the map's range and the detail's amplitude)."""
+    scale = abs(float(settings.get("height_scale", 0.0)))
+    offset = float(settings.get("height_offset", 0.0))
+    detail = float(settings.get("detail_amplitude", 0.0)) if settings.get("use_detail") else 0.0
+    low = offset - (scale if settings.get("height_signed") else 0.0) - detail
+    high = offset + scale + detail
+    return max(1.0, -2.0 * low * 1.001, high / 10.0)
+
+
 def build_planet(settings):
     """A native Planet for these settings (cached by planet_key).  Raises on bad input."""
     module = require_native()
@@ -213,6 +225,11 @@ def build_planet(settings):
     try:
         planet = _new_planet(module, float(settings["radius"]), settings, kwargs)
     except InvalidArgument as exc:
+        smallest = minimum_radius(settings)
+        if float(settings["radius"]) < smallest:
+            raise InvalidArgument(f"radius must be at least {math.ceil(smallest):,} m for "
+                                  "these heights (the lowest ground may not reach half "
+                                  "way to the centre)") from exc
         named = _overlap_by_file(exc, insets)
         if named is exc:
             raise

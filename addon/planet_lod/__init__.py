@@ -13,7 +13,7 @@ checks it):
   navigation                   finding the planet with Blender's views: framing,
                                Go to Surface, altitude, pivot on the ground
   draw, props, operators,      the GPU preview, settings, operators, flyby
-  render, ui                   rendering and panels
+  render, flyby_job, ui        rendering, the flyby as an interface job, panels
 """
 bl_info = {
     "name": "Planet LOD",
@@ -28,7 +28,8 @@ bl_info = {
 if "bpy" in locals():  # script reload (F3 > Reload Scripts)
     import importlib
     for _name in ("compat", "core", "nodes", "runtime", "atmosphere", "materials", "placement",
-                  "framing", "live", "navigation", "draw", "props", "operators", "render", "ui"):
+                  "framing", "live", "navigation", "draw", "props", "operators", "render",
+                  "flyby_job", "ui"):
         if _name in locals():
             importlib.reload(locals()[_name])
 
@@ -36,7 +37,8 @@ import bpy  # noqa: E402
 from bpy.props import PointerProperty  # noqa: E402
 
 from . import (compat, core, nodes, runtime, atmosphere, materials, placement,  # noqa: E402
-               framing, live, navigation, draw, props, operators, render, ui)
+               framing, live, navigation, draw, props, operators, render, flyby_job,
+               ui)
 
 classes = (
     props.PLOD_PG_inset,
@@ -55,6 +57,7 @@ classes = (
     operators.PLOD_OT_preset_add,
     operators.PLOD_OT_quality_preset_add,
     render.PLOD_OT_flyby,
+    flyby_job.PLOD_OT_flyby_job,
     ui.PLOD_UL_insets,
     ui.PLOD_PT_planet,
     ui.PLOD_PT_surface,
