@@ -82,6 +82,34 @@ def check_heightmap(path):
         raise FileError(f"height map is a folder: {path}")
     if os.path.getsize(path) == 0:
         raise FileError(f"height map is empty (0 bytes): {path}")
+    check_image_signature(path)
+
+
+# What image files start with, by the extensions that promise them.
+IMAGE_SIGNATURES = {
+    ".png": (b"\x89PNG\r\n\x1a\n",),
+    ".jpg": (b"\xff\xd8\xff",), ".jpeg": (b"\xff\xd8\xff",),
+    ".tif": (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+"),
+    ".tiff": (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+"),
+    ".exr": (b"\x76\x2f\x31\x01",),
+}
+
+
+def check_image_signature(path):
+    """Raises ImageError "not an image file (name)" for a file whose extension
+    promises an image format that its first bytes are not (a text file named .png)."""
+    signatures = IMAGE_SIGNATURES.get(os.path.splitext(path)[1].lower())
+    if not signatures:
+        return
+    try:
+        with open(path, "rb") as f:
+            head = f.read(8)
+    except OSError as exc:
+        raise FileError(f"cannot read {path}: {exc.strerror}") from exc
+    if not any(head.startswith(sig) for sig in signatures):
+        kind = os.path.splitext(path)[1][1:].upper()
+        raise ImageError(f"not an image file ({os.path.basename(path)}): it is named "
+                         f".{kind.lower()} but does not start like a {kind} image")
 
 
 def check_insets(paths):
@@ -93,6 +121,7 @@ def check_insets(paths):
             raise FileError(f"inset is a folder: {path}")
         if os.path.getsize(path) == 0:
             raise FileError(f"inset is empty (0 bytes): {path}")
+        check_image_signature(path)
 
 
 # The blend border of insets, as a fraction of an inset's smaller side (the
