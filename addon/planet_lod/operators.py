@@ -135,6 +135,8 @@ class PLOD_OT_planet_add(bpy.types.Operator):
                 messages.append(message)
         if self.add_sun:
             messages += framing.add_sun(context.scene, obj, top, undo)
+        if self.frame:
+            messages += framing.hide_inside(context.scene, obj, top, undo)
         return messages
 
 

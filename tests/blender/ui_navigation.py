@@ -81,10 +81,6 @@ def press(win, region, key):
     win.event_simulate(type=key, value='RELEASE', x=x, y=y)
 
 
-import faulthandler
-faulthandler.dump_traceback_later(380, exit=True)
-
-
 def test():
     ui.lib.enable()
     from planet_lod import navigation, operators
@@ -96,6 +92,8 @@ def test():
         assert bpy.ops.mesh.planet_add(preset='EARTH') == {'FINISHED'}
     planet = bpy.context.object
     assert planet.name == "Earth"
+    cube = bpy.data.objects["Cube"]  # the factory Cube, inside the new planet
+    assert cube.hide_render and cube.hide_viewport, "the Cube inside the planet is not hidden"
     yield from refreshed(planet)
 
     # ---- the preset menus: entries drawn, one picked, the planet renamed and framed
