@@ -12,6 +12,7 @@ checks it):
                                timers and handlers
   navigation                   finding the planet with Blender's views: framing,
                                Go to Surface, altitude, pivot on the ground
+  legend                       the legend of Show Levels
   draw, props, operators,      the GPU preview, settings, operators, flyby
   render, flyby_job, ui        rendering, the flyby as an interface job, panels
 """
@@ -28,7 +29,7 @@ bl_info = {
 if "bpy" in locals():  # script reload (F3 > Reload Scripts)
     import importlib
     for _name in ("compat", "core", "nodes", "runtime", "atmosphere", "materials", "placement",
-                  "framing", "live", "navigation", "draw", "props", "operators", "render",
+                  "framing", "live", "navigation", "legend", "draw", "props", "operators", "render",
                   "flyby_job", "ui"):
         if _name in locals():
             importlib.reload(locals()[_name])
@@ -37,7 +38,7 @@ import bpy  # noqa: E402
 from bpy.props import PointerProperty  # noqa: E402
 
 from . import (compat, core, nodes, runtime, atmosphere, materials, placement,  # noqa: E402
-               framing, live, navigation, draw, props, operators, render, flyby_job,
+               framing, live, navigation, legend, draw, props, operators, render, flyby_job,
                ui)
 
 classes = (
@@ -81,9 +82,11 @@ def register():
     draw.add_draw_handler()
     live.add_handlers()
     navigation.register()
+    legend.register()
 
 
 def unregister():
+    legend.unregister()
     navigation.unregister()
     live.remove_handlers()
     draw.remove_draw_handler()

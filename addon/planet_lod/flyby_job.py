@@ -153,7 +153,7 @@ class PLOD_OT_flyby_job(bpy.types.Operator):
     def modal(self, context, event):
         if event.type == 'ESC' and event.value == 'PRESS':
             return self._finish(context, cancelled=True)
-        if event.type != 'TIMER' or event.timer is not self.timer:
+        if event.type != 'TIMER':
             return {'PASS_THROUGH'}  # the interface stays usable between frames
         planet = bpy.data.objects.get(self.planet_name)
         if planet is None:
@@ -164,6 +164,9 @@ class PLOD_OT_flyby_job(bpy.types.Operator):
         except core.REPORTED_ERRORS as exc:
             self.report({'ERROR'}, f"Flyby failed: {exc}")
             return self._finish(context, cancelled=True)
+        except Exception:
+            self._finish(context, cancelled=True)  # the scene back before the traceback
+            raise
         context.window_manager.progress_update(len(self.done))
         if len(self.done) == len(self.todo):
             return self._finish(context, cancelled=False)
@@ -189,6 +192,10 @@ class PLOD_OT_flyby_job(bpy.types.Operator):
         self.csv.write(flyby_report.csv_row(row) + "\n")
         self.csv.flush()
         self.done.append(frame)
+
+    def cancel(self, context):  # Blender ends the job (a file loaded, the window closed)
+        if type(self).running is self:
+            self._finish(context, cancelled=True)
 
     def _finish(self, context, cancelled):
         wm = context.window_manager
