@@ -204,3 +204,24 @@ def test_progressive_splits_follow_the_refreshes_time():
     p.measured({"pending": True}, ProgressiveSplits.TARGET_MS * 10)
     assert p.splits == least
     assert ProgressiveSplits(7, 8000).splits == 16  # large templates: the least
+
+
+def test_a_radius_too_small_for_the_heights_says_so(planetlod):
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    topology = os.path.join(root, "data", "earth-topology.png")
+    for radius in (1.0, 100.0):
+        with pytest.raises(InvalidArgument, match=r"radius must be at least [\d,]+ m"):
+            planets.build_planet(settings(radius=radius, heightmap=topology))
+    smallest = planets.minimum_radius(settings(heightmap=topology))
+    assert smallest == pytest.approx(884.8)
+    planets.build_planet(settings(radius=smallest + 1.0, heightmap=topology))
+
+
+def test_a_text_file_named_like_an_image_is_not_an_image_file(planetlod, tmp_path):
+    for name in ("notes.png", "notes.jpg", "notes.tif", "notes.exr"):
+        fake = tmp_path / name
+        fake.write_text("not an image at all\n")
+        with pytest.raises(ImageError, match=rf"not an image file \({re.escape(name)}\)"):
+            planets.build_planet(settings(heightmap=str(fake)))
+        with pytest.raises(ImageError, match=rf"not an image file \({re.escape(name)}\)"):
+            planets.build_planet(settings(insets=[str(fake)]))
