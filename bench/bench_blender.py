@@ -10,8 +10,8 @@ the repository's add-on).
 
 Replays bench/camera_path.csv with the add-on itself (planet added with
 mesh.planet_add, Earth preset): per frame
-  lod:   live.refresh(build_mesh=True, for_render=True) = refine + emission +
-         live.write_mesh (the add-on's foreach_set update path), then the
+  lod:   planet_lod.refresh_planet(build_mesh=True, for_render=True) = refine +
+         emission + the mesh written (the add-on's foreach_set update path), then the
          depsgraph evaluation of the changed mesh;
   emit:  planet.mesh() of the same state again (emission alone, so
          update = mesh_ms - emit);
@@ -87,12 +87,12 @@ def floor_push(me, pre):
 
 
 def gpu_update(draw, planet_obj, planet, template_level, res, st):
-    from planet_lod import live
+    import planet_lod
     from planetlod import surface
     s = planet_obj.planet_lod
     t0 = time.perf_counter()
     visible = planet.mesh(template_level=template_level, morph=s.morph)
-    st.preview = surface.preview_data(visible, live.anchor(planet_obj), s.radius,
+    st.preview = surface.preview_data(visible, planet_lod.anchor(planet_obj), s.radius,
                                       s.sea_level if s.use_sea_level else None)
     t1 = time.perf_counter()
     st.gpu_version += 1
@@ -105,7 +105,8 @@ def main():
     args = parse()
     os.makedirs(args.out, exist_ok=True)
     enable_addon()
-    from planet_lod import core, live
+    import planet_lod
+    from planet_lod import core
     for obj in list(bpy.data.objects):
         bpy.data.objects.remove(obj)
     scene = bpy.context.scene
@@ -155,7 +156,7 @@ def main():
         cam.matrix_world = Matrix(m)
         bpy.context.view_layer.update()
         t0 = time.perf_counter()
-        stats = live.refresh(planet_obj, scene, build_mesh=True, for_render=True)
+        stats = planet_lod.refresh_planet(planet_obj, scene, build_mesh=True, for_render=True)
         refresh_ms = (time.perf_counter() - t0) * 1e3
         eval_ms = evaluate()
         t1 = time.perf_counter()
@@ -179,7 +180,7 @@ def main():
                "lod_total_ms": round(refresh_ms + eval_ms, 3)}
         if draw is not None:
             surface_ms, build_ms = gpu_update(draw, planet_obj, planet, tl, res,
-                                              live.state(planet_obj))
+                                              planet_lod.planet_state(planet_obj))
             row["gpu_surface_ms"] = round(surface_ms, 3)
             row["gpu_build_ms"] = round(build_ms, 3)
         rows.append(row)

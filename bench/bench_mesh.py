@@ -22,26 +22,9 @@ import tempfile
 import time
 
 import planetlod
+from bench.bench_refine import look_at
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-
-
-def look_at(eye, target):
-    import math
-    back = [e - t for e, t in zip(eye, target)]
-    n = math.sqrt(sum(b * b for b in back))
-    back = [b / n for b in back]
-    up = (0.0, 0.0, 1.0)
-    right = [up[1] * back[2] - up[2] * back[1], up[2] * back[0] - up[0] * back[2],
-             up[0] * back[1] - up[1] * back[0]]
-    n = math.sqrt(sum(r * r for r in right))
-    right = [r / n for r in right]
-    upv = [back[1] * right[2] - back[2] * right[1], back[2] * right[0] - back[0] * right[2],
-           back[0] * right[1] - back[1] * right[0]]
-    return [right[0], upv[0], back[0], eye[0],
-            right[1], upv[1], back[1], eye[1],
-            right[2], upv[2], back[2], eye[2],
-            0.0, 0.0, 0.0, 1.0]
 
 
 def best_time(fn, repeat):
@@ -63,16 +46,21 @@ def bytes_per_vertex(mesh):
 def c_emission(topo):
     """Builds bench_mesh_c.c against the core (setup.py's flags) and returns
     its table: plod_session_emit into buffers allocated once and reused."""
-    cc, cxx = shutil.which("gcc") or shutil.which("cc"), shutil.which("g++") or shutil.which("c++")
-    if not cc or not cxx:
-        return "(no C/C++ compiler: C-level table skipped)"
+    cc = shutil.which("gcc") or shutil.which("cc")
+    if not cc:
+        return "(no C compiler: C-level table skipped)"
     cext = os.path.join(ROOT, "cext")
     sources = [p for p in sorted(glob.glob(os.path.join(cext, "*.c")))
                if not os.path.basename(p).startswith(("py_", "pymodule"))]
     sources.append(os.path.join(ROOT, "bench", "bench_mesh_c.c"))
-    oiio = subprocess.run(["pkg-config", "--cflags", "--libs", "OpenImageIO"],
-                          capture_output=True, text=True).stdout.split()
     with tempfile.TemporaryDirectory() as tmp:
+        args = []
+        if topo:  # the core decodes no PNG: channel 0 as a headerless grid
+            from planetlod import imageio
+            width, height, _, dtype, pixels = imageio.read(topo)
+            grid = os.path.join(tmp, "map.raw")
+            pixels[:, :, 0].astype("<" + pixels.dtype.str[1:]).tofile(grid)
+            args = [grid, str(width), str(height), dtype]
         objects = []
         for src in sources:
             obj = os.path.join(tmp, os.path.basename(src) + ".o")
@@ -80,10 +68,8 @@ def c_emission(topo):
                             "-I", cext, "-c", src, "-o", obj], check=True)
             objects.append(obj)
         exe = os.path.join(tmp, "bench_mesh_c")
-        subprocess.run([cxx, "-std=c++17", "-O2", "-ffp-contract=off", "-I", cext,
-                        os.path.join(cext, "image_io.cpp")] + objects + oiio +
-                       ["-lm", "-lpthread", "-o", exe], check=True)
-        return subprocess.run([exe] + ([topo] if topo else []), check=True,
+        subprocess.run([cc] + objects + ["-lm", "-lpthread", "-o", exe], check=True)
+        return subprocess.run([exe] + args, check=True,
                               capture_output=True, text=True).stdout.rstrip()
 
 
@@ -137,7 +123,7 @@ def main():
         cube = planetlod.CubeMap.from_image(topo, projection="qsc", size=1024)
         planets.append(("earth-topology", planetlod.Planet(radius, heightmap=cube,
                                                            height_scale=8848.0)))
-    camera = planetlod.Camera(look_at((radius + 10e3, 0.0, 0.0), (radius, 50e3, 20e3)))
+    camera = planetlod.Camera(look_at((radius + 10e3, 0.0, 0.0), (radius, 50e3, 20e3), (0.0, 0.0, 1.0)))
     print(f"{'planet':>15} {'tl':>3} {'sectors':>8} {'vertices':>10} {'thr':>4} "
           f"{'ms':>8} {'Mvert/s':>8} {'morph Mv/s':>10} {'B/vert':>7}")
     for name, planet in planets:

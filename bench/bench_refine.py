@@ -26,6 +26,7 @@ import sys
 import time
 
 import planetlod
+from planetlod.flyby import look_matrix
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -33,36 +34,25 @@ R = 6371000.0
 
 
 def look_at(eye, target, up):
-    def sub(a, b):
-        return [a[i] - b[i] for i in range(3)]
-
-    def norm(a):
-        n = math.sqrt(sum(x * x for x in a))
-        return [x / n for x in a]
-
-    def cross(a, b):
-        return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-
-    f = norm(sub(target, eye))
-    r = norm(cross(f, up))
-    u = cross(r, f)
-    return [[r[0], u[0], -f[0], eye[0]], [r[1], u[1], -f[1], eye[1]],
-            [r[2], u[2], -f[2], eye[2]], [0.0, 0.0, 0.0, 1.0]]
+    """Camera matrix (row-major 4x4, nested lists) at eye looking at target."""
+    return [list(row) for row in look_matrix(eye, [t - e for t, e in zip(target, eye)], up)]
 
 
-def descent(frames, lat_deg=27.9, lon_deg=86.9, terrain_top=0.0):
-    """Cameras from 20,000 km to 2 m above the terrain top, pitching from
-    straight down to 10 degrees below the horizon while moving east."""
+def descent(frames, lat_deg=27.9, lon_deg=86.9, terrain_top=0.0, radius=R, start=2e7):
+    """The reference descent: (altitude, camera matrix) per frame from `start`
+    (20,000 km) to 2 m above the terrain top of a planet of `radius`,
+    pitching from straight down to 10 degrees below the horizon while moving
+    east (tools/descent_hash.py flies it too)."""
     lat, lon0 = math.radians(lat_deg), math.radians(lon_deg)
     for k in range(frames):
         t = k / (frames - 1)
-        alt = math.exp(math.log(2e7) * (1 - t) + math.log(2.0) * t)
+        alt = math.exp(math.log(start) * (1 - t) + math.log(2.0) * t)
         lon = lon0 + 0.002 * t
         d = [math.cos(lat) * math.cos(lon), math.cos(lat) * math.sin(lon), math.sin(lat)]
         east = [-math.sin(lon), math.cos(lon), 0.0]
         pitch = math.radians(-90 + 80 * min(1.0, t * 1.25))
         view = [east[i] * math.cos(pitch) + d[i] * math.sin(pitch) for i in range(3)]
-        eye = [d[i] * (R + terrain_top + alt) for i in range(3)]
+        eye = [d[i] * (radius + terrain_top + alt) for i in range(3)]
         target = [eye[i] + view[i] for i in range(3)]
         up = d if abs(pitch) < math.radians(89) else [-math.sin(lat) * math.cos(lon),
                                                         -math.sin(lat) * math.sin(lon),

@@ -6,7 +6,7 @@
 For every planet preset (added with Add > Planet, Preview quality) and two
 views of the 1586x953 viewport -- the whole planet as Add frames it, and 2 km
 above the ground looking 15 degrees below the horizon -- it times the
-viewport's refresh as the add-on's timer runs it (live.refresh: refine with
+viewport's refresh as the add-on's timer runs it (refresh.refresh: refine with
 hysteresis + the surface's emission for the preview), cold (planet.reset()
 first) and warm (the view moved by 0.5% of its height above the ground each
 frame, 10 frames), and the GPU preview's upload of that surface
@@ -48,15 +48,15 @@ def ground_view(planet, r3d, altitude, pitch):
 
 
 def measure(planet, scene, move):
-    from planet_lod import core, draw, live
-    st = live.state(planet)
+    from planet_lod import cameras, core, draw, refresh, runtime
+    st = runtime.state(planet)
     native = core.planets.build_planet(planet.planet_lod.as_dict())
     native.reset()
 
     def tick_refresh():  # what the timer does: clip ranges to the horizon, then refresh
         t0 = time.perf_counter()
-        live.fit_view_clips(scene)
-        live.refresh(planet, scene)
+        cameras.fit_view_clips(scene)
+        refresh.refresh(planet, scene)
         return (time.perf_counter() - t0) * 1000.0
     cold = tick_refresh()
     warm = []
@@ -74,27 +74,27 @@ def measure(planet, scene, move):
 
 
 def measure_timer(planet, scene, move):
-    """The timer's own path (live.tick, the refresh in a worker job): the
+    """The timer's own path (handlers.tick, the refresh in a worker job): the
     longest tick on the main thread, each refresh's time in its job (a jump
     to a new place fills in over several progressive refreshes), and the
     time from the view's change to its first preview and to the complete
     one, cold (the planet reset) and over 10 moves."""
-    from planet_lod import core, live
-    st = live.state(planet)
-    jobs, run = [], live.SurfaceWork.run
+    from planet_lod import core, handlers, refresh, runtime
+    st = runtime.state(planet)
+    jobs, run = [], core.refresh.SurfaceWork.run
 
     def timed(work):
         t0 = time.perf_counter()
         run(work)
         jobs.append((time.perf_counter() - t0) * 1000.0)
-    live.SurfaceWork.run = timed
+    core.refresh.SurfaceWork.run = timed
     native = core.planets.build_planet(planet.planet_lod.as_dict())
-    live.wait_for_jobs()
+    refresh.wait_for_jobs()
     native.reset()
     cache = native.mesh_cache_max_bytes
     native.mesh_cache_max_bytes = 0  # cold: no sector kept from before
     native.mesh_cache_max_bytes = cache
-    interval, live.REFRESH_INTERVAL_S = live.REFRESH_INTERVAL_S, 0.0
+    interval, handlers.REFRESH_INTERVAL_S = handlers.REFRESH_INTERVAL_S, 0.0
     ticks, latencies, firsts = [], [], []
 
     def until_settled():
@@ -103,7 +103,7 @@ def measure_timer(planet, scene, move):
         start = time.perf_counter()
         while True:
             t0 = time.perf_counter()
-            live.tick()
+            handlers.tick()
             ticks.append((time.perf_counter() - t0) * 1000.0)
             if first is None and st.gpu_version != version:
                 first = (time.perf_counter() - start) * 1000.0
@@ -119,8 +119,8 @@ def measure_timer(planet, scene, move):
             move()
             latencies.append(until_settled())
     finally:
-        live.REFRESH_INTERVAL_S = interval
-        live.SurfaceWork.run = run
+        handlers.REFRESH_INTERVAL_S = interval
+        core.refresh.SurfaceWork.run = run
     return dict(timer_cold_tick_ms=round(cold_tick, 2), timer_cold_latency_ms=round(cold_latency, 1),
                 timer_cold_first_ms=round(cold_first, 1), timer_cold_refreshes=len(cold_jobs),
                 timer_job_max_ms=round(max(jobs), 1), timer_jobs_ms=[round(j, 1) for j in jobs],
@@ -143,16 +143,16 @@ def redraw_ms(area, region, n=3):
 def draw_costs(planet, scene, area, region):
     """Region redraw with the GPU preview, with the planet hidden, and with the
     plain mesh of the same LOD (preview off, Solid shading)."""
-    from planet_lod import live
+    from planet_lod import refresh
     out = {"draw_preview_ms": redraw_ms(area, region)}
     planet.hide_viewport = True
     out["draw_hidden_ms"] = redraw_ms(area, region)
     planet.hide_viewport = False
     planet.planet_lod.gpu_preview = False
-    live.refresh(planet, scene, build_mesh=True)
+    refresh.refresh(planet, scene, build_mesh=True)
     out["draw_mesh_ms"] = redraw_ms(area, region)
     planet.planet_lod.gpu_preview = True
-    live.refresh(planet, scene)
+    refresh.refresh(planet, scene)
     return out
 
 

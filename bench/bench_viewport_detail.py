@@ -92,7 +92,7 @@ def alt_t(alt):
 
 def preview_refresh(planet, level, previous):
     """The GPU preview's surface as the add-on's refresh makes it
-    (live.SurfaceWork): only the changed sectors, replaced in the previous
+    (planetlod.refresh.SurfaceWork): only the changed sectors, replaced in the previous
     preview, while the planet's last mesh was that preview's."""
     ids = numpy.frombuffer(planet.sector_ids(), numpy.uint64)
     if previous is not None and previous.serial == planet.mesh_cache_info["emissions"]:

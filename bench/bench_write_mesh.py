@@ -8,7 +8,7 @@ One Earth mesh (3 km above the Alps, the add-on's FINAL quality) is written
 into two objects, alternately, `--repeats` times each:
   custom: the normals as custom split normals (a Python list of tuples into
           Mesh.normals_split_custom_set_from_vertices, auto smooth before 4.1);
-  attribute: the add-on's live.write_mesh (the normals as a POINT
+  attribute: the add-on's refresh.write_mesh (the normals as a POINT
           FLOAT_VECTOR attribute through foreach_set, which the planet
           material shades with).
 Each is timed for a full rebuild (the mesh cleared first, so topology is
@@ -43,7 +43,7 @@ def write_custom_normals(obj, mesh):
     """The hand-off with custom split normals (what the add-on did before it
     wrote the normals as an attribute)."""
     from array import array
-    from planet_lod import compat, live
+    from planet_lod import compat, refresh, runtime
     from planetlod import surface
     me = obj.data
     nv, nt = mesh.vertex_count, mesh.triangle_count
@@ -53,13 +53,13 @@ def write_custom_normals(obj, mesh):
         compat.set_triangle_topology(me, mesh.triangles, nt)
         me.polygons.foreach_set("use_smooth", array("i", [1]) * nt)
     s = obj.planet_lod
-    data = surface.vertex_data(mesh, live.anchor(obj), s.radius,
+    data = surface.vertex_data(mesh, runtime.anchor(obj), s.radius,
                                s.sea_level if s.use_sea_level else None)
     me.vertices.foreach_set("co", data.positions)
-    live._set_attribute(me, "planet_uv", 'FLOAT2', 'POINT', "vector", mesh.uv)
-    live._set_attribute(me, "sector_level", 'INT', 'FACE', "value", mesh.sector_level)
+    refresh.set_attribute(me, "planet_uv", 'FLOAT2', 'POINT', "vector", mesh.uv)
+    refresh.set_attribute(me, "sector_level", 'INT', 'FACE', "value", mesh.sector_level)
     for name, values in data.attributes.items():
-        live._set_attribute(me, name, 'FLOAT', 'POINT', "value", values)
+        refresh.set_attribute(me, name, 'FLOAT', 'POINT', "value", values)
     me.update()
     if compat.VERSION < (4, 1, 0):
         me.use_auto_smooth = True
@@ -81,7 +81,7 @@ def main():
     args = parse()
     import addon_utils
     assert addon_utils.enable("planet_lod", default_set=True, handle_error=None) is not None
-    from planet_lod import core, live
+    from planet_lod import core, refresh
     assert core.load_native() is not None, core.native_error
     for obj in list(bpy.data.objects):
         bpy.data.objects.remove(obj)
@@ -101,7 +101,7 @@ def main():
     geo.heading, geo.pitch = 90.0, -15.0
     geo.enabled = True
     scene.camera = cam
-    live.refresh_for_render(scene)
+    refresh.refresh_for_render(scene)
     native = core.planets.build_planet(planet.planet_lod.as_dict())
     mesh = native.mesh(template_level=planet.planet_lod.as_dict()["template_level"],
                        morph=planet.planet_lod.morph)
@@ -114,7 +114,7 @@ def main():
     other.planet_lod.sea_level = planet.planet_lod.sea_level
     other.planet_lod.use_sea_level = planet.planet_lod.use_sea_level
 
-    methods = {"custom": (other, write_custom_normals), "attribute": (planet, live.write_mesh)}
+    methods = {"custom": (other, write_custom_normals), "attribute": (planet, refresh.write_mesh)}
     times = {(m, kind, part): [] for m in methods for kind in ("rebuild", "update")
              for part in ("write", "write+eval")}
     for _ in range(args.repeats):

@@ -180,7 +180,6 @@ int plod_cubemap_face_width(const plod_cubemap *m) { return m->width; }
 int plod_cubemap_face_height(const plod_cubemap *m) { return m->height; }
 plod_texel_type plod_cubemap_texel_type(const plod_cubemap *m) { return m->type; }
 size_t plod_cubemap_face_bytes(const plod_cubemap *m) { return m->face_bytes; }
-int plod_cubemap_has_pyramid(const plod_cubemap *m) { return m->pyramid_valid; }
 
 void *plod_cubemap_face_data(plod_cubemap *m, int face)
 {
@@ -193,20 +192,6 @@ const void *plod_cubemap_face_data_const(const plod_cubemap *m, int face)
 {
     assert(face >= 0 && face < m->face_count);
     return m->texels + (size_t)face * m->face_bytes;
-}
-
-plod_status plod_cubemap_neighbour(const plod_cubemap *m, int face, int edge, int *neighbour_face,
-                                   int *neighbour_edge, int *flip)
-{
-    if (!m || !neighbour_face || !neighbour_edge || !flip)
-        return PLOD_ERR_NULL;
-    if (m->face_count != PLOD_FACE_COUNT || face < 0 || face >= PLOD_FACE_COUNT || edge < 0 ||
-        edge > 3)
-        return PLOD_ERR_BAD_PARAM;
-    *neighbour_face = m->links[face][edge].face;
-    *neighbour_edge = m->links[face][edge].edge;
-    *flip = m->links[face][edge].flip;
-    return PLOD_OK;
 }
 
 /* ======================================================================== */

@@ -138,56 +138,6 @@ void plod_mesh_origin(const plod_surface_source *surface, double radius,
         origin[c] = dir[c] * r;
 }
 
-/* Size of a level-0 sector as the refiner measures it (the longest corner
- * chord), extrapolated back from deep levels where it halves every two
- * bisections: the hypotenuse in face units times the equal-area scale of
- * the face domain (cube: 2 sqrt 2 units, 4 units^2 per 4 pi/6 sr;
- * octahedral square: sqrt 2 units, 1/2 unit^2 per 4 pi/8 sr). */
-static double plod__base_side(const plod_planet *planet)
-{
-    double size = planet->projection == PLOD_PROJ_CAR
-                      ? sqrt(2.0) * sqrt(PLOD_PI)
-                      : 2.0 * sqrt(2.0) * sqrt(PLOD_PI / 6.0);
-    return planet->radius * size;
-}
-
-double plod_mesh_set_morph_scale(plod_mesh_params *params,
-                                 const plod_camera *camera,
-                                 const plod_refine_params *refine_params)
-{
-    if (!params)
-        return 0.0;
-    params->morph_lod_scale = 0.0;
-    params->morph_level_rate = 2.0;
-    const plod_planet *planet = params->planet;
-    if (!planet || !camera || !refine_params || !plod__level_ok(params->template_level))
-        return 0.0;
-    if (camera->desc.orthographic)
-        return 0.0;
-    double side = plod__base_side(planet);
-    double scale;
-    if (refine_params->criterion == PLOD_CRITERION_SIDE_DISTANCE) {
-        if (!(refine_params->split_border > 0.0))
-            return 0.0;
-        scale = side / refine_params->split_border;
-    } else {
-        if (!(refine_params->max_pixel_error > 0.0))
-            return 0.0;
-        double cells = (double)(1 << params->template_level);
-        scale = side * side * camera->pixels_per_radian /
-                (8.0 * planet->radius * cells * cells * refine_params->max_pixel_error);
-        params->morph_level_rate = 1.0;
-    }
-    /* The refiner measures distance to a bounding cap (nearer than the
-     * vertices) and forced splits refine further: measured on an Earth-size
-     * sphere, median(sector level - L) was 1.3 levels (cube) and 1.8 (CAR)
-     * for both criteria; shift L so that the median is 0.5, mid-ramp. */
-    double bias = planet->projection == PLOD_PROJ_CAR ? 1.3 : 0.8;
-    scale *= exp2(bias / params->morph_level_rate);
-    params->morph_lod_scale = isfinite(scale) && scale > 0.0 ? scale : 0.0;
-    return params->morph_lod_scale;
-}
-
 /* The morph ramp with log2(scale) precomputed: level = rate * (log2(scale)
  * - log2(distance^2) / 2) avoids a square root per vertex. */
 static double plod__morph_ramp(const double eye[3], double log2_scale, double rate,
@@ -256,16 +206,6 @@ size_t plod_mesh_triangle_bound(size_t sector_count, int template_level)
     if (per == 0 || plod_mesh_vertex_bound(sector_count, template_level) == 0)
         return 0;
     return sector_count * per;
-}
-
-size_t plod_mesh_count_sectors(const plod_mesh_sector_source *sectors)
-{
-    size_t emitted = 0;
-    if (!sectors || !sectors->sector)
-        return 0;
-    for (size_t s = 0; s < sectors->count; s++)
-        emitted += sectors->sector(sectors->context, s, NULL) ? 1 : 0;
-    return emitted;
 }
 
 /* ---- per-vertex geometry ---------------------------------------------------- */

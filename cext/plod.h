@@ -24,6 +24,7 @@
 #include "plod_image.h"
 #include "plod_resample.h"
 #include "plod_heightsource.h"
+#include "plod_surface.h"
 #include "plod_planet.h"
 #include "plod_detail.h"
 #include "plod_camera.h"

@@ -62,14 +62,6 @@ size_t plod_cubemap_face_bytes(const plod_cubemap *cubemap);
 /* Texels per face row (size, or 2*size for CAR) and rows per face (size). */
 int plod_cubemap_face_width(const plod_cubemap *cubemap);
 int plod_cubemap_face_height(const plod_cubemap *cubemap);
-/* Edge adjacency (cube maps only), derived at creation from the
- * projection's face frames: edge 0 is u = -1, 1 u = +1, 2 v = -1, 3 v = +1.
- * Face `face`'s edge `edge` is the neighbour's edge `neighbour_edge`; the
- * along-edge texel index k there is k (flip 0) or size-1-k (flip 1).
- * PLOD_ERR_NULL; PLOD_ERR_BAD_PARAM for a CAR map or a bad face or edge. */
-plod_status plod_cubemap_neighbour(const plod_cubemap *cubemap, int face,
-                                   int edge, int *neighbour_face,
-                                   int *neighbour_edge, int *flip);
 
 /* ---- sampling ----------------------------------------------------------- */
 /* Bilinear sample at a direction (finite, non-zero); out gets `channels`
@@ -180,9 +172,6 @@ void plod_cubemap_range(const plod_cubemap *cubemap, int face, double u0,
 /* Bounds over the whole map (channel 0).  Requires the pyramid. */
 void plod_cubemap_global_range(const plod_cubemap *cubemap, double *min_value,
                                double *max_value);
-/* Non-zero when the pyramid is built and no face was opened for writing
- * since. */
-int plod_cubemap_has_pyramid(const plod_cubemap *cubemap);
 /* NaN texels of channel 0 counted by the last plod_cubemap_build_pyramid
  * (0 without a pyramid).  A height map with any is refused by
  * plod_planet_check: NaN heights would reach the emitted vertices. */

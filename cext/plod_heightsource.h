@@ -2,11 +2,11 @@
  * in a cube map: a small interface (sample at a direction, conservative
  * bounds over a spherical cap, texel size, no-data count) and its
  * out-of-core implementation, a tiled equirectangular map read through a
- * bounded cache (plod_tiles); the surface interface the mesh emitter
- * samples (finished heights, normals, detail); regional insets.
+ * bounded cache (plod_tiles); regional insets.  (The finished surface the
+ * mesh emitter samples is plod_surface.h.)
  *
  * A tile file is written once from an equirectangular map (RAW/R16/HGT
- * grid or any image OpenImageIO reads scanline by scanline): a header, the
+ * grid, or any image the caller's reader gives a band of rows at a time): a header, the
  * min/max of every tile, then the tiles (tile x tile texels, row-major,
  * north first, each tile contiguous, edge tiles padded).  Reading it keeps
  * the per-tile bounds (8 bytes per tile) and at most `cache_bytes` of
@@ -48,37 +48,6 @@ typedef struct plod_height_source {
     const void *self;
 } plod_height_source;
 
-/* ---- the finished surface (what the mesh emitter samples) -----------------
- * plod_height_source above is raw data: map values and their bounds, which
- * the planet scales, blends and bounds.  A surface source is the other end:
- * heights in metres, unit normals and the detail field's part, with the
- * detail band chosen per point, as mesh vertices need them.  The planet is
- * one (plod_planet_surface_source); tests and other surfaces plug in the
- * same way. */
-typedef struct plod_surface_ops {
-    /* At n unit directions (dirs: 3 n doubles): heights[i] in metres above
-     * the radius, normals[3 i..] unit outward (NULL: not wanted), detail[i]
-     * the detail field's part of the height (NULL: not wanted).  octaves /
-     * normal_octaves (NULL: all): per point, the detail octaves the height
-     * and the normal keep.  A point's results depend on its direction and
-     * band only (not on n or its neighbours), bit for bit.  Called from
-     * several threads at once. */
-    void (*sample_n)(const void *self, size_t n, const double *dirs, const int *octaves,
-                     const int *normal_octaves, double *heights, double *normals,
-                     double *detail);
-    /* Detail octaves that cells of `cell` metres resolve.  NULL when the
-     * surface has no band-limited detail: every point keeps everything. */
-    int (*octaves_for_cell)(const void *self, double cell);
-    /* A value that changes whenever the surface's samples would (caches
-     * compare it); NULL: they never change while `self` lives. */
-    uint64_t (*stamp)(const void *self);
-} plod_surface_ops;
-
-typedef struct plod_surface_source {
-    const plod_surface_ops *ops;
-    const void *self;
-} plod_surface_source;
-
 /* Bounds of a width x height equirectangular map (u = lon / 180 deg,
  * v = lat / 90 deg) over the spherical cap (axis, angle), through the
  * cap's lon/lat box: one box, two across the +-180 deg seam, the full
@@ -99,17 +68,18 @@ typedef struct plod_tiles plod_tiles; /* opaque */
 #define PLOD_TILES_DEFAULT_CACHE_BYTES ((size_t)128 << 20)
 
 /* Writes the tile file of an equirectangular map.  `raw` (may be NULL)
- * gives a headerless grid's layout; NULL reads `source` as
- * plod_image_read would (.hgt/.r16/.raw by their size, else OpenImageIO,
- * scanline by scanline: no size cap).  Channel 0 only; i16 grids become
+ * gives a headerless grid's layout; NULL: .hgt/.r16/.raw by their size,
+ * other files through `reader` (may be NULL for grids), a band of rows at a
+ * time: no size cap.  Channel 0 only; i16 grids become
  * f32 integer values.  `is_signed`: u8/u16 samples are two's complement
  * (stored as f32).  The file is written to a temporary name and renamed,
  * so a cancelled or failed build leaves nothing.  progress may be NULL.
  * `tile`: a power of two in 16..4096, 0 = PLOD_TILES_DEFAULT_TILE.
- * PLOD_ERR_NULL, PLOD_ERR_BAD_PARAM (tile size), the reading errors of
- * plod_image_read, PLOD_ERR_IO (writing), PLOD_ERR_CANCELLED,
+ * PLOD_ERR_NULL, PLOD_ERR_BAD_PARAM (tile size; no reader for an image),
+ * the reading errors of the grid or reader, PLOD_ERR_IO (writing), PLOD_ERR_CANCELLED,
  * PLOD_ERR_NO_MEMORY; `message` (may be NULL) explains. */
-plod_status plod_tiles_build(const char *source, const plod_raw_format *raw, int is_signed,
+plod_status plod_tiles_build(const char *source, const plod_raw_format *raw,
+                             const plod_image_rows_reader *reader, int is_signed,
                              const char *tiles_path, int tile, plod_progress_fn progress,
                              void *user, char *message, size_t message_size);
 /* Opens a tile file; cache_bytes (0 = default) bounds the tiles held in

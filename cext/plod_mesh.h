@@ -21,7 +21,8 @@
 #ifndef PLOD_MESH_H
 #define PLOD_MESH_H
 
-#include "plod_refine.h"
+#include "plod_planet.h"
+#include "plod_surface.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -52,8 +53,9 @@ typedef struct plod_mesh_sector {
     int level;            /* written to the sector_level attribute */
     int face;             /* written to the face attribute */
     uint64_t key;         /* identity for plod_mesh_cache (the refiner's
-                             sector id); 0 = never cached.  The emitter sets
-                             it to 0 before each source call. */
+                             sector id); 0 = never cached.  plod_mesh_emit
+                             sets it to 0 before each source call;
+                             plod_mesh_instances neither sets nor reads it. */
 } plod_mesh_sector;
 
 /* Returns 1 if sector `index` (0..count-1) is emitted and then fills
@@ -165,26 +167,6 @@ void plod_mesh_params_init(plod_mesh_params *params, const plod_planet *planet,
  * eye is at the centre or not finite, or surface is NULL. */
 void plod_mesh_origin(const plod_surface_source *surface, double radius,
                       const double eye[3], double origin[3]);
-/* Sets params->morph_lod_scale and morph_level_rate so that the continuous
- * level tracks the refine criterion's split distance of a level-L sector
- * (side = longest corner chord ~ base chord * 2^(-L/2)).  side_distance: split when side/d >
- * split_border, so scale = base side / split_border, rate 2.  pixel: the
- * curvature-sag term of the refiner's error, (side/2^t)^2 / (8 R) *
- * pixels_per_radian / d > max_pixel_error, so scale = base side^2 *
- * pixels_per_radian / (8 R 4^t max_pixel_error), rate 1 (relief makes the
- * refiner split earlier than this predicts; the ramp is an approximation).
- * Either scale is then multiplied by 2^(bias / rate), bias 0.8 levels on
- * the cube and 1.3 for CAR: the refiner measures distance to a bounding
- * cap and forced splits refine further, and the shift puts the measured
- * median sector level mid-ramp.  Base side: the longest corner chord of a
- * level-0 sector extrapolated back from deep levels (radius * 2 sqrt 2
- * sqrt(pi / 6) on the cube, radius * sqrt 2 sqrt pi for CAR).
- * Orthographic cameras, NULL arguments, a bad template level or a
- * non-positive split_border / max_pixel_error: scale 0 (no morph).
- * Returns the scale. */
-double plod_mesh_set_morph_scale(plod_mesh_params *params,
-                                 const plod_camera *camera,
-                                 const plod_refine_params *refine_params);
 /* Morph factor of an (unmorphed) planet-space position; 0 when morph is off
  * or the scale is 0. */
 double plod_mesh_morph_factor(const plod_mesh_params *params,
@@ -220,8 +202,6 @@ typedef struct plod_mesh_buffers {
  * the count would not fit int32 indices. */
 size_t plod_mesh_vertex_bound(size_t sector_count, int template_level);
 size_t plod_mesh_triangle_bound(size_t sector_count, int template_level);
-/* Number of sectors `sectors` emits (the counting pass); 0 for NULL. */
-size_t plod_mesh_count_sectors(const plod_mesh_sector_source *sectors);
 
 /* Emits every sector `sectors` accepts, in index order, with heights,
  * normals and detail sampled from `surface`, splitting the index

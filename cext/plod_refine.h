@@ -144,8 +144,9 @@ typedef struct plod_refiner plod_refiner; /* opaque */
  * PLOD_ERR_NO_MEMORY.  Destroy with plod_refiner_destroy (NULL: no-op). */
 plod_status plod_refiner_create(plod_refiner **out, const plod_planet *planet);
 void plod_refiner_destroy(plod_refiner *refiner);
-/* Room for `sectors` leaf sectors (their internal nodes, edges, split
- * queue and visible order) allocated now, and all but the visible order
+/* Room for `sectors` leaf sectors (the leaves with their neighbour links,
+ * the internal nodes, the pending and deferred splits, the merge
+ * candidates and the visible order) allocated now, and all but the visible order
  * touched, so that plod_refiner_update does not grow its arrays, or fault
  * in fresh pages, until the set exceeds it: a planet's first descent then
  * runs at steady-state cost.  Never shrinks (reset
@@ -165,10 +166,11 @@ void plod_refiner_reset(plod_refiner *refiner);
  * nothing changed) or PLOD_ERR_NO_MEMORY (the visible order or the budget
  * cut could not be allocated: the leaves are this frame's, stats are not
  * written and the visible list is empty until a successful update).  The split pass itself never fails: when memory runs out it
- * stops as at max_sectors. */
+ * stops as at max_sectors.  *error (may be NULL) gets the status and the rule
+ * or reason of a failure. */
 plod_status plod_refiner_update(plod_refiner *refiner, const plod_camera *camera,
                                 const plod_refine_params *params,
-                                plod_refine_stats *stats);
+                                plod_refine_stats *stats, plod_error *error);
 /* The refiner's persistent workers (NULL with one thread): the refiner's
  * owner may lend them to other stages between updates, from the thread
  * that updates. */

@@ -57,10 +57,6 @@ plod_status plod_cubemap_face_to_image(plod_image *image,
  * width % 4 == 0. */
 plod_status plod_cubemap_from_cross(plod_cubemap **out, const plod_image *cross,
                                     plod_projection projection);
-/* CAR cube map (size = height) holding an equirectangular 2:1 image as is,
- * pyramid built.  PLOD_ERR_BAD_IMAGE unless width == 2 * height. */
-plod_status plod_cubemap_from_car_image(plod_cubemap **out,
-                                        const plod_image *image);
 
 /* Layout (cube maps): cross 4N x 3N, faces 1 2 3 4 left to right in the
  * middle band, face 0 above face 1 and face 5 below it (the FITS cross,

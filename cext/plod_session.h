@@ -77,18 +77,18 @@ const plod_refiner *plod_session_refiner(const plod_session *session);
 /* The last successful refine's camera; NULL before one and after a reset. */
 const plod_camera *plod_session_camera(const plod_session *session);
 /* The last successful refine's parameters (plod_refine_params_default
- * before one) and statistics (zero before one). */
+ * before one). */
 const plod_refine_params *plod_session_refine_params(const plod_session *session);
-const plod_refine_stats *plod_session_refine_stats(const plod_session *session);
 
 /* ---- per frame --------------------------------------------------------------- */
 
-/* plod_refiner_update; on success the camera, parameters and statistics
- * become the session's last (stats may be NULL).  On failure the last
- * camera, parameters and statistics stay the previous frame's; the
- * refiner's leaves are as plod_refiner_update leaves them. */
+/* plod_refiner_update (stats and error may be NULL); on success the camera
+ * and parameters become the session's last.  On failure they stay the
+ * previous frame's, *error says why, and the refiner's leaves are as
+ * plod_refiner_update leaves them. */
 plod_status plod_session_refine(plod_session *session, const plod_camera *camera,
-                                const plod_refine_params *params, plod_refine_stats *stats);
+                                const plod_refine_params *params, plod_refine_stats *stats,
+                                plod_error *error);
 /* Back to the base sectors; forgets the last camera. */
 void plod_session_reset(plod_session *session);
 /* plod_refiner_reserve. */
@@ -106,10 +106,30 @@ plod_status plod_session_build_normals(plod_session *session, int threads);
 
 /* ---- emission ------------------------------------------------------------------ */
 
+/* Sets the emission's params->morph_lod_scale and morph_level_rate so that the continuous
+ * level tracks the refine criterion's split distance of a level-L sector
+ * (side = longest corner chord ~ base chord * 2^(-L/2)).  side_distance: split when side/d >
+ * split_border, so scale = base side / split_border, rate 2.  pixel: the
+ * curvature-sag term of the refiner's error, (side/2^t)^2 / (8 R) *
+ * pixels_per_radian / d > max_pixel_error, so scale = base side^2 *
+ * pixels_per_radian / (8 R 4^t max_pixel_error), rate 1 (relief makes the
+ * refiner split earlier than this predicts; the ramp is an approximation).
+ * Either scale is then multiplied by 2^(bias / rate), bias 0.8 levels on
+ * the cube and 1.3 for CAR: the refiner measures distance to a bounding
+ * cap and forced splits refine further, and the shift puts the measured
+ * median sector level mid-ramp.  Base side: the longest corner chord of a
+ * level-0 sector extrapolated back from deep levels (radius * 2 sqrt 2
+ * sqrt(pi / 6) on the cube, radius * sqrt 2 sqrt pi for CAR).
+ * Orthographic cameras, NULL arguments, a bad template level or a
+ * non-positive split_border / max_pixel_error: scale 0 (no morph).
+ * Returns the scale. */
+double plod_session_set_morph_scale(plod_mesh_params *params,
+                                    const plod_camera *camera,
+                                    const plod_refine_params *refine_params);
 /* Returned: emission parameters for the last refine: plod_mesh_params_init
  * for the session's planet, `threads`, and with a last camera the origin
  * on the surface point nearest it, the eye at it, and when `morph` the
- * morph scale of the refine criterion (plod_mesh_set_morph_scale; morph
+ * morph scale of the refine criterion (plod_session_set_morph_scale; morph
  * stays off where that scale is 0).  Values are not checked here:
  * plod_session_emit refuses bad ones.  The caller may adjust the result. */
 void plod_session_mesh_params(const plod_session *session, int template_level, int morph,

@@ -685,28 +685,3 @@ plod_status plod_cubemap_from_cross(plod_cubemap **out, const plod_image *cross,
     *out = m;
     return PLOD_OK;
 }
-
-plod_status plod_cubemap_from_car_image(plod_cubemap **out, const plod_image *image)
-{
-    if (!out || !image || !image->pixels)
-        return PLOD_ERR_NULL;
-    *out = NULL;
-    if (image->width != 2 * image->height)
-        return PLOD_ERR_BAD_IMAGE;
-    plod_cubemap *m;
-    plod_status s = plod_cubemap_create(&m, PLOD_PROJ_CAR, image->height, image->channels,
-                                        image->type);
-    if (s != PLOD_OK)
-        return s;
-    size_t stride = (size_t)image->width * (size_t)image->channels;
-    plod__copy_block(image->type, image->pixels, image->channels, stride, image->type,
-                     plod_cubemap_face_data(m, 0), image->channels, stride, image->width,
-                     image->height, 1);
-    s = plod_cubemap_build_pyramid(m);
-    if (s != PLOD_OK) {
-        plod_cubemap_destroy(m);
-        return s;
-    }
-    *out = m;
-    return PLOD_OK;
-}

@@ -13,6 +13,7 @@
  */
 #include "plod_session.h"
 
+#include <math.h>
 #include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -29,7 +30,6 @@ struct plod_session {
     size_t mesh_cache_max_bytes;
     plod_camera camera;        /* last refine's */
     plod_refine_params params;
-    plod_refine_stats stats;
     int has_camera;
     pthread_mutex_t lock;
 };
@@ -71,28 +71,30 @@ plod_status plod_session_create(plod_session **out, const plod_planet *planet,
         plod_session_destroy(s);
         return PLOD_ERR_BAD_IMAGE;
     }
-    if (detail) {
-        st = plod_planet_check(&s->planet);
-        if (st == PLOD_OK)
-            st = plod_detail_create(&s->detail, detail, &s->planet);
-        if (st != PLOD_OK) {
-            plod__session_message(message, message_size,
-                                  st == PLOD_ERR_BAD_PARAM
-                                      ? "invalid detail (amplitude in [0, 1e6], roughness in "
-                                        "[0, 1), largest >= 0, smallest > 0, craters in [0, 4], "
-                                        "crater_density and plains in [0, 1], relief >= 0) or "
-                                        "planet"
-                                      : "detail field");
-            plod_session_destroy(s);
-            return st;
+    /* the planet's checks say which rule failed; the refiner checks again */
+    plod_error error = {PLOD_OK, ""};
+    st = plod_planet_check(&s->planet, &error);
+    if (st == PLOD_OK && detail) {
+        st = plod_detail_create(&s->detail, detail, &s->planet);
+        if (st == PLOD_ERR_BAD_PARAM)
+            plod_error_set(&error, st,
+                           "invalid detail (amplitude in [0, 1e6], roughness in [0, 1), "
+                           "largest >= 0, smallest > 0, craters in [0, 4], crater_density "
+                           "and plains in [0, 1], relief >= 0)");
+        else if (st != PLOD_OK)
+            plod_error_set(&error, st, "detail field");
+        if (st == PLOD_OK) {
+            s->planet.detail = s->detail;
+            st = plod_planet_check(&s->planet, &error);
         }
-        s->planet.detail = s->detail;
     }
-    st = plod_refiner_create(&s->refiner, &s->planet);
+    if (st == PLOD_OK) {
+        st = plod_refiner_create(&s->refiner, &s->planet);
+        if (st != PLOD_OK)
+            plod_error_set(&error, st, "%s", plod_status_message(st));
+    }
     if (st != PLOD_OK) {
-        plod__session_message(message, message_size,
-                              "invalid planet (radius, height_scale, height_offset, "
-                              "sea_level, height range or detail amplitude)");
+        plod__session_message(message, message_size, error.message);
         plod_session_destroy(s);
         return st;
     }
@@ -155,23 +157,18 @@ const plod_refine_params *plod_session_refine_params(const plod_session *session
     return &session->params;
 }
 
-const plod_refine_stats *plod_session_refine_stats(const plod_session *session)
-{
-    return &session->stats;
-}
-
 /* ---- per frame ---------------------------------------------------------------------- */
 
 plod_status plod_session_refine(plod_session *session, const plod_camera *camera,
-                                const plod_refine_params *params, plod_refine_stats *stats)
+                                const plod_refine_params *params, plod_refine_stats *stats,
+                                plod_error *error)
 {
     plod_refine_stats frame;
-    plod_status st = plod_refiner_update(session->refiner, camera, params, &frame);
+    plod_status st = plod_refiner_update(session->refiner, camera, params, &frame, error);
     if (st != PLOD_OK)
         return st;
     session->camera = *camera;
     session->params = *params;
-    session->stats = frame;
     session->has_camera = 1;
     if (stats)
         *stats = frame;
@@ -245,6 +242,61 @@ static plod_mesh_sector_source plod__leaf_source_init(const plod_session *sessio
     return source;
 }
 
+static int plod__template_level_ok(int template_level)
+{
+    return template_level >= 0 && template_level <= PLOD_MAX_TEMPLATE_LEVEL;
+}
+
+/* Size of a level-0 sector as the refiner measures it (the longest corner
+ * chord), extrapolated back from deep levels where it halves every two
+ * bisections: the hypotenuse in face units times the equal-area scale of
+ * the face domain (cube: 2 sqrt 2 units, 4 units^2 per 4 pi/6 sr;
+ * octahedral square: sqrt 2 units, 1/2 unit^2 per 4 pi/8 sr). */
+static double plod__base_side(const plod_planet *planet)
+{
+    double size = planet->projection == PLOD_PROJ_CAR
+                      ? sqrt(2.0) * sqrt(PLOD_PI)
+                      : 2.0 * sqrt(2.0) * sqrt(PLOD_PI / 6.0);
+    return planet->radius * size;
+}
+
+double plod_session_set_morph_scale(plod_mesh_params *params,
+                                    const plod_camera *camera,
+                                    const plod_refine_params *refine_params)
+{
+    if (!params)
+        return 0.0;
+    params->morph_lod_scale = 0.0;
+    params->morph_level_rate = 2.0;
+    const plod_planet *planet = params->planet;
+    if (!planet || !camera || !refine_params || !plod__template_level_ok(params->template_level))
+        return 0.0;
+    if (camera->desc.orthographic)
+        return 0.0;
+    double side = plod__base_side(planet);
+    double scale;
+    if (refine_params->criterion == PLOD_CRITERION_SIDE_DISTANCE) {
+        if (!(refine_params->split_border > 0.0))
+            return 0.0;
+        scale = side / refine_params->split_border;
+    } else {
+        if (!(refine_params->max_pixel_error > 0.0))
+            return 0.0;
+        double cells = (double)(1 << params->template_level);
+        scale = side * side * camera->pixels_per_radian /
+                (8.0 * planet->radius * cells * cells * refine_params->max_pixel_error);
+        params->morph_level_rate = 1.0;
+    }
+    /* The refiner measures distance to a bounding cap (nearer than the
+     * vertices) and forced splits refine further: measured on an Earth-size
+     * sphere, median(sector level - L) was 1.3 levels (cube) and 1.8 (CAR)
+     * for both criteria; shift L so that the median is 0.5, mid-ramp. */
+    double bias = planet->projection == PLOD_PROJ_CAR ? 1.3 : 0.8;
+    scale *= exp2(bias / params->morph_level_rate);
+    params->morph_lod_scale = isfinite(scale) && scale > 0.0 ? scale : 0.0;
+    return params->morph_lod_scale;
+}
+
 void plod_session_mesh_params(const plod_session *session, int template_level, int morph,
                               int threads, plod_mesh_params *params)
 {
@@ -258,7 +310,7 @@ void plod_session_mesh_params(const plod_session *session, int template_level, i
             params->eye[c] = camera->position[c];
         if (morph)
             params->morph =
-                plod_mesh_set_morph_scale(params, camera, &session->params) > 0.0;
+                plod_session_set_morph_scale(params, camera, &session->params) > 0.0;
     }
 }
 

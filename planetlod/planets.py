@@ -279,33 +279,6 @@ def make_camera(params):
     return require_native().Camera(**params)
 
 
-class ProgressiveSplits:
-    """How many splits one progressive refresh of the viewport may make, so
-    that a jump to a new place fills in over refreshes of about TARGET_MS
-    each instead of one long one.  The least is START_NEW_VERTICES new
-    vertices (2 sectors per split): cheap next to a refresh's fixed part
-    (finding the sectors that changed, copying the preview).  A refresh
-    that used its allowance and took less than TARGET_MS raises the next
-    one by the ratio (at most 1.5 times), one that took longer lowers it
-    (down to the least).  Without a budget (a view as large as it asks for) refreshes
-    are not limited."""
-    TARGET_MS = 12.0
-    START_NEW_VERTICES = 16_000
-
-    def __init__(self, template_level, budget):
-        self.key = (int(template_level), int(budget))
-        n = 2 ** int(template_level)
-        per_sector = (n + 1) * (n + 2) // 2
-        self.least = max(16, self.START_NEW_VERTICES // (2 * per_sector))
-        self.splits = 0 if budget <= 0 else self.least
-
-    def measured(self, stats, ms):
-        """A refresh with this limit took `ms` (its refine's stats)."""
-        if self.splits and stats.get("pending") and ms > 0.0:
-            scale = min(1.5, max(0.5, self.TARGET_MS / ms))
-            self.splits = max(self.least, int(self.splits * scale))
-
-
 # Threads of a refine: the planet's worker evaluates half the leaves of a large
 # sector set while the caller does the other half (the same sectors for any
 # count); two, as the mesh emission uses.
@@ -315,7 +288,7 @@ REFINE_THREADS = max(1, min(2, os.cpu_count() or 1))
 def refine(planet, camera, settings, hysteresis=False, max_splits=0):
     """Refines `planet` for `camera`; returns the stats dict plus 'triangles'.
     hysteresis=False (renders) makes the LOD a function of the camera alone.
-    max_splits > 0 (the viewport's progressive refresh, ProgressiveSplits)
+    max_splits > 0 (the viewport's progressive refresh, refresh.ProgressiveSplits)
     limits the splits of this refresh (stats 'pending': refine again to
     carry on)."""
     template_level = int(settings["template_level"])

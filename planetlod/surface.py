@@ -1,6 +1,6 @@
 """What the planet's Blender mesh carries per vertex, from a planetlod.Mesh.
 
-bpy-free (numpy when present, plain Python otherwise), so it is tested
+bpy-free (numpy, which Blender ships), so it is tested
 without Blender.  From the core's float64 origin, its float32 positions
 relative to that origin and its normals:
 
@@ -23,24 +23,14 @@ relative to that origin and its normals:
   `planet_detail` (metres of the core's detail field in the vertex's height:
   ridges and hollows below the height map's resolution; 0 on the sea).
 """
-import math
 from array import array
 
-try:
-    import numpy
-except ImportError:  # pragma: no cover - Blender ships numpy
-    numpy = None
+import numpy
 
 # The core's shading normal, object space (a POINT FLOAT_VECTOR attribute).
 NORMAL_ATTRIBUTE = "planet_normal"
 ATTRIBUTES = ("planet_height", "planet_sea_depth", "planet_sea", "planet_slope",
               "planet_latitude", "planet_detail")
-
-
-def _detail_of(mesh):
-    """The mesh's per-vertex detail buffer (an older native module has none)."""
-    detail = getattr(mesh, "detail", None)
-    return detail if detail is not None else array("f", bytes(4 * mesh.vertex_count))
 
 
 class VertexData:
@@ -96,13 +86,11 @@ def vertex_data(mesh, anchor, radius, sea_level=None):
     """VertexData of `mesh` for a planet object anchored at `anchor` (planet space)."""
     if mesh.vertex_count == 0:
         return VertexData(array("f"), array("f"), {name: array("f") for name in ATTRIBUTES})
-    if numpy is None:
-        return _vertex_data_python(mesh, anchor, radius, sea_level)
     pos, normals, up, height, depth, sea = _ground(mesh, radius, sea_level)
     cos_slope = numpy.clip(numpy.einsum("ij,ij->i", normals, up), -1.0, 1.0)
     slope = numpy.degrees(numpy.arccos(cos_slope))
     latitude = numpy.degrees(numpy.arcsin(numpy.clip(up[:, 2], -1.0, 1.0)))
-    detail = numpy.frombuffer(_detail_of(mesh), dtype=numpy.float32).copy()
+    detail = numpy.frombuffer(mesh.detail, dtype=numpy.float32).copy()
     detail[sea > 0.0] = 0.0
     f32 = numpy.float32
     return VertexData(_relative(pos, anchor),
@@ -287,36 +275,3 @@ def _texel_rows(count, row_texels, start=None):
         texels[:kept] = start[:kept]
     texels[count:] = 0.0
     return texels
-
-
-def _vertex_data_python(mesh, anchor, radius, sea_level):
-    ox, oy, oz = (float(v) for v in mesh.origin)
-    ax, ay, az = (float(v) for v in anchor)
-    p, n, detail = mesh.positions, mesh.normals, _detail_of(mesh)
-    positions, normals = array("f"), array("f")
-    columns = {name: array("f") for name in ATTRIBUTES}
-    for i in range(mesh.vertex_count):
-        tolerance = max(abs(p[3 * i]), abs(p[3 * i + 1]), abs(p[3 * i + 2])) * 2.0 ** -22 + 1e-3
-        x, y, z = p[3 * i] + ox, p[3 * i + 1] + oy, p[3 * i + 2] + oz
-        nx, ny, nz = n[3 * i], n[3 * i + 1], n[3 * i + 2]
-        distance = math.sqrt(x * x + y * y + z * z)
-        ux, uy, uz = x / distance, y / distance, z / distance
-        height, depth, sea = distance - radius, 0.0, 0.0
-        columns["planet_detail"].append(detail[i])
-        if sea_level is not None:
-            if height <= sea_level + tolerance:
-                depth, sea = max(sea_level - height, 0.0), 1.0
-                columns["planet_detail"][-1] = 0.0
-                x, y, z = (c * (radius + sea_level) for c in (ux, uy, uz))
-                nx, ny, nz = ux, uy, uz
-                height = sea_level
-            height -= sea_level
-        positions.extend((x - ax, y - ay, z - az))
-        normals.extend((nx, ny, nz))
-        cos_slope = max(-1.0, min(1.0, nx * ux + ny * uy + nz * uz))
-        columns["planet_height"].append(height)
-        columns["planet_sea_depth"].append(depth)
-        columns["planet_sea"].append(sea)
-        columns["planet_slope"].append(math.degrees(math.acos(cos_slope)))
-        columns["planet_latitude"].append(math.degrees(math.asin(max(-1.0, min(1.0, uz)))))
-    return VertexData(positions, normals, columns)

@@ -2,10 +2,14 @@
 
 * the add-on's modules import one way: each imports only add-on modules
   that come before it in the order addon/planet_lod/__init__.py imports
-  them (state, then scene helpers, then the refresh, then the preview,
-  operators and panels), at module level and inside functions alike;
-* bench/, tools/ and tests/ reach the checkout without editing sys.path or
-  loading files by path (README, "Imports without path edits")."""
+  them (runtime state, then the scene's sky and materials, the cameras,
+  placement, the refresh, the handlers, then the preview, operators and
+  panels), at module level and inside functions alike;
+* no add-on module is longer than MAX_ADDON_LINES;
+* the `planetlod` package is bpy-free: none of its modules imports Blender's
+  modules or the add-on;
+* bench/, tools/, tests/ and farm/ reach the checkout without editing
+  sys.path or loading files by path (README, "Imports without path edits")."""
 import ast
 import glob
 import os
@@ -65,6 +69,53 @@ def test_the_order_check_sees_nested_imports(tmp_path):
     assert addon_imports(str(path)) == [(1, "a"), (4, "b")]
 
 
+# A module past this is doing more than one job: split it by job.
+MAX_ADDON_LINES = 400
+# Longer still, each with the lines it may not grow past until it is split.
+LONGER_FOR_NOW = {"materials": 564}
+
+
+def test_addon_modules_stay_small():
+    long = []
+    for path in sorted(glob.glob(os.path.join(ADDON, "*.py"))):
+        name = os.path.splitext(os.path.basename(path))[0]
+        with open(path, encoding="utf-8") as f:
+            lines = sum(1 for _ in f)
+        if lines > LONGER_FOR_NOW.get(name, MAX_ADDON_LINES):
+            long.append(f"{name}.py: {lines} lines")
+    assert not long, f"add-on modules over {MAX_ADDON_LINES} lines: " + "; ".join(long)
+
+
+BLENDER_MODULES = {"bpy", "bpy_extras", "bmesh", "mathutils", "gpu", "gpu_extras", "bl_ui",
+                   "addon_utils", "planet_lod"}
+
+
+def imported_modules(path):
+    """(line, top-level module) of every absolute import in a Python file."""
+    found = []
+    for node in ast.walk(parse(path)):
+        if isinstance(node, ast.Import):
+            found += [(node.lineno, alias.name.split(".")[0]) for alias in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            found.append((node.lineno, node.module.split(".")[0]))
+    return found
+
+
+def test_planetlod_is_bpy_free():
+    offenders = []
+    for path in sorted(glob.glob(os.path.join(ROOT, "planetlod", "*.py"))):
+        offenders += [f"{os.path.relpath(path, ROOT)}:{line} imports {module}"
+                      for line, module in imported_modules(path) if module in BLENDER_MODULES]
+    assert not offenders, "planetlod/ must run without Blender: " + "; ".join(offenders)
+
+
+def test_the_bpy_check_sees_each_form(tmp_path):
+    path = tmp_path / "module.py"
+    path.write_text("import numpy\nimport bpy.types\n\ndef f():\n    from mathutils import Matrix\n")
+    assert [m for _, m in imported_modules(str(path)) if m in BLENDER_MODULES] == \
+        ["bpy", "mathutils"]
+
+
 PATH_EDITS = {"insert", "append", "extend", "remove", "clear"}
 
 
@@ -96,9 +147,9 @@ SHELL_PATH_EDIT = re.compile(r"sys\.path\.(insert|append|extend)|sys\.path\s*[+]
                              r"spec_from_file_location|addsitedir")
 
 
-def test_no_sys_path_edits_in_bench_tools_tests():
+def test_no_sys_path_edits_in_bench_tools_tests_farm():
     offenders = []
-    for folder in ("bench", "tools", "tests"):
+    for folder in ("bench", "tools", "tests", "farm"):
         for path in glob.glob(os.path.join(ROOT, folder, "**", "*.py"), recursive=True):
             offenders += [f"{os.path.relpath(path, ROOT)}:{line} {what}"
                           for line, what in path_edits(path)]

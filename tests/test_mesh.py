@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from conftest import data_path
+from test_refine import look_at
 
 
 # ---- hand-made conforming sectors -----------------------------------------
@@ -254,21 +255,6 @@ def test_bad_input(planetlod):
 
 
 # ---- the real refiner --------------------------------------------------------
-
-def look_at(eye, target, up=(0.0, 0.0, 1.0)):
-    """Blender camera matrix_world (row-major 4x4) at eye looking at target."""
-    eye, target, up = (np.asarray(x, dtype=np.float64) for x in (eye, target, up))
-    back = eye - target
-    back /= np.linalg.norm(back)
-    right = np.cross(up, back)
-    if np.linalg.norm(right) < 1e-9:
-        right = np.cross((0.0, 1.0, 0.0), back)
-    right /= np.linalg.norm(right)
-    upv = np.cross(back, right)
-    m = np.eye(4)
-    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = right, upv, back, eye
-    return m.reshape(-1).tolist()
-
 
 def refiner_available(planetlod):
     if not hasattr(planetlod, "Planet") or not hasattr(planetlod, "Camera"):

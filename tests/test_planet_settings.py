@@ -185,27 +185,6 @@ def test_maps_over_the_memory_limit_ask_for_the_large_map_option(planetlod, tmp_
     assert math.isfinite(planet.height(*direction(0.0, 0.0)))
 
 
-def test_progressive_splits_follow_the_refreshes_time():
-    """The viewport's progressive refreshes: none without a budget; a floor
-    of START_NEW_VERTICES new vertices; a refresh that used its allowance
-    scales the next by TARGET_MS over its time, at most 1.5x up or 2x down,
-    never below the floor; one that finished (not pending) changes nothing."""
-    from planetlod.planets import ProgressiveSplits
-    assert ProgressiveSplits(3, 0).splits == 0
-    p = ProgressiveSplits(3, 8000)
-    least = ProgressiveSplits.START_NEW_VERTICES // (2 * 45)  # 45 vertices a sector
-    assert p.splits == least
-    p.measured({"pending": True}, ProgressiveSplits.TARGET_MS / 4)
-    assert p.splits == int(least * 1.5)
-    p.measured({"pending": False}, 1.0)
-    assert p.splits == int(least * 1.5)
-    p.measured({"pending": True}, ProgressiveSplits.TARGET_MS * 1.2)
-    assert p.splits == int(int(least * 1.5) / 1.2)
-    p.measured({"pending": True}, ProgressiveSplits.TARGET_MS * 10)
-    assert p.splits == least
-    assert ProgressiveSplits(7, 8000).splits == 16  # large templates: the least
-
-
 def test_a_radius_too_small_for_the_heights_says_so(planetlod):
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     topology = os.path.join(root, "data", "earth-topology.png")

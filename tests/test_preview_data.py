@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from conftest import data_path
-from test_mesh import look_at, refiner_available
+from test_mesh import refiner_available
+from test_refine import look_at
 
 
 @pytest.fixture(scope="module")

@@ -9,24 +9,21 @@ import numpy as np
 import pytest
 
 from conftest import data_path
+from planetlod.flyby import look_matrix
 
 EARTH_R = 6371000.0
 
 
 def look_at(eye, target, up=(0.0, 0.0, 1.0)):
-    """Blender-style matrix_world (4x4 nested list): camera at eye looking at target."""
+    """Blender-style matrix_world (4x4 nested list): camera at eye looking at target
+    (planetlod.flyby.look_matrix; up turned away from a view along it)."""
     e = np.asarray(eye, float)
     f = np.asarray(target, float) - e
-    f /= np.linalg.norm(f)
     u = np.asarray(up, float)
-    if abs(np.dot(f, u)) > 0.99:
-        u = np.array([1.0, 0.0, 0.0]) if abs(f[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    r = np.cross(f, u)
-    r /= np.linalg.norm(r)
-    up2 = np.cross(r, f)
-    m = np.eye(4)
-    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = r, up2, -f, e
-    return m.tolist()
+    if abs(np.dot(f / np.linalg.norm(f), u)) > 0.99:
+        u = np.array([1.0, 0.0, 0.0]) if abs(f[0]) < 0.9 * np.linalg.norm(f) else \
+            np.array([0.0, 1.0, 0.0])
+    return [list(row) for row in look_matrix(e.tolist(), f.tolist(), u.tolist())]
 
 
 def surface_camera(planetlod, radius, altitude, lat=0.3, lon=0.2, pitch=-0.2, **kw):

@@ -17,6 +17,7 @@ import hashlib
 import os
 
 import planetlod
+from bench.bench_refine import descent
 from planetlod import presets
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -46,42 +47,6 @@ def build(key, detail):
     return planetlod.Planet(float(s["radius"]), **kwargs)
 
 
-def look_at(eye, target, up):
-    import math
-    back = [e - t for e, t in zip(eye, target)]
-    n = math.sqrt(sum(b * b for b in back))
-    back = [b / n for b in back]
-    right = [up[1] * back[2] - up[2] * back[1], up[2] * back[0] - up[0] * back[2],
-             up[0] * back[1] - up[1] * back[0]]
-    n = math.sqrt(sum(r * r for r in right))
-    right = [r / n for r in right]
-    upv = [back[1] * right[2] - back[2] * right[1], back[2] * right[0] - back[0] * right[2],
-           back[0] * right[1] - back[1] * right[0]]
-    return [right[0], upv[0], back[0], eye[0], right[1], upv[1], back[1], eye[1],
-            right[2], upv[2], back[2], eye[2], 0.0, 0.0, 0.0, 1.0]
-
-
-def descent(radius, frames, top):
-    """bench_refine.descent, for any radius: 20,000 km (or 3 radii) to 2 m."""
-    import math
-    lat, lon0 = math.radians(27.9), math.radians(86.9)
-    start = min(2e7, 3.0 * radius)
-    for k in range(frames):
-        t = k / (frames - 1)
-        alt = math.exp(math.log(start) * (1 - t) + math.log(2.0) * t)
-        lon = lon0 + 0.002 * t
-        d = [math.cos(lat) * math.cos(lon), math.cos(lat) * math.sin(lon), math.sin(lat)]
-        east = [-math.sin(lon), math.cos(lon), 0.0]
-        pitch = math.radians(-90 + 80 * min(1.0, t * 1.25))
-        view = [east[i] * math.cos(pitch) + d[i] * math.sin(pitch) for i in range(3)]
-        eye = [d[i] * (radius + top + alt) for i in range(3)]
-        target = [eye[i] + view[i] for i in range(3)]
-        up = d if abs(pitch) < math.radians(89) else [-math.sin(lat) * math.cos(lon),
-                                                        -math.sin(lat) * math.sin(lon),
-                                                        math.cos(lat)]
-        yield look_at(eye, target, up)
-
-
 def camera(planet, matrix):
     cam = planetlod.Camera(matrix, lens=50.0, sensor_width=36.0, resolution_x=1920,
                            resolution_y=1080, clip_start=0.1, clip_end=1e12)
@@ -99,8 +64,10 @@ def fly(key, detail, frames, hysteresis):
     planet = build(key, detail)
     h = hashlib.sha256()
     top = planet.height_range()[1]
-    for matrix in descent(planet.radius if hasattr(planet, "radius") else
-                          presets.PLANETS[key]["radius"], frames, top):
+    radius = planet.radius
+    # 20,000 km (or 3 radii) to 2 m
+    for _alt, matrix in descent(frames, terrain_top=top, radius=radius,
+                                start=min(2e7, 3.0 * radius)):
         stats = planet.refine(camera(planet, matrix), max_pixel_error=1.0, template_level=4,
                               hysteresis=hysteresis, max_level=48,
                               budget=8000)

@@ -84,15 +84,16 @@ def main(argv):
     args = parse(argv)
     from_t = time.perf_counter()
     enable_addon()
-    from planet_lod import core, render
+    import planet_lod
+    from planet_lod import core
     first, last = core.report.parse_frames(args.frames)
     scene, planet = build_scene(args)
     scene.frame_start, scene.frame_end = 1, args.path_frames
     print(f"planet_lod flyby: {planet.name} frames {first}-{last} of {args.path_frames} "
           f"at {args.resolution}, {args.samples} samples, Blender {bpy.app.version_string} "
           f"-> {args.out}", flush=True)
-    rows = render.render_flyby(scene, planet, first, last, os.path.abspath(args.out),
-                               args.path_frames)
+    rows = planet_lod.render_flyby(scene, planet, first, last, os.path.abspath(args.out),
+                                   args.path_frames)
     print(f"planet_lod flyby: {len(rows)} frames, stats.csv and contact_sheet.png in "
           f"{args.out} ({time.perf_counter() - from_t:.1f} s)", flush=True)
 

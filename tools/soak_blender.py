@@ -53,7 +53,7 @@ def datablocks():
 def main(argv):
     args = parse(argv)
     flyby.enable_addon()
-    from planet_lod import live, placement
+    import planet_lod
     scene = bpy.context.scene
     for obj in list(bpy.data.objects):
         bpy.data.objects.remove(obj)
@@ -68,7 +68,7 @@ def main(argv):
     planet = bpy.context.object
     half = max(2, args.frames // 2)
     scene.frame_start, scene.frame_end = 1, half
-    placement.ensure_flyby_camera(scene, planet, half)
+    planet_lod.ensure_flyby_camera(scene, planet, half)
     budget = planet.planet_lod.budget
 
     failures, rows = [], []
@@ -79,7 +79,7 @@ def main(argv):
     for index in range(args.frames):
         frame = index + 1 if index < half else 2 * half - index
         scene.frame_set(min(max(frame, 1), half))
-        st = live.state(planet)
+        st = planet_lod.planet_state(planet)
         if st.error:
             failures.append(f"frame {index + 1}: {st.error}")
         visible = st.stats.get("visible", 0)

@@ -1,20 +1,45 @@
 """Planet LOD: whole planets with view-dependent level of detail.
 
-Modules, in import order (each imports only those before it; tests/test_layout.py
-checks it):
+Modules, in pipeline order (each imports only modules before it;
+tests/test_layout.py checks it):
   compat, core, nodes          Blender version differences; the bpy-free
                                `planetlod` package and the domain error;
                                node-tree arithmetic
-  state                        per-planet runtime state and the anchor
-  atmosphere, materials,       scene helpers: sky and materials, camera placement,
-  placement, framing           framing a new planet
-  live                         refreshing planets: LOD cameras, refinement, mesh,
-                               timers and handlers
+  runtime                      per-planet runtime state and the anchor
+  atmosphere, materials        the planet's sky and materials
+  cameras                      the LOD camera; clip ranges fitted to planets
+  placement, framing           cameras and objects placed in planet space;
+                               framing a new planet
+  refresh                      refreshing planets: refinement, the mesh, the
+                               GPU preview's jobs, the render refresh
+  handlers                     the viewport's timer and Blender's handlers
   navigation                   finding the planet with Blender's views: framing,
-                               Go to Surface, altitude, pivot on the ground
+                               Go to Surface
+  view_follow                  the views kept on the planet: altitude readout,
+                               pivot on the ground, level horizon, floating origin
   legend                       the legend of Show Levels
-  draw, props, operators,      the GPU preview, settings, operators, flyby
-  render, flyby_job, ui        rendering, the flyby as an interface job, panels
+  draw                         the GPU preview
+  props                        the settings
+  operators, map_files,        operators on the planet, on its height files;
+  preset_menus                 the preset menus
+  render, flyby_job, ui        flybys, the flyby as an interface job; the panels
+
+For scripts (the render farm's job, tools/, bench/) the package names a
+few functions that stay when the modules behind them move:
+  planets(scene)               the scene's planet objects
+  planet_state(obj)            a planet's runtime state (.error, .warning, .stats)
+  planet_errors(scene)         "planet: reason" of each planet whose refresh failed
+  anchor(obj)                  the planet-space point at the planet object's origin
+  refresh_planet(obj, scene, build_mesh=False, for_render=False)
+                               refines a planet (and rebuilds its mesh)
+  refresh_for_render(scene)    every planet for the render camera, mesh rebuilt
+  ensure_flyby_camera(scene, planet, path_frames)
+                               the planet's flyby camera, made the scene camera
+  render_flyby(scene, planet, first, last, out_dir, path_frames)
+                               renders flyby frames, stats.csv and a contact sheet
+  contact_sheet(paths, out_path)
+                               a contact sheet of rendered frames
+bench/ also measures the refresh's own steps through their modules.
 """
 bl_info = {
     "name": "Planet LOD",
@@ -28,18 +53,20 @@ bl_info = {
 
 if "bpy" in locals():  # script reload (F3 > Reload Scripts)
     import importlib
-    for _name in ("compat", "core", "nodes", "runtime", "atmosphere", "materials", "placement",
-                  "framing", "live", "navigation", "legend", "draw", "props", "operators", "render",
-                  "flyby_job", "ui"):
+    for _name in ("compat", "core", "nodes", "runtime", "atmosphere", "materials", "cameras",
+                  "placement", "framing", "refresh", "handlers", "navigation",
+                  "view_follow", "legend", "draw", "props", "operators",
+                  "map_files", "preset_menus", "render", "flyby_job", "ui"):
         if _name in locals():
             importlib.reload(locals()[_name])
 
 import bpy  # noqa: E402
 from bpy.props import PointerProperty  # noqa: E402
 
-from . import (compat, core, nodes, runtime, atmosphere, materials, placement,  # noqa: E402
-               framing, live, navigation, legend, draw, props, operators, render, flyby_job,
-               ui)
+from . import (compat, core, nodes, runtime, atmosphere, materials, cameras,  # noqa: E402
+               placement, framing, refresh, handlers, navigation,
+               view_follow, legend, draw, props, operators, map_files,
+               preset_menus, render, flyby_job, ui)
 
 classes = (
     props.PLOD_PG_inset,
@@ -47,16 +74,16 @@ classes = (
     props.PLOD_PG_geo,
     operators.PLOD_OT_planet_add,
     operators.PLOD_OT_planet_refresh,
-    operators.PLOD_OT_write_tiles,
+    map_files.PLOD_OT_write_tiles,
     operators.PLOD_OT_planet_apply_mesh,
     operators.PLOD_OT_planet_apply_preset,
-    operators.PLOD_OT_set_heightmap,
-    operators.PLOD_OT_inset_add,
-    operators.PLOD_OT_inset_remove,
-    operators.PLOD_MT_planet_presets,
-    operators.PLOD_MT_quality_presets,
-    operators.PLOD_OT_preset_add,
-    operators.PLOD_OT_quality_preset_add,
+    map_files.PLOD_OT_set_heightmap,
+    map_files.PLOD_OT_inset_add,
+    map_files.PLOD_OT_inset_remove,
+    preset_menus.PLOD_MT_planet_presets,
+    preset_menus.PLOD_MT_quality_presets,
+    preset_menus.PLOD_OT_preset_add,
+    preset_menus.PLOD_OT_quality_preset_add,
     render.PLOD_OT_flyby,
     flyby_job.PLOD_OT_flyby_job,
     ui.PLOD_UL_insets,
@@ -80,17 +107,37 @@ def register():
     bpy.types.Object.planet_lod_geo = PointerProperty(type=props.PLOD_PG_geo)
     bpy.types.VIEW3D_MT_mesh_add.append(operators.menu_func)
     draw.add_draw_handler()
-    live.add_handlers()
+    handlers.add_handlers()
     navigation.register()
+    view_follow.register()
     legend.register()
 
 
 def unregister():
     legend.unregister()
+    view_follow.unregister()
     navigation.unregister()
-    live.remove_handlers()
+    handlers.remove_handlers()
     draw.remove_draw_handler()
     bpy.types.VIEW3D_MT_mesh_add.remove(operators.menu_func)
     del bpy.types.Object.planet_lod_geo
     del bpy.types.Object.planet_lod
     _unregister_classes()
+
+
+# ---- for scripts (see the module's docstring) -----------------------------------
+
+planets = runtime.planet_objects
+planet_state = runtime.state
+anchor = runtime.anchor
+refresh_planet = refresh.refresh
+refresh_for_render = refresh.refresh_for_render
+ensure_flyby_camera = placement.ensure_flyby_camera
+render_flyby = render.render_flyby
+contact_sheet = render.contact_sheet
+
+
+def planet_errors(scene):
+    """'planet: reason' for each planet of `scene` whose last refresh failed."""
+    return [f"{obj.name}: {runtime.state(obj).error}" for obj in runtime.planet_objects(scene)
+            if runtime.state(obj).error]

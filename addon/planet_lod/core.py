@@ -46,7 +46,7 @@ def _import_package():
 
 
 planetlod = _import_package()
-from planetlod import flyby, planets, presets, report, surface  # noqa: E402,F401
+from planetlod import flyby, planets, presets, refresh, report, surface  # noqa: E402,F401
 from planetlod import Cancelled, FileError, ImageError, PlanetLODError  # noqa: E402,F401
 
 # What operators and handlers report to the artist instead of raising: the

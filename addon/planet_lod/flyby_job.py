@@ -14,7 +14,7 @@ import time
 import bpy
 from bpy.props import EnumProperty, IntProperty, StringProperty
 
-from . import core, live, placement, render
+from . import core, placement, render, runtime
 from .core import report as flyby_report
 
 ENGINES = [("BLENDER_EEVEE", "EEVEE", "Fast, rasterised"),
@@ -175,7 +175,7 @@ class PLOD_OT_flyby_job(bpy.types.Operator):
 
     def _render_frame(self, scene, planet, frame):
         scene.frame_set(frame)  # handlers: place the camera, refine, rebuild the mesh
-        st = live.state(planet)
+        st = runtime.state(planet)
         if st.error:
             raise core.PlanetLODError(st.error)
         path = os.path.join(self.out_dir, f"frame_{frame:04d}.png")
@@ -186,7 +186,7 @@ class PLOD_OT_flyby_job(bpy.types.Operator):
         row = dict(st.stats)
         row["frame"] = frame
         row["render_s"] = round(time.perf_counter() - t0, 3)
-        local = live.to_planet_space(planet, scene.camera.matrix_world)
+        local = runtime.to_planet_space(planet, scene.camera.matrix_world)
         distance = math.sqrt(sum(local[i][3] ** 2 for i in range(3)))
         row["camera_altitude_m"] = round(distance - planet.planet_lod.radius, 3)
         self.csv.write(flyby_report.csv_row(row) + "\n")

@@ -1,13 +1,14 @@
 """Placing cameras and objects in planet space: the flyby camera (its path is
 planetlod.flyby.flyby_pose, a pure function of the frame number, so any
-sub-range renders exactly the frames of the full path) and objects at a
-planet-space pose, with the planet's floating origin moved to them."""
+sub-range renders exactly the frames of the full path), objects at a
+planet-space pose, with the planet's floating origin moved to them, and
+objects placed by longitude, latitude and altitude (Geo Placement)."""
 import math
 
 import bpy
 from mathutils import Matrix
 
-from . import core, runtime
+from . import cameras, core, runtime
 from .core import flyby, planets
 
 FLYBY_KEY = "planet_lod_flyby"
@@ -82,3 +83,49 @@ def place_flyby_cameras(scene):
     for obj in scene.objects:
         if obj.type == 'CAMERA' and obj.get(FLYBY_KEY):
             place_camera(obj, scene, scene.frame_current)
+
+
+# ---- objects placed by longitude / latitude ------------------------------------
+
+def _geo_objects(scene):
+    return [o for o in scene.objects if o.planet_lod_geo.enabled and o.planet_lod_geo.planet
+            and o.planet_lod_geo.planet.planet_lod.enabled]
+
+
+def place_geo_objects(scene, depsgraph=None):
+    """Places every geo-placed object of `scene` (floating-origin ones first, so
+    the others land relative to the moved anchor).  Property values come from
+    the evaluated object: during `-a` renders animation is evaluated there."""
+    objects = sorted(_geo_objects(scene), key=lambda o: not o.planet_lod_geo.floating_origin)
+    for obj in objects:
+        place_geo_object(obj, scene, depsgraph)
+
+
+def place_geo_object(obj, scene=None, depsgraph=None):
+    geo = cameras.evaluated(obj, depsgraph).planet_lod_geo
+    planet_obj = obj.planet_lod_geo.planet
+    if not geo.enabled or planet_obj is None or not planet_obj.planet_lod.enabled:
+        return
+    s = planet_obj.planet_lod
+    base = None
+    try:
+        if geo.altitude_reference == 'GROUND':
+            planet = planets.build_planet(s.as_dict())
+            sea = s.sea_level if s.use_sea_level else None
+            base = ((lambda d: max(planet.height(*d), sea)) if sea is not None
+                    else (lambda d: planet.height(*d)))
+        elif geo.altitude_reference == 'SEA' and s.use_sea_level:
+            base = (lambda d: s.sea_level)
+    except core.REPORTED_ERRORS as exc:
+        runtime.state(planet_obj).error = str(exc)
+        return
+    pose = flyby.geo_pose(s.radius, geo.longitude, geo.latitude, east=geo.east,
+                         north=geo.north, altitude=geo.altitude, heading=geo.heading,
+                         pitch=geo.pitch, roll=geo.roll, base_height=base)
+    place_in_planet_space(obj, planet_obj, pose, floating_origin=geo.floating_origin)
+    if geo.floating_origin:
+        for other in _geo_objects(scene) if scene is not None else ():
+            if other is not obj and other.planet_lod_geo.planet == planet_obj \
+                    and not other.planet_lod_geo.floating_origin:
+                place_geo_object(other, None, depsgraph)
+

@@ -3,7 +3,7 @@ import bpy
 from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty,
                        IntProperty, PointerProperty, StringProperty)
 
-from . import atmosphere, live
+from . import atmosphere, cameras, placement, refresh, runtime
 from .core import planets, presets
 
 PROJECTION_ITEMS = [
@@ -18,17 +18,17 @@ TEMPLATE_ITEMS = [(str(4 ** k), f"{4 ** k}", f"{4 ** k} triangles per terrain pa
 
 
 def _changed(self, context):
-    live.mark_dirty(self.id_data, geometry=False)
+    runtime.mark_dirty(self.id_data, geometry=False)
 
 
 def _geometry_changed(self, context):
-    live.check_settings(self.id_data)  # a bad path shows in the panel at once
+    refresh.check_settings(self.id_data)  # a bad path shows in the panel at once
     # the material depends on radius/height scale (ramp) and projection (cube colour maps)
-    live.mark_dirty(self.id_data, geometry=True, material=True)
+    runtime.mark_dirty(self.id_data, geometry=True, material=True)
 
 
 def _material_changed(self, context):
-    live.mark_dirty(self.id_data, geometry=False, material=True)
+    runtime.mark_dirty(self.id_data, geometry=False, material=True)
 
 
 def _preview_changed(self, context):
@@ -39,7 +39,7 @@ def _preview_changed(self, context):
 
 
 def _camera_clip_changed(self, context):
-    live.apply_camera_clip(context.scene)
+    cameras.apply_camera_clip(context.scene)
     _changed(self, context)
 
 
@@ -282,7 +282,7 @@ class PLOD_PG_settings(bpy.types.PropertyGroup):
 
 
 def _geo_changed(self, context):
-    live.place_geo_object(self.id_data, context.scene if context else None)
+    placement.place_geo_object(self.id_data, context.scene if context else None)
 
 
 def _planet_poll(self, obj):

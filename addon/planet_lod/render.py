@@ -13,7 +13,7 @@ import time
 import bpy
 from bpy.props import IntProperty, StringProperty, FloatProperty
 
-from . import core, live, placement
+from . import core, placement, runtime
 from .core import report as flyby_report  # `report` is the progress callback here
 
 def _log(message):
@@ -54,8 +54,8 @@ class _SceneState:
         self.filepath = scene.render.filepath
         self.file_format = scene.render.image_settings.file_format
         self.planet_name = planet_obj.name
-        anchor = planet_obj.get(live.ANCHOR_KEY)
-        self.anchor = None if anchor is None else list(live.anchor(planet_obj))
+        anchor = planet_obj.get(runtime.ANCHOR_KEY)
+        self.anchor = None if anchor is None else list(runtime.anchor(planet_obj))
         self.sun_name = None
 
     def add_sun(self, planet_obj):
@@ -91,10 +91,10 @@ class _SceneState:
         planet_obj = bpy.data.objects.get(self.planet_name)
         if planet_obj is not None:  # the floating origin where it was
             if self.anchor is None:
-                planet_obj.pop(live.ANCHOR_KEY, None)
+                planet_obj.pop(runtime.ANCHOR_KEY, None)
             else:
-                live.set_anchor(planet_obj, self.anchor)
-            live.mark_dirty(planet_obj)
+                runtime.set_anchor(planet_obj, self.anchor)
+            runtime.mark_dirty(planet_obj)
         scene.frame_set(self.frame)  # handlers rebuild the LOD for the restored camera
 
 
@@ -117,7 +117,7 @@ def _render_frames(scene, planet_obj, first, last, out_dir, path_frames, report)
             csv.write(",".join(flyby_report.CSV_FIELDS) + "\n")
             for index, frame in enumerate(frames):
                 scene.frame_set(frame)  # handlers: place camera, refine, rebuild mesh
-                st = live.state(planet_obj)
+                st = runtime.state(planet_obj)
                 if st.error:
                     raise core.PlanetLODError(st.error)
                 path = os.path.join(out_dir, f"frame_{frame:04d}.png")
@@ -129,7 +129,7 @@ def _render_frames(scene, planet_obj, first, last, out_dir, path_frames, report)
                 row["frame"] = frame
                 row["render_s"] = round(time.perf_counter() - t0, 3)
                 cam = scene.camera
-                local = live.to_planet_space(planet_obj, cam.matrix_world)
+                local = runtime.to_planet_space(planet_obj, cam.matrix_world)
                 distance = math.sqrt(sum(local[i][3] ** 2 for i in range(3)))
                 row["camera_altitude_m"] = round(distance - planet_obj.planet_lod.radius, 3)
                 ground = placement.terrain_height(planet_obj)

@@ -2,7 +2,7 @@
 
 RUNTIME holds one PlanetState per planet object, keyed by the object's name
 (never a bpy reference, so undo/redo and file loads cannot leave dangling
-pointers).  Refreshes (live.py) create and update it; panels and draw
+pointers).  Refreshes (refresh.py) create and update it; panels and draw
 callbacks read it through existing_state(), which never creates one.
 """
 import math
@@ -31,9 +31,9 @@ class PlanetState:
         self.frozen_camera = None  # (matrix_world planet space, params) while frozen
         self.mesh_hash = ""
         self.render_key = None     # camera + settings of the last render refresh
-        self.job = None            # live.SurfaceJob: the viewport refresh in flight
+        self.job = None            # refresh.SurfaceJob: the viewport refresh in flight
         self.serial = 0            # counts refreshes (a job's result is applied if last)
-        self.progressive = None    # planets.ProgressiveSplits of the viewport's jobs
+        self.progressive = None    # planetlod.refresh.ProgressiveSplits of the viewport jobs
         self.pending = False       # the last job's split limit cut its refinement short
 
     def settled(self):

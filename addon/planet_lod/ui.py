@@ -5,7 +5,7 @@ import bpy
 
 from . import core, draw, runtime
 from .core import planets
-from .operators import PLOD_MT_planet_presets, PLOD_MT_quality_presets
+from .preset_menus import PLOD_MT_planet_presets, PLOD_MT_quality_presets
 
 
 def _planet(context):

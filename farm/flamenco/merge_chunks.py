@@ -109,14 +109,15 @@ def merge(chunks_dir, frames, out_dir):
 
 
 def contact_sheet(paths, out_path):
-    """The add-on's contact sheet (needs Blender and the planet_lod add-on)."""
+    """The add-on's contact sheet (needs Blender and the planet_lod add-on:
+    installed, or the repository's with PYTHONPATH naming addon/)."""
     import addon_utils
-    try:
-        addon_utils.enable("planet_lod", default_set=True, handle_error=None)
-    except Exception:  # not installed: use the repository's copy
-        sys.path.insert(0, os.path.join(REPO, "addon"))
-    from planet_lod import render
-    return render.contact_sheet(paths, out_path)
+    if addon_utils.enable("planet_lod", default_set=True, handle_error=None) is None:
+        raise SystemExit("merge_chunks: the planet_lod add-on is not installed: run "
+                         "tools/install_addon.py, or run Blender with "
+                         f"PYTHONPATH={os.path.join(REPO, 'addon')}")
+    import planet_lod
+    return planet_lod.contact_sheet(paths, out_path)
 
 
 def main(argv):

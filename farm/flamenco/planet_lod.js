@@ -264,9 +264,7 @@ function authorFlybyTasks(job, settings, chunks, outputDir) {
 function planetCheck(module) {
     return [
         "import bpy, importlib",
-        `live = importlib.import_module('${module}.live')`,
-        "bad = ['%s: %s' % (o.name, live.state(o).error) for o in live.planets(bpy.context.scene)" +
-            " if live.state(o).error]",
+        `bad = importlib.import_module('${module}').planet_errors(bpy.context.scene)`,
         "assert not bad, 'planet_lod: ' + '; '.join(bad)",
     ].join("; ");
 }

@@ -10,7 +10,7 @@ import plod_testlib as lib
 
 def main():
     lib.enable()
-    from planet_lod import live
+    from planet_lod import refresh, runtime
     lib.clear_scene()
     scene = bpy.context.scene
     scene.render.resolution_x, scene.render.resolution_y = 48, 27
@@ -30,7 +30,7 @@ def main():
     seen = {}
 
     def record(scene, *args):
-        st = live.state(planet)
+        st = runtime.state(planet)
         seen[scene.frame_current] = (st.stats["max_level"], st.mesh_hash)
     bpy.app.handlers.render_post.append(record)
     scene.render.filepath = os.path.join(lib.out_dir(), "anim_")
@@ -41,9 +41,9 @@ def main():
     assert seen[3][0] > seen[1][0], "near frame not refined finer than the far one"
     for frame in (1, 2, 3):  # direct refresh for the same frame gives the same mesh
         scene.frame_set(frame)
-        live.state(planet).render_key = None
-        live.refresh(planet, scene, build_mesh=True, for_render=True)
-        assert live.state(planet).mesh_hash == seen[frame][1], frame
+        runtime.state(planet).render_key = None
+        refresh.refresh(planet, scene, build_mesh=True, for_render=True)
+        assert runtime.state(planet).mesh_hash == seen[frame][1], frame
     # and Cycles rendered that mesh: the animation's frame 3 equals a still of frame 3
     # rendered after frame 1's coarse mesh was rebuilt for frame 3 on the main path
     scene.render.filepath = os.path.join(lib.out_dir(), "still_3.png")
@@ -75,10 +75,10 @@ def main():
         scene.frame_set(frame)
         cam.data.clip_start, cam.data.clip_end = 1.0, 1.0e9
         planet.planet_lod.clip_from_horizon = False
-        live.refresh_for_render(scene)
+        refresh.refresh_for_render(scene)
         assert (cam.data.clip_start, cam.data.clip_end) == (1.0, 1.0e9)  # off: untouched
         planet.planet_lod.clip_from_horizon = True
-        live.refresh_for_render(scene)
+        refresh.refresh_for_render(scene)
         d = cam.matrix_world.translation.length
         near, far = cam.data.clip_start, cam.data.clip_end
         horizon = math.sqrt(d * d - rho * rho) + math.sqrt(top * top - rho * rho)

@@ -11,8 +11,8 @@ def mesh_radii(obj):
     mesh = obj.data
     co = numpy.empty(len(mesh.vertices) * 3)
     mesh.vertices.foreach_get("co", co)
-    from planet_lod import live
-    anchor = numpy.array(live.anchor(obj), float)
+    from planet_lod import runtime
+    anchor = numpy.array(runtime.anchor(obj), float)
     return numpy.linalg.norm(co.reshape(-1, 3) + anchor, axis=1)
 
 

@@ -28,8 +28,8 @@ def mesh_points(obj):
     mesh = obj.data
     co = numpy.empty(len(mesh.vertices) * 3)
     mesh.vertices.foreach_get("co", co)
-    from planet_lod import live
-    points = co.reshape(-1, 3) + numpy.array(live.anchor(obj), float)
+    from planet_lod import runtime
+    points = co.reshape(-1, 3) + numpy.array(runtime.anchor(obj), float)
     radius = numpy.linalg.norm(points, axis=1)
     lon = numpy.degrees(numpy.arctan2(points[:, 1], points[:, 0]))
     lat = numpy.degrees(numpy.arcsin(points[:, 2] / radius))
@@ -47,7 +47,7 @@ def look_down_at(cam, radius, lon, lat, altitude):
 
 def main():
     lib.enable()
-    from planet_lod import core, live, ui
+    from planet_lod import core, runtime, ui
     lib.clear_scene()
     folder = os.path.join(lib.out_dir(), "insets")
     cam = lib.add_camera((0, -2.0e7, 0))
@@ -104,7 +104,7 @@ def main():
         assert [i.filepath for i in s.insets] == [tile]
         assert bpy.ops.object.planet_refresh() == {'FINISHED'}
         assert not ui.problems(earth)[0], (case, ui.problems(earth))
-    assert live.state(earth).error == ""
+    assert runtime.state(earth).error == ""
 
     # an image placed by neither name nor tags: refused bare, taken with its box
     plain = rob.write_grey_png(os.path.join(folder, "plain.png"), 64, 32, value=255)
@@ -134,9 +134,9 @@ def main():
         raise AssertionError("refreshed without the tile file")
     except RuntimeError as exc:
         assert "Write Tile File" in str(exc)
-    assert "Write Tile File" in live.state(earth).error, live.state(earth).error
+    assert "Write Tile File" in runtime.state(earth).error, runtime.state(earth).error
     assert bpy.ops.object.planet_write_tiles() == {'FINISHED'}
-    assert bpy.ops.object.planet_refresh() == {'FINISHED'}, live.state(earth).error
+    assert bpy.ops.object.planet_refresh() == {'FINISHED'}, runtime.state(earth).error
     assert os.path.isfile(world + ".plodtiles")
     radius, lon, lat = mesh_points(earth)
     inner = (lon > 6.2) & (lon < 6.8) & (lat > 45.2) & (lat < 45.8)

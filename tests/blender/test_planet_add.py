@@ -12,7 +12,7 @@ def scene_state():
 
 def main():
     lib.enable()
-    from planet_lod import live
+    from planet_lod import runtime
     from planetlod import presets
     lib.clear_scene()
     scene = bpy.context.scene
@@ -34,12 +34,12 @@ def main():
     cam = lib.add_camera((0, -3.0e7, 0))
     assert bpy.ops.mesh.planet_add(preset='EARTH', quality='DRAFT') == {'FINISHED'}
     earth = bpy.context.object
-    far = dict(live.state(earth).stats)
+    far = dict(runtime.state(earth).stats)
     far_polys = len(earth.data.polygons)
     cam.location = (0, -6371000.0 - 2000.0, 0)
     bpy.context.view_layer.update()
     assert bpy.ops.object.planet_refresh() == {'FINISHED'}
-    near = dict(live.state(earth).stats)
+    near = dict(runtime.state(earth).stats)
     print("far", far, "\nnear", near)
     assert near["max_level"] > far["max_level"] + 3, (far["max_level"], near["max_level"])
     assert near["sectors_total"] != far["sectors_total"]
@@ -65,10 +65,10 @@ def main():
     cam.rotation_euler = (east - 0.3 * up).to_track_quat('-Z', 'Y').to_euler()
     bpy.context.view_layer.update()
     assert bpy.ops.object.planet_refresh() == {'FINISHED'}
-    assert live.state(rock).stats["max_level"] == auto, (live.state(rock).stats, auto)
+    assert runtime.state(rock).stats["max_level"] == auto, (runtime.state(rock).stats, auto)
     rock.planet_lod.max_level = 20
     assert bpy.ops.object.planet_refresh() == {'FINISHED'}
-    assert live.state(rock).stats["max_level"] == 20
+    assert runtime.state(rock).stats["max_level"] == 20
 
     # Blender preset files: planet and quality presets from presets/, user preset add
     import os
@@ -90,8 +90,8 @@ def main():
     bpy.ops.script.execute_preset(filepath=user_file, menu_idname="PLOD_MT_planet_presets")
     assert earth.planet_lod.budget == 777
     # the menu lists bundled and user presets; "-" removes the active (user) preset
-    from planet_lod import operators
-    listed = [os.path.basename(p) for d in operators._preset_dirs("planet_lod")
+    from planet_lod import preset_menus
+    listed = [os.path.basename(p) for d in preset_menus.preset_dirs("planet_lod")
               for p in os.listdir(d)]
     assert {"Earth.py", "Moon.py", "Mars-like.py", "Asteroid.py", "My_planet.py"} <= set(listed)
     assert bpy.ops.object.planet_preset_add(remove_active=True) == {'FINISHED'}

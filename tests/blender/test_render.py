@@ -11,9 +11,9 @@ import plod_testlib as lib
 
 def analytic_disk(scene, cam, planet):
     """(cx, cy, r_px) of the sphere's image for a camera looking at its centre."""
-    from planet_lod import live
+    from planet_lod import runtime
     radius = planet.planet_lod.radius
-    d = math.sqrt(sum(row[3] ** 2 for row in live.to_planet_space(planet, cam.matrix_world)[:3]))
+    d = math.sqrt(sum(row[3] ** 2 for row in runtime.to_planet_space(planet, cam.matrix_world)[:3]))
     res_x, res_y = scene.render.resolution_x, scene.render.resolution_y
     assert cam.data.sensor_fit == 'AUTO' and res_x >= res_y
     f_px = cam.data.lens / cam.data.sensor_width * res_x

@@ -1,5 +1,5 @@
 """Bad events: deleting the planet or its camera while a live refresh is
-scheduled (live.tick throttles: a tick within the refresh interval schedules, a later
+scheduled (handlers.tick throttles: a tick within the refresh interval schedules, a later
 one runs it), cancelling a flyby mid-way (KeyboardInterrupt from the progress
 report, and a failed frame through the operator), and reloading a .blend whose
 height map file moved.  Each: a readable report, no crash, the scene as before."""
@@ -12,53 +12,56 @@ import plod_robustlib as rob
 import plod_testlib as lib
 
 
-def schedule(live):
+def schedule():
     """One tick that notices the change and schedules the refresh (interval not over)."""
-    live.REFRESH_INTERVAL_S = 3600.0
-    live.tick()
+    from planet_lod import handlers
+    handlers.REFRESH_INTERVAL_S = 3600.0
+    handlers.tick()
 
 
-def run_scheduled(live):
-    live.REFRESH_INTERVAL_S = 0.0
-    live.tick()
-    live.tick()
+def run_scheduled():
+    from planet_lod import handlers
+    handlers.REFRESH_INTERVAL_S = 0.0
+    handlers.tick()
+    handlers.tick()
 
 
 def check_delete_during_refresh():
-    from planet_lod import live
+    from planet_lod import runtime
     cam = bpy.context.scene.camera
     assert bpy.ops.mesh.planet_add(preset='MOON', quality='DRAFT') == {'FINISHED'}
     moon = bpy.context.object
     name = moon.name_full
     cam.location.x += 1.0e5  # the view changed: a refresh gets scheduled
     bpy.context.view_layer.update()
-    schedule(live)
-    assert live.state(moon).dirty and name in live.RUNTIME
+    schedule()
+    assert runtime.state(moon).dirty and name in runtime.RUNTIME
     mesh = moon.data
     bpy.data.objects.remove(moon)
     bpy.data.meshes.remove(mesh)
     before = rob.snapshot()
-    run_scheduled(live)  # must neither raise nor recreate anything
+    run_scheduled()  # must neither raise nor recreate anything
     rob.assert_same(before, rob.snapshot(), "planet deleted before its refresh")
-    assert name not in live.RUNTIME, "state of a deleted planet kept"
+    assert name not in runtime.RUNTIME, "state of a deleted planet kept"
 
     # camera deleted between scheduling and running: an error kept for the UI
     earth = bpy.data.objects["Earth"]
     cam.location.x -= 2.0e5
     bpy.context.view_layer.update()
-    schedule(live)
-    assert live.state(earth).dirty
+    schedule()
+    assert runtime.state(earth).dirty
     cam_data = cam.data
     bpy.data.objects.remove(cam)
     bpy.data.cameras.remove(cam_data)
     before = rob.snapshot()
-    run_scheduled(live)
+    run_scheduled()
     rob.assert_same(before, rob.snapshot(), "camera deleted before the refresh")
-    assert "no LOD camera" in live.state(earth).error, live.state(earth).error
+    assert "no LOD camera" in runtime.state(earth).error, runtime.state(earth).error
     bpy.context.view_layer.objects.active = earth
     rob.expect_error("refresh without camera", lambda: bpy.ops.object.planet_refresh(),
                      "no LOD camera")
-    live.REFRESH_INTERVAL_S = 0.15
+    from planet_lod import handlers
+    handlers.REFRESH_INTERVAL_S = 0.15
     return lib.add_camera((0, -3.0e7, 0), name="Cam2")
 
 
@@ -68,7 +71,7 @@ def _handlers():
 
 
 def check_cancel_flyby(folder):
-    from planet_lod import live, render
+    from planet_lod import render, runtime
     scene = bpy.context.scene
     scene.render.engine = 'BLENDER_WORKBENCH'
     scene.render.resolution_x, scene.render.resolution_y = 32, 18
@@ -96,7 +99,7 @@ def check_cancel_flyby(folder):
     # through the operator: a frame fails (its refresh reports an error)
     def fail_at_frame_2(scene, depsgraph=None):
         if scene.frame_current == 2:
-            live.state(earth).error = "simulated failure at frame 2"
+            runtime.state(earth).error = "simulated failure at frame 2"
     bpy.app.handlers.frame_change_post.append(fail_at_frame_2)
     try:
         rob.expect_error("flyby operator cancelled",
@@ -106,7 +109,7 @@ def check_cancel_flyby(folder):
                          "simulated failure")
     finally:
         bpy.app.handlers.frame_change_post.remove(fail_at_frame_2)
-    live.state(earth).error = ""
+    runtime.state(earth).error = ""
     rob.assert_same(before, rob.snapshot(), "flyby operator cancelled")
     assert _handlers() == handlers
     # and a flyby that is not cancelled still works, keeps its camera object and
@@ -120,7 +123,7 @@ def check_cancel_flyby(folder):
 
 
 def check_moved_heightmap(folder):
-    from planet_lod import live
+    from planet_lod import runtime
     lib.clear_scene()
     lib.add_camera((0, -3.0e7, 0))
     os.makedirs(folder, exist_ok=True)
@@ -137,7 +140,7 @@ def check_moved_heightmap(folder):
     os.replace(path, moved)
     bpy.ops.wm.open_mainfile(filepath=blend)  # load_post refreshes: the map is gone
     planet = [o for o in bpy.data.objects if o.type == 'MESH' and o.planet_lod.enabled][0]
-    assert "height map not found" in live.state(planet).error, live.state(planet).error
+    assert "height map not found" in runtime.state(planet).error, runtime.state(planet).error
     rob.assert_same(before, rob.snapshot(), "reload with a moved height map")
     bpy.context.view_layer.objects.active = planet
     rob.expect_error("refresh with moved map", lambda: bpy.ops.object.planet_refresh(),
@@ -145,7 +148,7 @@ def check_moved_heightmap(folder):
     rob.assert_same(before, rob.snapshot(), "refresh with a moved height map")
     assert bpy.ops.object.planet_set_heightmap(filepath=moved) == {'FINISHED'}
     assert bpy.ops.object.planet_refresh() == {'FINISHED'}
-    assert live.state(planet).error == ""
+    assert runtime.state(planet).error == ""
 
 
 def main():

@@ -52,7 +52,7 @@ def check_heightmaps(folder):
 
 
 def check_cameras(cam):
-    from planet_lod import live
+    from planet_lod import runtime
     earth = bpy.context.object
     radius = earth.planet_lod.radius
     assert bpy.ops.object.planet_refresh() == {'FINISHED'}  # settings changed before
@@ -62,7 +62,7 @@ def check_cameras(cam):
     before = rob.snapshot()
     del before["mesh " + earth.name]  # a successful refresh rebuilds the mesh
     assert bpy.ops.object.planet_refresh() == {'FINISHED'}
-    assert "inside the planet" in live.state(earth).render_warning, live.state(earth).render_warning
+    assert "inside the planet" in runtime.state(earth).render_warning, runtime.state(earth).render_warning
     after = rob.snapshot()
     del after["mesh " + earth.name]
     rob.assert_same(before, after, "camera inside")
@@ -82,7 +82,7 @@ def check_cameras(cam):
     rob.assert_same(before, rob.snapshot(), "ortho scale 0")
     cam.data.type = 'PERSP'
     assert bpy.ops.object.planet_refresh() == {'FINISHED'}
-    assert live.state(earth).warning == ""
+    assert runtime.state(earth).warning == ""
 
 
 def check_radius():

@@ -1,5 +1,5 @@
 """Threads in Blender: a render and a viewport refresh never work on the
-same planet at once (live.py docstring).  The viewport timer (live.tick) skips
+same planet at once (the refresh module's docstring).  The viewport timer (handlers.tick) skips
 while a render is in progress and while another thread holds the refresh lock;
 render-side refreshes wait for the lock instead of skipping; planet_add turns
 on Lock Interface."""
@@ -14,7 +14,7 @@ import plod_testlib as lib
 
 def main():
     lib.enable()
-    from planet_lod import live
+    from planet_lod import handlers, refresh, runtime
     lib.clear_scene()
     scene = bpy.context.scene
     scene.render.resolution_x, scene.render.resolution_y = 64, 36
@@ -24,38 +24,38 @@ def main():
     earth = bpy.context.object
     assert scene.render.use_lock_interface
     earth.planet_lod.gpu_preview = False  # the timer rebuilds the mesh itself
-    live.REFRESH_INTERVAL_S = 0.0
+    handlers.REFRESH_INTERVAL_S = 0.0
 
     def move_and_tick():
         cam.location.x += 1.0e5
         bpy.context.view_layer.update()
-        live.tick()  # notices the change
-        live.tick()  # runs the refresh (interval 0) unless it must not
+        handlers.tick()  # notices the change
+        handlers.tick()  # runs the refresh (interval 0) unless it must not
 
     # 1. a render in progress (a render job in the UI): the viewport timer
     # leaves the planet alone
-    job_running = live.render_job_running
-    live.render_job_running = lambda: True
-    live.on_render_started()
+    job_running = handlers.render_job_running
+    handlers.render_job_running = lambda: True
+    handlers.on_render_started()
     before = rob.snapshot()
     move_and_tick()
     del before["camera TestCam"]
     after = rob.snapshot()
     del after["camera TestCam"]
     rob.assert_same(before, after, "tick during a render")
-    assert live.state(earth).dirty
-    live.on_render_finished()
-    live.render_job_running = job_running
+    assert runtime.state(earth).dirty
+    handlers.on_render_finished()
+    handlers.render_job_running = job_running
     mesh_before = rob.snapshot()["mesh Earth"]
-    live.tick()
-    assert not live.state(earth).dirty and rob.snapshot()["mesh Earth"] != mesh_before
+    handlers.tick()
+    assert not runtime.state(earth).dirty and rob.snapshot()["mesh Earth"] != mesh_before
 
     # 2. another thread holds the refresh lock (a render thread mid-refresh): the
     # timer does not wait (the UI stays responsive) and does not refresh
     held, release = threading.Event(), threading.Event()
 
     def render_thread():
-        with live._lock:
+        with refresh.LOCK:
             held.set()
             release.wait(30)
     worker = threading.Thread(target=render_thread)
@@ -63,7 +63,7 @@ def main():
     assert held.wait(30)
     mesh_before = rob.snapshot()["mesh Earth"]
     move_and_tick()
-    assert live.state(earth).dirty and rob.snapshot()["mesh Earth"] == mesh_before
+    assert runtime.state(earth).dirty and rob.snapshot()["mesh Earth"] == mesh_before
     # ... while a render-side refresh waits for the lock, then runs
     order = []
 
@@ -72,33 +72,33 @@ def main():
         order.append("released")
         release.set()
     threading.Thread(target=let_go).start()
-    live.refresh_for_render(scene)
+    refresh.refresh_for_render(scene)
     order.append("refreshed")
     worker.join()
     assert order == ["released", "refreshed"], order
-    assert not live.state(earth).dirty
+    assert not runtime.state(earth).dirty
 
     # a render that never reported complete/cancel does not stop the timer for
     # good: with no render job running the counter is reset
-    live.on_render_started()
+    handlers.on_render_started()
     move_and_tick()
-    assert live._renders == 0 and not live.state(earth).dirty
+    assert handlers._renders == 0 and not runtime.state(earth).dirty
 
     # 3. a real render: the counter goes up and back to zero
-    assert live._renders == 0
+    assert handlers._renders == 0
     seen = []
 
     def probe(*_args):
-        seen.append(live._renders)
+        seen.append(handlers._renders)
     bpy.app.handlers.render_pre.append(probe)
     try:
         bpy.ops.render.render()
     finally:
         bpy.app.handlers.render_pre.remove(probe)
     assert seen == [1], seen  # counted while rendering
-    assert live._renders == 0, live._renders
+    assert handlers._renders == 0, handlers._renders
     move_and_tick()
-    assert not live.state(earth).dirty
+    assert not runtime.state(earth).dirty
 
 
 lib.run(main)

@@ -108,10 +108,10 @@ def add_planet(engine, preset):
 
 def moon(engine):
     """The Moon: no air, a black sky over a lit ground."""
-    from planet_lod import live
+    from planet_lod import refresh
     scene, planet = add_planet(engine, 'MOON')
     add_camera(planet, 36.0, 38.0, 2.0, 90.0, 10.0)
-    live.refresh_for_render(scene)
+    refresh.refresh_for_render(scene)
     w, h, px = render(scene, f"sky_moon_{engine}.png")
     sky = mean(px, w, [(x, y) for x in range(w) for y in range(h - 8, h)])
     ground = mean(px, w, [(x, y) for x in range(w) for y in range(0, 8)])
@@ -134,12 +134,12 @@ def moon(engine):
 
 def earth(engine):
     """The Earth's sky from the ground and its limb from orbit."""
-    from planet_lod import live
+    from planet_lod import refresh
     scene, planet = add_planet(engine, 'EARTH')
     assert scene.world.name.startswith("PlanetLOD sky")
     # on the ground under the sun, looking 30 degrees up: a blue sky
     add_camera(planet, 30.0, 30.0, 2.0, 90.0, 30.0)
-    live.refresh_for_render(scene)
+    refresh.refresh_for_render(scene)
     w, h, px = render(scene, f"sky_ground_{engine}.png")
     sky = mean(px, w, [(x, y) for x in range(w) for y in range(h * 2 // 3, h)])
     print(f"{engine}: sky 2 m above the ground: mean RGB {[round(c, 3) for c in sky]}")
@@ -150,7 +150,7 @@ def earth(engine):
     # the planet's edge, black space above it
     dip = math.degrees(math.acos(6371000.0 / (6371000.0 + 4.0e5)))
     add_camera(planet, 20.0, 38.0, 4.0e5, 90.0, -dip)
-    live.refresh_for_render(scene)
+    refresh.refresh_for_render(scene)
     w, h, px = render(scene, f"sky_orbit_{engine}.png")
 
     def bright(x, y):

@@ -116,7 +116,7 @@ def check_detail(planet):
     """The core's detail field reaches the ground material per vertex
     (`planet_detail`, metres): ridges and hollows over the Alps, equal to the
     vertex's height above the map's surface there."""
-    from planet_lod import core, live
+    from planet_lod import core, runtime
     me = planet.data
     detail = numpy.empty(len(me.vertices), numpy.float32)
     me.attributes["planet_detail"].data.foreach_get("value", detail)
@@ -127,7 +127,7 @@ def check_detail(planet):
     plain = core.planets.build_planet(settings)
     co, _, _ = mesh_arrays(planet)
     pick = numpy.arange(0, len(co), max(1, len(co) // 500))
-    points = co[pick].astype(numpy.float64) + numpy.array(live.anchor(planet))
+    points = co[pick].astype(numpy.float64) + numpy.array(runtime.anchor(planet))
     distance = numpy.linalg.norm(points, axis=1)
     heights, _ = plain.surface(points.ravel().tolist())
     expected = distance - planet.planet_lod.radius - numpy.array(heights)
@@ -145,7 +145,7 @@ def world_vertices(obj):
 
 def main():
     lib.enable()
-    from planet_lod import compat, core, live
+    from planet_lod import compat, core, refresh, runtime
     lib.clear_scene()
     scene = bpy.context.scene
     scene.render.resolution_x, scene.render.resolution_y = 640, 360
@@ -155,7 +155,7 @@ def main():
     assert bpy.ops.mesh.planet_add(preset='EARTH', quality='PREVIEW') == {'FINISHED'}
     earth = bpy.context.object
     cam = add_geo_camera(earth, "Alps", 7.9, 46.4, 3000.0)
-    live.refresh_for_render(scene)
+    refresh.refresh_for_render(scene)
     check_borders(earth, "Earth, 3 km above the Alps")
     check_detail(earth)
 
@@ -164,12 +164,12 @@ def main():
     earth.planet_lod.use_detail = False
     native = core.planets.build_planet(earth.planet_lod.as_dict())
     cam.planet_lod_geo.altitude = 5.0
-    live.refresh_for_render(scene)
+    refresh.refresh_for_render(scene)
     world = world_vertices(earth)
     cam_world = numpy.array(cam.matrix_world.translation, numpy.float32)
     near = numpy.linalg.norm(world - cam_world, axis=1) < 1000.0
     assert near.sum() > 50, f"only {near.sum()} vertices within 1 km of the camera"
-    planet_space = world[near].astype(numpy.float64) + numpy.array(live.anchor(earth))
+    planet_space = world[near].astype(numpy.float64) + numpy.array(runtime.anchor(earth))
     distance = numpy.linalg.norm(planet_space, axis=1)
     heights, _ = native.surface(planet_space.ravel().tolist())
     error = numpy.abs(distance - (earth.planet_lod.radius + numpy.array(heights)))
@@ -198,7 +198,7 @@ def main():
         scene.frame_set(frame)
         world = world_vertices(earth)
         cam_world = numpy.array(cam.matrix_world.translation, numpy.float32)
-        planet_space = world.astype(numpy.float64) + numpy.array(live.anchor(earth))
+        planet_space = world.astype(numpy.float64) + numpy.array(runtime.anchor(earth))
         if tracked is None:  # a ground vertex a few metres ahead of the camera
             d = numpy.linalg.norm(world - cam_world, axis=1)
             tracked = planet_space[numpy.argmin(numpy.abs(d - 5.0))]
@@ -220,12 +220,12 @@ def main():
     geo.longitude, geo.latitude, geo.east, geo.altitude = -10.0, 38.75, 0.0, 500.0
     geo.heading, geo.pitch = 90.0, -10.0
     scene.frame_set(1)
-    live.refresh_for_render(scene)
+    refresh.refresh_for_render(scene)
     me = earth.data
     depth = numpy.empty(len(me.vertices), numpy.float32)
     me.attributes["planet_sea_depth"].data.foreach_get("value", depth)
     world = world_vertices(earth)
-    planet_space = world.astype(numpy.float64) + numpy.array(live.anchor(earth))
+    planet_space = world.astype(numpy.float64) + numpy.array(runtime.anchor(earth))
     radial = numpy.linalg.norm(planet_space, axis=1) - earth.planet_lod.radius
     sea = earth.planet_lod.sea_level
     tri = numpy.empty(3 * len(me.polygons), numpy.int32)
@@ -238,7 +238,7 @@ def main():
           f"those {numpy.abs(radial[sea_vertex] - sea).max() if sea_vertex.any() else 0:.4f} m")
     sea_tri = sea_vertex[tri].all(axis=1)
     centres = planet_space[tri[sea_tri]].mean(axis=1)
-    cam_planet = numpy.array(cam.matrix_world.translation) + numpy.array(live.anchor(earth))
+    cam_planet = numpy.array(cam.matrix_world.translation) + numpy.array(runtime.anchor(earth))
     distance = numpy.linalg.norm(centres - cam_planet, axis=1)
     near_sea = distance < 20000.0
     sag = earth.planet_lod.radius + sea - numpy.linalg.norm(centres, axis=1)
@@ -260,7 +260,7 @@ def main():
     assert bpy.ops.mesh.planet_add(preset='MOON', quality='PREVIEW') == {'FINISHED'}
     moon = bpy.context.object
     add_geo_camera(moon, "Highlands", 15.0, -30.0, 4000.0, pitch=-25.0)
-    live.refresh_for_render(scene)
+    refresh.refresh_for_render(scene)
     check_borders(moon, "Moon, 4 km above the highlands")
 
 

@@ -83,9 +83,9 @@ def setup():
 def step():
     try:
         STATE["step"] += 1
-        from planet_lod import live
+        from planet_lod import runtime
         planet = bpy.data.objects.get("Earth")
-        st = live.RUNTIME.get(planet.name_full) if planet else None
+        st = runtime.RUNTIME.get(planet.name_full) if planet else None
         drawn = st is not None and st.preview is not None and st.preview.vertex_count > 0
         if STATE["step"] < 40 and not drawn:
             return 0.1  # wait for the live refresh (refresh timer)

@@ -61,22 +61,22 @@ def skyline(image):
 
 
 def refreshed(planet):
-    from planet_lod import live
-    st = live.state(planet)
+    from planet_lod import runtime
+    st = runtime.state(planet)
     yield from ui.wait_until(lambda: st.settled() and st.preview is not None,
                              what="the viewport refresh")
     yield from ui.redraw(2)
 
 
 def add(preset):
-    from planet_lod import live
+    from planet_lod import runtime
     for obj in [o for o in bpy.data.objects if o.type == 'MESH']:
         bpy.data.objects.remove(obj)
     ui.view3d()[1].spaces.active.region_3d.view_perspective = 'PERSP'
     with ui.override():
         assert bpy.ops.mesh.planet_add(preset=preset) == {'FINISHED'}
     planet = bpy.context.object
-    return planet, live.state(planet)
+    return planet, runtime.state(planet)
 
 
 def frame_and_render(name, planet, st):

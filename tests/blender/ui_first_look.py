@@ -23,8 +23,8 @@ def test():
         assert bpy.ops.mesh.planet_add(preset='EARTH') == {'FINISHED'}
     planet = bpy.context.object
     radius = planet.planet_lod.radius
-    from planet_lod import live
-    st = live.state(planet)
+    from planet_lod import runtime
+    st = runtime.state(planet)
     yield from ui.redraw(3)
     # the view, the camera and their clip ranges are outside / around the planet
     eye = space.region_3d.view_matrix.inverted().translation
@@ -54,7 +54,7 @@ def test():
     # navigating (the view turning a little at every step, like a drag; under
     # llvmpipe a step is a redraw, up to a second): the LOD follows during the
     # motion, not only once it stops
-    from planet_lod import live as live_module
+    from planet_lod import handlers
     r3d = space.region_3d
     # (the refiner's frame count: a refresh whose leaves did not change keeps
     # the preview's surface)
@@ -62,7 +62,7 @@ def test():
     for _ in range(steps):
         r3d.view_rotation = (r3d.view_rotation @ Vector((0.0, 0.0, 1.0)).rotation_difference(
             Vector((0.01, 0.0, 1.0)))).normalized()
-        yield max(0.05, live_module.REFRESH_INTERVAL_S)
+        yield max(0.05, handlers.REFRESH_INTERVAL_S)
     during = st.stats["frame"] - before
     print(f"navigation: {during} viewport refreshes during {steps} steps of motion", flush=True)
     assert during >= steps // 2, "the LOD does not follow while navigating"

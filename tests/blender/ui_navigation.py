@@ -42,8 +42,8 @@ def disk_of_view(name):
 
 
 def refreshed(planet):
-    from planet_lod import live
-    st = live.state(planet)
+    from planet_lod import runtime
+    st = runtime.state(planet)
     yield from ui.wait_until(lambda: st.settled() and st.preview is not None, timeout=120,
                              what="the viewport refresh")
     yield from ui.redraw(2)
@@ -83,7 +83,7 @@ def press(win, region, key):
 
 def test():
     ui.lib.enable()
-    from planet_lod import navigation, operators
+    from planet_lod import navigation, preset_menus
     space = ui.clean_view()
     r3d = space.region_3d
     planet_menu = MenuRecorder(bpy.types.PLOD_MT_planet_presets)
@@ -98,24 +98,24 @@ def test():
 
     # ---- the preset menus: entries drawn, one picked, the planet renamed and framed
     entries = ["Asteroid", "Earth", "Mars-like", "Moon"]
-    yield from pick_from_menu(operators.PLOD_MT_planet_presets, planet_menu,
+    yield from pick_from_menu(preset_menus.PLOD_MT_planet_presets, planet_menu,
                               entries.index("Moon"))
     yield from ui.wait_until(lambda: planet.planet_lod.preset == 'MOON', timeout=60,
                              what="the Moon preset from the menu")
     assert not planet_menu.errors, planet_menu.errors
     assert planet.name == "Moon", f"the planet is still called {planet.name}"
-    assert operators.PLOD_MT_planet_presets.button_text(bpy.context) == "Moon"
+    assert preset_menus.PLOD_MT_planet_presets.button_text(bpy.context) == "Moon"
     assert abs(planet.planet_lod.radius - 1737400.0) < 1.0
     yield from refreshed(planet)
     cover, _ = disk_of_view("preset_moon.png")
     assert 0.1 < cover < 0.9, "the Moon is not framed after its preset"
 
-    yield from pick_from_menu(operators.PLOD_MT_quality_presets, quality_menu,
+    yield from pick_from_menu(preset_menus.PLOD_MT_quality_presets, quality_menu,
                               ["Draft", "Final", "Preview"].index("Draft"))
     yield from ui.wait_until(lambda: planet.planet_lod.quality == 'DRAFT', timeout=60,
                              what="the Draft quality from the menu")
     assert not quality_menu.errors, quality_menu.errors
-    assert operators.PLOD_MT_quality_presets.button_text(bpy.context) == "Draft"
+    assert preset_menus.PLOD_MT_quality_presets.button_text(bpy.context) == "Draft"
     print(f"menus drawn: planet {planet_menu.count}, quality {quality_menu.count}", flush=True)
 
     # ---- a camera placed by longitude/latitude moves the floating origin

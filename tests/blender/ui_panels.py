@@ -62,13 +62,13 @@ def test():
     red = red_pixels("panels_error.png")
     print(f"red pixels in the sidebar: {red} with the error, {clean_red} without", flush=True)
     assert red > clean_red + 200, "the error is not shown in the panel"
-    from planet_lod import live
-    assert "not found" in live.state(planet).error
+    from planet_lod import runtime
+    assert "not found" in runtime.state(planet).error
     # fixed again: the error goes away
     planet.planet_lod.heightmap = ""
     yield 0.8
     yield from redraw_and_check(recorder, ALL, "height map cleared")
-    assert live.state(planet).error == "", live.state(planet).error
+    assert runtime.state(planet).error == "", runtime.state(planet).error
     # an inset whose file is missing: the list draws, the panel says why
     inset = planet.planet_lod.insets.add()
     inset.use_box = True  # its box fields draw too
@@ -76,12 +76,12 @@ def test():
     yield 0.5
     yield from redraw_and_check(recorder, ALL, "missing inset")
     assert red_pixels("panels_inset_error.png") > clean_red + 200, "inset error not shown"
-    assert "inset not found" in live.state(planet).error, live.state(planet).error
+    assert "inset not found" in runtime.state(planet).error, runtime.state(planet).error
     planet.planet_lod.insets.remove(0)
     planet.planet_lod.heightmap = ""  # the list's removal checks nothing by itself
     yield 0.8
     yield from redraw_and_check(recorder, ALL, "inset removed")
-    assert live.state(planet).error == "", live.state(planet).error
+    assert runtime.state(planet).error == "", runtime.state(planet).error
     # a Large Map whose tile file is not written: the panel says so and offers
     # to write it; written from the panel, the planet refreshes
     world = os.path.join(lib.out_dir(), "world.r16")
@@ -91,12 +91,12 @@ def test():
     planet.planet_lod.heightmap, planet.planet_lod.heightmap_tiled = world, True
     yield 0.8
     yield from redraw_and_check(recorder, ALL, "Large Map, no tile file")
-    assert "tile file is not written" in live.state(planet).error, live.state(planet).error
+    assert "tile file is not written" in runtime.state(planet).error, runtime.state(planet).error
     assert red_pixels("panels_tiles_missing.png") > clean_red + 200, "tile error not shown"
     with ui.override():
         assert bpy.ops.object.planet_write_tiles('INVOKE_DEFAULT') == {'RUNNING_MODAL'}
     yield from ui.wait_until(lambda: os.path.isfile(world + ".plodtiles") and
-                             live.state(planet).settled() and not live.state(planet).error,
+                             runtime.state(planet).settled() and not runtime.state(planet).error,
                              what="the tile file and the planet's refresh")
     yield from redraw_and_check(recorder, ALL, "Large Map written")
     planet.planet_lod.heightmap_tiled, planet.planet_lod.heightmap = False, ""

@@ -26,8 +26,8 @@ def add(preset, **settings):
 
 def refreshed(planet):
     """Generator: waits for the viewport's refresh of `planet` and two redraws."""
-    from planet_lod import live
-    st = live.state(planet)
+    from planet_lod import runtime
+    st = runtime.state(planet)
     yield from ui.wait_until(lambda: st.settled() and st.preview is not None,
                              what="the viewport refresh")
     yield from ui.redraw(2)
@@ -133,11 +133,11 @@ def budget():
     """2 km above the asteroid's ground, looking 15 degrees below the horizon, with
     a budget far below what the view asks for: the ground still fills the view."""
     planet = add('ASTEROID', budget=1500)
-    from planet_lod import live
+    from planet_lod import runtime
     ground_view(planet, 2000.0, 15.0)
     yield 0.5
     yield from refreshed(planet)
-    st = live.state(planet)
+    st = runtime.state(planet)
     shot = ui.screenshot("budget_asteroid.png")
     mask = ui.foreground(shot)
     print(f"budget 1500 at 2 km: {st.stats['sectors_total']} sectors kept, "
@@ -158,10 +158,10 @@ def refresh_job():
     refreshes; a refresh made while the job runs (an operator, a render) makes
     the job's result stale, and the planet refreshes again for the view."""
     planet = add('MOON')
-    from planet_lod import live
-    st = live.state(planet)
+    from planet_lod import core, refresh, runtime
+    st = runtime.state(planet)
     yield from refreshed(planet)
-    gate, run = threading.Event(), live.SurfaceWork.run
+    gate, run = threading.Event(), core.refresh.SurfaceWork.run
     jobs = []
 
     def held(work):  # keeps a job in flight until the test lets it go
@@ -169,7 +169,7 @@ def refresh_job():
             jobs.append(work)
             gate.wait(30)
         run(work)
-    live.SurfaceWork.run = held
+    core.refresh.SurfaceWork.run = held
     try:
         ground_view(planet, 2000.0, 15.0)  # a new place: every sector in view is new
         before = st.preview
@@ -192,13 +192,13 @@ def refresh_job():
         yield from ui.wait_until(lambda: st.job is not None, what="a refresh job")
         serial = st.job.serial
         threading.Timer(0.3, gate.set).start()
-        live.refresh(planet, bpy.context.scene)  # waits for the job's lock
+        refresh.refresh(planet, bpy.context.scene)  # waits for the job's lock
         assert st.serial > serial
         yield from refreshed(planet)
         assert st.preview is not job_surface and not st.error
     finally:
         gate.set()
-        live.SurfaceWork.run = run
+        core.refresh.SurfaceWork.run = run
 
 
 def test():
