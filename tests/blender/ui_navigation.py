@@ -83,7 +83,7 @@ def press(win, region, key):
 
 def test():
     ui.lib.enable()
-    from planet_lod import navigation, preset_menus
+    from planet_lod import navigation, preset_menus, view_follow
     space = ui.clean_view()
     r3d = space.region_3d
     planet_menu = MenuRecorder(bpy.types.PLOD_MT_planet_presets)
@@ -171,7 +171,7 @@ def test():
     assert abs(height - 2000.0) < 20.0, height
     assert abs(lat - 46.0) < 0.01 and abs(lon - 7.9) < 0.01, (lat, lon)
     with ui.override():
-        text = navigation.readout(bpy.context)
+        text = view_follow.readout(bpy.context)
     print("readout:", text, flush=True)
     assert text.startswith("Altitude 2.0") and "above the ground" in text, text
     ui.screenshot("go_to_surface.png", region='AREA')
