@@ -82,6 +82,34 @@ def check_heightmap(path):
         raise FileError(f"height map is a folder: {path}")
     if os.path.getsize(path) == 0:
         raise FileError(f"height map is empty (0 bytes): {path}")
+    check_image_signature(path)
+
+
+# What image files start with, by the extensions that promise them.
+IMAGE_SIGNATURES = {
+    ".png": (b"\x89PNG\r\n\x1a\n",),
+    ".jpg": (b"\xff\xd8\xff",), ".jpeg": (b"\xff\xd8\xff",),
+    ".tif": (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+"),
+    ".tiff": (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+"),
+    ".exr": (b"\x76\x2f\x31\x01",),
+}
+
+
+def check_image_signature(path):
+    """Raises ImageError "not an image file (name)" for a file whose extension
+    promises an image format that its first bytes are not (a text file named .png)."""
+    signatures = IMAGE_SIGNATURES.get(os.path.splitext(path)[1].lower())
+    if not signatures:
+        return
+    try:
+        with open(path, "rb") as f:
+            head = f.read(8)
+    except OSError as exc:
+        raise FileError(f"cannot read {path}: {exc.strerror}") from exc
+    if not any(head.startswith(sig) for sig in signatures):
+        kind = os.path.splitext(path)[1][1:].upper()
+        raise ImageError(f"not an image file ({os.path.basename(path)}): it is named "
+                         f".{kind.lower()} but does not start like a {kind} image")
 
 
 def check_insets(paths):
@@ -93,6 +121,7 @@ def check_insets(paths):
             raise FileError(f"inset is a folder: {path}")
         if os.path.getsize(path) == 0:
             raise FileError(f"inset is empty (0 bytes): {path}")
+        check_image_signature(path)
 
 
 # The blend border of insets, as a fraction of an inset's smaller side (the
@@ -189,6 +218,18 @@ def _overlap_by_file(exc, insets):
                            "each area may come from one inset only, remove one of them")
 
 
+def minimum_radius(settings):
+    """About the smallest radius the settings' heights allow: the native planet
+    refuses ground lower than half the radius below it or higher than ten
+    radii (the map's range and the detail's amplitude)."""
+    scale = abs(float(settings.get("height_scale", 0.0)))
+    offset = float(settings.get("height_offset", 0.0))
+    detail = float(settings.get("detail_amplitude", 0.0)) if settings.get("use_detail") else 0.0
+    low = offset - (scale if settings.get("height_signed") else 0.0) - detail
+    high = offset + scale + detail
+    return max(1.0, -2.0 * low * 1.001, high / 10.0)
+
+
 def build_planet(settings):
     """A native Planet for these settings (cached by planet_key).  Raises on bad input."""
     module = require_native()
@@ -213,6 +254,11 @@ def build_planet(settings):
     try:
         planet = _new_planet(module, float(settings["radius"]), settings, kwargs)
     except InvalidArgument as exc:
+        smallest = minimum_radius(settings)
+        if float(settings["radius"]) < smallest:
+            raise InvalidArgument(f"radius must be at least {math.ceil(smallest):,} m for "
+                                  "these heights (the lowest ground may not reach half "
+                                  "way to the centre)") from exc
         named = _overlap_by_file(exc, insets)
         if named is exc:
             raise

@@ -183,3 +183,24 @@ def test_maps_over_the_memory_limit_ask_for_the_large_map_option(planetlod, tmp_
     planet = planets.build_planet(settings(heightmap=world, height_scale=1000.0,
                                            heightmap_tiled=True))
     assert math.isfinite(planet.height(*direction(0.0, 0.0)))
+
+
+def test_a_radius_too_small_for_the_heights_says_so(planetlod):
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    topology = os.path.join(root, "data", "earth-topology.png")
+    for radius in (1.0, 100.0):
+        with pytest.raises(InvalidArgument, match=r"radius must be at least [\d,]+ m"):
+            planets.build_planet(settings(radius=radius, heightmap=topology))
+    smallest = planets.minimum_radius(settings(heightmap=topology))
+    assert smallest == pytest.approx(884.8)
+    planets.build_planet(settings(radius=smallest + 1.0, heightmap=topology))
+
+
+def test_a_text_file_named_like_an_image_is_not_an_image_file(planetlod, tmp_path):
+    for name in ("notes.png", "notes.jpg", "notes.tif", "notes.exr"):
+        fake = tmp_path / name
+        fake.write_text("not an image at all\n")
+        with pytest.raises(ImageError, match=rf"not an image file \({re.escape(name)}\)"):
+            planets.build_planet(settings(heightmap=str(fake)))
+        with pytest.raises(ImageError, match=rf"not an image file \({re.escape(name)}\)"):
+            planets.build_planet(settings(insets=[str(fake)]))

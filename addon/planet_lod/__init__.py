@@ -16,11 +16,17 @@ tests/test_layout.py checks it):
   refresh                      refreshing planets: refinement, the mesh, the
                                GPU preview's jobs, the render refresh
   handlers                     the viewport's timer and Blender's handlers
+  navigation                   finding the planet with Blender's views: framing,
+                               Go to Surface
+  view_follow                  the views kept on the planet: altitude readout,
+                               pivot on the ground, level horizon, floating origin
+  legend                       the legend of Show Levels
   draw                         the GPU preview
   props                        the settings
   operators, map_files,        operators on the planet, on its height files;
   preset_menus                 the preset menus
-  render, recordpath, ui       flybys; recording a camera path; the panels
+  render, flyby_job,           flybys, the flyby as an interface job; recording
+  recordpath, ui               a camera path; the panels
 
 For scripts (the render farm's job, tools/, bench/) the package names a
 few functions that stay when the modules behind them move:
@@ -53,8 +59,8 @@ if "bpy" in locals():  # script reload (F3 > Reload Scripts)
     import importlib
     for _name in ("compat", "core", "prefs", "mappaths", "nodes", "runtime", "atmosphere",
                   "terrain_shading", "materials", "cameras", "placement", "framing", "refresh",
-                  "handlers", "draw", "props", "operators", "map_files", "preset_menus", "render",
-                  "recordpath", "ui"):
+                  "handlers", "navigation", "view_follow", "legend", "draw", "props", "operators",
+                  "map_files", "preset_menus", "render", "flyby_job", "recordpath", "ui"):
         if _name in locals():
             importlib.reload(locals()[_name])
 
@@ -63,7 +69,8 @@ from bpy.props import PointerProperty  # noqa: E402
 
 from . import (compat, core, prefs, mappaths, nodes, runtime, atmosphere,  # noqa: E402
                terrain_shading, materials, cameras, placement, framing, refresh, handlers,
-               draw, props, operators, map_files, preset_menus, render, recordpath, ui)
+               navigation, view_follow, legend, draw, props, operators, map_files,
+               preset_menus, render, flyby_job, recordpath, ui)
 
 classes = (
     props.PLOD_PG_inset,
@@ -82,6 +89,7 @@ classes = (
     preset_menus.PLOD_OT_preset_add,
     preset_menus.PLOD_OT_quality_preset_add,
     render.PLOD_OT_flyby,
+    flyby_job.PLOD_OT_flyby_job,
     ui.PLOD_UL_insets,
     ui.PLOD_PT_planet,
     ui.PLOD_PT_surface,
@@ -108,9 +116,15 @@ def register():
     handlers.add_handlers()
     render.add_handlers()
     recordpath.register()
+    navigation.register()
+    view_follow.register()
+    legend.register()
 
 
 def unregister():
+    legend.unregister()
+    view_follow.unregister()
+    navigation.unregister()
     recordpath.unregister()
     render.remove_handlers()
     handlers.remove_handlers()

@@ -133,6 +133,7 @@ class PlanetGPU:
         self.version = -1
         self.color_key = None
         self.color_tex = None
+        self.state = None          # the runtime state whose preview this holds
 
 
 def _dummy_texture():
@@ -212,7 +213,10 @@ def draw_planet(obj, st, region_data):
     preview = st.preview
     if shader is None or preview is None or preview.vertex_count == 0:
         return
-    res = _cache.setdefault(obj.name_full, PlanetGPU())
+    res = _cache.get(obj.name_full)
+    if res is None or res.state is not st:  # a renamed object can meet another's cache
+        res = _cache[obj.name_full] = PlanetGPU()
+        res.state = st
     _ensure_batch(res, st)
     _ensure_color(res, s)
     to_planet = obj.matrix_world.inverted_safe()

@@ -120,6 +120,24 @@ def add_sun(scene, obj, top, undo):
     return messages
 
 
+def hide_inside(scene, obj, top, undo):
+    """Hides the objects inside the new planet (the factory Cube at the origin):
+    unseen inside it, they would sit in front of any camera the floating origin
+    brings to the world origin.  Lights are add_sun's.  Returns messages."""
+    messages = []
+    centre = obj.matrix_world.translation
+    for other in scene.objects:
+        if (other is obj or other.type in {'LIGHT', 'CAMERA'} or other.planet_lod.enabled
+                or other.planet_lod_geo.enabled or other.hide_render
+                or (other.matrix_world.translation - centre).length >= top):
+            continue
+        other.hide_render = other.hide_viewport = True
+        undo.append(lambda other=other: (setattr(other, "hide_render", False),
+                                         setattr(other, "hide_viewport", False)))
+        messages.append(f"{other.name} was inside the planet: hidden")
+    return messages
+
+
 def frame_views(screen, obj, top):
     """Points every 3D view of `screen` at the planet from outside (views that
     look through the camera follow the camera)."""

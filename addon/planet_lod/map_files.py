@@ -111,7 +111,18 @@ class PLOD_OT_set_heightmap(bpy.types.Operator):
     def poll(cls, context):
         return active_planet(context) is not None
 
+    @classmethod
+    def description(cls, context, properties):
+        obj = active_planet(context)
+        path = obj.planet_lod.heightmap if obj is not None else ""
+        if not path:
+            return "Load a height map into the active planet"
+        return f"{bpy.path.abspath(path)}\nClick to load another height map"
+
     def invoke(self, context, event):
+        obj = active_planet(context)
+        if obj is not None and obj.planet_lod.heightmap and not self.filepath:
+            self.filepath = bpy.path.abspath(obj.planet_lod.heightmap)
         context.window_manager.fileselect_add(self)
         return {'RUNNING_MODAL'}
 

@@ -8,7 +8,7 @@ import os
 import bpy
 from bpy.props import BoolProperty, EnumProperty, StringProperty
 
-from . import atmosphere, cameras, core, framing, mappaths, materials, refresh, runtime
+from . import atmosphere, cameras, core, framing, mappaths, materials, navigation, refresh, runtime
 from .core import planets, presets
 
 
@@ -137,6 +137,8 @@ class PLOD_OT_planet_add(bpy.types.Operator):
                 messages.append(message)
         if self.add_sun:
             messages += framing.add_sun(context.scene, obj, top, undo)
+        if self.frame:
+            messages += framing.hide_inside(context.scene, obj, top, undo)
         return messages
 
 
@@ -240,9 +242,10 @@ class PLOD_OT_planet_apply_preset(bpy.types.Operator):
             return {'CANCELLED'}
         obj.planet_lod.assign(values)
         if self.planet != "NONE":
-            obj.planet_lod.preset = self.planet
+            navigation.planet_preset_applied(context, obj, self.planet)
         if self.quality != "NONE":
             obj.planet_lod.quality = self.quality
+            obj.planet_lod["active_quality_preset"] = presets.QUALITY[self.quality]["label"]
         runtime.mark_dirty(obj, geometry=True, material=True)
         return {'FINISHED'}
 

@@ -100,12 +100,19 @@ def anchor(obj):
     return point
 
 
+# Called as listener(obj, old, new) when an anchor moves (the views follow it).
+ANCHOR_LISTENERS = []
+
+
 def set_anchor(obj, point):
     """Moves the anchor; True when it changed (the mesh must then be rewritten)."""
     point = [float(v) for v in point]
-    if list(anchor(obj)) == point:
+    old = anchor(obj)
+    if list(old) == point:
         return False
     obj[ANCHOR_KEY] = point
+    for listener in ANCHOR_LISTENERS:
+        listener(obj, old, point)
     return True
 
 

@@ -106,7 +106,7 @@ class PLOD_PT_planet(PLOD_PT_base, bpy.types.Panel):
             _wrapped(layout.box(), message[0].upper() + message[1:], 'INFO',
                      _line_width(context))
         row = layout.row(align=True)
-        row.menu("PLOD_MT_planet_presets", text=PLOD_MT_planet_presets.bl_label)
+        row.menu("PLOD_MT_planet_presets", text=PLOD_MT_planet_presets.button_text(context))
         row.operator("object.planet_preset_add", text="", icon='ADD')
         row.operator("object.planet_preset_add", text="", icon='REMOVE').remove_active = True
         layout.use_property_split = True
@@ -124,9 +124,10 @@ class PLOD_PT_surface(PLOD_PT_planet_sub, bpy.types.Panel):
         layout = self.layout
         col = layout.column()
         col.label(text="Height Map")
-        row = col.row(align=True)
-        row.prop(s, "heightmap", text="")
-        row.operator("object.planet_set_heightmap", text="", icon='FILEBROWSER')
+        # one button: the map's file name (the full path in its tooltip) opens the browser
+        col.operator("object.planet_set_heightmap",
+                     text=bpy.path.basename(s.heightmap) or "Choose a height map",
+                     icon='FILEBROWSER')
         row = col.row()
         row.active = bool(s.heightmap)
         row.prop(s, "heightmap_tiled")
@@ -170,7 +171,7 @@ class PLOD_PT_surface(PLOD_PT_planet_sub, bpy.types.Panel):
         col.prop(s, "atmosphere", text="Sky")
         sub = col.column()
         sub.active = s.atmosphere != 'NONE'
-        sub.prop(s, "atmosphere_density", text="Density")
+        sub.prop(s, "atmosphere_density", text="Sky Density")
 
 
 class PLOD_PT_detail(PLOD_PT_planet_sub, bpy.types.Panel):
@@ -207,7 +208,7 @@ class PLOD_PT_lod(PLOD_PT_planet_sub, bpy.types.Panel):
         s = context.object.planet_lod
         layout = self.layout
         row = layout.row(align=True)
-        row.menu("PLOD_MT_quality_presets", text=PLOD_MT_quality_presets.bl_label)
+        row.menu("PLOD_MT_quality_presets", text=PLOD_MT_quality_presets.button_text(context))
         row.operator("object.planet_quality_preset_add", text="", icon='ADD')
         row.operator("object.planet_quality_preset_add", text="",
                      icon='REMOVE').remove_active = True
@@ -224,7 +225,7 @@ class PLOD_PT_lod(PLOD_PT_planet_sub, bpy.types.Panel):
         else:
             col.prop(s, "split_border", text="Split")
             col.prop(s, "merge_border", text="Merge")
-        col.prop(s, "template_density", text="Density")
+        col.prop(s, "template_density", text="Patch Density")
         col.prop(s, "budget", text="Budget")
         col.prop(s, "max_level", text="Depth")
         if s.max_level == 0:
@@ -269,7 +270,7 @@ class PLOD_PT_render(PLOD_PT_planet_sub, bpy.types.Panel):
         col.use_property_split = False
         col.operator("object.planet_refresh", text="Update Render Mesh", icon='FILE_REFRESH')
         col.operator("object.planet_apply_mesh", icon='MESH_DATA')
-        col.operator("render.planet_flyby", text="Render Flyby", icon='RENDER_ANIMATION')
+        col.operator("render.planet_flyby_job", text="Render Flyby...", icon='RENDER_ANIMATION')
 
 
 class PLOD_PT_stats(PLOD_PT_planet_sub, bpy.types.Panel):
