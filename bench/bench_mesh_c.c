@@ -1,12 +1,13 @@
 /* bench_mesh_c.c -- C-level mesh emission throughput (no Python, buffers
  * allocated once and reused, as a renderer streaming frames would).
- * Built (the core's C files and image_io.cpp, as setup.py compiles them)
- * and run by `bench_mesh.py --c`.  Scene as bench_mesh.py: an
+ * Built (the core's C files, as setup.py compiles them) and run by
+ * `bench_mesh.py --c`, which hands the map over decoded, as a headerless
+ * grid.  Scene as bench_mesh.py: an
  * Earth-radius planet, perfect sphere and the Earth topology map as a 1024^2
  * QSC cube map with its normal map, camera 10 km up, refined without
  * culling; then the session's emission of every sector with every output,
  * at template levels 4..7 on 1 and 2 threads, best of 5 (wall clock).
- *     bench_mesh_c [earth-topology.png]
+ *     bench_mesh_c [GRID WIDTH HEIGHT u8|u16|f32]
  */
 #include "plod.h"
 #include "plod_image.h"
@@ -15,6 +16,7 @@
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <time.h>
 
 static double bench__now(void)
@@ -233,7 +235,15 @@ int main(int argc, char **argv)
     plod_image image = {0};
     char message[256];
     plod_cubemap *heights = NULL, *normals = NULL;
-    if (plod_image_read(&image, argv[1], 0, message, sizeof message) != PLOD_OK ||
+    plod_raw_format grid = {argc > 3 ? atoi(argv[2]) : 0, argc > 3 ? atoi(argv[3]) : 0,
+                            argc < 5                      ? PLOD_RAW_U16
+                            : strcmp(argv[4], "u8") == 0  ? PLOD_RAW_U8
+                            : strcmp(argv[4], "f32") == 0 ? PLOD_RAW_F32
+                                                          : PLOD_RAW_U16,
+                            0};
+    snprintf(message, sizeof message, "usage: bench_mesh_c [GRID WIDTH HEIGHT u8|u16|f32]");
+    if (argc < 5 ||
+        plod_image_read_raw(&image, argv[1], &grid, 0, message, sizeof message) != PLOD_OK ||
         plod_cubemap_create(&heights, PLOD_PROJ_QSC, 1024, 1, image.type) != PLOD_OK ||
         plod_resample_car_to_cube(heights, &image, PLOD_FILTER_BILINEAR, NULL, NULL) != PLOD_OK ||
         plod_cubemap_build_pyramid(heights) != PLOD_OK) {

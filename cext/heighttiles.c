@@ -129,14 +129,15 @@ static off_t plod__tiles_data_offset(size_t tile_count)
     return (off_t)((bounds + PLOD__TILES_ALIGN - 1) / PLOD__TILES_ALIGN * PLOD__TILES_ALIGN);
 }
 
-/* ---- the source rows: a raw grid or OpenImageIO ------------------------------ */
+/* ---- the source rows: a raw grid or the caller's image reader ----------------- */
 
 typedef struct plod__row_reader {
     FILE *raw_file;
     plod_raw_format raw;
     int hgt_voids;
     unsigned char *raw_row;
-    plod_image_rows *image;
+    const plod_image_rows_reader *reader;
+    void *image; /* the reader's rows, when open */
     int width, height;
     plod_texel_type type;
 } plod__row_reader;
@@ -150,7 +151,8 @@ static int plod__host_big_endian(void)
 }
 
 static plod_status plod__rows_open(plod__row_reader *r, const char *source,
-                                   const plod_raw_format *raw, char *message,
+                                   const plod_raw_format *raw,
+                                   const plod_image_rows_reader *reader, char *message,
                                    size_t message_size)
 {
     memset(r, 0, sizeof *r);
@@ -162,9 +164,30 @@ static plod_status plod__rows_open(plod__row_reader *r, const char *source,
         raw = &guessed;
     }
     if (!raw) {
-        plod_status s = plod_image_rows_open(&r->image, source, &r->width, &r->height, &r->type,
-                                             message, message_size);
-        return s;
+        if (!reader || !reader->open || !reader->read || !reader->close) {
+            plod_status_format(message, message_size,
+                                "no image reader for '%s' (only .hgt, .r16 and .raw grids "
+                                "are read without one)",
+                                source);
+            return PLOD_ERR_BAD_PARAM;
+        }
+        plod_status s = reader->open(reader->context, source, &r->image, &r->width, &r->height,
+                                     &r->type, message, message_size);
+        if (s != PLOD_OK) {
+            r->image = NULL;
+            return s;
+        }
+        if (!r->image || r->width <= 0 || r->height <= 0 ||
+            (unsigned)r->type >= PLOD_TEXEL_TYPE_COUNT) {
+            if (r->image)
+                reader->close(reader->context, r->image);
+            r->image = NULL;
+            plod_status_format(message, message_size, "'%s' has an unsupported format or layout",
+                                source);
+            return PLOD_ERR_BAD_IMAGE;
+        }
+        r->reader = reader;
+        return PLOD_OK;
     }
     if (raw->width <= 0 || raw->height <= 0 || (unsigned)raw->type >= PLOD_RAW_TYPE_COUNT) {
         plod_status_format(message, message_size, "bad raw grid layout %dx%d type %d",
@@ -215,7 +238,8 @@ static void plod__rows_close(plod__row_reader *r)
     if (r->raw_file)
         fclose(r->raw_file);
     free(r->raw_row);
-    plod_image_rows_close(r->image);
+    if (r->image)
+        r->reader->close(r->reader->context, r->image);
     memset(r, 0, sizeof *r);
 }
 
@@ -224,7 +248,7 @@ static plod_status plod__rows_read(plod__row_reader *r, int y0, int y1, void *ou
                                    char *message, size_t message_size)
 {
     if (r->image)
-        return plod_image_rows_read(r->image, y0, y1, out, message, message_size);
+        return r->reader->read(r->reader->context, r->image, y0, y1, out, message, message_size);
     size_t sample = plod_raw_sample_bytes(r->raw.type), count = (size_t)r->width;
     size_t out_row = count * plod__tiles_sample_bytes(r->type);
     int swap = r->raw.big_endian != plod__host_big_endian();
@@ -295,7 +319,8 @@ static int plod__stat_source(const char *source, int64_t *size, int64_t *mtime)
     return 1;
 }
 
-plod_status plod_tiles_build(const char *source, const plod_raw_format *raw, int is_signed,
+plod_status plod_tiles_build(const char *source, const plod_raw_format *raw,
+                             const plod_image_rows_reader *rows_reader, int is_signed,
                              const char *tiles_path, int tile, plod_progress_fn progress,
                              void *user, char *message, size_t message_size)
 {
@@ -310,7 +335,7 @@ plod_status plod_tiles_build(const char *source, const plod_raw_format *raw, int
         return PLOD_ERR_BAD_PARAM;
     }
     plod__row_reader reader;
-    plod_status s = plod__rows_open(&reader, source, raw, message, message_size);
+    plod_status s = plod__rows_open(&reader, source, raw, rows_reader, message, message_size);
     if (s != PLOD_OK)
         return s;
     plod_texel_type type = reader.type;

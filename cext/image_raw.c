@@ -316,7 +316,7 @@ plod_status plod_image_reinterpret_signed(plod_image *image)
             values[i] = (float)(v >= 0x8000u ? (int32_t)v - 65536 : (int32_t)v);
         }
     }
-    free(image->pixels);
+    plod_image_free(image);
     image->pixels = values;
     image->type = PLOD_TEXEL_F32;
     return PLOD_OK;

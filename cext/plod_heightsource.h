@@ -6,7 +6,7 @@
  * mesh emitter samples is plod_surface.h.)
  *
  * A tile file is written once from an equirectangular map (RAW/R16/HGT
- * grid or any image OpenImageIO reads scanline by scanline): a header, the
+ * grid, or any image the caller's reader gives a band of rows at a time): a header, the
  * min/max of every tile, then the tiles (tile x tile texels, row-major,
  * north first, each tile contiguous, edge tiles padded).  Reading it keeps
  * the per-tile bounds (8 bytes per tile) and at most `cache_bytes` of
@@ -68,17 +68,18 @@ typedef struct plod_tiles plod_tiles; /* opaque */
 #define PLOD_TILES_DEFAULT_CACHE_BYTES ((size_t)128 << 20)
 
 /* Writes the tile file of an equirectangular map.  `raw` (may be NULL)
- * gives a headerless grid's layout; NULL reads `source` as
- * plod_image_read would (.hgt/.r16/.raw by their size, else OpenImageIO,
- * scanline by scanline: no size cap).  Channel 0 only; i16 grids become
+ * gives a headerless grid's layout; NULL: .hgt/.r16/.raw by their size,
+ * other files through `reader` (may be NULL for grids), a band of rows at a
+ * time: no size cap.  Channel 0 only; i16 grids become
  * f32 integer values.  `is_signed`: u8/u16 samples are two's complement
  * (stored as f32).  The file is written to a temporary name and renamed,
  * so a cancelled or failed build leaves nothing.  progress may be NULL.
  * `tile`: a power of two in 16..4096, 0 = PLOD_TILES_DEFAULT_TILE.
- * PLOD_ERR_NULL, PLOD_ERR_BAD_PARAM (tile size), the reading errors of
- * plod_image_read, PLOD_ERR_IO (writing), PLOD_ERR_CANCELLED,
+ * PLOD_ERR_NULL, PLOD_ERR_BAD_PARAM (tile size; no reader for an image),
+ * the reading errors of the grid or reader, PLOD_ERR_IO (writing), PLOD_ERR_CANCELLED,
  * PLOD_ERR_NO_MEMORY; `message` (may be NULL) explains. */
-plod_status plod_tiles_build(const char *source, const plod_raw_format *raw, int is_signed,
+plod_status plod_tiles_build(const char *source, const plod_raw_format *raw,
+                             const plod_image_rows_reader *reader, int is_signed,
                              const char *tiles_path, int tile, plod_progress_fn progress,
                              void *user, char *message, size_t message_size);
 /* Opens a tile file; cache_bytes (0 = default) bounds the tiles held in

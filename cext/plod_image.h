@@ -1,5 +1,8 @@
-/* plod_image.h -- plain 2-D images and file I/O through OpenImageIO
- * (image_io.cpp is the only C++ in the core: a thin extern "C" bridge).
+/* plod_image.h -- plain 2-D images in memory, the headerless height grids
+ * and GeoTIFF georeferencing.  The core decodes no image format itself: the
+ * caller decodes (the Python layer through OpenImageIO) and hands the core
+ * typed pixel buffers (plod_image_import), and a band of rows at a time for
+ * maps larger than memory (plod_image_rows_reader).
  */
 #ifndef PLOD_IMAGE_H
 #define PLOD_IMAGE_H
@@ -11,9 +14,11 @@
 extern "C" {
 #endif
 
-/* Caller-visible image: rows top to bottom, channels interleaved.  Memory in
- * `pixels` is owned by whoever filled it; plod_image_free releases what
- * plod_image_alloc / plod_image_read allocated. */
+/* Caller-visible image: rows top to bottom, channels interleaved.
+ * plod_image_free releases what plod_image_alloc, plod_image_import (when it
+ * converted) or plod_image_read_raw allocated; `borrowed` non-zero: the
+ * pixels belong to someone else (plod_image_import without a copy), and
+ * plod_image_free only forgets them. */
 #define PLOD_IMAGE_DEFAULT_MAX_PIXELS ((size_t)1 << 28)
 
 typedef struct plod_image {
@@ -22,6 +27,7 @@ typedef struct plod_image {
     int channels;            /* 1..4 */
     plod_texel_type type;
     void *pixels;
+    int borrowed;
 } plod_image;
 
 /* Allocates zeroed pixels and sets the fields.  PLOD_ERR_NULL;
@@ -32,49 +38,7 @@ plod_status plod_image_alloc(plod_image *image, int width, int height,
 void plod_image_free(plod_image *image);
 size_t plod_image_texel_bytes(plod_texel_type type);
 
-/* Reads any format OpenImageIO can (PNG 8/16, JPEG, TIFF incl. float, EXR),
- * and the headerless height grids below by extension: .hgt (SRTM), .r16 and
- * .raw (16-bit little-endian, square or 2:1, as plod_raw_guess finds).
- * Pixel type kept as u8/u16/f32 (other types converted to f32).
- * Errors: PLOD_ERR_NULL, PLOD_ERR_IO (missing/unreadable),
- * PLOD_ERR_BAD_IMAGE (corrupt, zero size, more than 4 channels,
- * > max_pixels; max_pixels 0 = PLOD_IMAGE_DEFAULT_MAX_PIXELS),
- * PLOD_ERR_NO_MEMORY.  Never throws.  `message` (may be NULL) receives a
- * NUL-terminated explanation of up to message_size bytes. */
-plod_status plod_image_read(plod_image *image, const char *path,
-                            size_t max_pixels, char *message,
-                            size_t message_size);
-/* Writes with the format chosen by the extension.  PLOD_ERR_IO on failure
- * (a partly written file is removed); PLOD_ERR_BAD_PARAM when a known file
- * type cannot hold the pixel type losslessly (.png: u8/u16; .jpg/.bmp/.tga:
- * u8; .exr/.hdr/.pfm: f32; .tif: all). */
-plod_status plod_image_write(const plod_image *image, const char *path,
-                             char *message, size_t message_size);
-
-/* Like plod_image_read, but samples as stored: every integer type (u8,
- * u16, i16, u32, i32) becomes f32 holding its integer values (a DEM's
- * metres), floats f32; never normalised.  For height data whose values are
- * physical quantities (GeoTIFF DEMs).  .hgt/.r16/.raw paths as
- * plod_image_read. */
-plod_status plod_image_read_stored(plod_image *image, const char *path, size_t max_pixels,
-                                   char *message, size_t message_size);
-
-/* ---- reading an image a band of rows at a time (maps over max_pixels) ---- */
-typedef struct plod_image_rows plod_image_rows; /* opaque */
-/* Opens `path` with OpenImageIO for reading rows of channel 0 (u8/u16 kept,
- * other types as f32); errors as plod_image_read. */
-plod_status plod_image_rows_open(plod_image_rows **out, const char *path, int *width,
-                                 int *height, plod_texel_type *type, char *message,
-                                 size_t message_size);
-/* Rows [y0, y1) (top to bottom) of channel 0 into `pixels` (width * (y1 -
- * y0) texels of the type open reported).  PLOD_ERR_NULL, PLOD_ERR_BAD_PARAM
- * for rows outside the image, PLOD_ERR_BAD_IMAGE if corrupt,
- * PLOD_ERR_NO_MEMORY. */
-plod_status plod_image_rows_read(plod_image_rows *rows, int y0, int y1, void *pixels,
-                                 char *message, size_t message_size);
-void plod_image_rows_close(plod_image_rows *rows);
-
-/* ---- headerless height grids (image_raw.c) ------------------------------ */
+/* ---- sample types: a headerless grid's or an imported buffer's ------------ */
 typedef enum plod_raw_type {
     PLOD_RAW_U8 = 0,
     PLOD_RAW_U16,
@@ -83,6 +47,57 @@ typedef enum plod_raw_type {
     PLOD_RAW_TYPE_COUNT
 } plod_raw_type;
 
+size_t plod_raw_sample_bytes(plod_raw_type type);
+
+/* ---- images decoded by the caller --------------------------------------- */
+/* A decoded image as the caller holds it: width x height texels of
+ * `channels` interleaved samples of `type` (native byte order), rows top to
+ * bottom, `bytes` in all. */
+typedef struct plod_image_buffer {
+    int width;
+    int height;
+    int channels;
+    plod_raw_type type;
+    const void *pixels;
+    size_t bytes;
+} plod_image_buffer;
+
+/* How samples become texels: PLOD_IMPORT_TYPED keeps u8/u16/f32 (normalised
+ * on sampling, as every map) and takes i16 as f32 holding the integer
+ * values; PLOD_IMPORT_STORED makes every integer type f32 holding its
+ * values (a DEM's metres: never normalised). */
+typedef enum plod_import_mode { PLOD_IMPORT_TYPED = 0, PLOD_IMPORT_STORED } plod_import_mode;
+
+/* *image from a caller's buffer: borrowed without a copy when the texel type
+ * is the sample type (u8/u16/f32, typed) and `writable` is non-zero (later
+ * stages may turn voids into NaN in place), else converted into new memory.
+ * `name` (the file, for messages; may be NULL).  PLOD_ERR_NULL;
+ * PLOD_ERR_BAD_IMAGE for a zero size, channels outside 1..4, more than
+ * max_pixels texels (0 = PLOD_IMAGE_DEFAULT_MAX_PIXELS) or `bytes` that do
+ * not match; PLOD_ERR_BAD_PARAM for an unknown type or mode;
+ * PLOD_ERR_NO_MEMORY.  `message` (may be NULL) receives a NUL-terminated
+ * explanation of up to message_size bytes. */
+plod_status plod_image_import(plod_image *image, const plod_image_buffer *buffer,
+                              plod_import_mode mode, int writable, size_t max_pixels,
+                              const char *name, char *message, size_t message_size);
+
+/* ---- reading an image a band of rows at a time (maps over max_pixels) ----
+ * The caller's decoder behind a small interface: open a file for channel 0
+ * (u8/u16 kept, other types as f32, normalised as plod_image_import's typed
+ * mode), read rows [y0, y1) top to bottom into width * (y1 - y0) texels of
+ * the type open reported, close.  Statuses and messages as
+ * plod_image_import's (PLOD_ERR_IO for a missing or unreadable file);
+ * `context` is passed back unchanged. */
+typedef struct plod_image_rows_reader {
+    plod_status (*open)(void *context, const char *path, void **rows, int *width, int *height,
+                        plod_texel_type *type, char *message, size_t message_size);
+    plod_status (*read)(void *context, void *rows, int y0, int y1, void *pixels,
+                        char *message, size_t message_size);
+    void (*close)(void *context, void *rows);
+    void *context;
+} plod_image_rows_reader;
+
+/* ---- headerless height grids (image_raw.c) ------------------------------ */
 /* A headerless grid: rows top to bottom, one sample per texel. */
 typedef struct plod_raw_format {
     int width;
@@ -91,12 +106,12 @@ typedef struct plod_raw_format {
     int big_endian; /* non-zero: most significant byte first */
 } plod_raw_format;
 
-size_t plod_raw_sample_bytes(plod_raw_type type);
 /* Reads a headerless grid as a 1-channel image: u8 and u16 keep their type
  * (normalised on sampling as other maps), i16 becomes f32 holding the
  * integer values (in a .hgt file -32768 is a void: NaN), f32 stays.  The
  * file size must be exactly width * height * sample bytes
- * (PLOD_ERR_BAD_IMAGE otherwise); other errors as plod_image_read. */
+ * (PLOD_ERR_BAD_IMAGE otherwise); PLOD_ERR_IO for a missing or unreadable
+ * file, PLOD_ERR_BAD_IMAGE beyond max_pixels (0 = the default). */
 plod_status plod_image_read_raw(plod_image *image, const char *path,
                                 const plod_raw_format *format, size_t max_pixels,
                                 char *message, size_t message_size);

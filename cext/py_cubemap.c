@@ -259,30 +259,6 @@ fail:
     return -1;
 }
 
-static int plod__read_image(const char *path, plod_image *image, const char *context,
-                            const plod_py_read_options *options)
-{
-    char message[PLOD__MESSAGE_SIZE];
-    plod_status s;
-    Py_BEGIN_ALLOW_THREADS
-    if (options && options->has_raw)
-        s = plod_image_read_raw(image, path, &options->raw, 0, message, sizeof message);
-    else
-        s = plod_image_read(image, path, 0, message, sizeof message);
-    if (s == PLOD_OK && options && options->is_signed) {
-        s = plod_image_reinterpret_signed(image);
-        if (s != PLOD_OK)
-            plod_image_free(image);
-        snprintf(message, sizeof message, "reinterpreting '%s' as signed", path);
-    }
-    Py_END_ALLOW_THREADS
-    if (s != PLOD_OK) {
-        plod_py_raise_detail(s, context, message);
-        return -1;
-    }
-    return 0;
-}
-
 /* Warns (UserWarning) unless the equirectangular input is 2:1. */
 static int plod__warn_aspect(const plod_image *image, const char *path)
 {
@@ -334,9 +310,12 @@ static PyObject *plod__cubemap_from_image(const char *path, plod_projection proj
     }
     if (channels < 0 || channels > 4)
         return plod_py_raise_detail(PLOD_ERR_BAD_PARAM, context, "channels must be 1..4 (or None)");
-    plod_image image = {0};
-    if (plod__read_image(path, &image, context, options) < 0)
+    plod_py_image read;
+    if (plod_py_image_read(&read, path, PLOD_IMPORT_TYPED, options, context) < 0) {
+        plod_py_image_release(&read);
         return NULL;
+    }
+    const plod_image image = read.image;
     if (channels == 0)
         channels = image.channels;
     plod_cubemap *map = NULL;
@@ -352,20 +331,20 @@ static PyObject *plod__cubemap_from_image(const char *path, plod_projection proj
         if (s == PLOD_OK)
             s = plod_cubemap_from_cross(&map, cross, projection);
         plod_image_free(&converted);
-        plod_image_free(&image);
+        plod_py_image_release(&read);
         if (s != PLOD_OK)
             return plod_py_raise(s, context);
         return plod__wrap(map);
     }
     if (plod__warn_aspect(&image, path) < 0) {
-        plod_image_free(&image);
+        plod_py_image_release(&read);
         return NULL;
     }
     if (size == 0)
         size = plod_cubemap_size_for_width(image.width);
     plod__py_progress p = {progress == Py_None ? NULL : progress, 0.0, 1.0, NULL, NULL, NULL};
     map = plod__resample_image(&image, projection, size, channels, image.type, filter, &p, context);
-    plod_image_free(&image);
+    plod_py_image_release(&read);
     plod__progress_clear(&p);
     return map ? plod__wrap(map) : NULL;
 }
@@ -624,9 +603,8 @@ static PyObject *plod__write_cubemap(const plod_cubemap *map, const char *path, 
     char *face_path = malloc(path_size);
     if (!face_path)
         return PyErr_NoMemory();
-    char message[PLOD__MESSAGE_SIZE] = "";
     plod_status s = PLOD_OK;
-    for (int f = 0; f < faces && s == PLOD_OK; f++) {
+    for (int f = 0; f < faces; f++) {
         const char *target = path;
         if (faces > 1) {
             if (plod_cubemap_face_path(face_path, path_size, path, f) < 0) {
@@ -635,17 +613,22 @@ static PyObject *plod__write_cubemap(const plod_cubemap *map, const char *path, 
             }
             target = face_path;
         }
-        Py_BEGIN_ALLOW_THREADS
         plod_image image = {0};
+        Py_BEGIN_ALLOW_THREADS
         s = plod_cubemap_to_image(&image, map, faces == 1, f, channels, type);
-        if (s == PLOD_OK)
-            s = plod_image_write(&image, target, message, sizeof message);
-        plod_image_free(&image);
         Py_END_ALLOW_THREADS
+        int written = s == PLOD_OK ? plod_py_image_write(&image, target, context) : -1;
+        plod_image_free(&image);
+        if (s != PLOD_OK) {
+            free(face_path);
+            return plod_py_raise(s, context);
+        }
+        if (written < 0) {
+            free(face_path);
+            return NULL;
+        }
     }
     free(face_path);
-    if (s != PLOD_OK)
-        return plod_py_raise_detail(s, context, message);
     Py_RETURN_NONE;
 }
 
@@ -820,7 +803,8 @@ static PyObject *plod__resample(PyObject *module, PyObject *args, PyObject *kwar
     plod_filter filter = PLOD_FILTER_BILINEAR;
     const plod__format *format = &plod__formats[2]; /* r16 */
     int cross = 1;
-    plod_image image = {0};
+    plod_py_image read = {0};
+    const plod_image *image = &read.image;
     plod_cubemap *map = NULL;
     plod__py_progress p = {progress == Py_None ? NULL : progress, 0.05, 0.85, NULL, NULL, NULL};
     const char *input = PyBytes_AsString(input_obj);
@@ -846,13 +830,13 @@ static PyObject *plod__resample(PyObject *module, PyObject *args, PyObject *kwar
     if (plod__progress_call(&p, -p.offset / p.scale)) /* 0.0 */
         goto cancelled;
     double t0 = plod__seconds();
-    if (plod__read_image(input, &image, context, NULL) < 0)
+    if (plod_py_image_read(&read, input, PLOD_IMPORT_TYPED, NULL, context) < 0)
         goto done;
     double t1 = plod__seconds();
-    int channels = plod__format_channels(format, image.channels, context);
+    int channels = plod__format_channels(format, image->channels, context);
     if (channels < 0)
         goto done;
-    if (plod__warn_aspect(&image, input) < 0)
+    if (plod__warn_aspect(image, input) < 0)
         goto done;
     plod_status s = plod_cubemap_create(&map, projection, (int)size, channels, format->type);
     if (s != PLOD_OK) {
@@ -861,12 +845,12 @@ static PyObject *plod__resample(PyObject *module, PyObject *args, PyObject *kwar
     }
     double cpu0 = plod__thread_cpu_seconds();
     Py_BEGIN_ALLOW_THREADS
-    s = plod_resample_car_to_cube_threads(map, &image, filter, threads,
+    s = plod_resample_car_to_cube_threads(map, image, filter, threads,
                                           p.callable ? plod__progress_trampoline : NULL, &p);
     Py_END_ALLOW_THREADS
     double t2 = plod__seconds();
     double cpu1 = plod__thread_cpu_seconds();
-    plod_image_free(&image);
+    plod_py_image_release(&read);
     if (s == PLOD_ERR_CANCELLED)
         goto cancelled;
     if (s != PLOD_OK) {
@@ -888,7 +872,7 @@ static PyObject *plod__resample(PyObject *module, PyObject *args, PyObject *kwar
 cancelled:
     plod__progress_raise(&p, PLOD_ERR_CANCELLED, context, "cancelled by the progress callback");
 done:
-    plod_image_free(&image);
+    plod_py_image_release(&read);
     plod_cubemap_destroy(map);
     plod__progress_clear(&p);
     Py_DECREF(input_obj);

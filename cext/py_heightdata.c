@@ -108,11 +108,17 @@ static int plod__tiled_map_init(plod_py_tiled_map *self, PyObject *args, PyObjec
     plod_status s = PLOD_OK;
     if (!plod_tiles_current(tiles_path, path)) {
         plod__build_progress p = {progress == Py_None ? NULL : progress, 0};
+        plod_py_rows_context rows_context;
+        plod_image_rows_reader reader = plod_py_rows_reader(&rows_context);
         Py_BEGIN_ALLOW_THREADS
-        s = plod_tiles_build(path, options.has_raw ? &options.raw : NULL, options.is_signed,
-                             tiles_path, tile, plod__build_progress_call, &p, message,
-                             sizeof message);
+        s = plod_tiles_build(path, options.has_raw ? &options.raw : NULL, &reader,
+                             options.is_signed, tiles_path, tile, plod__build_progress_call, &p,
+                             message, sizeof message);
         Py_END_ALLOW_THREADS
+        if (plod_py_rows_reader_raise(&rows_context) < 0) {
+            PyErr_Clear(); /* keep the reader's error over any progress one */
+            goto done;
+        }
         if (p.failed)
             goto done;
         if (s != PLOD_OK) {
@@ -464,28 +470,32 @@ int plod_py_insets_arg(PyObject *list, double feather, plod_insets **out)
         }
         if (hgt_name)
             box[0] = lon, box[1] = lat, box[2] = lon + 1.0, box[3] = lat + 1.0;
-        plod_image image = {0};
-        if (s == PLOD_OK) {
-            Py_BEGIN_ALLOW_THREADS
-            s = options.has_raw ? plod_image_read_raw(&image, path, &options.raw, 0, message,
-                                                      sizeof message)
-                : geo.present   ? plod_image_read_stored(&image, path, 0, message, sizeof message)
-                                : plod_image_read(&image, path, 0, message, sizeof message);
-            Py_END_ALLOW_THREADS
-        }
-        if (s == PLOD_OK && geo.present)
-            s = plod__georef_place(&geo, &image, box_keys ? box : NULL, box, path, i, message,
-                                   sizeof message);
-        Py_DECREF(owned);
+        plod_py_image read = {0};
+        plod_image *image = &read.image;
         if (s != PLOD_OK) {
-            plod_image_free(&image);
+            Py_DECREF(owned);
             plod_py_raise_detail(s, context, message);
             goto done;
         }
-        grids[i] = plod__image_metres(&image, scale, offset);
-        descs[i].width = image.width;
-        descs[i].height = image.height;
-        plod_image_free(&image);
+        if (plod_py_image_read(&read, path, geo.present ? PLOD_IMPORT_STORED : PLOD_IMPORT_TYPED,
+                               &options, context) < 0) {
+            Py_DECREF(owned);
+            plod_py_image_release(&read);
+            goto done;
+        }
+        if (geo.present)
+            s = plod__georef_place(&geo, image, box_keys ? box : NULL, box, path, i, message,
+                                   sizeof message);
+        Py_DECREF(owned);
+        if (s != PLOD_OK) {
+            plod_py_image_release(&read);
+            plod_py_raise_detail(s, context, message);
+            goto done;
+        }
+        grids[i] = plod__image_metres(image, scale, offset);
+        descs[i].width = image->width;
+        descs[i].height = image->height;
+        plod_py_image_release(&read);
         if (!grids[i]) {
             PyErr_NoMemory();
             goto done;

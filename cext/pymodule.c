@@ -430,6 +430,35 @@ PyObject *plod_py_raise_detail(plod_status status, const char *context,
     return NULL;
 }
 
+int plod_py_exception_status(plod_status *status, char *message, size_t message_size)
+{
+    PyObject *type, *value, *traceback;
+    PyErr_Fetch(&type, &value, &traceback);
+    if (!type)
+        return -1;
+    if (PyErr_GivenExceptionMatches(type, plod_py_image_error))
+        *status = PLOD_ERR_BAD_IMAGE;
+    else if (PyErr_GivenExceptionMatches(type, plod_py_file_error))
+        *status = PLOD_ERR_IO;
+    else if (PyErr_GivenExceptionMatches(type, plod_py_invalid_argument))
+        *status = PLOD_ERR_BAD_PARAM;
+    else if (PyErr_GivenExceptionMatches(type, PyExc_MemoryError))
+        *status = PLOD_ERR_NO_MEMORY;
+    else {
+        PyErr_Restore(type, value, traceback);
+        return -1;
+    }
+    PyObject *text = value ? PyObject_Str(value) : NULL;
+    const char *utf8 = text ? PyUnicode_AsUTF8AndSize(text, NULL) : NULL;
+    PyErr_Clear();
+    plod_status_format(message, message_size, "%s", utf8 ? utf8 : "");
+    Py_XDECREF(text);
+    Py_XDECREF(type);
+    Py_XDECREF(value);
+    Py_XDECREF(traceback);
+    return 0;
+}
+
 PyObject *plod_py_raise(plod_status status, const char *context)
 {
     return plod_py_raise_detail(status, context, NULL);

@@ -76,6 +76,10 @@ PyObject *plod_py_buffer_pooled(plod_py_pool *pool, char format, size_t count, v
 PyObject *plod_py_raise(plod_status status, const char *context);
 PyObject *plod_py_raise_detail(plod_status status, const char *context,
                                const char *detail);
+/* The pending exception as a status and its text, when it is one of the
+ * classes above or MemoryError (then cleared): 0.  -1 leaves any other
+ * exception set (and returns -1 with none pending). */
+int plod_py_exception_status(plod_status *status, char *message, size_t message_size);
 
 /* ---- argument helpers (pymodule.c) ----------------------------------------- */
 /* Projection from a Python str; InvalidArgument listing valid names. */
@@ -95,6 +99,36 @@ typedef struct plod_py_read_options {
 /* Fills *out from the Python arguments; -1 with InvalidArgument. */
 int plod_py_read_options_arg(PyObject *raw, int is_signed, plod_py_read_options *out,
                              const char *context);
+
+/* ---- image files (py_image.c) ---------------------------------------------
+ * .hgt/.r16/.raw grids (and `raw` layouts) are read by the core; every other
+ * file through planetlod.imageio (OpenImageIO's Python module), whose array
+ * the image borrows while `view` is held. */
+typedef struct plod_py_image {
+    plod_image image;
+    Py_buffer view;
+    int has_view;
+} plod_py_image;
+/* Reads `path` (options may be NULL: by the extension, unsigned) with the
+ * GIL held; mode PLOD_IMPORT_STORED: samples as stored (GeoTIFF DEMs).  -1
+ * with FileError / ImageError / InvalidArgument / MemoryError ("context:
+ * ...") or ImportError (no OpenImageIO).  Release with
+ * plod_py_image_release (also after a failure). */
+int plod_py_image_read(plod_py_image *out, const char *path, plod_import_mode mode,
+                       const plod_py_read_options *options, const char *context);
+void plod_py_image_release(plod_py_image *image);
+/* Writes `image` to `path` (the type chosen by its extension) with the GIL
+ * held; -1 with an exception as plod_py_image_read's. */
+int plod_py_image_write(const plod_image *image, const char *path, const char *context);
+/* planetlod.imageio.RowReader as the core's rows reader, for calls made
+ * with the GIL released.  An exception that is not a planetlod error is
+ * kept in the context: raise it with plod_py_rows_reader_raise (-1) after
+ * the core returns (0 when there is none). */
+typedef struct plod_py_rows_context {
+    PyObject *error_type, *error_value, *error_traceback;
+} plod_py_rows_context;
+plod_image_rows_reader plod_py_rows_reader(plod_py_rows_context *context);
+int plod_py_rows_reader_raise(plod_py_rows_context *context);
 
 /* ---- tiled maps (py_heightdata.c; used by Planet) ------------------------
  * The tiles inside a planetlod.TiledMap, or NULL (no exception) for any

@@ -1,19 +1,21 @@
-/* fuzz_image.c -- libFuzzer harness for image decoding (cext/image_io.cpp,
- * the OpenImageIO bridge; cext/image_raw.c, headerless grids;
- * cext/geotiff.c, GeoTIFF georeferencing) and the
- * CubeResampler (cext/resample.c).
+/* fuzz_image.c -- libFuzzer harness for what the core reads from outside:
+ * headerless grids (cext/image_raw.c), GeoTIFF georeferencing
+ * (cext/geotiff.c), decoded pixel buffers taken in (plod_image_import,
+ * cext/image_buffer.c), tile files and their build through a rows reader
+ * (cext/heighttiles.c), and the CubeResampler (cext/resample.c).
  *
- * Input layout: [format][projection/filter][cube size][flags] file-bytes...
- * The file bytes are written to a private file in /dev/shm whose extension
- * the first byte picks (OIIO chooses its decoder by extension, falling back
- * to probing every format for an unknown one), then read with
- * plod_image_read.  A decoded image is resampled into a tiny cube map,
- * optionally cancelled half-way through the progress callback, turned into
- * a cross image and back, and sampled.
+ * Input layout: [kind][projection/filter][cube size][flags] bytes...
+ * The first byte picks the kind: a file with a grid's or a TIFF's extension
+ * (written to a private directory in /dev/shm and read as the core reads
+ * it), a tile file, or a buffer as a decoder hands it over (the bytes are
+ * the pixels; width, height, channels and sample type come from the tail,
+ * usually not matching).  An image taken in is resampled into a tiny cube
+ * map, optionally cancelled half-way through the progress callback, turned
+ * into a cross image and back, sampled, and tiled out of core through a
+ * rows reader that fails at a chosen band.
  *
- * Only our code is instrumented: OpenImageIO and its codec libraries are
- * Debian's uninstrumented builds, so memory errors inside them are found
- * only if they crash or corrupt what our code later touches.
+ * The core decodes no compressed format (the Python layer does, through
+ * OpenImageIO), so everything reached here is our code, instrumented.
  */
 #include <errno.h>
 #include <stdint.h>
@@ -24,15 +26,10 @@
 #include "plod_image.h"
 #include "plod_resample.h"
 
-/* No "sgi": OpenImageIO 2.4's SGI reader news a negative RLE length
- * (fuzz/repro/sgi-rle-negative-length.sgi), which ASan reports as a crash
- * although a normal build throws bad_alloc and plod_image_read turns it into
- * an error (tested); with it every run stopped within seconds. */
 static const char *const fuzz_extensions[] = {
-    "png", "jpg", "tif", "exr", "hdr", "bmp", "tga", "pnm", "pfm", "gif",
-    "psd", "ico", "rla", "dds", "webp", "fits", "dat", /* unknown ext: OIIO probes */
-    "hgt", "r16", "raw", /* headerless height grids (image_raw.c) */
-    "plodtiles",         /* tile files (heighttiles.c) */
+    "tif", "hgt", "r16", "raw", /* GeoTIFF tags; headerless height grids */
+    "plodtiles",                /* tile files (heighttiles.c) */
+    "buf",                      /* a decoded buffer (plod_image_import) */
 };
 #define FUZZ_EXTENSIONS (sizeof fuzz_extensions / sizeof fuzz_extensions[0])
 
@@ -135,6 +132,61 @@ static void fuzz__use_cubemap(plod_cubemap *cubemap, fuzz_input *in)
     }
 }
 
+/* A rows reader over an image in memory (channel 0), as the binding's reader
+ * over a decoder: it fails at band `fail_at` (0: never). */
+typedef struct fuzz_rows {
+    const plod_image *image;
+    int fail_at, reads, open;
+} fuzz_rows;
+
+static plod_status fuzz__rows_open(void *context, const char *path, void **rows, int *width,
+                                   int *height, plod_texel_type *type, char *message,
+                                   size_t message_size)
+{
+    (void)path;
+    fuzz_rows *r = context;
+    if (r->fail_at == 1) {
+        plod_status_format(message, message_size, "%s", "not a readable image");
+        return PLOD_ERR_BAD_IMAGE;
+    }
+    r->open++;
+    *rows = r;
+    *width = r->image->width;
+    *height = r->image->height;
+    *type = r->image->type;
+    return PLOD_OK;
+}
+
+static plod_status fuzz__rows_read(void *context, void *rows, int y0, int y1, void *pixels,
+                                   char *message, size_t message_size)
+{
+    fuzz_rows *r = context;
+    FUZZ_CHECK(rows == r && r->open == 1, "read on a reader not open");
+    FUZZ_CHECK(y0 >= 0 && y0 < y1 && y1 <= r->image->height, "rows %d..%d of %d", y0, y1,
+               r->image->height);
+    if (r->fail_at > 1 && ++r->reads >= r->fail_at - 1) {
+        plod_status_format(message, message_size, "rows %d..%d are corrupt", y0, y1);
+        return PLOD_ERR_BAD_IMAGE;
+    }
+    size_t texel = plod_image_texel_bytes(r->image->type);
+    const unsigned char *in = r->image->pixels;
+    unsigned char *out = pixels;
+    for (int y = y0; y < y1; y++)
+        for (int x = 0; x < r->image->width; x++)
+            memcpy(out + ((size_t)(y - y0) * (size_t)r->image->width + (size_t)x) * texel,
+                   in + (((size_t)y * (size_t)r->image->width + (size_t)x) *
+                         (size_t)r->image->channels) * texel,
+                   texel);
+    return PLOD_OK;
+}
+
+static void fuzz__rows_close(void *context, void *rows)
+{
+    fuzz_rows *r = context;
+    FUZZ_CHECK(rows == r && r->open == 1, "close of a reader not open");
+    r->open--;
+}
+
 /* Samples and bounds of a tile file: every sample inside the global range
  * (or NaN where the map has voids), every box's bounds inside it too. */
 static void fuzz__use_tiles(plod_tiles *tiles, fuzz_input *in)
@@ -220,13 +272,46 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 
     plod_image image = {0};
     char message[256];
-    fuzz__use_georef(path, &tail);
+    if (strcmp(ext, "tif") == 0) { /* the tags the core reads itself */
+        fuzz__use_georef(path, &tail);
+        return 0;
+    }
 
-    /* A small pixel cap keeps each execution cheap; absurd headers must be
+    /* A small pixel cap keeps each execution cheap; absurd sizes must be
      * refused by the cap before any allocation. */
     size_t max_pixels = (flags & 1) ? 4096 : 1u << 18;
     plod_status s;
-    if (flags & 0x80) {
+    int imported = strcmp(ext, "buf") == 0;
+    /* the buffer outlives the borrowed image: a copy the harness owns */
+    unsigned char *copy = NULL;
+    if (imported) {
+        plod_image_buffer buffer = {fuzz_range(&tail, -1, 70), fuzz_range(&tail, -1, 70),
+                                    fuzz_range(&tail, 0, 5),
+                                    (plod_raw_type)fuzz_range(&tail, 0, PLOD_RAW_TYPE_COUNT),
+                                    NULL, in.size};
+        size_t sample = plod_raw_sample_bytes(buffer.type);
+        if ((flags & 0x80) && buffer.width > 0 && buffer.channels > 0 && sample) /* fit */
+            buffer.height = (int)(in.size / ((size_t)buffer.width * (size_t)buffer.channels *
+                                             sample));
+        copy = malloc(in.size ? in.size : 1);
+        FUZZ_CHECK(copy != NULL, "no memory for %zu bytes", in.size);
+        memcpy(copy, in.data, in.size);
+        buffer.pixels = copy;
+        plod_import_mode import_mode = (size_code & 0x80) ? PLOD_IMPORT_STORED : PLOD_IMPORT_TYPED;
+        s = plod_image_import(&image, &buffer, import_mode, flags & 0x08 ? 0 : 1, max_pixels,
+                              "fuzz", message, sizeof message);
+        if (s == PLOD_OK) {
+            FUZZ_CHECK(image.width == buffer.width && image.height == buffer.height &&
+                           image.channels == buffer.channels &&
+                           (size_t)buffer.width * (size_t)buffer.height *
+                                   (size_t)buffer.channels * sample == in.size,
+                       "imported %dx%dx%d from %zu bytes", image.width, image.height,
+                       image.channels, in.size);
+            FUZZ_CHECK(import_mode == PLOD_IMPORT_TYPED || image.type == PLOD_TEXEL_F32,
+                       "stored import gave type %d", image.type);
+            FUZZ_CHECK(!image.borrowed || image.pixels == copy, "borrowed other pixels");
+        }
+    } else if (flags & 0x80) {
         /* an explicit headerless format, usually not matching the size */
         plod_raw_format raw = {fuzz_range(&tail, -2, 70), fuzz_range(&tail, -2, 70),
                                (plod_raw_type)fuzz_range(&tail, 0, PLOD_RAW_TYPE_COUNT),
@@ -237,12 +322,11 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                                             plod_raw_sample_bytes(raw.type) == in.size),
                    "raw %dx%d type %d read from %zu bytes", raw.width, raw.height, raw.type,
                    in.size);
-    } else if (size_code & 0x80) { /* as stored, as GeoTIFF insets read their samples */
-        s = plod_image_read_stored(&image, path, max_pixels, message, sizeof message);
-        FUZZ_CHECK(s != PLOD_OK || image.type == PLOD_TEXEL_F32 || plod_raw_is_raw_path(path),
-                   "stored read gave type %d", image.type);
-    } else {
-        s = plod_image_read(&image, path, max_pixels, message, sizeof message);
+    } else { /* by the extension's rules and the file's size */
+        plod_raw_format raw;
+        s = plod_raw_guess(path, &raw, message, sizeof message);
+        if (s == PLOD_OK)
+            s = plod_image_read_raw(&image, path, &raw, max_pixels, message, sizeof message);
     }
     if (s == PLOD_OK && (flags & 0x20) && image.type != PLOD_TEXEL_F32) {
         int was_u16 = image.type == PLOD_TEXEL_U16;
@@ -257,20 +341,27 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     FUZZ_CHECK(memchr(message, '\0', sizeof message) != NULL, "message not terminated");
     if (s != PLOD_OK) {
         FUZZ_CHECK(s == PLOD_ERR_IO || s == PLOD_ERR_BAD_IMAGE || s == PLOD_ERR_NO_MEMORY ||
-                       ((flags & 0x80) && s == PLOD_ERR_BAD_PARAM), /* a bad raw format */
+                       ((flags & 0x80 || imported) && s == PLOD_ERR_BAD_PARAM), /* bad layout */
                    "read status %d (%s)", s, message);
         FUZZ_CHECK(image.pixels == NULL, "failed read left pixels");
+        free(copy);
         return 0;
     }
     fuzz__check_image(&image);
-    if ((flags & 0x08) && image.width * image.height <= 4096) {
-        /* the same file tiled out of core (OpenImageIO images a band of
-         * rows at a time) */
+    if ((flags & 0x10) && image.width * image.height <= 4096) {
+        /* the same image tiled out of core: a grid file as it lies, an
+         * imported one through a rows reader (failing at a chosen band: the
+         * build then leaves nothing) */
         char built[128];
         snprintf(built, sizeof built, "%s/built.plodtiles", fuzz_dir);
         plod_tiles *tiles = NULL;
-        plod_status ts = plod_tiles_build(path, NULL, 0, built, 16, NULL, NULL, message,
-                                          sizeof message);
+        fuzz_rows rows = {&image, (mode >> 4) & 3, 0, 0};
+        plod_image_rows_reader reader = {fuzz__rows_open, fuzz__rows_read, fuzz__rows_close,
+                                         &rows};
+        plod_status ts = plod_tiles_build(path, NULL, imported ? &reader : NULL, 0, built, 16, NULL, NULL,
+                                          message, sizeof message);
+        FUZZ_CHECK(rows.open == 0, "the build left the reader open");
+        FUZZ_CHECK(ts == PLOD_OK || access(built, F_OK) != 0, "a failed build left %s", built);
         if (ts == PLOD_OK && plod_tiles_open(&tiles, built, 1, message, sizeof message) == PLOD_OK) {
             FUZZ_CHECK(plod_tiles_width(tiles) >= 1 && plod_tiles_height(tiles) >= 1,
                        "tiled %dx%d", plod_tiles_width(tiles), plod_tiles_height(tiles));
@@ -311,5 +402,6 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     }
     plod_image_free(&image);
     FUZZ_CHECK(image.pixels == NULL, "plod_image_free left pixels");
+    free(copy);
     return 0;
 }

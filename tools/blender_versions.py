@@ -16,6 +16,10 @@ reason.  A venv is built under a temporary name and
 renamed when its `import bpy` works, so an interrupted install never leaves a
 half-made one behind; a lock file serialises concurrent installs.
 
+planetlod reads images with OpenImageIO's Python module: the 4.5 and 5.0
+wheels bundle it (under bpy/<version>/python), 4.2 does not, and gets the
+`OpenImageIO` wheel from PyPI in its venv.
+
 Scripts written for `blender -b --python` run in these with
 tools/bpy_run.py (see there).
 """
@@ -64,6 +68,24 @@ def _run(cmd):
     subprocess.run(cmd, check=True)
 
 
+def _has_openimageio(py):
+    """Whether the venv's Python finds OpenImageIO: its own or the bundled one
+    (planetlod/imageio.py adds the bundled one's site-packages)."""
+    import glob
+    lib = os.path.join(os.path.dirname(os.path.dirname(py)), "lib")
+    if glob.glob(os.path.join(lib, "python3*", "site-packages", "bpy", "*", "python", "lib",
+                              "python3*", "site-packages", "OpenImageIO")):
+        return True
+    return subprocess.run([py, "-c", "import OpenImageIO"], capture_output=True,
+                          timeout=300).returncode == 0
+
+
+def _ensure_openimageio(py):
+    if not _has_openimageio(py):
+        _run([py, "-m", "pip", "install", "--quiet", "--disable-pip-version-check",
+              "OpenImageIO"])
+
+
 def install(version):
     """Creates the venv of `version` unless it exists; returns its python."""
     root = cache_root()
@@ -71,6 +93,7 @@ def install(version):
     with open(os.path.join(root, ".lock"), "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         if python_of(version):
+            _ensure_openimageio(python_of(version))
             return python_of(version)
         final = venv_dir(version)
         work = final + ".partial"
@@ -80,6 +103,7 @@ def install(version):
         py = os.path.join(work, "bin", "python")
         _run([py, "-m", "pip", "install", "--quiet", "--disable-pip-version-check",
               f"bpy=={version}"])
+        _ensure_openimageio(py)
         probe = subprocess.run([py, "-c", "import bpy; print(bpy.app.version_string)"],
                                capture_output=True, text=True, timeout=300)
         # Blender may log to stdout while it starts (a warning about mounted
@@ -105,8 +129,6 @@ def main(argv=None):
     args = p.parse_args(argv)
     if args.command == "install":
         for version in BPY_VERSIONS[-1:] if args.newest else BPY_VERSIONS:
-            if python_of(version):
-                continue
             try:
                 install(version)
             except (OSError, subprocess.SubprocessError, RuntimeError) as exc:

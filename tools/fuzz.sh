@@ -13,9 +13,6 @@
 #                                          into fuzz/corpus/<harness>
 #   tools/fuzz.sh repro HARNESS FILE...    run single inputs (reproducers)
 # Harnesses: projection refine image (default: all).
-# OPENIMAGEIO_OPTIONS=try_all_readers=0 keeps OpenImageIO from probing every
-# reader after the one the extension names fails (3x faster image runs; the
-# default run covers the probing); the option is recorded with the counts.
 # The committed corpora are only read; new inputs go to fuzz/build/work-*.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -34,26 +31,15 @@ if [ "${FUZZ_TRACE_CMP:-1}" = 0 ]; then
 fi
 ALL_HARNESSES=(projection refine image)
 CC=${CC_FUZZ:-clang}
-CXX=${CXX_FUZZ:-clang++}
 SAN="-fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer -g -O1"
 CFLAGS="-std=c11 -Wall -Wextra -Wno-missing-field-initializers -ffp-contract=off \
 -D_POSIX_C_SOURCE=200809L -I$SRC -I$ROOT/fuzz"
-CXXFLAGS="-std=c++17 -Wall -Wextra -ffp-contract=off -I$SRC -I$ROOT/fuzz \
-$(pkg-config --cflags OpenImageIO 2>/dev/null || true)"
-OIIO_LIBS=$(pkg-config --libs OpenImageIO 2>/dev/null || echo "-lOpenImageIO -lOpenImageIO_Util")
 
 # libFuzzer options per harness: input size cap and per-input timeout.
 max_len() { case $1 in projection) echo 128 ;; refine) echo 768 ;; image) echo 4096 ;; esac; }
-# image: the uninstrumented decoders (LibRaw, OpenEXR) legitimately allocate
-# hundreds of MB for some headers; ASan's shadow doubles that.
-rss_limit() { case $1 in image) echo 4096 ;; *) echo 2048 ;; esac; }
+rss_limit() { echo 2048; }
 ASAN_BASE="detect_leaks=1:allocator_may_return_null=1:detect_stack_use_after_return=1"
-# image: OpenImageIO's read_scanlines news/deletes a 64 MB conversion buffer
-# per read; pushing that through ASan's quarantine costs ~10 ms per input.
-# Without the quarantine it is 30x faster; freed memory is
-# still poisoned until reused, so use-after-free is still caught in most
-# cases (documented in fuzz/README.md).
-asan_options() { case $1 in image) echo "$ASAN_BASE:quarantine_size_mb=0:thread_local_quarantine_size_kb=0" ;; *) echo "$ASAN_BASE" ;; esac; }
+asan_options() { echo "$ASAN_BASE"; }
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 export LSAN_OPTIONS="suppressions=$ROOT/fuzz/lsan.supp:print_suppressions=0"
 
@@ -63,7 +49,7 @@ core_sources() {
     if [ "$1" = projection ]; then
         echo "$SRC/projection.c $SRC/status.c"
     else
-        ls "$SRC"/*.c "$SRC"/*.cpp 2>/dev/null | grep -v -E '/(py_[^/]*|pymodule)\.c$' | tr '\n' ' '
+        ls "$SRC"/*.c | grep -v -E '/(py_[^/]*|pymodule)\.c$' | tr '\n' ' '
     fi
 }
 
@@ -73,21 +59,13 @@ build_one() {
     for src in $(core_sources "$h"); do
         obj=$objdir/$(basename "$src").o
         if [ ! -e "$obj" ] || [ "$src" -nt "$obj" ] || [ -n "$(find "$SRC" -name '*.h' -newer "$obj" | head -1)" ]; then
-            case $src in
-            *.cpp) $CXX $CXXFLAGS $SAN -fsanitize=fuzzer-no-link $NOCMP -c "$src" -o "$obj" ;;
-            *) $CC $CFLAGS $SAN -fsanitize=fuzzer-no-link $NOCMP -c "$src" -o "$obj" ;;
-            esac
+            $CC $CFLAGS $SAN -fsanitize=fuzzer-no-link $NOCMP -c "$src" -o "$obj"
         fi
         objs+=("$obj")
     done
     local harness=$ROOT/fuzz/fuzz_$h.c libs="-lm -lpthread"
-    [ -e "$harness" ] || harness=$ROOT/fuzz/fuzz_$h.cpp
-    case $harness in
-    *.cpp) $CXX $CXXFLAGS $SAN -fsanitize=fuzzer $NOCMP -c "$harness" -o "$objdir/harness.o" ;;
-    *) $CC $CFLAGS $SAN -fsanitize=fuzzer $NOCMP -c "$harness" -o "$objdir/harness.o" ;;
-    esac
-    [ "$h" != projection ] && libs="$OIIO_LIBS $libs"
-    $CXX $SAN -fsanitize=fuzzer "$objdir/harness.o" "${objs[@]}" $libs -o "$OUT/fuzz_$h"
+    $CC $CFLAGS $SAN -fsanitize=fuzzer $NOCMP -c "$harness" -o "$objdir/harness.o"
+    $CC $SAN -fsanitize=fuzzer "$objdir/harness.o" "${objs[@]}" $libs -o "$OUT/fuzz_$h"
     echo "fuzz: built $OUT/fuzz_$h"
 }
 

@@ -20,12 +20,16 @@
 # the add-on's per-vertex work uses NumPy, which official Blenders bundle and
 # Debian's does not depend on.
 # python3-venv: the venvs of the bpy wheels (tools/blender_versions.py).
+# The extension is plain C (libc and libm only); image files are read and
+# written by OpenImageIO's Python module: python3-openimageio for Debian's
+# Python and Blender 3.4, and, for another python3 first on PATH (pyenv's:
+# the CLI, bench), the OpenImageIO wheel from PyPI.
 set -euo pipefail
 
 declare -A GROUP=(
     [build]="build-essential pkg-config python3 python3-dev python3-setuptools
-             libopenimageio-dev wcslib-dev"
-    [test]="python3-pytest python3-numpy python3-matplotlib nodejs"
+             wcslib-dev"
+    [test]="python3-pytest python3-numpy python3-matplotlib nodejs python3-openimageio"
     [blender]="blender libegl1 libgl1 libegl-mesa0 libglx-mesa0 libgl1-mesa-dri
                xvfb xauth python3-openimageio python3-numpy python3-venv"
     [fuzz]="clang llvm libclang-rt-14-dev"
@@ -59,4 +63,21 @@ if [ ${#missing[@]} -gt 0 ]; then
     export DEBIAN_FRONTEND=noninteractive
     $SUDO apt-get update -q
     $SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
+fi
+
+# A python3 on PATH other than Debian's: the OpenImageIO wheel (and NumPy);
+# every command but fuzz runs Python that reads images.
+reads_images=0
+for command in "$@"; do
+    [ "$command" = fuzz ] || reads_images=1
+done
+if [ "$reads_images" = 1 ] && command -v python3 >/dev/null; then
+    plain=$(python3 -c 'import sys; print(sys.executable)')
+    if [ "$(readlink -f "$plain")" != "$(readlink -f /usr/bin/python3)" ] &&
+        ! python3 -c 'import OpenImageIO, numpy' 2>/dev/null; then
+        echo "planetlod: installing the OpenImageIO wheel for $plain"
+        python3 -m pip install --quiet --disable-pip-version-check OpenImageIO numpy ||
+            echo "planetlod: WARNING: no OpenImageIO wheel for $plain (no route to PyPI?):" \
+                "it cannot read image files; /usr/bin/python3 can" >&2
+    fi
 fi

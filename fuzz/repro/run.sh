@@ -12,6 +12,5 @@ clang -std=c11 -g -O1 -fsanitize=address,undefined -fno-sanitize-recover=all -D_
 objs=()
 for s in $srcs; do clang -std=c11 -g -O1 -fsanitize=address,undefined -D_POSIX_C_SOURCE=200809L -Icext \
     -c $s -o $out-$(basename $s).o; objs+=($out-$(basename $s).o); done
-clang++ -fsanitize=address,undefined $out.o "${objs[@]}" cext/image_io.cpp -Icext \
-    $(pkg-config --cflags --libs OpenImageIO) -lm -lpthread -o $out
+clang -fsanitize=address,undefined $out.o "${objs[@]}" -lm -lpthread -o $out
 exec $out "$@"
