@@ -227,7 +227,7 @@ class PLOD_PG_settings(bpy.types.PropertyGroup):
                                          "its camera's view is drawn in yellow")
     show_levels: BoolProperty(name="Show Levels", default=False, update=_material_changed,
                               description="Colour the terrain patches by their level of detail")
-    morph: BoolProperty(name="Morphing", default=False, update=_changed,
+    morph: BoolProperty(name="Morphing", default=True, update=_changed,
                         description="Blend new detail in smoothly instead of popping")
     live_update: BoolProperty(name="Live Update", default=True, update=_changed,
                               description="Update the detail while you move the view")
