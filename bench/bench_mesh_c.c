@@ -64,7 +64,7 @@ static int bench__run(const char *name, const plod_planet *planet, const plod_ca
     rp.backface_culling = 0;
     rp.frustum_culling = 0;
     if (plod_session_create(&session, planet, NULL, NULL, 0) != PLOD_OK ||
-        plod_session_refine(session, camera, &rp, NULL) != PLOD_OK) {
+        plod_session_refine(session, camera, &rp, NULL, NULL) != PLOD_OK) {
         fprintf(stderr, "bench_mesh_c: refine failed\n");
         return 1;
     }
@@ -148,7 +148,7 @@ static int bench__flyby(const char *name, const plod_planet *planet, double terr
             desc.clip_end = 1e9;
             plod_camera camera;
             if (plod_camera_init(&camera, &desc) != PLOD_OK ||
-                plod_session_refine(session, &camera, &rp, NULL) != PLOD_OK)
+                plod_session_refine(session, &camera, &rp, NULL, NULL) != PLOD_OK)
                 return 1;
             size_t emitted = plod_session_sector_count(session, 1);
             if (emitted > capacity) {

@@ -833,24 +833,26 @@ static plod_status plod__order_visible(plod_refiner *r, size_t visible)
 
 /* ---- one update ------------------------------------------------------------------ */
 
-static plod_status plod__check_params(const plod_refine_params *p)
+static plod_status plod__check_params(const plod_refine_params *p, plod_error *error)
 {
+    const plod_status bad = PLOD_ERR_BAD_PARAM;
     if ((unsigned)p->criterion > PLOD_CRITERION_SIDE_DISTANCE)
-        return PLOD_ERR_BAD_PARAM;
+        return plod_error_set(error, bad, "unknown criterion");
     if (!(isfinite(p->max_pixel_error) && p->max_pixel_error > 0))
-        return PLOD_ERR_BAD_PARAM;
+        return plod_error_set(error, bad, "max_pixel_error must be finite and > 0");
     if (!(isfinite(p->split_border) && p->split_border > 0 &&
           isfinite(p->merge_border) && p->merge_border > 0 &&
           p->merge_border <= p->split_border))
-        return PLOD_ERR_BAD_PARAM;
+        return plod_error_set(error, bad, "borders must be finite, 0 < merge_border <= "
+                                          "split_border");
     if (p->template_level < 0 || p->template_level > 7)
-        return PLOD_ERR_BAD_PARAM;
+        return plod_error_set(error, bad, "template_level must be 0..7");
     if (p->max_level < 0 || p->max_level > PLOD_MAX_LEVEL)
-        return PLOD_ERR_BAD_PARAM;
+        return plod_error_set(error, bad, "max_level must be 0..%d", PLOD_MAX_LEVEL);
     if (p->max_sectors < 12)
-        return PLOD_ERR_BAD_PARAM;
+        return plod_error_set(error, bad, "max_sectors must be >= 12");
     if (p->threads < 1 || p->threads > PLOD_REFINE_MAX_THREADS)
-        return PLOD_ERR_BAD_PARAM;
+        return plod_error_set(error, bad, "threads must be 1..%d", PLOD_REFINE_MAX_THREADS);
     return PLOD_OK;
 }
 
@@ -1036,18 +1038,18 @@ static plod_status plod__cut_to_budget(const plod__frame *f, size_t *visible)
 
 plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
                                 const plod_refine_params *params,
-                                plod_refine_stats *stats)
+                                plod_refine_stats *stats, plod_error *error)
 {
     if (!r || !camera || !params)
-        return PLOD_ERR_NULL;
-    plod_status st = plod__check_params(params);
+        return plod_error_set(error, PLOD_ERR_NULL, "no refiner, camera or parameters");
+    plod_status st = plod__check_params(params, error);
     if (st != PLOD_OK)
         return st;
     double eye_dist = sqrt(camera->position[0] * camera->position[0] +
                            camera->position[1] * camera->position[1] +
                            camera->position[2] * camera->position[2]);
     if (!isfinite(eye_dist) || !(eye_dist > 1e-6 * r->tree.planet->radius))
-        return PLOD_ERR_BAD_CAMERA; /* at (or numerically at) the centre */
+        return plod_error_set(error, PLOD_ERR_BAD_CAMERA, "camera at the planet centre");
 
     double t0 = plod__now_us();
     r->tree.frame++;
@@ -1066,7 +1068,7 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
     if (st == PLOD_OK)
         st = plod__order_visible(r, visible);
     if (st != PLOD_OK)
-        return st;
+        return plod_error_set(error, st, "out of memory for the visible order");
     double t2 = plod__now_us();
     s.sectors_total = r->tree.count;
     s.sectors_after_budget = visible;
@@ -1089,7 +1091,7 @@ plod_status plod_refiner_create(plod_refiner **out, const plod_planet *planet)
     if (!out)
         return PLOD_ERR_NULL;
     *out = NULL;
-    plod_status st = plod_planet_check(planet);
+    plod_status st = plod_planet_check(planet, NULL);
     if (st != PLOD_OK)
         return st;
     plod_refiner *r = calloc(1, sizeof *r);

@@ -15,63 +15,79 @@
 #include <stdio.h>
 #include <string.h>
 
-plod_status plod_planet_check(const plod_planet *planet)
+#define PLOD__TERRAIN_RULE                                                                 \
+    "the terrain (height_scale and height_offset over the height data's range) must "   \
+    "stay above half the radius below it and within 10 radii above it"
+
+plod_status plod_planet_check(const plod_planet *planet, plod_error *error)
 {
     if (!planet)
-        return PLOD_ERR_NULL;
+        return plod_error_set(error, PLOD_ERR_NULL, "no planet");
     if (!isfinite(planet->radius) || planet->radius < 1.0 || planet->radius > 1e8)
-        return PLOD_ERR_BAD_PARAM;
+        return plod_error_set(error, PLOD_ERR_BAD_PARAM,
+                              "radius must be finite, in [1, 1e8] metres");
     if ((unsigned)planet->projection >= PLOD_PROJ_COUNT)
-        return PLOD_ERR_BAD_PROJECTION;
+        return plod_error_set(error, PLOD_ERR_BAD_PROJECTION, "unknown projection");
     if (!isfinite(planet->height_scale) || !isfinite(planet->height_offset))
-        return PLOD_ERR_BAD_PARAM;
+        return plod_error_set(error, PLOD_ERR_BAD_PARAM,
+                              "height_scale and height_offset must be finite");
     if (planet->has_sea_level && !isfinite(planet->sea_level))
-        return PLOD_ERR_BAD_PARAM;
+        return plod_error_set(error, PLOD_ERR_BAD_PARAM, "sea_level must be finite");
     if (planet->heightmap) {
         if (plod_cubemap_projection(planet->heightmap) != planet->projection)
-            return PLOD_ERR_BAD_PROJECTION;
+            return plod_error_set(error, PLOD_ERR_BAD_PROJECTION,
+                                  "heightmap projection differs from the planet's");
         if (plod_cubemap_nan_count(planet->heightmap) != 0)
-            return PLOD_ERR_BAD_IMAGE;
+            return plod_error_set(error, PLOD_ERR_BAD_IMAGE,
+                                  "height map has NaN samples (no-data texels)");
         double lo, hi;
         plod_cubemap_global_range(planet->heightmap, &lo, &hi);
         if (!isfinite(lo) || !isfinite(hi) || lo > hi)
-            return PLOD_ERR_BAD_PARAM;
+            return plod_error_set(error, PLOD_ERR_BAD_PARAM,
+                                  "height map range is not finite");
         /* the terrain must stay outside the centre and within sane bounds */
         double a = lo * planet->height_scale + planet->height_offset,
                b = hi * planet->height_scale + planet->height_offset;
         double low = a < b ? a : b, high = a < b ? b : a;
         if (low <= -0.5 * planet->radius || high > 10.0 * planet->radius)
-            return PLOD_ERR_BAD_PARAM;
+            return plod_error_set(error, PLOD_ERR_BAD_PARAM, PLOD__TERRAIN_RULE);
     }
     if (planet->source) {
         const plod_height_source *src = planet->source;
         if (planet->heightmap || !src->ops || !src->ops->sample || !src->ops->range_cap ||
             !src->ops->global_range || !src->ops->texel_angle)
-            return PLOD_ERR_BAD_PARAM;
+            return plod_error_set(error, PLOD_ERR_BAD_PARAM,
+                                  "a height source needs every operation, and no height map "
+                                  "beside it");
         double lo, hi;
         src->ops->global_range(src->self, &lo, &hi);
         if (!isfinite(lo) || !isfinite(hi) || lo > hi)
-            return PLOD_ERR_BAD_IMAGE;
+            return plod_error_set(error, PLOD_ERR_BAD_IMAGE,
+                                  "height source range is not finite");
         double a = lo * planet->height_scale + planet->height_offset,
                b = hi * planet->height_scale + planet->height_offset;
         double low = a < b ? a : b, high = a < b ? b : a;
         if (low <= -0.5 * planet->radius || high > 10.0 * planet->radius)
-            return PLOD_ERR_BAD_PARAM;
+            return plod_error_set(error, PLOD_ERR_BAD_PARAM, PLOD__TERRAIN_RULE);
     }
     if (planet->normalmap) {
         const plod_cubemap *n = planet->normalmap;
         if (!planet->heightmap || plod_cubemap_projection(n) != planet->projection ||
             plod_cubemap_size(n) != plod_cubemap_size(planet->heightmap) ||
             plod_cubemap_channels(n) != 3)
-            return PLOD_ERR_BAD_PARAM;
+            return plod_error_set(error, PLOD_ERR_BAD_PARAM,
+                                  "the normal map is not made for this height map");
     }
     if (planet->detail) {
         if (!plod_detail_matches(planet->detail, planet))
-            return PLOD_ERR_BAD_PARAM;
+            return plod_error_set(error, PLOD_ERR_BAD_PARAM,
+                                  "the detail field is not made for this planet");
         double low, high; /* with the field too, the terrain stays as above */
         plod_planet_height_range(planet, &low, &high);
         if (!(low > -0.5 * planet->radius && high <= 10.0 * planet->radius))
-            return PLOD_ERR_BAD_PARAM;
+            return plod_error_set(error, PLOD_ERR_BAD_PARAM,
+                                  "the terrain with the detail field must stay above half "
+                                  "the radius below it and within 10 radii above it");
     }
     return PLOD_OK;
 }

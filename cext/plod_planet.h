@@ -65,9 +65,10 @@ typedef struct plod_planet {
  * texels in the height map and a finite global range of the height source
  * (PLOD_ERR_BAD_IMAGE), height ranges that keep the terrain outside the
  * centre, a complete height source, a normal map and detail field made for
- * this planet.  PLOD_ERR_NULL for NULL, PLOD_ERR_BAD_PARAM otherwise.
+ * this planet.  PLOD_ERR_NULL for NULL, PLOD_ERR_BAD_PARAM otherwise; the
+ * rule that failed goes into *error (may be NULL).
  * The height map's pyramid is not checked (see `heightmap`). */
-plod_status plod_planet_check(const plod_planet *planet);
+plod_status plod_planet_check(const plod_planet *planet, plod_error *error);
 /* The planet's own numbers, checkable before any height data is read:
  * height_offset finite, radius finite in [1, 1e8] metres.
  * PLOD_ERR_BAD_PARAM with `message` (may be NULL) naming the rule. */

@@ -166,10 +166,11 @@ void plod_refiner_reset(plod_refiner *refiner);
  * nothing changed) or PLOD_ERR_NO_MEMORY (the visible order or the budget
  * cut could not be allocated: the leaves are this frame's, stats are not
  * written and the visible list is empty until a successful update).  The split pass itself never fails: when memory runs out it
- * stops as at max_sectors. */
+ * stops as at max_sectors.  *error (may be NULL) gets the status and the rule
+ * or reason of a failure. */
 plod_status plod_refiner_update(plod_refiner *refiner, const plod_camera *camera,
                                 const plod_refine_params *params,
-                                plod_refine_stats *stats);
+                                plod_refine_stats *stats, plod_error *error);
 /* The refiner's persistent workers (NULL with one thread): the refiner's
  * owner may lend them to other stages between updates, from the thread
  * that updates. */

@@ -82,12 +82,13 @@ const plod_refine_params *plod_session_refine_params(const plod_session *session
 
 /* ---- per frame --------------------------------------------------------------- */
 
-/* plod_refiner_update; on success the camera, parameters and statistics
- * become the session's last (stats may be NULL).  On failure the last
- * camera, parameters and statistics stay the previous frame's; the
- * refiner's leaves are as plod_refiner_update leaves them. */
+/* plod_refiner_update (stats and error may be NULL); on success the camera
+ * and parameters become the session's last.  On failure they stay the
+ * previous frame's, *error says why, and the refiner's leaves are as
+ * plod_refiner_update leaves them. */
 plod_status plod_session_refine(plod_session *session, const plod_camera *camera,
-                                const plod_refine_params *params, plod_refine_stats *stats);
+                                const plod_refine_params *params, plod_refine_stats *stats,
+                                plod_error *error);
 /* Back to the base sectors; forgets the last camera. */
 void plod_session_reset(plod_session *session);
 /* plod_refiner_reserve. */

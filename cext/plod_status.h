@@ -31,6 +31,22 @@ typedef enum plod_status {
  * generic message). */
 const char *plod_status_message(plod_status status);
 
+/* An error record (as WCSLIB's wcserr): the status and the message written
+ * where a check failed, which callers and bindings pass on instead of
+ * checking again.  A zeroed record holds no error. */
+typedef struct plod_error {
+    plod_status status;
+    char message[200];
+} plod_error;
+
+/* Records `status` and the printf-style message in *error (NULL: nothing
+ * recorded); returns `status`, so a check can return what it records. */
+plod_status plod_error_set(plod_error *error, plod_status status, const char *format, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
+
 /* The explanation beside a returned status, printf-style, into `message`
  * of `size` bytes (truncated; nothing written when message is NULL or
  * size is 0): the messages of the readers and builders that take one. */

@@ -442,12 +442,6 @@ static int plod__planet_init(plod_py_planet *self, PyObject *args, PyObject *kwd
             Py_DECREF(map);
             return -1;
         }
-        if (plod_cubemap_projection(cm) != planet.projection) {
-            Py_DECREF(map);
-            plod_py_raise_detail(PLOD_ERR_BAD_PROJECTION, "Planet",
-                                 "heightmap projection differs from the planet's");
-            return -1;
-        }
         if (plod_cubemap_build_pyramid(cm) != PLOD_OK) {
             Py_DECREF(map);
             PyErr_NoMemory();
@@ -532,25 +526,19 @@ static PyObject *plod__planet_refine(plod_py_planet *self, PyObject *args, PyObj
     if (max_splits < 0)
         return plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "refine",
                                     "max_splits must be >= 0 (0 = unlimited)");
-    if (max_sectors < 12)
+    if (max_sectors < 0)
         return plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "refine", "max_sectors must be >= 12");
-    if (p.threads < 1 || p.threads > PLOD_REFINE_MAX_THREADS)
-        return plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "refine", "threads must be 1..16");
     p.budget = (size_t)budget;
     p.max_sectors = (size_t)max_sectors;
     p.max_splits = (size_t)max_splits;
     plod_refine_stats s;
+    plod_error error = {PLOD_OK, ""};
     plod_status st;
     Py_BEGIN_ALLOW_THREADS
-    st = plod_session_refine(self->session, cam, &p, &s);
+    st = plod_session_refine(self->session, cam, &p, &s, &error);
     Py_END_ALLOW_THREADS
     if (st != PLOD_OK)
-        return plod_py_raise_detail(st, "refine",
-                                    st == PLOD_ERR_BAD_CAMERA
-                                        ? "camera at the planet centre"
-                                        : "criterion, borders (0 < merge <= split), "
-                                          "template_level 0..7, max_level 0..52, "
-                                          "max_pixel_error > 0");
+        return plod_py_raise_detail(st, "refine", error.message);
     /* what planet.mesh(template_level) would emit for the visible sectors */
     size_t per_v = plod_template_vertex_count(p.template_level);
     size_t per_t = plod_template_triangle_count(p.template_level);

@@ -71,28 +71,30 @@ plod_status plod_session_create(plod_session **out, const plod_planet *planet,
         plod_session_destroy(s);
         return PLOD_ERR_BAD_IMAGE;
     }
-    if (detail) {
-        st = plod_planet_check(&s->planet);
-        if (st == PLOD_OK)
-            st = plod_detail_create(&s->detail, detail, &s->planet);
-        if (st != PLOD_OK) {
-            plod__session_message(message, message_size,
-                                  st == PLOD_ERR_BAD_PARAM
-                                      ? "invalid detail (amplitude in [0, 1e6], roughness in "
-                                        "[0, 1), largest >= 0, smallest > 0, craters in [0, 4], "
-                                        "crater_density and plains in [0, 1], relief >= 0) or "
-                                        "planet"
-                                      : "detail field");
-            plod_session_destroy(s);
-            return st;
+    /* the planet's checks say which rule failed; the refiner checks again */
+    plod_error error = {PLOD_OK, ""};
+    st = plod_planet_check(&s->planet, &error);
+    if (st == PLOD_OK && detail) {
+        st = plod_detail_create(&s->detail, detail, &s->planet);
+        if (st == PLOD_ERR_BAD_PARAM)
+            plod_error_set(&error, st,
+                           "invalid detail (amplitude in [0, 1e6], roughness in [0, 1), "
+                           "largest >= 0, smallest > 0, craters in [0, 4], crater_density "
+                           "and plains in [0, 1], relief >= 0)");
+        else if (st != PLOD_OK)
+            plod_error_set(&error, st, "detail field");
+        if (st == PLOD_OK) {
+            s->planet.detail = s->detail;
+            st = plod_planet_check(&s->planet, &error);
         }
-        s->planet.detail = s->detail;
     }
-    st = plod_refiner_create(&s->refiner, &s->planet);
+    if (st == PLOD_OK) {
+        st = plod_refiner_create(&s->refiner, &s->planet);
+        if (st != PLOD_OK)
+            plod_error_set(&error, st, "%s", plod_status_message(st));
+    }
     if (st != PLOD_OK) {
-        plod__session_message(message, message_size,
-                              "invalid planet (radius, height_scale, height_offset, "
-                              "sea_level, height range or detail amplitude)");
+        plod__session_message(message, message_size, error.message);
         plod_session_destroy(s);
         return st;
     }
@@ -158,10 +160,11 @@ const plod_refine_params *plod_session_refine_params(const plod_session *session
 /* ---- per frame ---------------------------------------------------------------------- */
 
 plod_status plod_session_refine(plod_session *session, const plod_camera *camera,
-                                const plod_refine_params *params, plod_refine_stats *stats)
+                                const plod_refine_params *params, plod_refine_stats *stats,
+                                plod_error *error)
 {
     plod_refine_stats frame;
-    plod_status st = plod_refiner_update(session->refiner, camera, params, &frame);
+    plod_status st = plod_refiner_update(session->refiner, camera, params, &frame, error);
     if (st != PLOD_OK)
         return st;
     session->camera = *camera;

@@ -24,6 +24,18 @@ const char *plod_status_message(plod_status status)
     return plod__status_messages[status];
 }
 
+plod_status plod_error_set(plod_error *error, plod_status status, const char *format, ...)
+{
+    if (!error)
+        return status;
+    error->status = status;
+    va_list args;
+    va_start(args, format);
+    vsnprintf(error->message, sizeof error->message, format, args);
+    va_end(args);
+    return status;
+}
+
 void plod_status_format(char *message, size_t size, const char *format, ...)
 {
     if (!message || !size)

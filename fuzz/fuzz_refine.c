@@ -389,7 +389,7 @@ static void fuzz__check_history_free(const plod_refiner *incremental, const plod
     plod_refiner *fresh = NULL;
     FUZZ_CHECK(plod_refiner_create(&fresh, planet) == PLOD_OK, "fresh refiner");
     plod_refine_stats fst;
-    FUZZ_CHECK(plod_refiner_update(fresh, camera, rp, &fst) == PLOD_OK,
+    FUZZ_CHECK(plod_refiner_update(fresh, camera, rp, &fst, NULL) == PLOD_OK,
                "a fresh refiner refused what the incremental one accepted");
     if (!fst.truncated) {
         size_t n = 0, m = 0;
@@ -524,7 +524,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             planet.detail = detail;
         }
     }
-    plod_status s = plod_planet_check(&planet);
+    plod_status s = plod_planet_check(&planet, NULL);
     if (!isfinite(planet.height_offset))
         FUZZ_CHECK(s != PLOD_OK, "non-finite height offset accepted");
     if (!(planet.radius >= 1.0 && planet.radius <= 1e8) ||
@@ -563,7 +563,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                 FUZZ_CHECK(fabs(x * x + y * y + z * z - 1.0) < 1e-3, "normal texel not unit");
             }
         }
-        FUZZ_CHECK(plod_planet_check(&planet) == PLOD_OK, "planet with its normal map refused");
+        FUZZ_CHECK(plod_planet_check(&planet, NULL) == PLOD_OK,
+                   "planet with its normal map refused");
     }
     if (fuzz__dump())
         fprintf(stderr, "planet: radius %.17g projection %d height_scale %.17g sea %d %.17g map %s\n",
@@ -660,7 +661,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                            (dist > 1e150 || (isfinite(clip1) && clip0 < clip1)),
                        "recommended clip %g %g at distance %g", clip0, clip1, dist);
         plod_refine_stats st;
-        s = plod_session_refine(session, &camera, &rp, &st);
+        s = plod_session_refine(session, &camera, &rp, &st, NULL);
         int params_ok = rp.max_level >= 0 && rp.max_level <= PLOD_MAX_LEVEL;
         if (!params_ok)
             FUZZ_CHECK(s != PLOD_OK, "max_level %d accepted", rp.max_level);

@@ -51,9 +51,9 @@ int main(int argc, char **argv)
                            0, 0, 0, 1};
     plod_camera c0 = camera_at(m0), c1 = camera_at(m1);
     plod_refine_stats st;
-    plod_status s = plod_refiner_update(r, &c0, &p, &st);
+    plod_status s = plod_refiner_update(r, &c0, &p, &st, NULL);
     printf("frame 1: status %d, %zu sectors, truncated %d\n", s, st.sectors_total, st.truncated);
-    s = plod_refiner_update(r, &c1, &p, &st);
+    s = plod_refiner_update(r, &c1, &p, &st, NULL);
     printf("frame 2: status %d, %zu sectors, truncated %d, merges %zu\n", s, st.sectors_total,
            st.truncated, st.merges);
     plod_refiner_destroy(r);
