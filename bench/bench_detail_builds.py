@@ -24,10 +24,14 @@ the median and mean over the frames of each build and the median of the
 per-frame ratios base / new.  Before and after, one cache line's round
 trip between CPUs 0 and 1 (bench/core_latency.c): on a shared VM the two
 vCPUs are sometimes close, sometimes far apart, and threaded figures move
-with it.  Not a test: figures only.
+with it.  --base-detail JSON gives the base build the Earth detail of its
+own presets (a dict as planetlod.Planet(detail=...) takes it; default:
+this checkout's), so a change of the preset's detail is measured with its
+cost.  Not a test: figures only.
 """
 import argparse
 import importlib.machinery
+import json
 import importlib.util
 import math
 import os
@@ -69,6 +73,25 @@ def load_build(folder):
 
 
 LOADED = []
+
+
+class BuildPresets:
+    """The presets a build runs with: this checkout's, with the Earth
+    preset's detail replaced by `earth_detail` when given."""
+
+    def __init__(self, earth_detail=None):
+        self.PLANETS, self.QUALITY = presets.PLANETS, presets.QUALITY
+        self.earth_detail = earth_detail
+
+    def detail_settings(self, key):
+        if key == "EARTH" and self.earth_detail is not None:
+            return dict(self.earth_detail)
+        return presets.detail_settings(key)
+
+    def detail_kwargs(self, settings):
+        if settings is presets.PLANETS["EARTH"] and self.earth_detail is not None:
+            return dict(self.earth_detail)
+        return presets.detail_kwargs(settings)
 
 
 def run_probe(folder, name, flags=()):
@@ -118,9 +141,9 @@ def report(title, unit, figures, higher_is_better):
 def earth_planets(builds, presets):
     """A planet per build: the Earth map and preset's detail, refiner room
     reserved, a sector cache of 1 GiB (nothing evicted along a descent)."""
-    detail = presets.detail_settings("EARTH")
     planets = {name: lod.Planet(R, heightmap=data_path("earth-topology.png"),
-                                height_scale=8848.0, sea_level=0.0, detail=detail)
+                                height_scale=8848.0, sea_level=0.0,
+                                detail=presets[name].detail_settings("EARTH"))
                for name, lod in builds.items()}
     for p in planets.values():
         p.reserve(1 << 16)
@@ -213,9 +236,10 @@ def refine(builds, presets, args):
     must refine alike: every frame's sector counts, splits and merges are
     compared."""
     keys = ("sectors_total", "sectors_after_frustum", "sectors_after_budget", "splits", "merges")
-    for label, detail in (("detail on", presets.detail_settings("EARTH")), ("detail off", None)):
+    for label, on in (("detail on", True), ("detail off", False)):
         planets = {name: lod.Planet(R, heightmap=data_path("earth-topology.png"),
-                                    height_scale=8848.0, sea_level=0.0, detail=detail)
+                                    height_scale=8848.0, sea_level=0.0,
+                                    detail=presets[name].detail_settings("EARTH") if on else None)
                    for name, lod in builds.items()}
         for p in planets.values():
             p.reserve(1 << 16)
@@ -249,11 +273,10 @@ def refine_alone(builds, presets, args):
     by itself, the builds taking turns descent by descent: a frame's time
     without the other planet's data in the caches between frames (and with
     the workers of threads >= 2 as a lone planet keeps them)."""
-    detail = presets.detail_settings("EARTH")
     best = {}
     for name, lod in builds.items():
         planet = lod.Planet(R, heightmap=data_path("earth-topology.png"), height_scale=8848.0,
-                            sea_level=0.0, detail=detail)
+                            sea_level=0.0, detail=presets[name].detail_settings("EARTH"))
         planet.reserve(1 << 16)
         top = planet.height_range()[1]
         path = list(bench_refine.descent(args.refine_frames, terrain_top=top))
@@ -277,16 +300,17 @@ def viewport(builds, presets, surface, args):
     print(f"\nviewport refresh with the GPU preview (refine with hysteresis + mesh() + "
           f"preview_data), {args.viewport_frames}-frame descents from 3 radii to 2 m")
     for key in args.planets.split(","):
-        s = presets.PLANETS[key]
+        s = presets["new"].PLANETS[key]
         for quality in args.quality.split(","):
-            q = presets.QUALITY[quality]
+            q = presets["new"].QUALITY[quality]
             level = 0  # as bench_viewport_detail.py: 4^level <= density
             while 4 ** (level + 1) <= int(q["template_density"]) and level < 7:
                 level += 1
             planets = {}
             for name, lod in builds.items():
+                s = presets[name].PLANETS[key]
                 kw = dict(projection=s["projection"].lower(), height_scale=s["height_scale"],
-                          detail=presets.detail_kwargs(s))
+                          detail=presets[name].detail_kwargs(s))
                 if s["heightmap"]:
                     kw["heightmap"] = data_path(s["heightmap"])
                 if s["use_sea_level"]:
@@ -314,6 +338,8 @@ def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--base", required=True, help="folder of the base build")
     parser.add_argument("--new", default=ROOT, help="folder of the new build")
+    parser.add_argument("--base-detail", default="",
+                        help="JSON: the base build's Earth detail (its presets')")
     parser.add_argument("--frames", type=int, default=48)
     parser.add_argument("--viewport-frames", type=int, default=16)
     parser.add_argument("--threads", type=int, default=2)
@@ -327,22 +353,24 @@ def main():
                              "'flyby', 'viewport', comma-separated")
     args = parser.parse_args()
     builds = {"base": load_build(args.base), "new": load_build(args.new)}
+    base_detail = json.loads(args.base_detail) if args.base_detail else None
+    build_presets = {"base": BuildPresets(base_detail), "new": BuildPresets()}
     for name, lod in builds.items():
         print(f"{name}: {lod.__file__}")
     skip = set(args.skip.split(","))
     with tempfile.TemporaryDirectory() as tmp:
         print(f"CPUs 0 and 1 before: {core_round_trip(tmp)}")
         if "refine" not in skip:
-            refine(builds, presets, args)
+            refine(builds, build_presets, args)
         if "alone" not in skip:
-            refine_alone(builds, presets, args)
+            refine_alone(builds, build_presets, args)
         if "emission" not in skip:
-            emission(builds, presets, args)
+            emission(builds, build_presets, args)
         if "flyby" not in skip:
             print(f"\nThis machine's {run_probe(tmp, 'page_fault_cost')}")
-            flyby(builds, presets, args)
+            flyby(builds, build_presets, args)
         if "viewport" not in skip:
-            viewport(builds, presets, surface, args)
+            viewport(builds, build_presets, surface, args)
         print(f"\nCPUs 0 and 1 after: {core_round_trip(tmp)}")
 
 

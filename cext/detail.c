@@ -32,6 +32,12 @@
 #define PLOD__NOISE_LIPSCHITZ 15.0
 #define PLOD__CRATER_DEPTH 2.0 /* crater depth per unit of octave amplitude */
 #define PLOD__RIDGE_GAIN 2.0
+/* ridged term w (s - CENTRE): s = (1 - |n|)^2 averages ~0.7 over gradient
+ * noise, so a centre of 0.5 would lift every mountain by a fifth of the
+ * field's amplitude sum; with the weights w, 0.63 leaves the field's mean
+ * near 0 (the Earth preset: 28 m of a 12 km range over 200,000
+ * directions); the unit range [-CENTRE, 1 - CENTRE] holds 0 */
+#define PLOD__RIDGE_CENTRE 0.63
 #define PLOD__CRATER_HILLS 0.35 /* the CRATERS style's hills, relative */
 
 typedef struct plod__octave {
@@ -53,6 +59,9 @@ struct plod_detail {
     int count;
     plod__octave octaves[PLOD_DETAIL_MAX_OCTAVES];
     double lo, hi;              /* bounds of N */
+    double deepest;             /* N's lowest value over a fixed sample of
+                                   directions (<= 0): how deep it digs in
+                                   practice, far above lo for many octaves */
     double tail_lo[PLOD_DETAIL_MAX_OCTAVES + 1], tail_hi[PLOD_DETAIL_MAX_OCTAVES + 1];
                                 /* bounds of the octaves from i on */
     double err[PLOD__ERR_COUNT];
@@ -67,6 +76,8 @@ void plod_detail_params_init(plod_detail_params *params)
     params->smallest = 0.1;
     params->crater_density = 0.5;
     params->plains = 0.15;
+    params->hills = 1.0;
+    params->fine_roughness = 0.5;
 }
 
 /* ---- hashing ------------------------------------------------------------- */
@@ -344,7 +355,7 @@ static inline void plod__octave_step(const plod_detail *detail, const plod__octa
             double an = n < 0.0 ? -n : n;
             double s = (1.0 - an) * (1.0 - an);
             if (add_sum)
-                st->sum += o->noise_weight * st->weight * (s - 0.5);
+                st->sum += o->noise_weight * st->weight * (s - PLOD__RIDGE_CENTRE);
             double next = PLOD__RIDGE_GAIN * s;
             st->weight = next >= 1.0 ? 1.0 : next;
         } else {
@@ -354,12 +365,12 @@ static inline void plod__octave_step(const plod_detail *detail, const plod__octa
             double ds = -2.0 * (1.0 - an) * sign; /* per unit of n */
             double a = o->noise_weight, weight = st->weight;
             if (add_sum)
-                st->sum += a * weight * (s - 0.5);
+                st->sum += a * weight * (s - PLOD__RIDGE_CENTRE);
             double dl[3] = {a * weight * ds * g[0], a * weight * ds * g[1],
                             a * weight * ds * g[2]}; /* lattice units */
             plod__add_gradient(o, dl, 1.0, st->acc);
             for (int k = 0; k < 3; k++) /* dweight is per unit of direction */
-                st->acc[k] += a * (s - 0.5) * st->dweight[k];
+                st->acc[k] += a * (s - PLOD__RIDGE_CENTRE) * st->dweight[k];
             /* next weight: clamp(gain s, 0, 1) */
             double next = PLOD__RIDGE_GAIN * s;
             if (next >= 1.0) {
@@ -647,7 +658,7 @@ PLOD_LANE_INLINE void plod__lane_accumulate(plod__lanes *l, int k, const plod__o
     double an = n < 0.0 ? -n : n, sign = n < 0.0 ? -1.0 : 1.0;
     double s = (1.0 - an) * (1.0 - an);
     double weight = l->weight[k];
-    l->sum[k] = add_sum ? l->sum[k] + a * weight * (s - 0.5) : l->sum[k];
+    l->sum[k] = add_sum ? l->sum[k] + a * weight * (s - PLOD__RIDGE_CENTRE) : l->sum[k];
     double next = PLOD__RIDGE_GAIN * s;
     int saturated = next >= 1.0;
     l->weight[k] = active ? (saturated ? 1.0 : next) : weight;
@@ -657,7 +668,7 @@ PLOD_LANE_INLINE void plod__lane_accumulate(plod__lanes *l, int k, const plod__o
     double t0 = a * weight * ds * g0, t1 = a * weight * ds * g1, t2 = a * weight * ds * g2;
     double s0 = PLOD__RIDGE_GAIN * ds * g0, s1 = PLOD__RIDGE_GAIN * ds * g1,
            s2 = PLOD__RIDGE_GAIN * ds * g2;
-    double term = a * (s - 0.5);
+    double term = a * (s - PLOD__RIDGE_CENTRE);
 #define PLOD__RIDGED_AXIS(c)                                                                    \
     {                                                                                          \
         double acc = l->acc[c][k] +                                                            \
@@ -981,6 +992,31 @@ static int plod__compare(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
+/* N's lowest value at PLOD__DEPTH_SAMPLES directions drawn from the seed's
+ * hash (uniform in the cube, normalised: + - * / sqrt only, so the same
+ * bits everywhere). */
+#define PLOD__DEPTH_SAMPLES 4096
+static double plod__deepest(const plod_detail *d)
+{
+    double deepest = 0.0;
+    uint64_t h = plod__mix(d->params.seed ^ 0xdee9ULL);
+    for (int k = 0; k < PLOD__DEPTH_SAMPLES; k++) {
+        double v[3], len2 = 0.0;
+        for (int a = 0; a < 3; a++) {
+            h = plod__mix(h + 0x9E3779B97F4A7C15ULL);
+            v[a] = 2.0 * plod__unit(h) - 1.0;
+            len2 += v[a] * v[a];
+        }
+        if (!(len2 > 1e-6 && len2 <= 1.0))
+            continue; /* inside the unit ball: uniform directions */
+        double len = sqrt(len2);
+        double dir[3] = {v[0] / len, v[1] / len, v[2] / len};
+        double n = plod__noise_value(d, dir, 0, d->count);
+        deepest = n < deepest ? n : deepest;
+    }
+    return deepest;
+}
+
 /* The modulation map of planet's height map (see plod_detail.h). */
 static plod_status plod__build_modulation(plod_detail *d, const plod_planet *planet)
 {
@@ -1046,19 +1082,31 @@ static plod_status plod__build_modulation(plod_detail *d, const plod_planet *pla
         free(relief);
         return st;
     }
-    double plains = d->params.plains;
+    double plains = d->params.plains, hills = d->params.hills;
+    double highlands = d->params.highlands;
     for (int f = 0; f < faces; f++) {
         uint8_t *out = plod_cubemap_face_data(d->modulation, f);
         for (size_t t = 0; t < texels; t++) {
             double r = relief[(size_t)f * texels + t];
             double m = 0.0;
             if (r >= 0.0) {
-                double x = r / reference;
-                x = x < 1.0 ? x : 1.0; /* inf / inf (NaN) too */
-                m = plains + (1.0 - plains) * x * x * (3.0 - 2.0 * x);
+                /* plains up to a third of the reference: one quantum of
+                 * an 8-bit map's steps is no hill */
+                double x = 1.5 * r / reference - 0.5;
+                x = x > 0.0 ? (x < 1.0 ? x : 1.0) : 0.0; /* inf / inf (NaN): 0 */
+                m = plains + (hills - plains) * x * x * (3.0 - 2.0 * x);
+                if (highlands > 0.0) {
+                    /* steepness gate: from r = reference to 5 reference */
+                    double g = (r - reference) / (4.0 * reference);
+                    g = g > 0.0 ? (g < 1.0 ? g : 1.0) : 0.0; /* NaN: 0 */
+                    double e = above[(size_t)f * texels + t] / highlands;
+                    e = e > 0.0 ? (e < 1.0 ? e : 1.0) : 0.0; /* no sea level: 1 */
+                    m += (1.0 - hills) * g * g * (3.0 - 2.0 * g) * e;
+                    m = m < 1.0 ? m : 1.0;
+                }
                 /* low coasts: the field's deepest half-range stays above the sea */
-                if (d->lo < 0.0) {
-                    double limit = 2.0 * above[(size_t)f * texels + t] / -d->lo;
+                if (d->deepest < 0.0) {
+                    double limit = 2.0 * above[(size_t)f * texels + t] / -d->deepest;
                     m = limit < m ? (limit > 0.0 ? limit : 0.0) : m;
                 }
             }
@@ -1076,7 +1124,10 @@ static int plod__params_ok(const plod_detail_params *p)
            p->roughness < 1.0 && isfinite(p->largest) && p->largest >= 0.0 &&
            isfinite(p->smallest) && p->smallest > 0.0 && p->craters >= 0.0 &&
            p->craters <= 4.0 && p->crater_density >= 0.0 && p->crater_density <= 1.0 &&
-           p->plains >= 0.0 && p->plains <= 1.0 && isfinite(p->relief) && p->relief >= 0.0;
+           p->plains >= 0.0 && p->plains <= 1.0 && isfinite(p->relief) && p->relief >= 0.0 &&
+           p->hills >= p->plains && p->hills <= 1.0 && isfinite(p->highlands) &&
+           p->highlands >= 0.0 && p->fine_roughness >= 0.0 && p->fine_roughness < 1.0 &&
+           isfinite(p->fine_below) && p->fine_below >= 0.0;
 }
 
 plod_status plod_detail_create(plod_detail **out, const plod_detail_params *params,
@@ -1150,30 +1201,34 @@ plod_status plod_detail_create(plod_detail **out, const plod_detail_params *para
         o->noise_weight = noise_layer * amplitude;
         o->crater_weight = crater_layer * PLOD__CRATER_DEPTH * amplitude;
         if (params->style == PLOD_DETAIL_MOUNTAINS) {
-            d->lo -= 0.5 * o->noise_weight;
-            d->hi += 0.5 * o->noise_weight;
+            d->lo -= PLOD__RIDGE_CENTRE * o->noise_weight;
+            d->hi += (1.0 - PLOD__RIDGE_CENTRE) * o->noise_weight;
         } else {
             d->lo -= o->noise_weight;
             d->hi += o->noise_weight;
         }
         d->lo -= o->crater_weight;
         d->hi += o->crater_weight * PLOD__CRATER_RIM;
-        o->lo = -(params->style == PLOD_DETAIL_MOUNTAINS ? 0.5 : 1.0) * o->noise_weight -
+        o->lo = -(params->style == PLOD_DETAIL_MOUNTAINS ? PLOD__RIDGE_CENTRE : 1.0) *
+                    o->noise_weight -
                 o->crater_weight;
-        o->hi = (params->style == PLOD_DETAIL_MOUNTAINS ? 0.5 : 1.0) * o->noise_weight +
+        o->hi = (params->style == PLOD_DETAIL_MOUNTAINS ? 1.0 - PLOD__RIDGE_CENTRE : 1.0) *
+                    o->noise_weight +
                 o->crater_weight * PLOD__CRATER_RIM;
         /* slopes per lattice unit: noise PLOD__NOISE_LIPSCHITZ; ridged term
-         * a (w ds + (s - 1/2) dw) with |ds| <= 2 L, |dw| <= gain 2 L at the
+         * a (w ds + (s - CENTRE) dw) with |ds| <= 2 L, |dw| <= gain 2 L at the
          * previous octave's half frequency; crater profile slope / r_min */
         double noise_slope = PLOD__NOISE_LIPSCHITZ * freq;
         if (params->style == PLOD_DETAIL_MOUNTAINS)
             noise_slope = 2.0 * PLOD__NOISE_LIPSCHITZ * freq +
-                          0.5 * PLOD__RIDGE_GAIN * 2.0 * PLOD__NOISE_LIPSCHITZ * 0.5 * freq;
+                          PLOD__RIDGE_CENTRE * PLOD__RIDGE_GAIN * 2.0 *
+                              PLOD__NOISE_LIPSCHITZ * 0.5 * freq;
         double crater_slope = 2.0 * (1.0 + PLOD__CRATER_RIM) / PLOD__CRATER_SMALLEST * freq;
         o->slope = o->noise_weight * noise_slope + o->crater_weight * crater_slope;
         plod__matmul(rot, acc, acc);
         wavelength *= 0.5;
-        amplitude *= params->roughness;
+        amplitude *= wavelength < params->fine_below ? params->fine_roughness
+                                                      : params->roughness;
         count++;
     }
     d->count = count;
@@ -1184,6 +1239,7 @@ plod_status plod_detail_create(plod_detail **out, const plod_detail_params *para
     }
     for (int e = 0; e < PLOD__ERR_COUNT; e++)
         d->err[e] = plod__cell_error_exact(d, ldexp(1.0, e + PLOD__ERR_EXP_MIN));
+    d->deepest = plod__deepest(d);
     if (planet->heightmap) {
         plod_status st = plod__build_modulation(d, planet);
         if (st != PLOD_OK) {
@@ -1196,7 +1252,8 @@ plod_status plod_detail_create(plod_detail **out, const plod_detail_params *para
     const double vals[] = {params->amplitude, params->roughness, largest, params->smallest,
                            params->craters, params->crater_density, params->plains,
                            params->relief, planet->radius, planet->height_scale,
-                           (double)params->style};
+                           (double)params->style, params->hills, params->highlands,
+                           params->fine_roughness, params->fine_below};
     for (size_t i = 0; i < sizeof vals / sizeof vals[0]; i++) {
         uint64_t bits;
         memcpy(&bits, &vals[i], sizeof bits);

@@ -4,20 +4,33 @@
  * D(d) = m(d) * N(d) of the unit direction d:
  *   - N is a sum of band-limited octaves i = 0..count-1 of wavelength
  *     largest * 2^-i (down to `smallest`) and amplitude amplitude *
- *     roughness^i, each a 3-D lattice function of the direction (gradient
+ *     roughness^i (fine_roughness per octave below `fine_below`), each a 3-D lattice function of the direction (gradient
  *     noise, ridged noise, impact craters) evaluated on the unit sphere in
  *     double precision: no seams at cube faces, poles or the date line.
  *     Lattice points are hashed with the seed (64-bit integer hash); only
  *     + - * / floor sqrt are used, so the field is the same bits on every
  *     machine and thread count (with -ffp-contract=off).
  *   - m in [0, 1] is the modulation map, built once from the height map: 0
- *     on texels at or below sea level, `plains` on flat land rising to 1
- *     where the map's local relief (largest height step to the 8
- *     neighbouring texels) reaches `relief` metres, and on low coasts at
- *     most twice the height above the sea over the field's lower bound
- *     (lowlands are not pushed under the sea); sampled bilinearly at
- *     the height map's location, bounded over regions by its min/max
- *     pyramid.  Without a height map m = 1.
+ *     on texels at or below sea level, `plains` on flat land (local
+ *     relief r, the largest height step to the 8 neighbouring texels, up to
+ *     a third of `relief` metres) rising to `hills` where r reaches
+ *     `relief`; with `highlands` > 0
+ *     it rises on from `hills` towards 1 with the height above the sea
+ *     (1 at `highlands` metres), gated by the map's steepness (none below
+ *     r = relief, all from r = 5 relief): high, steep ranges get the
+ *     strongest relief, high plateaus stay hills.  Real relief follows
+ *     that pattern: local relief in ~10 km windows grows with elevation
+ *     where the land is steep (E. H. Hammond, "Analysis of properties of
+ *     land form geography", Annals of the AAG, 1964; D. R. Montgomery and
+ *     M. T. Brandon, "Topographic controls on erosion rates in
+ *     tectonically active mountain ranges", EPSL, 2002); bench/
+ *     bench_relief.py compares the Earth preset with real DEMs.  On low
+ *     coasts m is at most twice the height above the sea over the deepest
+ *     value of N at 4,096 fixed directions (lowlands are not pushed under
+ *     the sea; the bound of many octaves' sum is far deeper than the field
+ *     ever reaches, and would flatten every lowland hill); sampled
+ *     bilinearly at the height map's location, bounded over regions by its
+ *     min/max pyramid.  Without a height map m = 1.
  * Styles (the octaves' shape):
  *   HILLS      gradient-noise fBm (K. Perlin, "Improving Noise", SIGGRAPH
  *              2002): rolling relief.
@@ -25,7 +38,8 @@
  *              Modeling: A Procedural Approach", 1994/2003): each octave
  *              (1 - |n|)^2 weighted by the previous octave's signal, so
  *              ridges carry fine detail and valleys stay smooth, as on
- *              eroded ranges.
+ *              eroded ranges; centred on the signal's mean (~0.7), so
+ *              the field does not lift the ranges it roughens.
  *   CRATERS    low hills plus impact craters: one lattice cell per octave
  *              holds at most one crater (bowl, raised rim, ejecta blanket
  *              falling off to zero inside the cell, so cells join
@@ -73,12 +87,27 @@ typedef struct plod_detail_params {
     double craters;    /* crater layer weight, [0, 4] (CRATERS: >= 1 applies) */
     double crater_density; /* chance of a crater per lattice cell, [0, 1] */
     double plains;     /* modulation on flat land, [0, 1] */
-    double relief;     /* metres of local map relief for modulation 1; 0 =
-                          the 90th percentile over land texels */
+    double relief;     /* metres of local map relief for modulation `hills`
+                          (1 when highlands is 0); 0 = the 90th percentile
+                          over land texels */
+    double hills;      /* modulation of hills (local relief >= relief), [plains, 1] */
+    double highlands;  /* metres above the sea at which steep highlands reach
+                          modulation 1; 0 = no elevation term (hills is then
+                          the top) */
+    double fine_roughness; /* amplitude ratio to octaves of wavelength below
+                              fine_below, [0, 1) */
+    double fine_below; /* metres; 0 = roughness everywhere.  Relief of
+                          kilometres needs a slow fall-off (roughness ~0.6),
+                          but octaves much finer than a mesh cell add to the
+                          pixel criterion's error: a fall-off of 0.5 or
+                          faster there keeps the error proportional to the
+                          cell, so refinement near the ground stays
+                          bounded */
 } plod_detail_params;
 
 /* Defaults: MOUNTAINS, amplitude 0 (set it), roughness 0.5, largest 0,
- * smallest 0.1 m, seed 0, craters 0, density 0.5, plains 0.15, relief 0. */
+ * smallest 0.1 m, seed 0, craters 0, density 0.5, plains 0.15, relief 0,
+ * hills 1, highlands 0, fine_roughness 0.5, fine_below 0. */
 void plod_detail_params_init(plod_detail_params *params);
 
 /* Builds the field for `planet` (radius, projection, height map, height

@@ -80,7 +80,8 @@ plod_status plod_session_create(plod_session **out, const plod_planet *planet,
             plod_error_set(&error, st,
                            "invalid detail (amplitude in [0, 1e6], roughness in [0, 1), "
                            "largest >= 0, smallest > 0, craters in [0, 4], crater_density "
-                           "and plains in [0, 1], relief >= 0)");
+                           "and plains in [0, 1], relief >= 0, hills in [plains, 1], "
+                           "highlands >= 0, fine_roughness in [0, 1), fine_below >= 0)");
         else if (st != PLOD_OK)
             plod_error_set(&error, st, "detail field");
         if (st == PLOD_OK) {

@@ -8,8 +8,10 @@ PLANETS = {
                   color_map="earth-blue-marble.jpg", height_scale=8848.0,
                   use_sea_level=True, sea_level=0.0, ocean_sphere=False,
                   projection="QSC", atmosphere="EARTH", use_detail=True,
-                  detail_style="MOUNTAINS", detail_amplitude=1000.0, detail_roughness=0.5,
-                  detail_craters=0.0, detail_plains=0.45),
+                  detail_style="MOUNTAINS", detail_amplitude=4000.0, detail_roughness=0.65,
+                  detail_craters=0.0, detail_plains=0.01, detail_relief=130.0,
+                  detail_hills=0.17, detail_highlands=3500.0,
+                  detail_fine_roughness=0.3, detail_fine_below=9000.0),
     "MOON": dict(label="Moon", radius=1737400.0, heightmap="lunar_bumpmap.jpg",
                  color_map="lunar_surface_2k.jpg", height_scale=19000.0,
                  use_sea_level=False, sea_level=0.0, ocean_sphere=False, projection="QSC",
@@ -50,6 +52,10 @@ DETAIL_STYLE_ITEMS = [
                            "bodies"),
 ]
 DETAIL_SEED = 1
+# the detail settings presets may leave out, at their neutral values (the
+# modulation's plains-to-hills law alone, one roughness for every octave)
+DETAIL_LAW_DEFAULTS = dict(detail_relief=0.0, detail_hills=1.0, detail_highlands=0.0,
+                           detail_fine_roughness=0.5, detail_fine_below=0.0)
 
 
 def detail_kwargs(settings):
@@ -62,6 +68,11 @@ def detail_kwargs(settings):
                 smallest=float(settings.get("detail_smallest", 0.1)),
                 craters=float(settings.get("detail_craters", 0.0)),
                 plains=float(settings.get("detail_plains", 0.15)),
+                relief=float(settings.get("detail_relief", 0.0)),
+                hills=float(settings.get("detail_hills", 1.0)),
+                highlands=float(settings.get("detail_highlands", 0.0)),
+                fine_roughness=float(settings.get("detail_fine_roughness", 0.5)),
+                fine_below=float(settings.get("detail_fine_below", 0.0)),
                 seed=int(settings.get("detail_seed", DETAIL_SEED)))
 
 
@@ -76,7 +87,8 @@ QUALITY_ITEMS = [(key, value["label"], f"{value['label']} quality")
 
 def planet_settings(key, data_path):
     """Settings dict for planet preset `key`, with map names resolved by data_path."""
-    values = dict(PLANETS[key])
+    values = dict(DETAIL_LAW_DEFAULTS)  # a preset without them resets them
+    values.update(PLANETS[key])
     values.pop("label")
     values["heightmap"] = data_path(values["heightmap"]) if values["heightmap"] else ""
     values["color_map"] = data_path(values["color_map"]) if values["color_map"] else ""

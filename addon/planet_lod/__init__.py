@@ -6,7 +6,8 @@ tests/test_layout.py checks it):
                                `planetlod` package and the domain error;
                                node-tree arithmetic
   runtime                      per-planet runtime state and the anchor
-  atmosphere, materials        the planet's sky and materials
+  atmosphere, terrain_shading, the planet's sky, its ground shading and
+  materials                    materials
   cameras                      the LOD camera; clip ranges fitted to planets
   placement, framing           cameras and objects placed in planet space;
                                framing a new planet
@@ -48,7 +49,8 @@ bl_info = {
 
 if "bpy" in locals():  # script reload (F3 > Reload Scripts)
     import importlib
-    for _name in ("compat", "core", "nodes", "runtime", "atmosphere", "materials", "cameras",
+    for _name in ("compat", "core", "nodes", "runtime", "atmosphere", "terrain_shading",
+                  "materials", "cameras",
                   "placement", "framing", "refresh", "handlers", "draw", "props", "operators",
                   "map_files", "preset_menus", "render", "ui"):
         if _name in locals():
@@ -57,7 +59,8 @@ if "bpy" in locals():  # script reload (F3 > Reload Scripts)
 import bpy  # noqa: E402
 from bpy.props import PointerProperty  # noqa: E402
 
-from . import (compat, core, nodes, runtime, atmosphere, materials, cameras,  # noqa: E402
+from . import (compat, core, nodes, runtime, atmosphere, terrain_shading,  # noqa: E402
+               materials, cameras,
                placement, framing, refresh, handlers, draw, props, operators, map_files,
                preset_menus, render, ui)
 

@@ -14,7 +14,7 @@ from array import array
 
 import bpy
 
-from . import atmosphere, compat, core, runtime
+from . import atmosphere, compat, core, runtime, terrain_shading
 from . import nodes as node_maths
 from .core import surface
 
@@ -171,11 +171,7 @@ def color_image(settings, create=True):
     return converted
 
 
-def _attribute(b, name):
-    node = b.node("ShaderNodeAttribute")
-    node.attribute_type = 'GEOMETRY'
-    node.attribute_name = name
-    return node
+_attribute = terrain_shading.attribute
 
 
 def shading_normal(b):
@@ -188,160 +184,6 @@ def shading_normal(b):
     transform.convert_to = 'WORLD'
     b.links.new(normal.outputs["Vector"], transform.inputs["Vector"])
     return b.normalize(b.socket(transform.outputs["Vector"]))
-
-
-def _noise(b, coords, scale, detail=4.0):
-    node = b.node("ShaderNodeTexNoise")
-    node.noise_dimensions = '3D'
-    b.link(coords, node.inputs["Vector"])
-    node.inputs["Scale"].default_value = scale
-    node.inputs["Detail"].default_value = detail
-    node.inputs["Roughness"].default_value = 0.55
-    return b.socket(node.outputs["Fac"], vector=False)
-
-
-def _parcels(b, coords, scale, edges=True):
-    """(a random value per cell, another, the distance to the cell's edge in
-    cells, or None) of a Voronoi tessellation of `coords` into cells 1/scale
-    across."""
-    cells = b.node("ShaderNodeTexVoronoi")
-    cells.voronoi_dimensions = '3D'
-    cells.feature = 'F1'
-    cells.distance = 'EUCLIDEAN'
-    b.link(coords, cells.inputs["Vector"])
-    cells.inputs["Scale"].default_value = scale
-    value, other, _ = b.split(b.socket(cells.outputs["Color"]))
-    if not edges:
-        return value, other, None
-    edges = b.node("ShaderNodeTexVoronoi")
-    edges.voronoi_dimensions = '3D'
-    edges.feature = 'DISTANCE_TO_EDGE'
-    b.link(coords, edges.inputs["Vector"])
-    edges.inputs["Scale"].default_value = scale
-    return value, other, b.socket(edges.outputs["Distance"], vector=False)
-
-
-# crops by a parcel's random value (0..1, shifted up in dry regions): green,
-# ripe, ploughed soil, fallow; multipliers of the colour map's colour whose
-# mean is about one, so the farmland averages to the map seen from afar
-CROP_TINTS = ((0.0, (0.72, 0.95, 0.58)), (0.35, (1.30, 1.16, 0.82)),
-              (0.62, (1.02, 0.82, 0.62)), (0.84, (1.05, 1.02, 0.90)))
-# land use by a region's random value: forest, cropland, dry scrub and
-# pasture (likewise about one on average)
-REGION_TINTS = ((0.0, (0.50, 0.62, 0.45)), (0.3, (1.0, 1.0, 1.0)),
-                (0.62, (1.40, 1.25, 0.95)), (0.85, (1.1, 1.12, 0.9)))
-
-
-def _tint(b, table, value):
-    tint = b.const(table[0][1])
-    for start, colour in table[1:]:
-        tint = b.mix(tint, b.const(colour), b.less(start, value))
-    return tint
-
-
-def _ground_types(b, s, base, airless):
-    """Ground colour below the colour map's resolution: rock on steep slopes and
-    bare crests, snow above a latitude-dependent snow line, sand at the shore,
-    vegetation tinted by the colour map: woods in hollows and on hillsides,
-    farmland parcels of a few hundred metres on flat lowland, regolith on
-    airless bodies; by per-vertex height, slope, latitude and the core's
-    detail field (`planet_detail`: its ridges and hollows, which the colour map
-    cannot show), textured by noise in planet-anchored coordinates.  The
-    detail field's ridges and hollows, the land-use regions and the far
-    farmland show within 300 km of the camera, the fields and the other
-    ground types within 30-40 km (the colour map rules beyond).  Returns
-    (colour, relief for the bump)."""
-    height = b.socket(_attribute(b, "planet_height").outputs["Fac"], vector=False)
-    slope = b.socket(_attribute(b, "planet_slope").outputs["Fac"], vector=False)
-    latitude = b.socket(_attribute(b, "planet_latitude").outputs["Fac"], vector=False)
-    field = b.socket(_attribute(b, "planet_detail").outputs["Fac"], vector=False)
-    coords = b.node("ShaderNodeTexCoord")
-    detail = b.socket(coords.outputs["Object"]) + b.input_vector("plod_detail_offset")
-    camera_data = b.node("ShaderNodeCameraData")
-    distance = b.socket(camera_data.outputs["View Distance"], vector=False)
-    # five octaves of ground texture, each faded in where the colour map's
-    # 10 km texels are magnified enough for it to show (about 6 cm, 0.8 m,
-    # 11 m, 250 m and 3.3 km features, seen within 25 m, 0.2, 3, 30 and 200 km)
-    grit = _noise(b, detail, 16.0, detail=3.0)
-    fine = _noise(b, detail, 1.3)
-    mid = _noise(b, detail, 0.09)
-    coarse = _noise(b, detail, 0.004)
-    broad = _noise(b, detail, 0.0003)
-    grain = 1.0
-    for noise, amount, reach in ((grit, 1.6, 25.0), (fine, 1.2, 200.0), (mid, 1.4, 3000.0),
-                                 (coarse, 1.6, 3.0e4),
-                                 (broad, 1.4, 2.0e5)):
-        grain = (noise - 0.5) * ((1.0 - b.smoothstep(0.1 * reach, reach, distance)) * amount) \
-            + grain
-    near = 1.0 - b.smoothstep(3000.0, 3.0e4, distance)
-    regional = 1.0 - b.smoothstep(6.0e4, 3.0e5, distance)
-    # the detail field in units of its first octave's amplitude: crests
-    # (up to ~0.8) lit and bare, hollows (below 0) darker
-    amplitude = s.detail_amplitude if s.use_detail and s.detail_amplitude > 0.0 else 1.0
-    ridge = field * (1.0 / amplitude)
-    crest = b.smoothstep(0.05, 0.6, ridge) * regional
-    hollow = (1.0 - b.smoothstep(-0.3, 0.1, ridge)) * regional
-    bump = fine * (1.0 - b.smoothstep(20.0, 200.0, distance)) + \
-        grit * (0.3 - b.smoothstep(2.5, 25.0, distance) * 0.3)  # relief for the Bump node
-    rock = (0.30, 0.28, 0.26)
-    textured = base * grain * (crest * 0.3 - hollow * 0.25 + 1.0)
-    if airless:  # fresh ejecta on crests, older darker regolith in hollows
-        ground = b.mix(textured, b.const(rock) * grain,
-                       b.smoothstep(30.0, 45.0, slope) * near * 0.5)
-        return ground, bump
-    def fade(reach):
-        return 1.0 - b.smoothstep(0.1 * reach, reach, distance)
-    # the colour map's own green against its browns: farmland and woods follow
-    # the region's climate (green crops and woods where the map is green)
-    base_r, base_g, _ = b.split(base)
-    green = b.smoothstep(-0.02, 0.03, base_g - base_r)
-    # woods: soft-edged stands, gathered in hollows and on hillsides
-    cover = broad + (coarse - 0.5) * fade(4.0e4) + (mid - 0.5) * (fade(3000.0) * 0.7) + \
-        hollow * 0.35 + b.smoothstep(8.0, 20.0, slope) * 0.12
-    woods = b.smoothstep(0.5, 0.62, cover - green * 0.08) * (green * 0.5 + 0.4) * fade(2.5e5)
-    # farmland on flat lowland: parcels of one crop each (Voronoi cells, a
-    # random value per cell picks green, ripe, ploughed or fallow), a few
-    # hundred metres across, in holdings of a few kilometres seen from afar,
-    # with field margins close up
-    flat = (1.0 - b.smoothstep(5.0, 12.0, slope)) * (1.0 - b.smoothstep(800.0, 2500.0, height))
-    aridity = (1.0 - green) * 0.25
-    near_parcels, near_brightness, near_edge = _parcels(b, detail, 1.0 / 350.0)
-    far_parcels, far_brightness, _ = _parcels(b, detail, 1.0 / 2500.0, edges=False)
-    near_crop = _tint(b, CROP_TINTS, near_parcels + aridity) * (near_brightness * 0.35 + 0.82)
-    far_crop = _tint(b, CROP_TINTS, far_parcels + aridity) * (far_brightness * 0.7 + 0.65)
-    crop = b.mix(b.mix(b.const((1.0, 1.0, 1.0)), far_crop, fade(2.5e5)), near_crop,
-                 fade(4.0e4))
-    margin = (1.0 - b.smoothstep(0.008, 0.02, near_edge)) * fade(5000.0)
-    crop = b.mix(crop, b.const((0.5, 0.6, 0.42)), margin * 0.8)
-    # land use in regions of a few kilometres with irregular borders: the
-    # texture of a plain seen from 20 to 300 km up, where fields blur
-    warp = b.node("ShaderNodeTexNoise")
-    warp.noise_dimensions = '3D'
-    b.link(detail, warp.inputs["Vector"])
-    warp.inputs["Scale"].default_value = 1.0 / 4000.0
-    warp.inputs["Detail"].default_value = 3.0
-    warped = detail + (b.socket(warp.outputs["Color"]) - (0.5, 0.5, 0.5)) * 6000.0
-    region, _, _ = _parcels(b, warped, 1.0 / 6000.0, edges=False)
-    land_use = b.mix(b.const((1.0, 1.0, 1.0)), _tint(b, REGION_TINTS, region + aridity),
-                     fade(3.0e5))
-    farmland = flat * (1.0 - woods)
-    vegetation = textured * land_use
-    vegetation = b.mix(vegetation, vegetation * crop, farmland)
-    vegetation = b.mix(vegetation, textured * (0.32, 0.42, 0.28), woods)
-    steep = b.smoothstep(28.0, 42.0, slope)
-    bare = b.maximum(steep, b.smoothstep(0.4, 0.8, ridge) * regional * 0.7)
-    rock_colour = b.const(rock) * (grain * 0.8 + 0.2) * (crest * 0.3 + 1.0)
-    lat_abs = b.math("ABSOLUTE", latitude)
-    snow_line = 5200.0 - b.power(lat_abs * (1.0 / 90.0), 1.4) * 5400.0 + (mid - 0.5) * 400.0
-    snow = b.smoothstep(-150.0, 150.0, height - snow_line) * (1.0 - steep * 0.75)
-    shore = (1.0 - b.smoothstep(2.0, 12.0 + coarse * 10.0, height)) * (1.0 - steep)
-    sand = b.const((0.76, 0.70, 0.52)) * (fine * 0.25 + 0.85)
-    ground = b.mix(vegetation, rock_colour, bare)
-    ground = b.mix(ground, sand, shore)
-    ground = b.mix(ground, b.const((0.93, 0.95, 0.98)) * (fine * 0.1 + 0.9), snow)
-    # the colour map's own colour from afar; the ground types close up and,
-    # within the detail field's reach, on its crests and in its hollows
-    return b.mix(textured, ground, b.maximum(near * 0.85, regional * 0.8) + 0.15 * steep), bump
 
 
 HEIGHT_IMAGE_KEY = "planet_lod_sea_mask"
@@ -398,20 +240,6 @@ def _sea_mask(b, s):
         1.0 - b.smoothstep(s.sea_level + 0.25 * step, s.sea_level + 0.6 * step, metres), flooded)
 
 
-def _water(b, s, normal):
-    """Principled water: low roughness (sun glint), tinted by depth where the
-    height map has bathymetry."""
-    depth = b.socket(_attribute(b, "planet_sea_depth").outputs["Fac"], vector=False)
-    deep = 1.0 - b.exp(depth * (-1.0 / 40.0))
-    colour = b.mix(b.const((0.02, 0.10, 0.14)), b.const((0.004, 0.02, 0.06)), deep * 0.8 + 0.2)
-    water = b.node("ShaderNodeBsdfPrincipled")
-    b.link(colour, water.inputs["Base Color"])
-    water.inputs["Roughness"].default_value = 0.07
-    water.inputs["IOR"].default_value = 1.33
-    b.link(normal, water.inputs["Normal"])
-    return water
-
-
 def planet_material(obj):
     s = obj.planet_lod
     name = PLANET_PREFIX + obj.name
@@ -420,7 +248,7 @@ def planet_material(obj):
     atm = atmosphere.params(s)
     key = (color_map, s.projection, round(s.radius, 3), round(s.height_scale, 3),
            s.use_sea_level, round(s.sea_level, 3), s.heightmap, repr(atm), s.use_detail,
-           round(s.detail_amplitude, 3), 6)
+           round(s.detail_amplitude, 3), 7)
     if material.get("planet_lod_key") == repr(key):
         return material
     material.use_nodes = True
@@ -452,7 +280,9 @@ def planet_material(obj):
         b.links.new(height.outputs["Fac"], remap.inputs["Value"])
         b.links.new(remap.outputs["Result"], ramp.inputs["Fac"])
         base = b.socket(ramp.outputs["Color"])
-    ground_colour, relief = _ground_types(b, s, base, airless=atm is None)
+    normal = shading_normal(b)
+    ground_colour, relief = terrain_shading.ground_types(b, s, base, normal,
+                                                         airless=atm is None)
     ground = b.node("ShaderNodeBsdfPrincipled")
     b.link(ground_colour, ground.inputs["Base Color"])
     ground.inputs["Roughness"].default_value = 0.9
@@ -460,12 +290,11 @@ def planet_material(obj):
     bump.inputs["Strength"].default_value = 0.35
     bump.inputs["Distance"].default_value = 0.05
     b.link(relief, bump.inputs["Height"])
-    normal = shading_normal(b)
     b.link(normal, bump.inputs["Normal"])
     b.links.new(bump.outputs["Normal"], ground.inputs["Normal"])
     surface = ground.outputs[0]
     if s.use_sea_level:
-        water = _water(b, s, normal)
+        water = terrain_shading.water(b, normal)
         sea = _sea_mask(b, s)
         mix = b.node("ShaderNodeMixShader")
         b.link(sea, mix.inputs["Fac"])

@@ -49,7 +49,8 @@ class PLOD_OT_preset_add(AddPresetBase, bpy.types.Operator):
         "merge_border", "template_density", "budget", "max_level", "backface", "frustum",
         "morph", "atmosphere", "atmosphere_density", "use_detail", "detail_style",
         "detail_amplitude", "detail_roughness", "detail_smallest", "detail_craters",
-        "detail_plains", "detail_seed")]
+        "detail_plains", "detail_relief", "detail_hills", "detail_highlands",
+        "detail_fine_roughness", "detail_fine_below", "detail_seed")]
 
 
 class PLOD_OT_quality_preset_add(AddPresetBase, bpy.types.Operator):

@@ -171,6 +171,31 @@ class PLOD_PG_settings(bpy.types.PropertyGroup):
     detail_plains: FloatProperty(name="Plains", default=0.15, min=0.0, max=1.0,
                                  update=_geometry_changed,
                                  description="Detail on flat land, relative to mountains")
+    detail_relief: FloatProperty(name="Hill Relief", default=0.0, min=0.0, soft_max=2000.0,
+                                 subtype='DISTANCE', unit='LENGTH', update=_geometry_changed,
+                                 description="The map's local relief (largest height step to a "
+                                             "neighbouring texel) at which land counts as hills; "
+                                             "0: the 90th percentile over the land")
+    detail_hills: FloatProperty(name="Hills", default=1.0, min=0.0, max=1.0,
+                                update=_geometry_changed,
+                                description="Detail on hills, relative to the steepest, "
+                                            "highest mountains (1: hills are the top)")
+    detail_highlands: FloatProperty(name="Highlands", default=0.0, min=0.0, soft_max=10000.0,
+                                    subtype='DISTANCE', unit='LENGTH',
+                                    update=_geometry_changed,
+                                    description="Height above the sea at which steep ranges get "
+                                                "the full detail, rising from Hills with "
+                                                "elevation (0: off)")
+    detail_fine_roughness: FloatProperty(name="Fine Roughness", default=0.5, min=0.0,
+                                         max=0.95, update=_geometry_changed,
+                                         description="Amplitude ratio from one octave to the "
+                                                     "next below Fine Below (0.5 or less keeps "
+                                                     "refinement near the ground affordable)")
+    detail_fine_below: FloatProperty(name="Fine Below", default=0.0, min=0.0,
+                                     soft_max=50000.0, subtype='DISTANCE', unit='LENGTH',
+                                     update=_geometry_changed,
+                                     description="Wavelength under which Fine Roughness "
+                                                 "applies (0: Roughness everywhere)")
     detail_seed: IntProperty(name="Seed", default=1, min=0, update=_geometry_changed)
     color_map: StringProperty(name="Colour Map", subtype='FILE_PATH',
                               description="Colour image of the surface: a world map (2:1) or a "
@@ -273,6 +298,10 @@ class PLOD_PG_settings(bpy.types.PropertyGroup):
             "detail_amplitude": self.detail_amplitude,
             "detail_roughness": self.detail_roughness, "detail_smallest": self.detail_smallest,
             "detail_craters": self.detail_craters, "detail_plains": self.detail_plains,
+            "detail_relief": self.detail_relief, "detail_hills": self.detail_hills,
+            "detail_highlands": self.detail_highlands,
+            "detail_fine_roughness": self.detail_fine_roughness,
+            "detail_fine_below": self.detail_fine_below,
             "detail_seed": self.detail_seed,
         }
 

@@ -189,9 +189,14 @@ class PLOD_PT_detail(PLOD_PT_planet_sub, bpy.types.Panel):
         col.prop(s, "detail_style")
         col.prop(s, "detail_amplitude")
         col.prop(s, "detail_roughness")
+        col.prop(s, "detail_fine_roughness")
+        col.prop(s, "detail_fine_below")
         col.prop(s, "detail_smallest", text="Smallest")
         col.prop(s, "detail_craters")
         col.prop(s, "detail_plains")
+        col.prop(s, "detail_hills")
+        col.prop(s, "detail_relief")
+        col.prop(s, "detail_highlands")
         col.prop(s, "detail_seed")
 
 
