@@ -797,17 +797,14 @@ static PyObject *plod__planet_mesh(plod_py_planet *self, PyObject *args, PyObjec
 {
     static char *kwlist[] = {"template_level", "morph", "threads", "visible_only", "cache",
                              "changed_only", NULL};
-    PyObject *level_obj = Py_None, *morph_obj = Py_None;
+    PyObject *level_obj = Py_None, *morph_obj = Py_False;
     int morph, threads = 2, visible_only = 1, use_cache = 1, changed_only = 0;
     if (!plod__planet_ready(self))
         return NULL;
     if (!PyArg_ParseTupleAndKeywords(args, kwds, "|OOippp", kwlist, &level_obj, &morph_obj,
                                      &threads, &visible_only, &use_cache, &changed_only))
         return NULL;
-    /* None: on (continuous surface), off with changed_only (which needs it off) */
-    if (morph_obj == Py_None)
-        morph = !changed_only;
-    else if ((morph = PyObject_IsTrue(morph_obj)) < 0)
+    if ((morph = PyObject_IsTrue(morph_obj)) < 0)
         return NULL;
     int level;
     if (plod__template_level_arg(self, level_obj, &level) < 0)
@@ -1045,7 +1042,7 @@ static PyMethodDef plod__planet_methods[] = {
     {"height_range", (PyCFunction)plod__planet_height_range, METH_NOARGS,
      "height_range() -> (min, max) metres"},
     {"mesh", (PyCFunction)(void (*)(void))plod__planet_mesh_locked, METH_VARARGS | METH_KEYWORDS,
-     "mesh(template_level=None, morph=None (on; off with changed_only), threads=2, visible_only=True, cache=True, "
+     "mesh(template_level=None, morph=False, threads=2, visible_only=True, cache=True, "
      "changed_only=False) -> Mesh; with cache, sectors kept from the previous mesh() are "
      "copied, not recomputed (identical output); changed_only leaves out the sectors whose "
      "output the previous mesh() already gave (mesh.sector_ids names those emitted)"},
