@@ -3,13 +3,11 @@
  * far above that, and keep below their own thresholds on one thread), and
  * the persistent workers, which wait between loops. */
 #include "plod_base.h"
+#include "plod_platform.h"
 
-#include <pthread.h>
 #include <stdatomic.h>
 #include <stdint.h>
 #include <stdlib.h>
-#include <time.h>
-#include <unistd.h>
 
 typedef struct plod__block {
     plod_range_fn range;
@@ -17,11 +15,10 @@ typedef struct plod__block {
     size_t begin, end;
 } plod__block;
 
-static void *plod__run_block(void *arg)
+static void plod__run_block(void *arg)
 {
     const plod__block *b = arg;
     b->range(b->context, b->begin, b->end);
-    return NULL;
 }
 
 void plod_parallel_for(size_t count, int threads, plod_range_fn range, void *context)
@@ -34,16 +31,16 @@ void plod_parallel_for(size_t count, int threads, plod_range_fn range, void *con
     if (n > count)
         n = count;
     plod__block blocks[PLOD_MAX_THREADS];
-    pthread_t ids[PLOD_MAX_THREADS];
+    plod_thread ids[PLOD_MAX_THREADS];
     int started[PLOD_MAX_THREADS];
     for (size_t t = 0; t < n; t++)
         blocks[t] = (plod__block){range, context, count * t / n, count * (t + 1) / n};
     for (size_t t = 1; t < n; t++)
-        started[t] = pthread_create(&ids[t], NULL, plod__run_block, &blocks[t]) == 0;
+        started[t] = plod_thread_start(&ids[t], plod__run_block, &blocks[t]);
     plod__run_block(&blocks[0]);
     for (size_t t = 1; t < n; t++) {
         if (started[t])
-            pthread_join(ids[t], NULL);
+            plod_thread_join(&ids[t]);
         else
             plod__run_block(&blocks[t]); /* no thread: do it here */
     }
@@ -74,11 +71,11 @@ void plod_parallel_for(size_t count, int threads, plod_range_fn range, void *con
 
 struct plod_workers {
     int count;               /* workers started */
-    pthread_t ids[PLOD_MAX_THREADS];
-    pid_t pid;               /* the creator's process: after fork() the
+    plod_thread ids[PLOD_MAX_THREADS];
+    unsigned long pid;       /* the creator's process: after fork() the
                                 workers are gone */
-    pthread_mutex_t lock;
-    pthread_cond_t wake;
+    plod_mutex lock;
+    plod_cond wake;
     atomic_int sleeping;     /* workers asleep or going to sleep */
     atomic_uint_fast64_t hint; /* bumped by plod_workers_begin */
     atomic_int spin;         /* 1 between plod_workers_begin and _end */
@@ -103,13 +100,6 @@ static void plod__relax(void)
 #elif defined(__aarch64__)
     __asm__ __volatile__("yield");
 #endif
-}
-
-static uint64_t plod__clock_ns(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (uint64_t)ts.tv_sec * 1000000000u + (uint64_t)ts.tv_nsec;
 }
 
 /* Claims and runs chunks of generation `generation` until none is left:
@@ -143,32 +133,32 @@ static uint64_t plod__generation(plod_workers *w)
     return atomic_load(&w->next) >> PLOD__GEN_SHIFT;
 }
 
-static void *plod__worker(void *arg)
+static void plod__worker(void *arg)
 {
     plod_workers *w = arg;
     uint64_t served = 0; /* the last generation it looked at */
     uint_fast64_t hint = atomic_load(&w->hint);
     int spinning = 0;
-    uint64_t idle = plod__clock_ns();
+    uint64_t idle = plod_clock_ns();
     for (unsigned k = 1; !atomic_load(&w->quit); k++) {
         uint64_t generation = plod__generation(w);
         if (generation != served) {
             served = generation;
             plod__run_chunks(w, generation, 0);
             spinning = 1; /* for the next loop while the caller wants it (below) */
-            idle = plod__clock_ns();
+            idle = plod_clock_ns();
             continue;
         }
         if (atomic_load(&w->hint) != hint) {
             hint = atomic_load(&w->hint);
             spinning = 1;
-            idle = plod__clock_ns();
+            idle = plod_clock_ns();
         }
         if (spinning && (k & 255)) {
             plod__relax();
             continue;
         }
-        uint64_t now = plod__clock_ns();
+        uint64_t now = plod_clock_ns();
         int wanted = atomic_load(&w->spin) || now < atomic_load(&w->linger_until);
         if (spinning && (!wanted || now - idle > PLOD__SPIN_NS)) {
             spinning = 0; /* no loop came while spinning: poll */
@@ -177,30 +167,28 @@ static void *plod__worker(void *arg)
         if (spinning)
             continue;
         if (now - idle <= PLOD__IDLE_NS) {
-            struct timespec nap = {0, PLOD__POLL_NS};
-            nanosleep(&nap, NULL);
+            plod_sleep_ns(PLOD__POLL_NS);
             continue;
         }
-        pthread_mutex_lock(&w->lock);
+        plod_mutex_lock(&w->lock);
         atomic_fetch_add(&w->sleeping, 1);
         /* sleeping is raised before the last look, the caller publishes
          * before looking at sleeping: one of the two sees the other */
         while (!atomic_load(&w->quit) && plod__generation(w) == served &&
                atomic_load(&w->hint) == hint)
-            pthread_cond_wait(&w->wake, &w->lock);
+            plod_cond_wait(&w->wake, &w->lock);
         atomic_fetch_sub(&w->sleeping, 1);
-        pthread_mutex_unlock(&w->lock);
-        idle = plod__clock_ns();
+        plod_mutex_unlock(&w->lock);
+        idle = plod_clock_ns();
     }
-    return NULL;
 }
 
 static void plod__wake_sleepers(plod_workers *w)
 {
     if (atomic_load(&w->sleeping) > 0) {
-        pthread_mutex_lock(&w->lock);
-        pthread_cond_broadcast(&w->wake);
-        pthread_mutex_unlock(&w->lock);
+        plod_mutex_lock(&w->lock);
+        plod_cond_broadcast(&w->wake);
+        plod_mutex_unlock(&w->lock);
     }
 }
 
@@ -214,12 +202,12 @@ plod_status plod_workers_create(plod_workers **out, int threads)
     plod_workers *w = calloc(1, sizeof *w);
     if (!w)
         return PLOD_ERR_NO_MEMORY;
-    if (pthread_mutex_init(&w->lock, NULL) != 0) {
+    if (!plod_mutex_init(&w->lock)) {
         free(w);
         return PLOD_ERR_NO_MEMORY;
     }
-    if (pthread_cond_init(&w->wake, NULL) != 0) {
-        pthread_mutex_destroy(&w->lock);
+    if (!plod_cond_init(&w->wake)) {
+        plod_mutex_destroy(&w->lock);
         free(w);
         return PLOD_ERR_NO_MEMORY;
     }
@@ -230,9 +218,9 @@ plod_status plod_workers_create(plod_workers **out, int threads)
     atomic_init(&w->quit, 0);
     atomic_init(&w->next, 0);
     atomic_init(&w->done, 0);
-    w->pid = getpid();
+    w->pid = plod_process_id();
     for (int t = 1; t < threads; t++) {
-        if (pthread_create(&w->ids[w->count], NULL, plod__worker, w) != 0)
+        if (!plod_thread_start(&w->ids[w->count], plod__worker, w))
             break;
         w->count++;
     }
@@ -248,27 +236,27 @@ void plod_workers_destroy(plod_workers *w)
 {
     if (!w)
         return;
-    if (w->pid == getpid()) { /* a forked child has no workers to join */
+    if (w->pid == plod_process_id()) { /* a forked child has no workers to join */
         atomic_store(&w->quit, 1);
-        pthread_mutex_lock(&w->lock);
-        pthread_cond_broadcast(&w->wake);
-        pthread_mutex_unlock(&w->lock);
+        plod_mutex_lock(&w->lock);
+        plod_cond_broadcast(&w->wake);
+        plod_mutex_unlock(&w->lock);
         for (int t = 0; t < w->count; t++)
-            pthread_join(w->ids[t], NULL);
-        pthread_cond_destroy(&w->wake);
-        pthread_mutex_destroy(&w->lock);
+            plod_thread_join(&w->ids[t]);
+        plod_cond_destroy(&w->wake);
+        plod_mutex_destroy(&w->lock);
     }
     free(w);
 }
 
 int plod_workers_threads(const plod_workers *w)
 {
-    return w && w->pid == getpid() ? 1 + w->count : 1;
+    return w && w->pid == plod_process_id() ? 1 + w->count : 1;
 }
 
 void plod_workers_begin(plod_workers *w)
 {
-    if (!w || w->pid != getpid())
+    if (!w || w->pid != plod_process_id())
         return;
     atomic_store(&w->spin, 1);
     atomic_fetch_add(&w->hint, 1);
@@ -279,7 +267,7 @@ void plod_workers_end(plod_workers *w)
 {
     if (!w)
         return;
-    atomic_store(&w->linger_until, plod__clock_ns() + PLOD__LINGER_NS);
+    atomic_store(&w->linger_until, plod_clock_ns() + PLOD__LINGER_NS);
     atomic_store(&w->spin, 0);
 }
 
@@ -310,7 +298,7 @@ void plod_workers_for(plod_workers *w, size_t count, size_t grain, plod_range_fn
     if ((count - 1) / grain + 1 > PLOD__MAX_CHUNKS)
         grain = (count - 1) / PLOD__MAX_CHUNKS + 1;
     size_t chunks = (count - 1) / grain + 1;
-    if (!w || w->pid != getpid() || chunks < 2) {
+    if (!w || w->pid != plod_process_id() || chunks < 2) {
         range(context, 0, count);
         return;
     }

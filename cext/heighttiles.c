@@ -6,20 +6,18 @@
  *
  * Memory: per-tile bounds (8 bytes per tile: 1.8 MB for an 86400 x 43200
  * map in 128-texel tiles) and the slot table, plus at most cache_bytes of
- * tiles.  Tiles are read with pread, so the file itself is never mapped.
+ * tiles.  Tiles are read at their offsets (plod_file_read_at), so the file
+ * itself is never mapped.
  */
 #include "plod_heightsource.h"
+#include "plod_platform.h"
 
 #include <errno.h>
-#include <fcntl.h>
 #include <math.h>
-#include <pthread.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
-#include <unistd.h>
 
 #define PLOD__TILES_MAGIC "PLODTIL1"
 #define PLOD__TILES_HEADER 128
@@ -34,11 +32,11 @@ typedef struct plod__tiles_header {
 } plod__tiles_header;
 
 struct plod_tiles {
-    int fd;
+    plod_file file;
     int width, height, tile, tiles_x, tiles_y;
     plod_texel_type type;
     size_t sample_bytes, tile_bytes;
-    off_t data_offset;
+    uint64_t data_offset;
     size_t nan_count;
     float *tile_min, *tile_max; /* per tile, stored units (NaN-free) */
     /* pyramid over tiles: level 0 is the tile grid */
@@ -47,7 +45,7 @@ struct plod_tiles {
     float *level_min[32], *level_max[32];
     double global_lo, global_hi; /* normalised */
     /* the cache */
-    pthread_mutex_t lock;
+    plod_mutex lock;
     size_t slots, used, hand;
     unsigned char *slot_data;
     int32_t *slot_tile;
@@ -95,38 +93,10 @@ static double plod__tiles_value(const unsigned char *p, plod_texel_type type)
     return f;
 }
 
-static int plod__write_all(int fd, const void *data, size_t bytes, off_t at)
-{
-    const unsigned char *p = data;
-    while (bytes) {
-        ssize_t n = pwrite(fd, p, bytes, at);
-        if (n < 0 && errno == EINTR)
-            continue;
-        if (n <= 0)
-            return 0;
-        p += n, bytes -= (size_t)n, at += n;
-    }
-    return 1;
-}
-
-static int plod__read_all(int fd, void *data, size_t bytes, off_t at)
-{
-    unsigned char *p = data;
-    while (bytes) {
-        ssize_t n = pread(fd, p, bytes, at);
-        if (n < 0 && errno == EINTR)
-            continue;
-        if (n <= 0)
-            return 0;
-        p += n, bytes -= (size_t)n, at += n;
-    }
-    return 1;
-}
-
-static off_t plod__tiles_data_offset(size_t tile_count)
+static uint64_t plod__tiles_data_offset(size_t tile_count)
 {
     size_t bounds = PLOD__TILES_HEADER + tile_count * 2 * sizeof(float);
-    return (off_t)((bounds + PLOD__TILES_ALIGN - 1) / PLOD__TILES_ALIGN * PLOD__TILES_ALIGN);
+    return (uint64_t)((bounds + PLOD__TILES_ALIGN - 1) / PLOD__TILES_ALIGN * PLOD__TILES_ALIGN);
 }
 
 /* ---- the source rows: a raw grid or the caller's image reader ----------------- */
@@ -194,8 +164,8 @@ static plod_status plod__rows_open(plod__row_reader *r, const char *source,
                             raw->width, raw->height, (int)raw->type);
         return PLOD_ERR_BAD_PARAM;
     }
-    struct stat info;
-    if (stat(source, &info) != 0 || !S_ISREG(info.st_mode)) {
+    plod_path_info info;
+    if (!plod_path_info_get(source, &info) || !info.regular) {
         plod_status_format(message, message_size, "cannot open '%s': %s", source,
                             strerror(errno));
         return PLOD_ERR_IO;
@@ -203,15 +173,15 @@ static plod_status plod__rows_open(plod__row_reader *r, const char *source,
     unsigned long long expected = (unsigned long long)raw->width *
                                   (unsigned long long)raw->height *
                                   plod_raw_sample_bytes(raw->type);
-    if ((unsigned long long)info.st_size != expected) {
+    if ((unsigned long long)info.size != expected) {
         plod_status_format(message, message_size,
                             "'%s' is %lld bytes; %dx%d samples of %zu bytes need %llu", source,
-                            (long long)info.st_size, raw->width, raw->height,
+                            (long long)info.size, raw->width, raw->height,
                             plod_raw_sample_bytes(raw->type), expected);
         return PLOD_ERR_BAD_IMAGE;
     }
     r->raw = *raw;
-    r->raw_file = fopen(source, "rb");
+    r->raw_file = plod_fopen(source, "rb");
     r->raw_row = malloc((size_t)raw->width * plod_raw_sample_bytes(raw->type));
     if (!r->raw_file || !r->raw_row) {
         if (r->raw_file)
@@ -311,11 +281,11 @@ static void plod__rows_to_signed(const void *in, plod_texel_type type, size_t co
 
 static int plod__stat_source(const char *source, int64_t *size, int64_t *mtime)
 {
-    struct stat info;
-    if (stat(source, &info) != 0)
+    plod_path_info info;
+    if (!plod_path_info_get(source, &info))
         return 0;
-    *size = (int64_t)info.st_size;
-    *mtime = (int64_t)info.st_mtime;
+    *size = info.size;
+    *mtime = info.mtime;
     return 1;
 }
 
@@ -347,7 +317,7 @@ plod_status plod_tiles_build(const char *source, const plod_raw_format *raw,
     size_t sample = plod__tiles_sample_bytes(type);
     size_t read_sample = plod__tiles_sample_bytes(reader.type);
     size_t tile_bytes = (size_t)tile * (size_t)tile * sample;
-    off_t data_offset = plod__tiles_data_offset(tile_count);
+    uint64_t data_offset = plod__tiles_data_offset(tile_count);
     /* a band of `tile` rows in the stored type (reads of reader.type fit:
      * never wider than the stored type) */
     size_t band_bytes = (size_t)width * (size_t)tile * (sample > read_sample ? sample : read_sample);
@@ -363,8 +333,8 @@ plod_status plod_tiles_build(const char *source, const plod_raw_format *raw,
         return PLOD_ERR_NO_MEMORY;
     }
     snprintf(temporary, path_length + 16, "%s.partial", tiles_path);
-    int fd = open(temporary, O_RDWR | O_CREAT | O_TRUNC, 0644);
-    if (fd < 0) {
+    plod_file file;
+    if (!plod_file_open(&file, temporary, PLOD_FILE_CREATE)) {
         plod_status_format(message, message_size, "cannot write '%s': %s", temporary,
                             strerror(errno));
         s = PLOD_ERR_IO;
@@ -411,8 +381,8 @@ plod_status plod_tiles_build(const char *source, const plod_raw_format *raw,
             size_t index = (size_t)ty * (size_t)tiles_x + (size_t)tx;
             bounds[2 * index] = lo;
             bounds[2 * index + 1] = hi;
-            if (!plod__write_all(fd, tile_buffer, tile_bytes,
-                                 data_offset + (off_t)(index * tile_bytes))) {
+            if (!plod_file_write_at(file, tile_buffer, tile_bytes,
+                                    data_offset + (uint64_t)index * tile_bytes)) {
                 plod_status_format(message, message_size, "writing '%s' failed: %s", temporary,
                                     strerror(errno));
                 s = PLOD_ERR_IO;
@@ -430,24 +400,25 @@ plod_status plod_tiles_build(const char *source, const plod_raw_format *raw,
         unsigned char head[PLOD__TILES_HEADER];
         memset(head, 0, sizeof head);
         memcpy(head, &header, sizeof header);
-        if (!plod__write_all(fd, bounds, tile_count * 2 * sizeof(float), PLOD__TILES_HEADER) ||
-            !plod__write_all(fd, head, sizeof head, 0) || fsync(fd) != 0) {
+        if (!plod_file_write_at(file, bounds, tile_count * 2 * sizeof(float),
+                                PLOD__TILES_HEADER) ||
+            !plod_file_write_at(file, head, sizeof head, 0) || !plod_file_sync(file)) {
             plod_status_format(message, message_size, "writing '%s' failed: %s", temporary,
                                 strerror(errno));
             s = PLOD_ERR_IO;
         }
     }
-    if (close(fd) != 0 && s == PLOD_OK) {
+    if (!plod_file_close(file) && s == PLOD_OK) {
         plod_status_format(message, message_size, "writing '%s' failed", temporary);
         s = PLOD_ERR_IO;
     }
-    if (s == PLOD_OK && rename(temporary, tiles_path) != 0) {
+    if (s == PLOD_OK && !plod_path_replace(temporary, tiles_path)) {
         plod_status_format(message, message_size, "cannot rename to '%s': %s", tiles_path,
                             strerror(errno));
         s = PLOD_ERR_IO;
     }
     if (s != PLOD_OK)
-        unlink(temporary);
+        plod_path_remove(temporary);
 done:
     free(band), free(tile_buffer), free(bounds), free(temporary);
     plod__rows_close(&reader);
@@ -456,10 +427,10 @@ done:
 
 /* ---- opening --------------------------------------------------------------------- */
 
-static int plod__read_header(int fd, plod__tiles_header *header)
+static int plod__read_header(plod_file file, plod__tiles_header *header)
 {
     unsigned char head[PLOD__TILES_HEADER];
-    if (!plod__read_all(fd, head, sizeof head, 0))
+    if (!plod_file_read_at(file, head, sizeof head, 0))
         return 0;
     memcpy(header, head, sizeof *header);
     return memcmp(header->magic, PLOD__TILES_MAGIC, 8) == 0 && header->version == 1;
@@ -467,12 +438,12 @@ static int plod__read_header(int fd, plod__tiles_header *header)
 
 int plod_tiles_current(const char *tiles_path, const char *source)
 {
-    int fd = open(tiles_path, O_RDONLY);
-    if (fd < 0)
+    plod_file file;
+    if (!plod_file_open(&file, tiles_path, PLOD_FILE_READ))
         return 0;
     plod__tiles_header header;
-    int ok = plod__read_header(fd, &header) && header.complete == 1;
-    close(fd);
+    int ok = plod__read_header(file, &header) && header.complete == 1;
+    plod_file_close(file);
     int64_t size, mtime;
     return ok && plod__stat_source(source, &size, &mtime) && size == header.source_size &&
            mtime == header.source_mtime;
@@ -485,32 +456,32 @@ plod_status plod_tiles_open(plod_tiles **out, const char *tiles_path, size_t cac
     if (!out || !tiles_path)
         return PLOD_ERR_NULL;
     *out = NULL;
-    int fd = open(tiles_path, O_RDONLY);
-    if (fd < 0) {
+    plod_file file;
+    if (!plod_file_open(&file, tiles_path, PLOD_FILE_READ)) {
         plod_status_format(message, message_size, "cannot open '%s': %s", tiles_path,
                             strerror(errno));
         return PLOD_ERR_IO;
     }
     plod__tiles_header h;
-    struct stat info;
-    if (!plod__read_header(fd, &h) || h.complete != 1 || fstat(fd, &info) != 0) {
-        close(fd);
+    int64_t file_size;
+    if (!plod__read_header(file, &h) || h.complete != 1 || !plod_file_size(file, &file_size)) {
+        plod_file_close(file);
         plod_status_format(message, message_size, "'%s' is not a complete tile file",
                             tiles_path);
         return PLOD_ERR_BAD_IMAGE;
     }
     if (h.width < 2 || h.height < 1 || h.width > (1u << 24) || h.height > (1u << 24) ||
         h.tile < 16 || h.tile > 4096 || (h.tile & (h.tile - 1)) || h.type >= PLOD_TEXEL_TYPE_COUNT) {
-        close(fd);
+        plod_file_close(file);
         plod_status_format(message, message_size, "'%s' has a corrupt header", tiles_path);
         return PLOD_ERR_BAD_IMAGE;
     }
     plod_tiles *t = calloc(1, sizeof *t);
     if (!t) {
-        close(fd);
+        plod_file_close(file);
         return PLOD_ERR_NO_MEMORY;
     }
-    t->fd = fd;
+    t->file = file;
     t->width = (int)h.width;
     t->height = (int)h.height;
     t->tile = (int)h.tile;
@@ -523,10 +494,10 @@ plod_status plod_tiles_open(plod_tiles **out, const char *tiles_path, size_t cac
     size_t count = (size_t)t->tiles_x * (size_t)t->tiles_y;
     t->data_offset = plod__tiles_data_offset(count);
     plod_status s = PLOD_OK;
-    if ((unsigned long long)info.st_size <
+    if ((unsigned long long)file_size <
         (unsigned long long)t->data_offset + (unsigned long long)count * t->tile_bytes) {
         plod_status_format(message, message_size, "'%s' is truncated (%lld bytes)", tiles_path,
-                            (long long)info.st_size);
+                            (long long)file_size);
         s = PLOD_ERR_BAD_IMAGE;
         goto fail;
     }
@@ -538,7 +509,7 @@ plod_status plod_tiles_open(plod_tiles **out, const char *tiles_path, size_t cac
         s = PLOD_ERR_NO_MEMORY;
         goto fail;
     }
-    if (!plod__read_all(fd, bounds, count * 2 * sizeof(float), PLOD__TILES_HEADER)) {
+    if (!plod_file_read_at(file, bounds, count * 2 * sizeof(float), PLOD__TILES_HEADER)) {
         free(bounds);
         plod_status_format(message, message_size, "'%s' is truncated", tiles_path);
         s = PLOD_ERR_BAD_IMAGE;
@@ -607,7 +578,7 @@ plod_status plod_tiles_open(plod_tiles **out, const char *tiles_path, size_t cac
     }
     for (size_t i = 0; i < count; i++)
         t->tile_slot[i] = -1;
-    if (pthread_mutex_init(&t->lock, NULL) != 0) {
+    if (!plod_mutex_init(&t->lock)) {
         s = PLOD_ERR_NO_MEMORY;
         goto fail;
     }
@@ -618,7 +589,7 @@ fail:
         free(t->level_min[l]), free(t->level_max[l]);
     free(t->tile_min), free(t->tile_max), free(t->slot_data), free(t->slot_tile);
     free(t->slot_ref), free(t->tile_slot);
-    close(fd);
+    plod_file_close(file);
     free(t);
     if (s == PLOD_ERR_NO_MEMORY)
         plod_status_format(message, message_size, "out of memory opening '%s'", tiles_path);
@@ -633,8 +604,8 @@ void plod_tiles_destroy(plod_tiles *t)
         free(t->level_min[l]), free(t->level_max[l]);
     free(t->tile_min), free(t->tile_max), free(t->slot_data), free(t->slot_tile);
     free(t->slot_ref), free(t->tile_slot);
-    pthread_mutex_destroy(&t->lock);
-    close(t->fd);
+    plod_mutex_destroy(&t->lock);
+    plod_file_close(t->file);
     free(t);
 }
 
@@ -647,18 +618,18 @@ size_t plod_tiles_cache_limit(const plod_tiles *t) { return t->slots * t->tile_b
 size_t plod_tiles_cached_bytes(const plod_tiles *t)
 {
     plod_tiles *m = (plod_tiles *)t;
-    pthread_mutex_lock(&m->lock);
+    plod_mutex_lock(&m->lock);
     size_t bytes = m->used * m->tile_bytes;
-    pthread_mutex_unlock(&m->lock);
+    plod_mutex_unlock(&m->lock);
     return bytes;
 }
 
 size_t plod_tiles_read_errors(const plod_tiles *t)
 {
     plod_tiles *m = (plod_tiles *)t;
-    pthread_mutex_lock(&m->lock);
+    plod_mutex_lock(&m->lock);
     size_t errors = m->read_errors;
-    pthread_mutex_unlock(&m->lock);
+    plod_mutex_unlock(&m->lock);
     return errors;
 }
 
@@ -709,8 +680,8 @@ static const unsigned char *plod__tile(plod_tiles *t, size_t index)
     }
     t->slot_tile[victim] = -1;
     unsigned char *data = t->slot_data + victim * t->tile_bytes;
-    if (!plod__read_all(t->fd, data, t->tile_bytes,
-                        t->data_offset + (off_t)(index * t->tile_bytes)) ||
+    if (!plod_file_read_at(t->file, data, t->tile_bytes,
+                           t->data_offset + (uint64_t)index * t->tile_bytes) ||
         !plod__tile_matches_bounds(t, index, data)) {
         t->read_errors++; /* the slot stays empty (reused first by the clock) */
         t->slot_ref[victim] = 0;
@@ -764,12 +735,12 @@ double plod_tiles_sample_uv(const plod_tiles *tiles, double u, double v)
     int ii[4] = {(int)fi, (int)fi + 1, (int)fi, (int)fi + 1};
     int jj[4] = {(int)fj, (int)fj, (int)fj + 1, (int)fj + 1};
     double tap[4];
-    pthread_mutex_lock(&t->lock);
+    plod_mutex_lock(&t->lock);
     for (int k = 0; k < 4; k++) {
         plod__tiles_wrap(t, &ii[k], &jj[k]);
         tap[k] = plod__texel(t, ii[k], jj[k]);
     }
-    pthread_mutex_unlock(&t->lock);
+    plod_mutex_unlock(&t->lock);
     /* as plod__lerp_taps */
     double bottom = tap[0] + wu * (tap[1] - tap[0]);
     double top = tap[2] + wu * (tap[3] - tap[2]);
@@ -784,7 +755,7 @@ static void plod__rect(plod_tiles *t, int c0, int r0, int c1, int r1, float *lo,
 {
     int tx0 = c0 / t->tile, tx1 = c1 / t->tile, ty0 = r0 / t->tile, ty1 = r1 / t->tile;
     if ((tx1 - tx0 + 1) * (ty1 - ty0 + 1) <= 4) {
-        pthread_mutex_lock(&t->lock);
+        plod_mutex_lock(&t->lock);
         for (int ty = ty0; ty <= ty1; ty++)
             for (int tx = tx0; tx <= tx1; tx++) {
                 size_t index = (size_t)ty * (size_t)t->tiles_x + (size_t)tx;
@@ -807,7 +778,7 @@ static void plod__rect(plod_tiles *t, int c0, int r0, int c1, int r1, float *lo,
                             *hi = v;
                     }
             }
-        pthread_mutex_unlock(&t->lock);
+        plod_mutex_unlock(&t->lock);
         return;
     }
     int l = 0;

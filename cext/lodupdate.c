@@ -26,12 +26,12 @@
  * not in the refiner.
  */
 #include "plod_lodtree.h"
+#include "plod_platform.h"
 
 #include <assert.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 /* the canonical order's radix sort (plod__order_visible): 11-bit digits */
 #define PLOD__ORDER_BITS 11
@@ -858,9 +858,7 @@ static plod_status plod__check_params(const plod_refine_params *p, plod_error *e
 
 static double plod__now_us(void)
 {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec * 1e6 + ts.tv_nsec * 1e-3;
+    return (double)plod_clock_ns() * 1e-3;
 }
 
 /* The frame context of an update at `camera` (eye_dist: its distance from

@@ -7,11 +7,11 @@
  * raised by the callback cancels the work and is re-raised afterwards.
  */
 #include "pyplanetlod.h"
+#include "plod_platform.h"
 
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #define PLOD__MESSAGE_SIZE 512
 
@@ -769,18 +769,14 @@ static PyType_Spec plod__cubemap_spec = {
 
 static double plod__seconds(void)
 {
-    struct timespec now;
-    clock_gettime(CLOCK_MONOTONIC, &now);
-    return (double)now.tv_sec + 1e-9 * (double)now.tv_nsec;
+    return 1e-9 * (double)plod_clock_ns();
 }
 
 /* CPU time of the calling thread: with threads=1 the whole resampling cost,
  * undisturbed by other processes on a busy machine. */
 static double plod__thread_cpu_seconds(void)
 {
-    struct timespec now;
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &now);
-    return (double)now.tv_sec + 1e-9 * (double)now.tv_nsec;
+    return 1e-9 * (double)plod_thread_cpu_ns();
 }
 
 static PyObject *plod__resample(PyObject *module, PyObject *args, PyObject *kwargs)

@@ -5,12 +5,11 @@
  * and reused while the map's size and modification time are unchanged.
  */
 #include "pyplanetlod.h"
+#include "plod_platform.h"
 
-#include <libgen.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
 #define PLOD__MESSAGE 512
 
@@ -98,7 +97,7 @@ static int plod__tiled_map_init(plod_py_tiled_map *self, PyObject *args, PyObjec
     if (!(tiles_bytes = plod__tiles_path(path, tiles_obj)))
         goto done;
     const char *tiles_path = PyBytes_AsString(tiles_bytes);
-    if (access(path, R_OK) != 0) {
+    if (!plod_path_readable(path)) {
         char detail[PLOD__MESSAGE];
         snprintf(detail, sizeof detail, "cannot read '%s'", path);
         plod_py_raise_detail(PLOD_ERR_IO, context, detail);

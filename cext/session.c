@@ -12,9 +12,9 @@
  * follows the refine criterion's split distance.
  */
 #include "plod_session.h"
+#include "plod_platform.h"
 
 #include <math.h>
-#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -31,7 +31,7 @@ struct plod_session {
     plod_camera camera;        /* last refine's */
     plod_refine_params params;
     int has_camera;
-    pthread_mutex_t lock;
+    plod_mutex lock;
 };
 
 static void plod__session_message(char *message, size_t size, const char *text)
@@ -55,7 +55,7 @@ plod_status plod_session_create(plod_session **out, const plod_planet *planet,
     plod_session *s = calloc(1, sizeof *s);
     if (!s)
         return PLOD_ERR_NO_MEMORY;
-    if (pthread_mutex_init(&s->lock, NULL) != 0) {
+    if (!plod_mutex_init(&s->lock)) {
         free(s);
         return PLOD_ERR_NO_MEMORY;
     }
@@ -115,7 +115,7 @@ void plod_session_destroy(plod_session *session)
     plod_cubemap_bundle_destroy(session->bundle);
     plod_cubemap_destroy(session->normalmap);
     plod_detail_destroy(session->detail);
-    pthread_mutex_destroy(&session->lock);
+    plod_mutex_destroy(&session->lock);
     free(session);
 }
 
@@ -123,17 +123,17 @@ void plod_session_destroy(plod_session *session)
 
 void plod_session_lock(plod_session *session)
 {
-    pthread_mutex_lock(&session->lock);
+    plod_mutex_lock(&session->lock);
 }
 
 int plod_session_trylock(plod_session *session)
 {
-    return pthread_mutex_trylock(&session->lock) == 0;
+    return plod_mutex_trylock(&session->lock);
 }
 
 void plod_session_unlock(plod_session *session)
 {
-    pthread_mutex_unlock(&session->lock);
+    plod_mutex_unlock(&session->lock);
 }
 
 /* ---- queries ---------------------------------------------------------------------- */

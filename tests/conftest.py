@@ -8,6 +8,38 @@ import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
+# The module under test is the installed wheel: tools/build.sh unpacks it
+# into build/site, which pytest.ini puts first on sys.path (without it, the
+# checkout's own build).  NATIVE_DIR: that folder, which tests that start
+# Blender hand on ($PLANET_LOD_NATIVE).
+NATIVE_DIR = os.path.join(ROOT, "build", "site")
+if not os.path.isdir(os.path.join(NATIVE_DIR, "planetlod")):
+    NATIVE_DIR = ROOT
+import planetlod as _planetlod  # noqa: E402  the package under test
+
+IMPORTED_DIR = os.path.dirname(os.path.dirname(os.path.abspath(_planetlod.__file__)))
+
+
+def _stale_installed_sources():
+    """The checkout's planetlod/*.py that differ from the installed copies."""
+    if os.path.samefile(IMPORTED_DIR, ROOT) or not os.path.isdir(os.path.join(ROOT, "planetlod")):
+        return []
+    stale = []
+    for name in sorted(os.listdir(os.path.join(ROOT, "planetlod"))):
+        if not name.endswith(".py"):
+            continue
+        installed = os.path.join(IMPORTED_DIR, "planetlod", name)
+        with open(os.path.join(ROOT, "planetlod", name), "rb") as f:
+            source = f.read()
+        if not os.path.exists(installed) or open(installed, "rb").read() != source:
+            stale.append(name)
+    return stale
+
+
+if _stale_installed_sources():
+    pytest.exit(f"planetlod/{', '.join(_stale_installed_sources())} changed since the package in "
+                f"{IMPORTED_DIR} was built: run tools/build.sh", returncode=4)
+
 DATA_DIRS = [os.path.join(ROOT, "data"), os.path.join(os.path.dirname(ROOT), "shared", "data")]
 
 
@@ -35,7 +67,7 @@ C_TEST_FLAGS = ["-std=c11", "-O2", "-Wall", "-Wextra", "-Werror", "-Wno-missing-
 @pytest.fixture
 def run_c_test(tmp_path):
     """run(name, core_sources, extra_flags=()): builds tests/c/<name>.c with
-    those cext/ sources, runs it and returns its stdout (the build and the
+    those cext/ sources and the platform layer, runs it and returns its stdout (the build and the
     run must succeed)."""
     if shutil.which("gcc") is None:
         pytest.skip("needs gcc")
@@ -44,7 +76,9 @@ def run_c_test(tmp_path):
         exe = tmp_path / name
         cmd = ["gcc", *C_TEST_FLAGS, *extra_flags, "-I", os.path.join(ROOT, "cext"),
                os.path.join(ROOT, "tests", "c", name + ".c")]
-        cmd += [os.path.join(ROOT, "cext", s) for s in core_sources]
+        # the platform layer with them: base.c's threads and clocks need it
+        sources = list(core_sources) + ["platform_posix.c", "platform_win32.c"]
+        cmd += [os.path.join(ROOT, "cext", s) for s in dict.fromkeys(sources)]
         cmd += ["-lm", "-lpthread", "-o", str(exe)]
         build = subprocess.run(cmd, capture_output=True, text=True)
         assert build.returncode == 0, build.stderr

@@ -10,8 +10,9 @@ supported Blender, the add-on linked into a temporary user-scripts folder:
 $PLANET_LOD_BLENDERS (comma-separated labels, e.g. "blender,bpy-5.0") picks a
 subset.  The GPU-preview test needs a real window and runs in `blender` only.
 
-The native module is the one built in the repository root (setup.py
-build_ext --inplace), or whatever $PLANET_LOD_NATIVE points to.
+The native module is the installed wheel that tools/build.sh unpacks into
+build/site (else the repository root's build), or whatever $PLANET_LOD_NATIVE
+points to.
 """
 import csv
 import glob
@@ -21,6 +22,7 @@ import subprocess
 import sys
 
 import pytest
+from conftest import NATIVE_DIR
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BLENDER_TESTS = os.path.join(ROOT, "tests", "blender")
@@ -64,7 +66,7 @@ def blender_env(user_scripts, out):
     env["BLENDER_USER_CONFIG"] = str(user_scripts / "config")
     env["PYTHONPATH"] = BLENDER_TESTS
     env["PLOD_TEST_OUT"] = str(out)
-    env.setdefault("PLANET_LOD_NATIVE", ROOT)
+    env.setdefault("PLANET_LOD_NATIVE", NATIVE_DIR)
     return env
 
 

@@ -4,7 +4,7 @@
   (farm/flamenco/harness/): chunks, command lines, dependencies, refusals.
 * The compiled jobs then run here, task by task, each command in its own
   Blender process as a worker would run it ({blender} and {blenderArgs}
-  expanded): a short flyby split into chunks of 8, 4 and 3 frames gives the
+  expanded, with Flamenco's default `-b -y`): a short flyby split into chunks of 8, 4 and 3 frames gives the
   same CSV rows (sectors, triangles, mesh hash ...) and the same pictures
   for every frame; a saved .blend with a planet rendered with `-s A -e B -a`
   per chunk gives the same pictures whatever the chunks.
@@ -64,20 +64,24 @@ def compile_job(tmp_path, name, settings, created="2001-02-03T04:05:06"):
 
 
 def worker_env(tmp_path):
-    """Blender with the add-on in a private user-scripts folder, as on a worker."""
+    """Blender with the add-on in a private user-scripts folder and its own
+    preferences, as on a worker (which starts Blender without --factory-startup)."""
     scripts = tmp_path / "worker_scripts"
     if not scripts.exists():
         os.makedirs(scripts / "addons")
+        os.makedirs(tmp_path / "worker_config")
         os.symlink(os.path.join(ROOT, "addon", "planet_lod"), scripts / "addons" / "planet_lod")
     env = dict(os.environ)
     env["BLENDER_USER_SCRIPTS"] = str(scripts)
+    env["BLENDER_USER_CONFIG"] = str(tmp_path / "worker_config")
     env.setdefault("PLANET_LOD_NATIVE", ROOT)
     return env
 
 
 def expand(text):
     """The Manager's variables, as this machine's worker would get them."""
-    variables = {"blender": BLENDER, "blenderArgs": "-b --factory-startup", "planet_lod": ROOT}
+    # Flamenco's default {blenderArgs}: background, scripts of the .blend allowed
+    variables = {"blender": BLENDER, "blenderArgs": "-b -y", "planet_lod": ROOT}
     return re.sub(r"{([^}]+)}", lambda m: variables.get(m.group(1), m.group(0)), text)
 
 

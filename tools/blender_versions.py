@@ -24,7 +24,7 @@ Scripts written for `blender -b --python` run in these with
 tools/bpy_run.py (see there).
 """
 import argparse
-import fcntl
+import contextlib
 import os
 import shutil
 import subprocess
@@ -86,12 +86,31 @@ def _ensure_openimageio(py):
               "OpenImageIO"])
 
 
+@contextlib.contextmanager
+def _locked(path):
+    """Holds an exclusive lock on the file at `path` (created if missing)
+    until the block ends; the system drops it if the process dies."""
+    with open(path, "a+b") as lock:
+        if os.name == "nt":
+            import msvcrt
+            lock.seek(0)  # msvcrt locks bytes from the file's position
+            while True:
+                try:  # LK_LOCK gives up after 10 s: wait on
+                    msvcrt.locking(lock.fileno(), msvcrt.LK_LOCK, 1)
+                    break
+                except OSError:
+                    continue
+        else:
+            import fcntl
+            fcntl.flock(lock, fcntl.LOCK_EX)
+        yield
+
+
 def install(version):
     """Creates the venv of `version` unless it exists; returns its python."""
     root = cache_root()
     os.makedirs(root, exist_ok=True)
-    with open(os.path.join(root, ".lock"), "w") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)
+    with _locked(os.path.join(root, ".lock")):
         if python_of(version):
             _ensure_openimageio(python_of(version))
             return python_of(version)

@@ -6,13 +6,13 @@
 #   bash tools/install_deps.sh COMMAND...
 #
 # COMMAND  who calls it                       groups
-# flyby    tools/run_flyby.sh (main command)  build blender
-# tests    tools/run_tests.sh (test command)  build test blender
-# ci       tools/run_tests.sh with CI=true    build test blender fuzz
-# sanitize tools/sanitize.sh                  build test blender
+# flyby    tools/run_flyby.sh (main command)  build toolchain blender
+# tests    tools/run_tests.sh (test command)  build toolchain test blender wheels
+# ci       tools/run_tests.sh with CI=true    build toolchain test blender fuzz wheels
+# sanitize tools/sanitize.sh                  build toolchain test blender
 # fuzz     tools/fuzz.sh                      build fuzz
-# bench    bench/run_all.sh                   build test blender
-# soak     make soak                          build blender
+# bench    bench/run_all.sh                   build toolchain test blender
+# soak     make soak                          build toolchain blender
 #
 # Debian's Blender is installed without its recommends, and then lacks what
 # it loads at run time: libepoxy opens libEGL.so.1 (Blender aborts without
@@ -24,6 +24,10 @@
 # written by OpenImageIO's Python module: python3-openimageio for Debian's
 # Python and Blender 3.4, and, for another python3 first on PATH (pyenv's:
 # the CLI, bench), the OpenImageIO wheel from PyPI.
+# toolchain: tools/build.sh builds the wheels with Zig from PyPI (the
+# `ziglang` wheel) in a venv of its own.  wheels: what tests/test_wheels.py
+# inspects and runs them with (Wine runs the core's C tests built for
+# Windows; the mingw-w64 binutils read the Windows module).
 set -euo pipefail
 
 declare -A GROUP=(
@@ -33,15 +37,17 @@ declare -A GROUP=(
     [blender]="blender libegl1 libgl1 libegl-mesa0 libglx-mesa0 libgl1-mesa-dri
                xvfb xauth python3-openimageio python3-numpy python3-venv"
     [fuzz]="clang llvm libclang-rt-14-dev"
+    [toolchain]="python3-venv"
+    [wheels]="wine64 binutils-mingw-w64-x86-64"
 )
 declare -A COMMAND=(
-    [flyby]="build blender"
-    [tests]="build test blender"
-    [ci]="build test blender fuzz"
-    [sanitize]="build test blender"
+    [flyby]="build toolchain blender"
+    [tests]="build toolchain test blender wheels"
+    [ci]="build toolchain test blender fuzz wheels"
+    [sanitize]="build toolchain test blender"
     [fuzz]="build fuzz"
-    [bench]="build test blender"
-    [soak]="build blender"
+    [bench]="build toolchain test blender"
+    [soak]="build toolchain blender"
 )
 
 [ $# -gt 0 ] || { echo "usage: $0 {${!COMMAND[*]}}..." | tr ' ' '|' >&2; exit 2; }

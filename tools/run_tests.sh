@@ -20,6 +20,8 @@ PYTHON=${PYTHON:-/usr/bin/python3}
 start=$(date +%s)
 "$PYTHON" tools/blender_versions.py install
 echo "tests: Blender versions ready ($(( $(date +%s) - start )) s): $("$PYTHON" tools/blender_versions.py list | cut -d' ' -f1 | tr '\n' ' ')"
+# The Open Job Description runtime for the farm's job templates (tests/test_openjd.py)
+"$PYTHON" -m tools.openjd_env install
 "$PYTHON" -m pytest -q tests "$@"
 if [ "${CI:-}" = true ]; then
     start=$(date +%s)

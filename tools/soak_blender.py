@@ -53,7 +53,7 @@ def datablocks():
 def main(argv):
     args = parse(argv)
     flyby.enable_addon()
-    import planet_lod
+    planet_lod = flyby.package()  # the add-on, whatever module name Blender gave it
     scene = bpy.context.scene
     for obj in list(bpy.data.objects):
         bpy.data.objects.remove(obj)

@@ -5,6 +5,8 @@ tests/test_layout.py checks it):
   compat, core, nodes          Blender version differences; the bpy-free
                                `planetlod` package and the domain error;
                                node-tree arithmetic
+  prefs, mappaths              add-on preferences (map search folders, path
+                               mapping); map references that travel
   runtime                      per-planet runtime state and the anchor
   atmosphere, terrain_shading, the planet's sky, its ground shading and
   materials                    materials
@@ -18,7 +20,7 @@ tests/test_layout.py checks it):
   props                        the settings
   operators, map_files,        operators on the planet, on its height files;
   preset_menus                 the preset menus
-  render, ui                   flybys; the panels
+  render, recordpath, ui       flybys; recording a camera path; the panels
 
 For scripts (the render farm's job, tools/, bench/) the package names a
 few functions that stay when the modules behind them move:
@@ -49,20 +51,19 @@ bl_info = {
 
 if "bpy" in locals():  # script reload (F3 > Reload Scripts)
     import importlib
-    for _name in ("compat", "core", "nodes", "runtime", "atmosphere", "terrain_shading",
-                  "materials", "cameras",
-                  "placement", "framing", "refresh", "handlers", "draw", "props", "operators",
-                  "map_files", "preset_menus", "render", "ui"):
+    for _name in ("compat", "core", "prefs", "mappaths", "nodes", "runtime", "atmosphere",
+                  "terrain_shading", "materials", "cameras", "placement", "framing", "refresh",
+                  "handlers", "draw", "props", "operators", "map_files", "preset_menus", "render",
+                  "recordpath", "ui"):
         if _name in locals():
             importlib.reload(locals()[_name])
 
 import bpy  # noqa: E402
 from bpy.props import PointerProperty  # noqa: E402
 
-from . import (compat, core, nodes, runtime, atmosphere, terrain_shading,  # noqa: E402
-               materials, cameras,
-               placement, framing, refresh, handlers, draw, props, operators, map_files,
-               preset_menus, render, ui)
+from . import (compat, core, prefs, mappaths, nodes, runtime, atmosphere,  # noqa: E402
+               terrain_shading, materials, cameras, placement, framing, refresh, handlers,
+               draw, props, operators, map_files, preset_menus, render, recordpath, ui)
 
 classes = (
     props.PLOD_PG_inset,
@@ -97,21 +98,29 @@ _register_classes, _unregister_classes = bpy.utils.register_classes_factory(clas
 
 def register():
     core.load_native()
+    prefs.register()
+    mappaths.register()
     _register_classes()
     bpy.types.Object.planet_lod = PointerProperty(type=props.PLOD_PG_settings)
     bpy.types.Object.planet_lod_geo = PointerProperty(type=props.PLOD_PG_geo)
     bpy.types.VIEW3D_MT_mesh_add.append(operators.menu_func)
     draw.add_draw_handler()
     handlers.add_handlers()
+    render.add_handlers()
+    recordpath.register()
 
 
 def unregister():
+    recordpath.unregister()
+    render.remove_handlers()
     handlers.remove_handlers()
     draw.remove_draw_handler()
     bpy.types.VIEW3D_MT_mesh_add.remove(operators.menu_func)
     del bpy.types.Object.planet_lod_geo
     del bpy.types.Object.planet_lod
     _unregister_classes()
+    mappaths.unregister()
+    prefs.unregister()
 
 
 # ---- for scripts (see the module's docstring) -----------------------------------

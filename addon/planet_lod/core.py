@@ -46,7 +46,8 @@ def _import_package():
 
 
 planetlod = _import_package()
-from planetlod import flyby, planets, presets, refresh, report, surface  # noqa: E402,F401
+from planetlod import (flyby, mappaths, planets, presets, refresh, report,  # noqa: E402,F401
+                       surface, waypoints)
 from planetlod import Cancelled, FileError, ImageError, PlanetLODError  # noqa: E402,F401
 
 # What operators and handlers report to the artist instead of raising: the

@@ -26,7 +26,7 @@ import numpy as np
 from gpu_extras.batch import batch_for_shader
 from mathutils import Matrix, Vector
 
-from . import atmosphere, compat, core, materials, runtime
+from . import atmosphere, compat, core, mappaths, materials, runtime
 
 # The ground's colour: the render material's elevation ramp (and water on
 # the sea), the colour map, or the sector levels' colours.
@@ -173,7 +173,7 @@ def _ensure_batch(res, st):
 def _ensure_color(res, settings):
     """The colour map as a texture: the equirectangular image materials.py made
     (a cross-layout cube map is converted there, outside the draw callback)."""
-    path = bpy.path.abspath(settings.color_map) if settings.color_map else ""
+    path = mappaths.resolve(settings.color_map)
     image = materials.color_image(settings, create=False) if path else None
     key = (path, image.name if image is not None else None)
     if res.color_key == key:

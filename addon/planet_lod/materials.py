@@ -14,7 +14,7 @@ from array import array
 
 import bpy
 
-from . import atmosphere, compat, core, runtime, terrain_shading
+from . import atmosphere, compat, core, mappaths, runtime, terrain_shading
 from . import nodes as node_maths
 from .core import surface
 
@@ -146,7 +146,7 @@ def color_image(settings, create=True):
     (packed into the .blend, so it survives save/reload without the cache).
     create=False (draw callbacks, where ID data must not be added) only finds
     images that already exist."""
-    path = bpy.path.abspath(settings.color_map) if settings.color_map else ""
+    path = mappaths.resolve(settings.color_map)
     if not path or not os.path.isfile(path):
         return None
     image = _load_image(path) if create else _find_image(path)
@@ -194,14 +194,14 @@ def _height_image(path):
     a cube cross); images no material uses any more go with forget_height_images."""
     if not path or not os.path.isfile(path):
         return None
-    image = next((i for i in bpy.data.images if i.get(HEIGHT_IMAGE_KEY) == path), None)
+    saved = mappaths.portable(path)  # kept in the .blend: a bundled map by its token
+    image = next((i for i in bpy.data.images if i.get(HEIGHT_IMAGE_KEY) == saved), None)
     if image is None:
         try:
             image = bpy.data.images.load(path, check_existing=False)
         except RuntimeError as exc:  # Blender's "cannot read image"
             raise core.FileError(str(exc)) from exc
-        image[HEIGHT_IMAGE_KEY] = path
-        image.colorspace_settings.name = 'Non-Color'
+        image[HEIGHT_IMAGE_KEY], image.colorspace_settings.name = saved, 'Non-Color'
     if is_cross_layout(*image.size):
         bpy.data.images.remove(image)
         return None
@@ -224,7 +224,7 @@ def _sea_mask(b, s):
     # ground the mesh lifted to the sea surface (only close to lifted vertices:
     # a coarse triangle spanning the coast must not turn to water)
     flooded = b.smoothstep(0.8, 0.99, lifted)
-    image = _height_image(bpy.path.abspath(s.heightmap) if s.heightmap else "")
+    image = _height_image(mappaths.resolve(s.heightmap))
     if image is None:
         return flooded
     uv = _attribute(b, "planet_uv")
@@ -244,9 +244,9 @@ def planet_material(obj):
     s = obj.planet_lod
     name = PLANET_PREFIX + obj.name
     material = bpy.data.materials.get(name) or bpy.data.materials.new(name)
-    color_map = bpy.path.abspath(s.color_map) if s.color_map else ""
+    color_map = mappaths.resolve(s.color_map)
     atm = atmosphere.params(s)
-    key = (color_map, s.projection, round(s.radius, 3), round(s.height_scale, 3),
+    key = (mappaths.portable(color_map), s.projection, round(s.radius, 3), round(s.height_scale, 3),
            s.use_sea_level, round(s.sea_level, 3), s.heightmap, repr(atm), s.use_detail,
            round(s.detail_amplitude, 3), 7)
     if material.get("planet_lod_key") == repr(key):

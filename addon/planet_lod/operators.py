@@ -8,7 +8,7 @@ import os
 import bpy
 from bpy.props import BoolProperty, EnumProperty, StringProperty
 
-from . import atmosphere, cameras, core, framing, materials, refresh, runtime
+from . import atmosphere, cameras, core, framing, mappaths, materials, refresh, runtime
 from .core import planets, presets
 
 
@@ -60,7 +60,7 @@ class PLOD_OT_planet_add(bpy.types.Operator):
     def execute(self, context):
         if report_missing(self):
             return {'CANCELLED'}
-        values = presets.planet_settings(self.preset, core.data_path)
+        values = presets.planet_settings(self.preset, mappaths.bundled)
         values.update(presets.quality_settings(self.quality))
         if self.heightmap:
             values["heightmap"] = bpy.path.abspath(self.heightmap)
@@ -69,8 +69,9 @@ class PLOD_OT_planet_add(bpy.types.Operator):
         mesh = obj = None
         undo = []  # puts back what framing changed when the planet is not added
         try:
-            if values["color_map"] and not os.path.isfile(values["color_map"]):
-                raise core.FileError(f"colour map not found: {values['color_map']}")
+            if values["color_map"] and not os.path.isfile(mappaths.resolve(values["color_map"])):
+                raise core.FileError("colour map not found: "
+                                     + mappaths.resolve(values["color_map"]))
             mesh = bpy.data.meshes.new(presets.PLANETS[self.preset]["label"].split(" ")[0])
             obj = bpy.data.objects.new(mesh.name, mesh)
             settings = obj.planet_lod
@@ -229,11 +230,12 @@ class PLOD_OT_planet_apply_preset(bpy.types.Operator):
         obj = active_planet(context)
         values = {}
         if self.planet != "NONE":
-            values.update(presets.planet_settings(self.planet, core.data_path))
+            values.update(presets.planet_settings(self.planet, mappaths.bundled))
         if self.quality != "NONE":
             values.update(presets.quality_settings(self.quality))
         trial = obj.planet_lod.as_dict()
-        trial.update({k: v for k, v in values.items() if k in trial})
+        trial.update({k: mappaths.resolve(v) if k == "heightmap" else v
+                      for k, v in values.items() if k in trial})
         if refuses(self, trial, "Preset not applied"):
             return {'CANCELLED'}
         obj.planet_lod.assign(values)

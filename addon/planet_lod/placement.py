@@ -9,9 +9,10 @@ import bpy
 from mathutils import Matrix
 
 from . import cameras, core, runtime
-from .core import flyby, planets
+from .core import flyby, planets, waypoints
 
 FLYBY_KEY = "planet_lod_flyby"
+PATH_KEY = "planet_lod_path"  # the flyby camera's own path of waypoints, when it has one
 
 
 def ensure_flyby_camera(scene, planet_obj, path_frames, skim_height=5.0):
@@ -50,9 +51,16 @@ def place_camera(cam, scene, frame):
         return
     s = planet_obj.planet_lod
     ground_height = terrain_height(planet_obj)
-    pose = flyby.flyby_pose(frame, cam["planet_lod_path_frames"], s.radius,
-                           skim_height=cam["planet_lod_skim_height"],
-                           ground_height=ground_height)
+    if cam.get(PATH_KEY):  # a path of waypoints (planetlod.waypoints CSV)
+        try:
+            pose = waypoints.saved_path(cam[PATH_KEY]).pose(
+                frame, s.radius, ground_height, s.sea_level if s.use_sea_level else 0.0)
+        except waypoints.PathError:  # a frame outside the path: renders refuse it
+            return
+    else:
+        pose = flyby.flyby_pose(frame, cam["planet_lod_path_frames"], s.radius,
+                               skim_height=cam["planet_lod_skim_height"],
+                               ground_height=ground_height)
     place_in_planet_space(cam, planet_obj, pose)
     location = [row[3] for row in pose[:3]]
     distance = math.sqrt(sum(c * c for c in location))

@@ -3,7 +3,7 @@ import bpy
 from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty,
                        IntProperty, PointerProperty, StringProperty)
 
-from . import atmosphere, cameras, placement, refresh, runtime
+from . import atmosphere, cameras, mappaths, placement, refresh, runtime
 from .core import planets, presets
 
 PROJECTION_ITEMS = [
@@ -79,7 +79,7 @@ class PLOD_PG_inset(bpy.types.PropertyGroup):
 
     def as_entry(self):
         """The inset as planetlod.planets takes it: a path, or the path with its box."""
-        path = bpy.path.abspath(self.filepath) if self.filepath else ""
+        path = mappaths.resolve(self.filepath)
         if not self.use_box:
             return path
         return dict(path=path, west=self.west, south=self.south, east=self.east,
@@ -283,7 +283,7 @@ class PLOD_PG_settings(bpy.types.PropertyGroup):
         """The plain settings dict planetlod.planets works with (absolute file paths)."""
         return {
             "projection": self.projection, "radius": self.radius,
-            "heightmap": bpy.path.abspath(self.heightmap) if self.heightmap else "",
+            "heightmap": mappaths.resolve(self.heightmap),
             "heightmap_tiled": self.heightmap_tiled,
             "insets": [i.as_entry() for i in self.insets if i.filepath],
             "inset_feather": self.inset_feather,

@@ -8,9 +8,11 @@ the full path (render-farm splits).
 import math
 import os
 import sys
+import threading
 import time
 
 import bpy
+from bpy.app.handlers import persistent
 from bpy.props import IntProperty, StringProperty, FloatProperty
 
 from . import core, placement, runtime
@@ -21,9 +23,79 @@ def _log(message):
     sys.stdout.flush()
 
 
-def render_flyby(scene, planet_obj, first, last, out_dir, path_frames, report=_log):
+# ---- batch renders: a frame whose planet could not be built is not written -----
+
+def batch_failure(scene):
+    """The message for a frame of `scene` that cannot be right (a planet that
+    could not be built: a missing or bad map, bad settings), else ""."""
+    bad = [f"{obj.name}: {runtime.state(obj).error}" for obj in runtime.planet_objects(scene)
+           if not obj.hide_render and runtime.state(obj).error]
+    cam = scene.camera
+    if cam is not None and cam.get(placement.FLYBY_KEY) and cam.get(placement.PATH_KEY):
+        try:
+            path = core.waypoints.saved_path(cam[placement.PATH_KEY])
+        except core.REPORTED_ERRORS as exc:
+            bad.append(f"{cam.name}: {exc}")
+        else:
+            if not path.first <= scene.frame_current <= path.last:
+                bad.append(f"{cam.name}: frame {scene.frame_current} is outside its path "
+                           f"(frames {path.first}-{path.last})")
+    if not bad:
+        return ""
+    return f"planet_lod: cannot render frame {scene.frame_current}: " + "; ".join(bad)
+
+
+def fail_batch_render(message):
+    """Ends a headless Blender at once with exit status 1, before the frame is
+    written: a handler's exception would only be printed, and Blender would
+    go on to save the wrong picture and exit 0."""
+    print(message, file=sys.stderr, flush=True)
+    sys.stdout.flush()
+    os._exit(1)
+
+
+@persistent
+def on_render_pre_check(scene, depsgraph=None):
+    """Runs after the render_pre refresh (handlers.py): in a headless render (`blender -b
+    file.blend -a`, scripts, farm tasks) a planet in error stops the render;
+    the interactive UI reports the error in the panel and renders on."""
+    if not bpy.app.background or threading.current_thread() is not threading.main_thread():
+        return
+    message = batch_failure(scene)
+    if message:
+        fail_batch_render(message)
+
+
+def add_handlers():
+    """After handlers.add_handlers(): the check runs after the render refresh."""
+    if on_render_pre_check not in bpy.app.handlers.render_pre:
+        bpy.app.handlers.render_pre.append(on_render_pre_check)
+
+
+def remove_handlers():
+    while on_render_pre_check in bpy.app.handlers.render_pre:
+        bpy.app.handlers.render_pre.remove(on_render_pre_check)
+
+
+def check_flyby_frames(first, last, path_frames, path=None):
+    """Frames first..last must lie on the path: frames 1..path_frames of the
+    default one, or the frames of `path` (a planetlod.waypoints.Path)."""
+    lo, hi = (path.first, path.last) if path is not None else (1, path_frames)
+    if first > last:
+        raise core.PlanetLODError(f"frames {first}-{last}: the first comes after the last")
+    if first < lo or last > hi:
+        raise core.PlanetLODError(f"frames {first}-{last} are outside the path "
+                                  f"(frames {lo}-{hi})")
+
+
+def render_flyby(scene, planet_obj, first, last, out_dir, path_frames, report=_log, path=None):
     """Renders frames first..last of the flyby to out_dir/frame_####.png; writes
-    stats.csv and contact_sheet.png.  Returns the list of per-frame stat dicts."""
+    stats.csv and contact_sheet.png.  Returns the list of per-frame stat dicts.
+    `path` (a planetlod.waypoints.Path) replaces the orbit, descent and skim;
+    path_frames is then its last frame."""
+    if path is not None:
+        path_frames = path.last
+    check_flyby_frames(first, last, path_frames, path)
     try:
         os.makedirs(out_dir, exist_ok=True)
     except OSError as exc:  # the artist's output folder
@@ -31,7 +103,8 @@ def render_flyby(scene, planet_obj, first, last, out_dir, path_frames, report=_l
     saved = _SceneState(scene, planet_obj)
     try:
         saved.add_sun(planet_obj)
-        rows = _render_frames(scene, planet_obj, first, last, out_dir, path_frames, report)
+        rows = _render_frames(scene, planet_obj, first, last, out_dir, path_frames, report,
+                              path)
     except BaseException:
         # cancelled (Esc, a failed frame, KeyboardInterrupt): put the scene back
         saved.restore()
@@ -98,8 +171,13 @@ class _SceneState:
         scene.frame_set(self.frame)  # handlers rebuild the LOD for the restored camera
 
 
-def _render_frames(scene, planet_obj, first, last, out_dir, path_frames, report):
-    placement.ensure_flyby_camera(scene, planet_obj, path_frames)
+def _render_frames(scene, planet_obj, first, last, out_dir, path_frames, report, path=None):
+    cam = bpy.data.objects.get("Flyby " + planet_obj.name)
+    if cam is not None:  # placed by the default path until this run's is set
+        cam.pop(placement.PATH_KEY, None)
+    cam = placement.ensure_flyby_camera(scene, planet_obj, path_frames)
+    if path is not None:
+        cam[placement.PATH_KEY] = core.waypoints.write_csv(path)
     wm = bpy.context.window_manager
     rows = []
     csv_path = os.path.join(out_dir, "stats.csv")
@@ -125,6 +203,7 @@ def _render_frames(scene, planet_obj, first, last, out_dir, path_frames, report)
                 t0 = time.perf_counter()
                 if 'CANCELLED' in bpy.ops.render.render(write_still=True):
                     raise core.Cancelled(f"flyby cancelled at frame {frame}")
+                drop_timings(path)
                 row = dict(st.stats)
                 row["frame"] = frame
                 row["render_s"] = round(time.perf_counter() - t0, 3)
@@ -152,6 +231,28 @@ def _render_frames(scene, planet_obj, first, last, out_dir, path_frames, report)
     contact_sheet([os.path.join(out_dir, f"frame_{f:04d}.png") for f in frames],
                   os.path.join(out_dir, "contact_sheet.png"))
     return rows
+
+
+def drop_timings(png_path):
+    """Removes the render's timings (Cycles' `...time` text chunks) from a PNG,
+    so that a frame's file is the same from every run, machine and chunk."""
+    import struct
+    with open(png_path, "rb") as f:
+        data = f.read()
+    if data[:8] != b"\x89PNG\r\n\x1a\n":
+        return
+    kept, at = [data[:8]], 8
+    while at + 8 <= len(data):
+        length, kind = struct.unpack(">I4s", data[at:at + 8])
+        chunk = data[at:at + 12 + length]
+        key = data[at + 8:at + 8 + length].split(b"\0", 1)[0] if kind == b"tEXt" else b""
+        if not key.endswith(b"_time"):
+            kept.append(chunk)
+        at += 12 + length
+    cleaned = b"".join(kept)
+    if cleaned != data:
+        with open(png_path, "wb") as f:
+            f.write(cleaned)
 
 
 def contact_sheet(paths, out_path, thumb_width=160):
@@ -200,6 +301,10 @@ class PLOD_OT_flyby(bpy.types.Operator):
                              description="Frames of the whole path (fixes the camera per frame)")
     directory: StringProperty(name="Output", subtype='DIR_PATH', default="//flyby/")
     skim_height: FloatProperty(name="Skim height", default=5.0, min=0.1, max=1e5)
+    path_file: StringProperty(name="Path", subtype='FILE_PATH', default="",
+                              description="Waypoints to fly instead of the orbit, descent "
+                                          "and skim (.csv, .gpx or .kml; Record Path writes "
+                                          "the .csv)")
 
     @classmethod
     def poll(cls, context):
@@ -213,8 +318,11 @@ class PLOD_OT_flyby(bpy.types.Operator):
         try:
             first, last = flyby_report.parse_frames(self.frames)
             out_dir = bpy.path.abspath(self.directory)
+            path = (core.waypoints.read_path(bpy.path.abspath(self.path_file),
+                                             path_frames=self.path_frames)
+                    if self.path_file else None)
             rows = render_flyby(context.scene, context.object, first, last, out_dir,
-                                self.path_frames)
+                                self.path_frames, path=path)
         except core.REPORTED_ERRORS as exc:
             self.report({'ERROR'}, f"Flyby failed: {exc}")
             return {'CANCELLED'}

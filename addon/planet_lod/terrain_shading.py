@@ -181,7 +181,7 @@ def ground_types(b, s, base, normal, airless):
     # (a steep face shows rock, a ridge above it snow)
     snow = b.smoothstep(-150.0, 150.0, height - snow_line) * \
         (1.0 - b.smoothstep(35.0, 50.0, slope) * 0.85)
-    shore = (1.0 - b.smoothstep(2.0, 12.0 + coarse * 10.0, height)) * (1.0 - steep)
+    shore = (1.0 - b.smoothstep(1.0, 4.0 + coarse * 4.0, height)) * (1.0 - steep)
     sand = b.const((0.76, 0.70, 0.52)) * (fine * 0.25 + 0.85)
     ground = b.mix(vegetation, scree_colour, scree)
     ground = b.mix(ground, rock_colour, bare)

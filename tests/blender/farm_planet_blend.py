@@ -22,7 +22,7 @@ import bpy
 
 blend_path, job_type_path, evaluated_path, moved_map_path = sys.argv[sys.argv.index("--") + 1:]
 addon_utils.enable("planet_lod", default_set=True, handle_error=None)
-from planet_lod import placement  # noqa: E402  (needs the add-on enabled)
+from planet_lod import mappaths, placement  # noqa: E402  (needs the add-on enabled)
 
 scene = bpy.context.scene
 for obj in list(bpy.data.objects):
@@ -59,7 +59,7 @@ print("PLOD-FARM evaluated", evaluated)
 
 gone = os.path.join(os.path.dirname(moved_map_path), "gone", "earth-height.png")
 os.makedirs(os.path.dirname(gone))
-shutil.copy(bpy.path.abspath(planet.planet_lod.heightmap), gone)
+shutil.copy(mappaths.resolve(planet.planet_lod.heightmap), gone)
 planet.planet_lod.heightmap = gone
 bpy.ops.wm.save_as_mainfile(filepath=moved_map_path)
 shutil.rmtree(os.path.dirname(gone))
