@@ -113,6 +113,7 @@ void plod_mesh_params_init(plod_mesh_params *params, const plod_planet *planet,
     params->morph_lod_scale = planet ? planet->radius : 1.0;
     params->morph_ramp = 0.5;
     params->morph_level_rate = 2.0;
+    params->detail_fade_cell = 0.0;
 }
 
 /* Height at one direction, every detail octave kept. */
@@ -179,7 +180,9 @@ static plod_status plod__check_params(const plod_mesh_params *params)
     for (int c = 0; c < 3; c++)
         if (!isfinite(params->origin[c]) || !isfinite(params->eye[c]))
             return PLOD_ERR_BAD_COORD;
-    if (params->changed_only && params->morph)
+    if (params->changed_only && (params->morph || params->detail_fade_cell > 0.0))
+        return PLOD_ERR_BAD_PARAM;
+    if (!(params->detail_fade_cell >= 0.0) || !isfinite(params->detail_fade_cell))
         return PLOD_ERR_BAD_PARAM;
     if (params->morph) {
         if (!(params->morph_ramp > 0.0 && params->morph_ramp <= 1.0))
@@ -382,10 +385,70 @@ typedef struct plod__emitter {
     const plod_mesh_params *params;
     const plod_surface_source *surface;
     int banded; /* the surface limits detail per point (octaves_for_cell) */
+    /* detail fade (params->detail_fade_cell > 0 on a banded surface):
+     * log2 of the largest cell that keeps octave i, i < fade_octaves */
+    int fade_octaves;
+    double fade_log2_cell[PLOD_DETAIL_MAX_OCTAVES];
     const plod_mesh_buffers *out;
     int n;
     size_t vertices_per_sector, triangles_per_sector;
 } plod__emitter;
+
+/* The fade's octave thresholds: for each octave the log2 cell where
+ * octaves_for_cell stops keeping it (bisection over 2^-40..2^60 m: the
+ * surface's answer is monotone in the cell). */
+static void plod__fade_init(plod__emitter *e)
+{
+    const plod_surface_source *s = e->surface;
+    int count = s->ops->octaves_for_cell(s->self, ldexp(1.0, -40));
+    if (count > PLOD_DETAIL_MAX_OCTAVES)
+        count = PLOD_DETAIL_MAX_OCTAVES;
+    for (int i = 0; i < count; i++) {
+        double lo = -40.0, hi = 60.0; /* keeps octave i at 2^lo, not at 2^hi */
+        if (s->ops->octaves_for_cell(s->self, ldexp(1.0, 60)) > i) {
+            e->fade_log2_cell[i] = 60.0;
+            continue;
+        }
+        for (int it = 0; it < 60; it++) {
+            double mid = 0.5 * (lo + hi);
+            if (s->ops->octaves_for_cell(s->self, exp2(mid)) > i)
+                lo = mid;
+            else
+                hi = mid;
+        }
+        e->fade_log2_cell[i] = lo;
+    }
+    e->fade_octaves = count;
+}
+
+/* The fade's band at a unit direction: *whole octaves and the weight of the
+ * next (0 <= *fraction < 1); a function of the direction and the eye only. */
+static void plod__fade_band(const plod__emitter *e, const double dir[3], int *whole,
+                            double *fraction)
+{
+    const plod_mesh_params *params = e->params;
+    double radius = params->planet->radius, d2 = 0.0;
+    for (int c = 0; c < 3; c++) {
+        double x = dir[c] * radius - params->eye[c];
+        d2 += x * x;
+    }
+    double log2_cell = 0.5 * log2(d2) + log2(params->detail_fade_cell);
+    double sum = 0.0;
+    if (!isfinite(log2_cell)) /* at the eye: every octave */
+        sum = (double)e->fade_octaves;
+    else
+        for (int i = 0; i < e->fade_octaves; i++) {
+            double w = e->fade_log2_cell[i] - log2_cell + 0.5;
+            sum += w <= 0.0 ? 0.0 : (w >= 1.0 ? 1.0 : w);
+        }
+    double f = floor(sum);
+    *whole = (int)f;
+    *fraction = sum - f;
+    if (*whole >= e->fade_octaves) {
+        *whole = e->fade_octaves;
+        *fraction = 0.0;
+    }
+}
 
 static void plod__emitter_init(plod__emitter *e, const plod_mesh_params *params,
                                const plod_surface_source *surface,
@@ -394,6 +457,9 @@ static void plod__emitter_init(plod__emitter *e, const plod_mesh_params *params,
     e->params = params;
     e->surface = surface;
     e->banded = surface->ops->octaves_for_cell != NULL;
+    e->fade_octaves = 0;
+    if (e->banded && params->detail_fade_cell > 0.0)
+        plod__fade_init(e);
     e->out = out;
     e->n = 1 << params->template_level;
     e->vertices_per_sector = plod_template_vertex_count(params->template_level);
@@ -405,6 +471,8 @@ static void plod__morph_sector(const plod__emitter *e, size_t vbase)
     const plod_mesh_params *params = e->params;
     float *pos = e->out->positions + 3 * vbase;
     float *morph_out = e->out->morph ? e->out->morph + vbase : NULL;
+    float *nrm = e->out->normals ? e->out->normals + 3 * vbase : NULL;
+    float *det = e->out->detail ? e->out->detail + vbase : NULL;
     int n = e->n;
     if (!(params->morph_lod_scale > 0.0))
         return; /* factor 0 everywhere: nothing moves, morph already 0 */
@@ -440,6 +508,24 @@ static void plod__morph_sector(const plod__emitter *e, size_t vbase)
             for (int c = 0; c < 3; c++) {
                 double target = 0.5 * ((double)pos[3 * a + c] + (double)pos[3 * b + c]);
                 pos[3 * v + c] = (float)(p[c] + m * (target - p[c]));
+            }
+            /* the shading follows the geometry: toward the coarser grid's
+             * interpolation too, so a split does not flash the normals */
+            if (nrm) {
+                double nv[3], len2 = 0.0;
+                for (int c = 0; c < 3; c++) {
+                    double target = 0.5 * ((double)nrm[3 * a + c] + (double)nrm[3 * b + c]);
+                    nv[c] = (double)nrm[3 * v + c] + m * (target - (double)nrm[3 * v + c]);
+                    len2 += nv[c] * nv[c];
+                }
+                double len = sqrt(len2);
+                if (len > 0.0)
+                    for (int c = 0; c < 3; c++)
+                        nrm[3 * v + c] = (float)(nv[c] / len);
+            }
+            if (det) {
+                double target = 0.5 * ((double)det[a] + (double)det[b]);
+                det[v] = (float)((double)det[v] + m * (target - (double)det[v]));
             }
         }
 }
@@ -699,6 +785,42 @@ static int plod__vertex_band(const plod__emitter *e, const int k[3], const int b
     return b;
 }
 
+/* Fading vertices: the band one octave up sampled too, and heights,
+ * normals and detail moved toward it by each vertex's fraction (the
+ * fraction 0 ones unchanged, bit for bit). */
+static void plod__fade_blend(const plod__emitter *e, size_t count, const double *dirs,
+                             const int *octaves, const double *fade, double *heights,
+                             double *normals, double *detail)
+{
+    enum { ROW = (1 << PLOD_MAX_TEMPLATE_LEVEL) + 1, GROUP = ROW + 160 };
+    double up_heights[GROUP], up_normals[3 * GROUP], up_detail[GROUP];
+    int up_octaves[GROUP];
+    for (size_t v = 0; v < count; v++)
+        up_octaves[v] = octaves[v] + (fade[v] > 0.0);
+    e->surface->ops->sample_n(e->surface->self, count, dirs, up_octaves, up_octaves,
+                              up_heights, normals ? up_normals : NULL,
+                              detail ? up_detail : NULL);
+    for (size_t v = 0; v < count; v++) {
+        double f = fade[v];
+        if (!(f > 0.0))
+            continue;
+        heights[v] += f * (up_heights[v] - heights[v]);
+        if (detail)
+            detail[v] += f * (up_detail[v] - detail[v]);
+        if (normals) {
+            double *nv = normals + 3 * v, len2 = 0.0;
+            for (int c = 0; c < 3; c++) {
+                nv[c] += f * (up_normals[3 * v + c] - nv[c]);
+                len2 += nv[c] * nv[c];
+            }
+            double len = sqrt(len2);
+            if (len > 0.0)
+                for (int c = 0; c < 3; c++)
+                    nv[c] /= len;
+        }
+    }
+}
+
 /* Computes the sector's vertices into the outputs and, when `block` is not
  * NULL, into it (every field). */
 static void plod__compute_vertices(const plod__emitter *e, const plod_mesh_sector *sector,
@@ -729,7 +851,9 @@ static void plod__compute_vertices(const plod__emitter *e, const plod_mesh_secto
     double position_scratch[3 * GROUP];
     float positions_scratch[3 * GROUP];
     int octaves[GROUP], normal_octaves[GROUP], band[4];
-    if (e->banded)
+    int fading = e->banded && params->detail_fade_cell > 0.0;
+    double fade[GROUP]; /* the next octave's weight per vertex when fading */
+    if (e->banded && !fading)
         plod__detail_bands(e, corners, n, band);
     if (block)
         for (int c = 0; c < 3; c++)
@@ -737,10 +861,15 @@ static void plod__compute_vertices(const plod__emitter *e, const plod_mesh_secto
     size_t v = vbase, b = 0;
     for (int i = 0; i <= n;) {
         /* whole rows at a time: directions, then the surface's batched sampling */
-        int row = 0;
+        int row = 0, any_fade = 0;
         for (; i <= n && row + (n - i + 1) <= GROUP; i++) {
             plod__row_directions(corners, n, i, inv_n, dirs + 3 * row);
-            for (int j = 0; j <= n - i && e->banded; j++) {
+            for (int j = 0; j <= n - i && fading; j++) {
+                plod__fade_band(e, dirs + 3 * (row + j), octaves + row + j, fade + row + j);
+                normal_octaves[row + j] = octaves[row + j];
+                any_fade |= fade[row + j] > 0.0;
+            }
+            for (int j = 0; j <= n - i && e->banded && !fading; j++) {
                 int k[3] = {n - i - j, j, i};
                 octaves[row + j] = plod__vertex_band(e, k, band, dirs + 3 * (row + j),
                                                      normal_octaves + row + j);
@@ -754,6 +883,9 @@ static void plod__compute_vertices(const plod__emitter *e, const plod_mesh_secto
                                   e->banded ? octaves : NULL,
                                   e->banded ? normal_octaves : NULL, heights,
                                   want_normal ? normals : NULL, want_detail ? detail : NULL);
+        if (any_fade)
+            plod__fade_blend(e, (size_t)row, dirs, octaves, fade, heights,
+                             want_normal ? normals : NULL, want_detail ? detail : NULL);
         /* the outputs written in place where they are wanted, the block's
          * copied from them (positions in double only into the block) */
         plod__row row_out = {
@@ -1183,7 +1315,8 @@ static void plod__parallel(const plod_mesh_params *params, size_t count, int thr
 static uint64_t plod__weigh_all(const plod_mesh_params *params, plod_mesh_sector_fn source,
                                 const void *context, size_t count, unsigned char *weight)
 {
-    plod__weighing w = {source, context, params->cache, weight};
+    plod__weighing w = {source, context,
+                        params->detail_fade_cell > 0.0 ? NULL : params->cache, weight};
     plod__parallel(params, count, count < PLOD__PARALLEL_WEIGHING ? 1 : params->threads, 1024,
                    plod__weigh, &w);
     uint64_t total = 0;
@@ -1238,7 +1371,8 @@ plod_status plod_mesh_emit(const plod_mesh_params *params,
     plod__emitter emitter;
     plod__emitter_init(&emitter, params, surface, out);
 
-    plod_mesh_cache *cache = params->cache;
+    /* a fading band follows the eye: nothing cached holds */
+    plod_mesh_cache *cache = params->detail_fade_cell > 0.0 ? NULL : params->cache;
     if (cache)
         plod__cache_bind(cache, params, surface, emitter.vertices_per_sector);
     int32_t *unchanged = NULL; /* changed_only: per index, the entry left out or -1 */

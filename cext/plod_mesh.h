@@ -146,6 +146,20 @@ typedef struct plod_mesh_params {
     double morph_lod_scale;     /* metres, >= 0 (0: factor 0 everywhere) */
     double morph_level_rate;    /* levels per halving of distance, > 0 */
     double morph_ramp;          /* (0, 1] */
+    /* Detail fade: > 0 makes every vertex's detail band a continuous
+     * function of its distance d to `eye` instead of its sector's cells,
+     * so the surface changes continuously as the eye moves (no band
+     * switching when a sector splits or merges).  A cell of
+     * detail_fade_cell * d metres is assumed at the vertex; octave i gets
+     * the weight clamp(log2(c_i / cell) + 0.5, 0, 1), c_i the largest cell
+     * that keeps it (the surface's octaves_for_cell), i.e. it fades in over
+     * one halving of the distance around where a mesh of such cells starts
+     * to resolve it.  Heights, normals and detail are the blend of the two
+     * whole bands around the weights' sum (a convex mix of partial sums, so
+     * inside the field's bounds).  The band depends on the eye: the cache
+     * is not used and changed_only is refused.  0: bands by the sector's
+     * template cells (see plod__detail_bands in mesh.c). */
+    double detail_fade_cell;    /* radians (cell metres per metre), >= 0 */
     plod_mesh_cache *cache;     /* NULL: none (borrowed; see above) */
     /* With a cache: leave out the sectors whose output the cache's last
      * emission already gave (a hit whose corner normals keep their band),
@@ -159,7 +173,7 @@ typedef struct plod_mesh_params {
 } plod_mesh_params;
 
 /* Defaults: origin 0, threads 1, no workers, morph off, ramp 0.5, scale =
- * radius, rate 2, no cache. */
+ * radius, rate 2, no detail fade, no cache. */
 void plod_mesh_params_init(plod_mesh_params *params, const plod_planet *planet,
                            int template_level);
 /* Surface point nearest the eye: d = eye/|eye|, d * (radius + height(d)),

@@ -130,7 +130,9 @@ double plod_session_set_morph_scale(plod_mesh_params *params,
  * for the session's planet, `threads`, and with a last camera the origin
  * on the surface point nearest it, the eye at it, and when `morph` the
  * morph scale of the refine criterion (plod_session_set_morph_scale; morph
- * stays off where that scale is 0).  Values are not checked here:
+ * stays off where that scale is 0) and, for a perspective camera, the detail
+ * fade (plod_mesh_params.detail_fade_cell: cells of max_pixel_error
+ * pixels), so the surface is a continuous function of the eye.  Values are not checked here:
  * plod_session_emit refuses bad ones.  The caller may adjust the result. */
 void plod_session_mesh_params(const plod_session *session, int template_level, int morph,
                               int threads, plod_mesh_params *params);

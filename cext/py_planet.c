@@ -797,12 +797,14 @@ static PyObject *plod__planet_mesh(plod_py_planet *self, PyObject *args, PyObjec
 {
     static char *kwlist[] = {"template_level", "morph", "threads", "visible_only", "cache",
                              "changed_only", NULL};
-    PyObject *level_obj = Py_None;
-    int morph = 0, threads = 2, visible_only = 1, use_cache = 1, changed_only = 0;
+    PyObject *level_obj = Py_None, *morph_obj = Py_False;
+    int morph, threads = 2, visible_only = 1, use_cache = 1, changed_only = 0;
     if (!plod__planet_ready(self))
         return NULL;
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "|Opippp", kwlist, &level_obj, &morph,
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "|OOippp", kwlist, &level_obj, &morph_obj,
                                      &threads, &visible_only, &use_cache, &changed_only))
+        return NULL;
+    if ((morph = PyObject_IsTrue(morph_obj)) < 0)
         return NULL;
     int level;
     if (plod__template_level_arg(self, level_obj, &level) < 0)

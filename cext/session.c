@@ -298,6 +298,11 @@ double plod_session_set_morph_scale(plod_mesh_params *params,
     return params->morph_lod_scale;
 }
 
+/* The fade keeps the octaves cells of one pixel per pixel of allowed error
+ * resolve: what it drops then stands out by less than that error (finer
+ * than the refiner's cells, whose choice assumed the octaves they keep). */
+#define PLOD__FADE_CELL_PIXELS 1.0
+
 void plod_session_mesh_params(const plod_session *session, int template_level, int morph,
                               int threads, plod_mesh_params *params)
 {
@@ -309,9 +314,16 @@ void plod_session_mesh_params(const plod_session *session, int template_level, i
         plod_mesh_origin(&surface, session->planet.radius, camera->position, params->origin);
         for (int c = 0; c < 3; c++)
             params->eye[c] = camera->position[c];
-        if (morph)
+        if (morph) {
             params->morph =
                 plod_session_set_morph_scale(params, camera, &session->params) > 0.0;
+            /* detail fades with distance (perspective cameras) */
+            if (!camera->desc.orthographic && camera->pixels_per_radian > 0.0 &&
+                session->params.max_pixel_error > 0.0)
+                params->detail_fade_cell = PLOD__FADE_CELL_PIXELS *
+                                           session->params.max_pixel_error /
+                                           camera->pixels_per_radian;
+        }
     }
 }
 

@@ -1,0 +1,131 @@
+"""The pop measure (bench/bench_pops.py) and the continuity targets it checks:
+frame f's camera sees the surfaces of frames f-1 and f; what moves on screen
+between them is a pop."""
+import math
+
+import numpy as np
+import pytest
+
+from bench import bench_pops
+
+
+class FakeMesh:
+    """The fields of planetlod.Mesh the measure reads."""
+
+    def __init__(self, positions, triangles, ids, normals=None, detail=None):
+        positions = np.asarray(positions, dtype=np.float32).reshape(-1, 3)
+        self.origin = (0.0, 0.0, 0.0)
+        self.positions = positions.ravel()
+        if normals is None:
+            normals = positions / np.linalg.norm(positions, axis=1)[:, None]
+        self.normals = np.asarray(normals, dtype=np.float32).ravel()
+        self.detail = np.zeros(len(positions), dtype=np.float32) if detail is None \
+            else np.asarray(detail, dtype=np.float32)
+        self.triangles = np.asarray(triangles, dtype=np.int32).ravel()
+        self.sector_ids = np.asarray(ids, dtype=np.uint64)
+
+
+R = 1000.0
+
+
+def flat_sector(corners, heights=(0.0, 0.0, 0.0, 0.0)):
+    """A one-level template on a tangent patch: corners and edge midpoints
+    (as the emitter orders a level-1 template: rows i = 0..2)."""
+    c0, c1, c2 = (np.asarray(c, dtype=np.float64) for c in corners)
+    grid = [c0, (c0 + c1) / 2, c1, (c0 + c2) / 2, (c1 + c2) / 2, c2]
+    out = []
+    for k, p in enumerate(grid):
+        d = p / np.linalg.norm(p)
+        lift = heights[k - 1] if k in (1, 3, 4) and len(heights) > 3 else 0.0
+        out.append(d * (R + lift))
+    tris = [(0, 1, 3), (1, 4, 3), (1, 2, 4), (3, 4, 5)]
+    return out, tris
+
+
+def camera_above():
+    """Looking straight down at +Z from 100 m above the surface, 1000 px wide."""
+    eye = (0.0, 0.0, R + 100.0)
+    matrix = ((1.0, 0.0, 0.0, eye[0]), (0.0, 1.0, 0.0, eye[1]), (0.0, 0.0, 1.0, eye[2]),
+              (0.0, 0.0, 0.0, 1.0))
+    return bench_pops.View(matrix, 1000, 1000, 36.0)
+
+
+CORNERS = [(-30.0, -30.0, R), (30.0, -30.0, R), (-30.0, 30.0, R)]
+
+
+def surfaces(before_heights, after_heights, after_id=1):
+    pa, ta = flat_sector(CORNERS, before_heights)
+    pb, tb = flat_sector(CORNERS, after_heights)
+    return (bench_pops.Surface(FakeMesh(pa, ta, [1])),
+            bench_pops.Surface(FakeMesh(pb, tb, [after_id])))
+
+
+def test_identical_surfaces_score_zero():
+    before, after = surfaces((0, 0, 0, 0), (0, 0, 0, 0))
+    change = bench_pops.compare(camera_above(), before, after)
+    assert change["pixels"].max() < 1e-6
+    assert change["missing"] == 0
+
+
+def test_a_lifted_vertex_scores_its_screen_shift():
+    # the edge midpoint (vertex 1) lifted 1 m: seen from 100 m above, 30 m
+    # off the axis, it moves ~1/100 * 30 / 100 rad sideways = 0.3 % of 1000 px
+    before, after = surfaces((0, 0, 0, 0), (1.0, 0, 0, 0))
+    change = bench_pops.compare(camera_above(), before, after)
+    p = np.asarray(CORNERS[0], dtype=float) / 2 + np.asarray(CORNERS[1]) / 2
+    d = p / np.linalg.norm(p)
+    view = camera_above()
+    a, _ = view.project(np.array([d * R]))
+    b, _ = view.project(np.array([d * (R + 1.0)]))
+    expected = float(np.linalg.norm(a - b))
+    assert expected > 1.0
+    assert change["pixels"].max() == pytest.approx(expected, rel=1e-4)
+
+
+def test_a_split_matches_new_vertices_with_the_parent_triangles():
+    # a different sector (a split) whose vertices lie on the parent's
+    # triangles scores 0; one whose vertex stands off them scores its shift
+    before, flat_child = surfaces((0, 0, 0, 0), (0, 0, 0, 0), after_id=2)
+    assert bench_pops.compare(camera_above(), before, flat_child)["pixels"].max() < 1e-3
+    _, raised_child = surfaces((0, 0, 0, 0), (0, 0, 2.0, 0), after_id=2)
+    change = bench_pops.compare(camera_above(), before, raised_child)
+    assert change["pixels"].max() > 1.0
+    assert change["missing"] == 0
+
+
+def test_hidden_and_behind_vertices_do_not_count():
+    before, after = surfaces((0, 0, 0, 0), (1.0, 0, 0, 0))
+    matrix = ((1.0, 0.0, 0.0, 0.0), (0.0, 1.0, 0.0, 0.0), (0.0, 0.0, 1.0, R + 100.0),
+              (0.0, 0.0, 0.0, 1.0))
+    # turned away: looking up (+Z is behind the -Z view axis when flipped)
+    flipped = ((1.0, 0.0, 0.0, 0.0), (0.0, -1.0, 0.0, 0.0), (0.0, 0.0, -1.0, R + 100.0),
+               (0.0, 0.0, 0.0, 1.0))
+    assert len(bench_pops.compare(bench_pops.View(matrix, 100, 100, 36.0), before,
+                                  after)["pixels"]) > 0
+    assert len(bench_pops.compare(bench_pops.View(flipped, 100, 100, 36.0), before,
+                                  after)["pixels"]) == 0
+
+
+@pytest.fixture(scope="module")
+def earth():
+    try:
+        return bench_pops.earth()
+    except FileNotFoundError as exc:
+        pytest.skip(f"Earth data missing: {exc}")
+
+
+def test_a_still_camera_sees_no_change(earth):
+    pose = bench_pops.path_cameras(earth, "walk", 1)[0]
+    rows = bench_pops.fly(earth, [pose, pose], morph=True)
+    assert rows[0]["max_px"] < 1e-3
+    assert rows[0]["normal_max"] < 1e-3
+
+
+def test_walking_near_everest_has_no_pops(earth):
+    # 2 m above the ground, 1 cm a frame: a detail band switching with a
+    # sector's level lifted vertices ~0.2-0.4 m a few hundred metres away
+    poses = bench_pops.path_cameras(earth, "walk", 7)
+    rows = bench_pops.fly(earth, poses, morph=True)
+    worst = bench_pops.summary(rows)
+    assert worst["worst_p99_px"] <= 0.05, worst
+    assert worst["max_px"] <= 0.25, worst
