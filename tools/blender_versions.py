@@ -142,7 +142,7 @@ def _ensure_openimageio(py):
 
 
 @contextlib.contextmanager
-def _locked(path):
+def locked(path):
     """Holds an exclusive lock on the file at `path` (created if missing)
     until the block ends; the system drops it if the process dies."""
     with open(path, "a+b") as lock:
@@ -165,7 +165,7 @@ def install(version):
     """Creates the venv of `version` unless it exists; returns its python."""
     root = cache_root()
     os.makedirs(root, exist_ok=True)
-    with _locked(os.path.join(root, ".lock")):
+    with locked(os.path.join(root, ".lock")):
         if python_of(version):
             _ensure_openimageio(python_of(version))
             return python_of(version)

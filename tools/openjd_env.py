@@ -7,13 +7,12 @@ farm's job templates (farm/openjd/) locally and in the tests:
     python3 tools/openjd_env.py openjd    # prints the openjd command's path
 """
 import argparse
-import fcntl
 import os
 import shutil
 import subprocess
 import sys
 
-from tools.blender_versions import BASE_PYTHON, cache_root
+from tools.blender_versions import locked, base_python, cache_root
 
 # Versions that install together (openjd-cli pins its openjd-sessions range).
 OPENJD_CLI = "0.8.0"
@@ -35,15 +34,15 @@ def install():
     """Creates the venv unless it exists; returns the openjd command."""
     root = cache_root()
     os.makedirs(root, exist_ok=True)
-    with open(os.path.join(root, ".lock"), "w") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)
+    with locked(os.path.join(root, ".lock")):
         if openjd():
             return openjd()
         final = venv_dir()
         # built where it runs (console scripts name the venv's python by its
         # path); .complete, written last, marks it usable
         shutil.rmtree(final, ignore_errors=True)
-        subprocess.run([BASE_PYTHON, "-m", "venv", final], check=True)
+        python = base_python("3.11") or sys.executable
+        subprocess.run([python, "-m", "venv", final], check=True)
         subprocess.run([os.path.join(final, "bin", "python"), "-m", "pip", "install", "--quiet",
                         "--disable-pip-version-check", f"openjd-cli=={OPENJD_CLI}",
                         f"openjd-sessions=={OPENJD_SESSIONS}"], check=True)
