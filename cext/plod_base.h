@@ -46,7 +46,7 @@ static inline void plod_cross3(const double a[3], const double b[3], double out[
  * and selects if-converted, which needs leave to evaluate both arms of a
  * floating-point select (no traps; the values are the same either way).
  * fp-contract stays off: no fused multiply-adds, the roundings of the
- * point path.  On x86-64 Linux, GCC and Clang also build a PLOD_LANE_CLONES
+ * point path.  On x86-64 Linux, GCC also builds a PLOD_LANE_CLONES
  * function for AVX2 (4 lanes) and for x86-64-v4 (AVX-512: 8 lanes, 64-bit
  * integer multiplies for the lattice hashes), the one the processor has
  * chosen at load time; every version gives the same bits (IEEE double
@@ -62,9 +62,6 @@ static inline void plod_cross3(const double a[3], const double b[3], double out[
 #define PLOD_LANE_CLONES __attribute__((target_clones("avx2", "default")))
 #endif
 #endif
-#endif
-#if defined(__clang__) && defined(__x86_64__) && defined(__linux__) && !defined(PLOD_NO_CLONES)
-#define PLOD_LANE_CLONES __attribute__((target_clones("arch=x86-64-v4", "avx2", "default")))
 #endif
 #ifndef PLOD_LANE_LOOPS
 #define PLOD_LANE_LOOPS

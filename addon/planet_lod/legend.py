@@ -61,8 +61,7 @@ def draw_legend():
     step = max(1, math.ceil(len(levels) / room))
     gpu.state.blend_set('ALPHA')
     font = 0
-    blf.size(font, int(11 * scale)) if bpy.app.version >= (3, 4, 0) else \
-        blf.size(font, int(11 * scale), 72)
+    blf.size(font, int(11 * scale))  # Blender 3.4 on: no dpi argument
     blf.color(font, 1.0, 1.0, 1.0, 0.9)
     for row, level in enumerate(levels[::step]):
         top = y + row * (size + 2 * scale)

@@ -172,8 +172,7 @@ def draw_readout():
     region = context.region
     scale = context.preferences.system.ui_scale
     font = 0
-    blf.size(font, int(12 * scale)) if bpy.app.version >= (3, 4, 0) else \
-        blf.size(font, int(12 * scale), 72)
+    blf.size(font, int(12 * scale))  # Blender 3.4 on: no dpi argument
     blf.color(font, 1.0, 1.0, 1.0, 0.9)
     blf.enable(font, blf.SHADOW)
     blf.shadow(font, 3, 0.0, 0.0, 0.0, 0.8)
