@@ -1,7 +1,7 @@
 # Entry points (each target is one documented command; see README "## Robustness").
 #   make test         build + whole pytest suite (C module and headless Blender)
 #   make ci           what CI runs: test + fuzz smoke + sanitize (CI=true)
-#   make sanitize     whole suite against an ASan+UBSan+LSan build (tools/sanitize.sh)
+#   make sanitize     in-process tests against an ASan+UBSan+LSan build (tools/sanitize.sh)
 #   make fuzz-smoke   each libFuzzer harness for FUZZ_SMOKE_SECONDS (default 10)
 #   make fuzz         each harness to 10M executions or 1 h (tools/fuzz.sh full; long)
 #   make soak         1000-frame C soak + 200-frame Blender soak (tools/soak*.py)

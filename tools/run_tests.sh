@@ -7,7 +7,7 @@
 # of each part (no Blender, each Blender) at its end.
 # With CI=true (the CI runner, .ci/run) it also runs a short fuzz smoke
 # (FUZZ_SMOKE_SECONDS, default 10 s per harness, ~1 min with the build) and the
-# whole suite again under ASan+UBSan+LSan (tools/sanitize.sh, ~2 min).
+# suite's in-process tests again under ASan+UBSan+LSan (tools/sanitize.sh).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 if [ "${CI:-}" = true ]; then
