@@ -26,7 +26,7 @@ import numpy as np
 from gpu_extras.batch import batch_for_shader
 from mathutils import Matrix, Vector
 
-from . import atmosphere, compat, core, mappaths, materials, runtime
+from . import atmosphere, compat, core, mappaths, materials, runtime, sky_preview
 
 # The ground's colour: the render material's elevation ramp (and water on
 # the sea), the colour map, or the sector levels' colours.
@@ -61,7 +61,8 @@ def shader_defines(atm):
               "ATM_RAYLEIGH_HEIGHT": _glsl_float(atm["rayleigh_height"]),
               "ATM_MIE_HEIGHT": _glsl_float(atm["mie_height"]),
               "ATM_MIE_G": _glsl_float(atm["mie_g"]),
-              "ATM_GAIN": _glsl_float(atm["gain"])}
+              "ATM_GAIN": _glsl_float(atm["gain"]),
+              "ATM_SKY_GAIN": _glsl_float(atm.get("sky_gain", 1.0))}
     return "#define PLOD_ATMOSPHERE\n" + "".join(f"#define {k} {v}\n" for k, v in values.items())
 
 
@@ -70,15 +71,19 @@ PREFIX = ("#define PLOD_PI 3.14159265358979\n"
           f"#define SHADING_LEVELS {SHADING_LEVELS}\n")
 
 
-def shader_sources(defines=""):
+def shader_sources(defines="", vertex="planet_preview_vert.glsl",
+                   fragment="planet_preview_frag.glsl"):
+    """(vertex, fragment) GLSL; every fragment stage gets the display and
+    atmosphere functions the planet's and the sky's previews share."""
     folder = next((d for d in core.resource_dirs("shaders") if os.path.isdir(d)), None)
     if folder is None:
         raise FileNotFoundError("shaders/ folder not found")
 
     def read(name):
         with open(os.path.join(folder, name)) as f:
-            return PREFIX + defines + f.read()
-    return read("planet_preview_vert.glsl"), read("planet_preview_frag.glsl")
+            return f.read()
+    shared = read("planet_display.glsl") + read("planet_atmosphere.glsl")
+    return PREFIX + defines + read(vertex), PREFIX + defines + shared + read(fragment)
 
 
 def preview_shader(atm=None):
@@ -293,6 +298,7 @@ def draw_callback():
     # where the depth buffer cannot tell them apart
     gpu.state.face_culling_set('BACK')
     try:
+        sky_preview.draw_sky(scene, region_data)
         for obj in runtime.planet_objects(scene):
             s = obj.planet_lod
             st = runtime.existing_state(obj)
@@ -323,4 +329,5 @@ def remove_draw_handler():
         _handle = None
     _cache.clear()
     _shaders.clear()
+    sky_preview.clear()
     _shader_error = ""

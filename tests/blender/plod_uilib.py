@@ -157,7 +157,7 @@ def camera_frame_rect(scene, cam, region, r3d):
     """(x0, y0, x1, y1) of the camera frame in the region's screenshot (row 0 on top)."""
     # far along the frame's rays: points a metre from a camera 10^7 m out lose
     # their depth in the float32 projection
-    far = cam.location.length
+    far = max(cam.location.length, 1.0e3)
     corners = [cam.matrix_world @ (v * (far / abs(v.z))) for v in cam.data.view_frame(scene=scene)]
     from bpy_extras.view3d_utils import location_3d_to_region_2d
     pts = [location_3d_to_region_2d(region, r3d, c) for c in corners]
