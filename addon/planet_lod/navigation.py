@@ -82,6 +82,46 @@ def altitude(obj, world_point):
     return distance - obj.planet_lod.radius - ground_height(obj)(tuple(p / distance))
 
 
+def ground_hit(obj, origin, direction):
+    """Where a world-space ray first meets the planet's ground (the sea over
+    land below it), or None.  Marches the ray in planet space by a fraction
+    of its height above the ground (slopes steeper than that fraction allows
+    are rare at the scale a click resolves), then bisects the last step."""
+    to_planet = obj.matrix_world.inverted_safe()
+    anchor = Vector(runtime.anchor(obj))
+    o = to_planet @ origin + anchor
+    d = (to_planet.to_3x3() @ direction).normalized()
+    radius = obj.planet_lod.radius
+    ground = ground_height(obj)
+
+    def above(t):
+        p = o + d * t
+        return p.length - radius - ground(tuple(p.normalized()))
+    top = planet_top(obj) / max(obj.matrix_world.to_scale())
+    b = o.dot(d)
+    disc = b * b - (o.length_squared - top * top)
+    if disc < 0.0 or -b + math.sqrt(disc) < 0.0:
+        return None  # the ray passes above the highest peak
+    t = max(-b - math.sqrt(disc), 0.0)
+    far = -b + math.sqrt(disc)
+    height = above(t)
+    if height <= 0.0:
+        return None  # starts underground
+    for _ in range(4000):
+        step = max(0.5 * height, 1e-3 * (t + 1.0), 0.01)
+        if t + step > far:
+            return None
+        next_height = above(t + step)
+        if next_height <= 0.0:
+            low, high = t, t + step
+            for _ in range(48):
+                mid = 0.5 * (low + high)
+                low, high = (mid, high) if above(mid) > 0.0 else (low, mid)
+            return to_world(obj, tuple(o + d * high))
+        t, height = t + step, next_height
+    return None
+
+
 # ---- framing ---------------------------------------------------------------------
 
 def frame_view(area, obj):
@@ -223,9 +263,56 @@ class PLOD_OT_go_to_surface(bpy.types.Operator):
         return {'FINISHED'}
 
 
+# ---- the 3D cursor on the ground -------------------------------------------------------
+
+class PLOD_OT_cursor_to_ground(bpy.types.Operator):
+    """Place the 3D cursor where the mouse points on the planet's ground"""
+    bl_idname = "view3d.planet_cursor"
+    bl_label = "Cursor to Planet Ground"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    @classmethod
+    def poll(cls, context):
+        return context.area is not None and context.area.type == 'VIEW_3D' \
+            and context.region_data is not None and active_planet(context) is not None
+
+    def invoke(self, context, event):
+        # the previewed planet is drawn outside Blender's depth buffer, which
+        # its own Set 3D Cursor reads: it gets the click whenever the mouse is
+        # not on the planet's ground, or something else is in front of it
+        from bpy_extras import view3d_utils
+        region, r3d = context.region, context.region_data
+        xy = (event.mouse_region_x, event.mouse_region_y)
+        origin = view3d_utils.region_2d_to_origin_3d(region, r3d, xy)
+        direction = view3d_utils.region_2d_to_vector_3d(region, r3d, xy).normalized()
+        best = None
+        for obj in runtime.planet_objects(context.scene):
+            if not obj.planet_lod.gpu_preview or not obj.visible_get():
+                continue
+            hit = ground_hit(obj, origin, direction)
+            if hit is not None and (best is None or (hit - origin).length < best):
+                best, point = (hit - origin).length, hit
+        if best is None:
+            return {'PASS_THROUGH'}
+        planets_here = set(runtime.planet_objects(context.scene))
+        depsgraph = context.evaluated_depsgraph_get()
+        start = origin
+        for _ in range(16):  # anything else in front of the ground keeps the click
+            found, location, _, _, obj, _ = context.scene.ray_cast(depsgraph, start, direction,
+                                                                    distance=best)
+            if not found:
+                break
+            if obj.original not in planets_here:
+                return {'PASS_THROUGH'}
+            start = location + direction * 1e-3
+        context.scene.cursor.location = point
+        context.area.tag_redraw()
+        return {'FINISHED'}
+
+
 # ---- registration ---------------------------------------------------------------------
 
-classes = (PLOD_OT_frame_planet, PLOD_OT_go_to_surface)
+classes = (PLOD_OT_frame_planet, PLOD_OT_go_to_surface, PLOD_OT_cursor_to_ground)
 _keymaps = []
 
 
@@ -254,6 +341,10 @@ def register():
             item = km.keymap_items.new(PLOD_OT_frame_planet.bl_idname, key, 'PRESS')
             item.properties.selected_only = key == 'NUMPAD_PERIOD'
             _keymaps.append((km, item))
+        km = kc.keymaps.new(name="3D View", space_type='VIEW_3D')
+        item = km.keymap_items.new(PLOD_OT_cursor_to_ground.bl_idname, 'RIGHTMOUSE', 'PRESS',
+                                   shift=True)
+        _keymaps.append((km, item))
 
 
 def unregister():

@@ -57,6 +57,32 @@ class PLOD_OT_planet_add(bpy.types.Operator):
                           description="Add a sun when the scene has none and hide lights "
                                       "that would be inside the planet")
 
+    # shown in the status bar while the planet's first mesh is built (seconds)
+    BUILDING = "Building planet…"
+    _wait_ticks = 3  # timer ticks before the build: the status bar drawn first
+
+    def invoke(self, context, event):
+        wm = context.window_manager
+        if context.window is None or context.workspace is None:
+            return self.execute(context)
+        context.workspace.status_text_set(self.BUILDING)
+        self._ticks = 0
+        self._timer = wm.event_timer_add(0.1, window=context.window)
+        wm.modal_handler_add(self)
+        return {'RUNNING_MODAL'}
+
+    def modal(self, context, event):
+        if event.type != 'TIMER':
+            return {'RUNNING_MODAL'}  # the build is about to start: nothing else meanwhile
+        self._ticks += 1
+        if self._ticks < self._wait_ticks:
+            return {'RUNNING_MODAL'}
+        context.window_manager.event_timer_remove(self._timer)
+        try:
+            return self.execute(context)
+        finally:
+            context.workspace.status_text_set(None)
+
     def execute(self, context):
         if report_missing(self):
             return {'CANCELLED'}

@@ -1,0 +1,163 @@
+"""In the real UI (xvfb): near the ground of a previewed planet.
+
+* The viewport's sky is the render's: a camera 2 km above the Alps, looking a
+  little above the horizon: in camera view the solid viewport's sky (above
+  the planet preview) is blue, not Blender's grey background, and matches the
+  sky a Cycles render of the same camera gets; from orbit the viewport's
+  space is black around the planet.
+* Shift-RMB puts the 3D cursor on the planet's ground under the mouse (the
+  preview is drawn outside the depth buffer Blender's own cursor reads)."""
+import os
+
+import bpy
+import numpy as np
+from mathutils import Vector
+
+import plod_testlib as lib
+import plod_uilib as ui
+
+
+def refreshed(planet):
+    from planet_lod import runtime
+    st = runtime.state(planet)
+    yield from ui.wait_until(lambda: st.settled() and st.preview is not None, timeout=300,
+                             what="the viewport refresh")
+    yield from ui.redraw(2)
+
+
+def status_bar(window_image):
+    """The left half of the status bar (its text), from a window screenshot."""
+    win = ui.window()
+    area = next(a for a in win.screen.areas if a.type == 'STATUSBAR')
+    region = next(r for r in area.regions if r.type == 'HEADER')
+    part = ui.crop_region(window_image, region)
+    return part[:, :part.shape[1] // 2]
+
+
+def sky_band(image, rect):
+    """Mean display colour of the top fifth of `rect` (x0, y0, x1, y1), inset."""
+    x0, y0, x1, y1 = rect
+    dx = (x1 - x0) // 10
+    band = image[y0 + 2:y0 + max((y1 - y0) // 5, 3), x0 + dx:x1 - dx]
+    return band.reshape(-1, 3).mean(axis=0)
+
+
+def render_sky(scene):
+    scene.render.resolution_x, scene.render.resolution_y = 64, 36
+    scene.render.resolution_percentage = 100
+    scene.render.engine = 'CYCLES'
+    scene.cycles.device = 'CPU'
+    scene.cycles.samples = 4
+    scene.cycles.use_denoising = False
+    scene.render.image_settings.file_format = 'PNG'
+    path = os.path.join(lib.out_dir(), "sky_render.png")
+    scene.render.filepath = path
+    with ui.override():
+        bpy.ops.render.render(write_still=True)
+    image = ui.load_png(path)
+    return sky_band(image, (0, 0, image.shape[1], image.shape[0]))
+
+
+def test():
+    ui.lib.enable()
+    space = ui.clean_view()
+    scene = bpy.context.scene
+    # Add > Planet says what it does in the status bar while it builds
+    before = status_bar(ui.screenshot("status_before.png", region='WINDOW'))
+    with ui.override():
+        assert bpy.ops.mesh.planet_add('INVOKE_DEFAULT', preset='EARTH') == {'RUNNING_MODAL'}
+    yield 0.02
+    during = status_bar(ui.screenshot("status_building.png", region='WINDOW'))
+    changed = float(np.abs(during - before).sum(axis=2).max(axis=0).mean())
+    print(f"status bar while building: {changed:.3f} of its columns changed", flush=True)
+    assert changed > 0.05, "no status line while the planet builds"
+    yield from ui.wait_until(lambda: "Earth" in bpy.data.objects, timeout=600,
+                             what="Add > Planet to finish")
+    planet = bpy.data.objects["Earth"]
+    planet.planet_lod.quality = 'DRAFT'
+    sun = bpy.data.objects["Sun"]  # the sun Add > Planet put in the scene
+    yield from refreshed(planet)
+
+    # from orbit: black space around the planet, as the render's world
+    image = ui.screenshot("sky_orbit.png")
+    corner = image[:20, :20].reshape(-1, 3).mean(axis=0)
+    print(f"orbit: space {np.round(corner, 3)}", flush=True)
+    assert corner.max() < 0.05, f"space is not black around the planet: {corner}"
+
+    cam = bpy.data.objects.new("Shot", bpy.data.cameras.new("Shot"))
+    cam.data.lens = 24.0
+    cam.data.clip_start, cam.data.clip_end = 0.5, 1.0e8
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    geo = cam.planet_lod_geo
+    geo.planet = planet
+    geo.longitude, geo.latitude, geo.altitude = 7.9, 46.0, 2000.0
+    geo.heading, geo.pitch = 200.0, 5.0
+    geo.floating_origin = True
+    geo.enabled = True
+    r3d = space.region_3d
+    r3d.view_perspective = 'CAMERA'
+    yield from refreshed(planet)
+    # the sun 50 degrees high, behind the camera
+    from planet_lod import navigation
+    up = (cam.matrix_world.translation - navigation.planet_centre(planet)).normalized()
+    back = cam.matrix_world.to_3x3() @ Vector((0.0, 0.0, 1.0))
+    back = (back - back.project(up)).normalized()
+    sun.rotation_euler = (up * 1.2 + back).normalized().to_track_quat('Z', 'Y').to_euler()
+    yield from refreshed(planet)
+    yield from ui.redraw(3)
+    win, area, region, _ = ui.view3d()
+    image = ui.screenshot("sky_ground_camera_view.png")
+    rect = ui.camera_frame_rect(scene, cam, region, r3d)
+    viewport = sky_band(image, rect)
+    print(f"camera view: frame {rect}, viewport sky {np.round(viewport, 3)}", flush=True)
+    assert viewport[2] > viewport[0] + 0.1 and viewport[2] > 0.35, \
+        f"the viewport's sky is not blue near the ground: {viewport}"
+    rendered = render_sky(scene)
+    print(f"render sky {np.round(rendered, 3)}, difference "
+          f"{np.round(np.abs(viewport - rendered), 3)}", flush=True)
+    assert rendered[2] > rendered[0], f"the render's sky is not blue: {rendered}"
+    assert np.abs(viewport - rendered).max() < 0.12, \
+        f"viewport sky {viewport} against the render's {rendered}"
+
+    yield from cursor_on_ground(planet, space)
+
+
+def cursor_on_ground(planet, space):
+    from planet_lod import navigation
+    r3d = space.region_3d
+    with ui.override():
+        assert bpy.ops.view3d.planet_go_to_surface(longitude=7.9, latitude=46.0,
+                                                   altitude=2000.0, pitch=-20.0) == {'FINISHED'}
+    yield from refreshed(planet)
+    scene = bpy.context.scene
+    scene.cursor.location = (0.0, 0.0, 0.0)
+    win, area, region, _ = ui.view3d()
+    from bpy_extras import view3d_utils
+    # a point right of and below the view's centre
+    mx, my = region.width // 2 + 120, region.height // 2 - 80
+    origin = view3d_utils.region_2d_to_origin_3d(region, r3d, (mx, my))
+    ray = view3d_utils.region_2d_to_vector_3d(region, r3d, (mx, my)).normalized()
+    x, y = region.x + mx, region.y + my
+    win.event_simulate(type='MOUSEMOVE', value='NOTHING', x=x, y=y)
+    yield 0.3
+    win.event_simulate(type='RIGHTMOUSE', value='PRESS', x=x, y=y, shift=True)
+    yield 0.1
+    win.event_simulate(type='RIGHTMOUSE', value='RELEASE', x=x, y=y, shift=True)
+    yield from ui.wait_until(lambda: scene.cursor.location.length > 1.0, timeout=60,
+                             what="Shift-RMB to move the 3D cursor")
+    yield from ui.redraw(2)
+    cursor = Vector(scene.cursor.location)
+    distance = (cursor - origin).length
+    off_ray = (cursor - origin - ray * (cursor - origin).dot(ray)).length
+    height = navigation.altitude(planet, cursor)
+    print(f"Shift-RMB: cursor {distance:.1f} m from the eye, {height:.2f} m above the ground, "
+          f"{off_ray:.2f} m off the mouse's ray", flush=True)
+    assert abs(height) < 0.01 * distance, "the 3D cursor is not on the planet's ground"
+    assert off_ray < 0.01 * distance, "the 3D cursor is not under the mouse"
+    space.overlay.show_overlays = True  # the cursor drawn
+    yield from ui.redraw(2)
+    ui.screenshot("cursor_on_ground.png", region='AREA')
+
+
+ui.run(test)
