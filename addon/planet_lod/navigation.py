@@ -86,20 +86,29 @@ def ground_hit(obj, origin, direction):
     """Where a world-space ray first meets the planet's ground (the sea over
     land below it), or None.  Marches the ray in planet space by a fraction
     of its height above the ground (slopes steeper than that fraction allows
-    are rare at the scale a click resolves), then bisects the last step."""
+    are rare at the scale a click resolves), then bisects the last step; in
+    float64 (mathutils is float32: half a metre at a planet's radius)."""
     to_planet = obj.matrix_world.inverted_safe()
-    anchor = Vector(runtime.anchor(obj))
-    o = to_planet @ origin + anchor
-    d = (to_planet.to_3x3() @ direction).normalized()
+    anchor = runtime.anchor(obj)
+    m = [[float(to_planet[i][j]) for j in range(4)] for i in range(3)]
+    o = [sum(m[i][j] * float(origin[j]) for j in range(3)) + m[i][3] + anchor[i]
+         for i in range(3)]
+    d = [sum(m[i][j] * float(direction[j]) for j in range(3)) for i in range(3)]
+    length = math.sqrt(sum(c * c for c in d))
+    d = [c / length for c in d]
     radius = obj.planet_lod.radius
     ground = ground_height(obj)
 
+    def point(t):
+        return [o[i] + d[i] * t for i in range(3)]
+
     def above(t):
-        p = o + d * t
-        return p.length - radius - ground(tuple(p.normalized()))
+        p = point(t)
+        r = math.sqrt(sum(c * c for c in p))
+        return r - radius - ground((p[0] / r, p[1] / r, p[2] / r))
     top = planet_top(obj) / max(obj.matrix_world.to_scale())
-    b = o.dot(d)
-    disc = b * b - (o.length_squared - top * top)
+    b = sum(o[i] * d[i] for i in range(3))
+    disc = b * b - (sum(c * c for c in o) - top * top)
     if disc < 0.0 or -b + math.sqrt(disc) < 0.0:
         return None  # the ray passes above the highest peak
     t = max(-b - math.sqrt(disc), 0.0)
@@ -117,7 +126,7 @@ def ground_hit(obj, origin, direction):
             for _ in range(48):
                 mid = 0.5 * (low + high)
                 low, high = (mid, high) if above(mid) > 0.0 else (low, mid)
-            return to_world(obj, tuple(o + d * high))
+            return to_world(obj, point(high))
         t, height = t + step, next_height
     return None
 

@@ -26,11 +26,10 @@ def refreshed(planet):
 
 
 def status_bar(window_image):
-    """The left half of the status bar (its text), from a window screenshot."""
-    win = ui.window()
-    area = next(a for a in win.screen.areas if a.type == 'STATUSBAR')
-    region = next(r for r in area.regions if r.type == 'HEADER')
-    part = ui.crop_region(window_image, region)
+    """The left half of the status bar (its text), from a window screenshot:
+    the window's bottom strip (a global area, not among the screen's areas)."""
+    height = round(20 * bpy.context.preferences.system.ui_scale)
+    part = window_image[-height:]
     return part[:, :part.shape[1] // 2]
 
 
@@ -121,6 +120,8 @@ def test():
         f"viewport sky {viewport} against the render's {rendered}"
 
     yield from cursor_on_ground(planet, space)
+    yield from zoom_and_horizon(planet, space)
+    yield from walk_at_altitude_pace(planet, space)
 
 
 def cursor_on_ground(planet, space):
@@ -159,5 +160,81 @@ def cursor_on_ground(planet, space):
     yield from ui.redraw(2)
     ui.screenshot("cursor_on_ground.png", region='AREA')
 
+
+
+def zoom_and_horizon(planet, space):
+    """The wheel zooms towards the ground in shrinking steps, never through
+    it; a rolled view near the ground comes back level with the planet's
+    local up."""
+    import math
+    from planet_lod import navigation
+    r3d = space.region_3d
+    win, area, region, _ = ui.view3d()
+    x, y = region.x + region.width // 2, region.y + region.height // 2
+    heights = [navigation.altitude(planet, navigation.eye_of(r3d))]
+    for notches in (3, 20):
+        for _ in range(notches):
+            win.event_simulate(type='MOUSEMOVE', value='NOTHING', x=x, y=y)
+            win.event_simulate(type='WHEELUPMOUSE', value='PRESS', x=x, y=y)
+            yield 0.05
+        yield from ui.redraw(2)
+        heights.append(navigation.altitude(planet, navigation.eye_of(r3d)))
+    print("altitude after 0, 3 and 23 wheel notches: "
+          + ", ".join(f"{h:.1f} m" for h in heights), flush=True)
+    assert heights[0] > heights[1] > heights[2] > 0.0, heights
+
+    forward = r3d.view_rotation @ Vector((0.0, 0.0, -1.0))
+    from mathutils import Quaternion
+    r3d.view_rotation = (Quaternion(forward, math.radians(20.0)) @ r3d.view_rotation).normalized()
+
+    def tilt():
+        eye = navigation.eye_of(r3d)
+        up = (eye - navigation.planet_centre(planet)).normalized()
+        ahead = r3d.view_rotation @ Vector((0.0, 0.0, -1.0))
+        wanted = (up - up.project(ahead)).normalized()
+        return math.degrees((r3d.view_rotation @ Vector((0.0, 1.0, 0.0))).angle(wanted, 0.0))
+    print(f"horizon rolled by {tilt():.1f} degrees", flush=True)
+    yield from ui.wait_until(lambda: tilt() < 0.1, timeout=60, what="the horizon to level")
+    yield from ui.redraw(2)
+    print(f"horizon levelled to {tilt():.3f} degrees", flush=True)
+    ui.screenshot("horizon_levelled.png", region='AREA')
+
+
+
+def walk_at_altitude_pace(planet, space):
+    """Shift-` over the planet walks at a pace set by the altitude: with W held
+    as long, it covers far more than Blender's own walk at its default speed
+    (2.5 m a second); the user's walk speed is left as it was."""
+    from planet_lod import navigation
+    r3d = space.region_3d
+    walk = bpy.context.preferences.inputs.walk_navigation
+    saved = walk.walk_speed
+    win, area, region, _ = ui.view3d()
+    x, y = region.x + region.width // 2, region.y + region.height // 2
+    height = navigation.altitude(planet, navigation.eye_of(r3d))
+    moved = {}
+    for how in ("planet", "blender"):
+        win.event_simulate(type='MOUSEMOVE', value='NOTHING', x=x, y=y)
+        yield 0.3
+        if how == "planet":
+            win.event_simulate(type='ACCENT_GRAVE', value='PRESS', x=x, y=y, shift=True)
+            win.event_simulate(type='ACCENT_GRAVE', value='RELEASE', x=x, y=y, shift=True)
+        else:
+            with ui.override():
+                assert bpy.ops.view3d.walk('INVOKE_DEFAULT') == {'RUNNING_MODAL'}
+        yield from ui.redraw(2)
+        start = navigation.eye_of(r3d)
+        win.event_simulate(type='W', value='PRESS', x=x, y=y)
+        yield from ui.redraw(8)
+        win.event_simulate(type='W', value='RELEASE', x=x, y=y)
+        win.event_simulate(type='RET', value='PRESS', x=x, y=y)
+        win.event_simulate(type='RET', value='RELEASE', x=x, y=y)
+        yield from ui.redraw(2)
+        moved[how] = (navigation.eye_of(r3d) - start).length
+    print(f"walk from {height:.0f} m above the ground, W held for 8 redraws: "
+          f"{moved['planet']:.1f} m (Shift-`), {moved['blender']:.2f} m (Blender's walk)",
+          flush=True)
+    assert moved["planet"] > 1.0 and moved["planet"] > 5.0 * moved["blender"], moved
+    assert walk.walk_speed == saved, "the walk speed preference was changed"
 
 ui.run(test)
