@@ -21,7 +21,7 @@ tests/test_layout.py checks it):
   view_follow                  the views kept on the planet: altitude readout,
                                pivot on the ground, level horizon, floating origin
   legend                       the legend of Show Levels
-  draw                         the GPU preview
+  draw, sky_preview            the GPU preview; the viewport's sky
   props                        the settings
   operators, map_files,        operators on the planet, on its height files;
   preset_menus                 the preset menus
@@ -59,8 +59,8 @@ if "bpy" in locals():  # script reload (F3 > Reload Scripts)
     import importlib
     for _name in ("compat", "core", "prefs", "mappaths", "nodes", "runtime", "atmosphere",
                   "terrain_shading", "materials", "cameras", "placement", "framing", "refresh",
-                  "handlers", "navigation", "view_follow", "legend", "draw", "props", "operators",
-                  "map_files", "preset_menus", "render", "flyby_job", "recordpath", "ui"):
+                  "handlers", "navigation", "view_follow", "legend", "draw", "sky_preview",
+                  "props", "operators", "map_files", "preset_menus", "render", "flyby_job", "recordpath", "ui"):
         if _name in locals():
             importlib.reload(locals()[_name])
 
@@ -69,7 +69,7 @@ from bpy.props import PointerProperty  # noqa: E402
 
 from . import (compat, core, prefs, mappaths, nodes, runtime, atmosphere,  # noqa: E402
                terrain_shading, materials, cameras, placement, framing, refresh, handlers,
-               navigation, view_follow, legend, draw, props, operators, map_files,
+               navigation, view_follow, legend, draw, sky_preview, props, operators, map_files,
                preset_menus, render, flyby_job, recordpath, ui)
 
 classes = (
@@ -113,6 +113,7 @@ def register():
     bpy.types.Object.planet_lod_geo = PointerProperty(type=props.PLOD_PG_geo)
     bpy.types.VIEW3D_MT_mesh_add.append(operators.menu_func)
     draw.add_draw_handler()
+    sky_preview.add_draw_handler()
     handlers.add_handlers()
     render.add_handlers()
     recordpath.register()
@@ -128,6 +129,7 @@ def unregister():
     recordpath.unregister()
     render.remove_handlers()
     handlers.remove_handlers()
+    sky_preview.remove_draw_handler()
     draw.remove_draw_handler()
     bpy.types.VIEW3D_MT_mesh_add.remove(operators.menu_func)
     del bpy.types.Object.planet_lod_geo

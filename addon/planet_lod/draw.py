@@ -26,7 +26,7 @@ import numpy as np
 from gpu_extras.batch import batch_for_shader
 from mathutils import Matrix, Vector
 
-from . import atmosphere, compat, core, mappaths, materials, runtime, sky_preview
+from . import atmosphere, compat, core, mappaths, materials, runtime
 
 # The ground's colour: the render material's elevation ramp (and water on
 # the sea), the colour map, or the sector levels' colours.
@@ -298,7 +298,6 @@ def draw_callback():
     # where the depth buffer cannot tell them apart
     gpu.state.face_culling_set('BACK')
     try:
-        sky_preview.draw_sky(scene, region_data)
         for obj in runtime.planet_objects(scene):
             s = obj.planet_lod
             st = runtime.existing_state(obj)
@@ -329,5 +328,4 @@ def remove_draw_handler():
         _handle = None
     _cache.clear()
     _shaders.clear()
-    sky_preview.clear()
     _shader_error = ""

@@ -13,8 +13,9 @@ import gpu
 from gpu_extras.batch import batch_for_shader
 from mathutils import Matrix, Vector
 
-from . import atmosphere, draw, runtime
+from . import atmosphere, core, draw, runtime
 
+_handle = None
 _shaders = {}   # atmosphere key -> compiled sky shader
 _error = ""
 
@@ -115,14 +116,32 @@ def draw_sky(scene, region_data):
     shader.uniform_float("camera", (eye.x, eye.y, eye.z, 2.0 ** view.exposure))
     shader.uniform_float("sun", (light.x, light.y, light.z, strength))
     shader.uniform_int("display", 4 * draw.VIEW_TRANSFORMS.get(view.view_transform, 2))
+    batch.draw(shader)
+
+
+def draw_callback():
+    context = bpy.context
+    if context.scene is None or context.region_data is None or core.native is None:
+        return
+    # after the planet preview: only pixels still at the far plane take the sky
+    gpu.state.depth_test_set('LESS_EQUAL')
     gpu.state.depth_mask_set(False)
     try:
-        batch.draw(shader)
+        draw_sky(context.scene, context.region_data)
     finally:
-        gpu.state.depth_mask_set(True)
+        gpu.state.depth_test_set('NONE')
 
 
-def clear():
-    global _error
+def add_draw_handler():
+    global _handle
+    if _handle is None and not bpy.app.background:
+        _handle = bpy.types.SpaceView3D.draw_handler_add(draw_callback, (), 'WINDOW', 'POST_VIEW')
+
+
+def remove_draw_handler():
+    global _handle, _error
+    if _handle is not None:
+        bpy.types.SpaceView3D.draw_handler_remove(_handle, 'WINDOW')
+        _handle = None
     _shaders.clear()
     _error = ""
