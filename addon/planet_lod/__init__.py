@@ -82,6 +82,7 @@ classes = (
     operators.PLOD_OT_planet_apply_mesh,
     operators.PLOD_OT_planet_apply_preset,
     map_files.PLOD_OT_set_heightmap,
+    map_files.PLOD_OT_set_color_map,
     map_files.PLOD_OT_inset_add,
     map_files.PLOD_OT_inset_remove,
     preset_menus.PLOD_MT_planet_presets,

@@ -1,12 +1,13 @@
 """Operators on the planet's height files: load a height map, add and remove
 insets (each checked before anything changes), and write a large map's tile
 file (on a worker thread in the UI, with progress and Esc to cancel)."""
+import os
 import threading
 
 import bpy
 from bpy.props import BoolProperty, FloatProperty, IntProperty, StringProperty
 
-from . import core, refresh, runtime
+from . import core, mappaths, refresh, runtime
 from .core import planets
 from .operators import active_planet, refuses, report_missing
 
@@ -135,6 +136,52 @@ class PLOD_OT_set_heightmap(bpy.types.Operator):
         if refuses(self, trial, "Height map not loaded"):
             return {'CANCELLED'}
         obj.planet_lod.heightmap = self.filepath
+        return {'FINISHED'}
+
+
+class PLOD_OT_set_color_map(bpy.types.Operator):
+    """Load a colour map into the active planet, or clear it"""
+    bl_idname = "object.planet_set_color_map"
+    bl_label = "Load Colour Map"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    filepath: StringProperty(subtype='FILE_PATH')
+    filter_image: BoolProperty(default=True, options={'HIDDEN'})
+    clear: BoolProperty(name="Clear", default=False, options={'SKIP_SAVE'},
+                        description="No colour map: colours by height")
+
+    @classmethod
+    def poll(cls, context):
+        return active_planet(context) is not None
+
+    @classmethod
+    def description(cls, context, properties):
+        if properties is not None and properties.clear:
+            return "No colour map: colour the planet by height"
+        obj = active_planet(context)
+        path = obj.planet_lod.color_map if obj is not None else ""
+        if not path:
+            return "Load a colour map (a 2:1 world map or a 4:3 cube cross) into the active planet"
+        return f"{mappaths.resolve(path)}\nClick to load another colour map"
+
+    def invoke(self, context, event):
+        if self.clear:
+            return self.execute(context)
+        obj = active_planet(context)
+        if obj is not None and obj.planet_lod.color_map and not self.filepath:
+            self.filepath = mappaths.resolve(obj.planet_lod.color_map)
+        context.window_manager.fileselect_add(self)
+        return {'RUNNING_MODAL'}
+
+    def execute(self, context):
+        settings = active_planet(context).planet_lod
+        if self.clear:
+            settings.color_map = ""
+            return {'FINISHED'}
+        if not os.path.isfile(bpy.path.abspath(self.filepath)):
+            self.report({'ERROR'}, f"Colour map not loaded: no such file ({self.filepath})")
+            return {'CANCELLED'}
+        settings.color_map = self.filepath
         return {'FINISHED'}
 
 

@@ -154,7 +154,11 @@ class PLOD_PT_surface(PLOD_PT_planet_sub, bpy.types.Panel):
                 sub.prop(inset, "scale")
             sub.prop(s, "inset_feather", text="Blend")
         col.label(text="Colour Map")
-        col.prop(s, "color_map", text="")
+        row = col.row(align=True)  # the file name; the full path in the tooltip
+        row.operator("object.planet_set_color_map", icon='FILEBROWSER',
+                     text=bpy.path.basename(s.color_map) or "Colours by height")
+        if s.color_map:
+            row.operator("object.planet_set_color_map", text="", icon='X').clear = True
         layout.use_property_split = True
         layout.use_property_decorate = False
         col = layout.column()

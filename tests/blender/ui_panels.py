@@ -99,6 +99,22 @@ def test():
                              what="the tile file and the planet's refresh")
     yield from redraw_and_check(recorder, ALL, "Large Map written")
     planet.planet_lod.heightmap_tiled, planet.planet_lod.heightmap = False, ""
+    # the colour map shows by its file name (the full path in the tooltip), one
+    # button loads another, one clears it
+    from planet_lod import map_files, mappaths
+    from planet_lod.core import presets
+    earth_map = presets.planet_settings("EARTH", mappaths.bundled)["color_map"]
+    with ui.override():
+        assert bpy.ops.object.planet_set_color_map(clear=True) == {'FINISHED'}
+        assert planet.planet_lod.color_map == ""
+        assert bpy.ops.object.planet_set_color_map(
+            filepath=mappaths.resolve(earth_map)) == {'FINISHED'}
+        tooltip = map_files.PLOD_OT_set_color_map.description(bpy.context, None)
+    assert tooltip.startswith(mappaths.resolve(earth_map)), tooltip
+    yield from redraw_and_check(recorder, ALL, "colour map by its file name", planet)
+    ui.screenshot("panels_color_map.png", region='WINDOW')
+    print(f"colour map button: {bpy.path.basename(planet.planet_lod.color_map)}; "
+          f"tooltip: {tooltip.splitlines()[0]}", flush=True)
     yield 0.8
 
 
