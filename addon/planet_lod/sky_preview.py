@@ -85,7 +85,9 @@ def sky_planet(scene, region_data):
                 runtime.existing_state(obj) is None:
             continue
         eye, _ = eye_of(obj, region_data)
-        height = eye.length - s.radius * max(obj.matrix_world.to_scale())
+        height = eye.length - s.radius
+        if height < 0.0:
+            continue  # inside it (planets sharing a centre): not its sky
         if best is None or height < best[0]:
             best = (height, obj, atm)
     return (best[1], best[2]) if best else (None, None)
