@@ -81,8 +81,8 @@ import pytest  # noqa: E402
 
 # Tests that only drive other processes (Blender, Wine, the OpenJD runtime)
 # load no sanitized code: left out unless named.
-IN_OTHER_PROCESSES = ["test_batch.py", "test_blender.py", "test_farm.py", "test_openjd.py",
-                      "test_ui.py", "test_wheels.py"]
+IN_OTHER_PROCESSES = ["test_batch.py", "test_blender.py", "test_farm.py", "test_ground_relief.py",
+                      "test_openjd.py", "test_ui.py", "test_wheels.py"]
 default = ["tests"] + [f"--ignore=tests/{name}" for name in IN_OTHER_PROCESSES]
 sys.exit(pytest.main(["-q", "-p", "no:cacheprovider", "--capture=sys"] + (sys.argv[2:] or default)))
 PY
