@@ -115,7 +115,8 @@ def _part(item):
     if which is not None:
         return f"Blender {which}"
     return {"test_blender.py": "Blender: packages and the viewport",
-            "test_ui.py": "Blender blender: UI", "test_farm.py": "Blender blender: farm"}.get(
+            "test_ui.py": "Blender blender: UI", "test_farm.py": "Blender blender: farm",
+            "test_ground_relief.py": "Blender blender: ground relief"}.get(
                 module, "no Blender")
 
 
