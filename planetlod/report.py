@@ -82,18 +82,18 @@ def merge_frame_stats(frames_folder, frames=None):
 
 
 def parse_frame_list(text):
-    """'1-3,7,10..12' -> [1, 2, 3, 7, 10, 11, 12] (Flamenco's and OpenJD's
-    notations); raises InvalidArgument."""
+    """'1-3,7,10..12,20-24:2' -> [1, 2, 3, 7, 10, 11, 12, 20, 22, 24]
+    (Flamenco's and OpenJD's notations); raises InvalidArgument."""
     frames = set()
     for part in text.replace(" ", "").split(","):
-        ends = re.fullmatch(r"(-?\d+)(?:(?:-|\.\.)(-?\d+))?", part)
+        ends = re.fullmatch(r"(-?\d+)(?:(?:-|\.\.)(-?\d+)(?::([1-9]\d*))?)?", part)
         if not ends:
             raise InvalidArgument(f"bad frame range {text!r}")
         first = int(ends.group(1))
         last = int(ends.group(2)) if ends.group(2) is not None else first
         if last < first:
             raise InvalidArgument(f"bad frame range {text!r}")
-        frames.update(range(first, last + 1))
+        frames.update(range(first, last + 1, int(ends.group(3) or 1)))
     return sorted(frames)
 
 

@@ -329,12 +329,7 @@ def test_blendfile_job_chunks_give_identical_frames(tmp_path):
 
 
 # A walk along a valley: waypoints 300 m and then 50 m above the ground.
-WAYPOINTS = """# planet_lod path: altitude_reference=ground
-frame,longitude,latitude,altitude,heading,pitch
-1,7.90,46.00,300,90,-10
-4,7.93,46.00,50,90,-5
-"""
-
+WAYPOINTS = os.path.join(ROOT, "farm", "examples", "valley-walk.csv")
 
 @needs_node
 def test_flyby_job_on_a_path_file(tmp_path):
@@ -344,7 +339,7 @@ def test_flyby_job_on_a_path_file(tmp_path):
     env = worker_env(tmp_path)
     path_file = tmp_path / "paths" / "valley walk.csv"
     os.makedirs(path_file.parent)
-    path_file.write_text(WAYPOINTS)
+    shutil.copy(WAYPOINTS, path_file)
     job = compile_job(tmp_path, "walk", {
         "source": "flyby", "frames": "1-4", "chunk_size": 2, "path_file": str(path_file),
         "quality": "draft", "resolution": "48x27", "samples": 1, "threads": 1,
