@@ -362,6 +362,41 @@ def test_flyby_job_on_a_path_file(tmp_path):
         run_job(job, env)
 
 
+def test_merge_frame_stats(tmp_path):
+    """Per-frame stats files (as headless renders through a planet_lod_geo
+    camera write them) merge into one stats.csv in frame order; a re-written
+    frame replaces its row; missing and unasked-for frames, and files that are
+    not a frame's stats, are refused before stats.csv is written."""
+    from planetlod import report
+    assert report.merge_frame_stats(str(tmp_path)) == 0  # no stats: nothing to merge
+    assert not (tmp_path / "stats.csv").exists()
+    for frame in (12, 9, 10):
+        report.write_frame_stats(str(tmp_path), {"frame": frame, "triangles": frame, "mesh_hash": "old"})
+    report.write_frame_stats(str(tmp_path), {"frame": 10, "triangles": 100, "mesh_hash": "new"})
+    assert sorted(os.listdir(tmp_path / report.FRAME_STATS_FOLDER)) == \
+        ["frame_000009.csv", "frame_000010.csv", "frame_000012.csv"]
+    assert report.merge_frame_stats(str(tmp_path), "9-10,12") == 3
+    rows = read_stats(tmp_path / "stats.csv")
+    assert [(r["frame"], r["triangles"], r["mesh_hash"]) for r in rows] == \
+        [("9", "9", "old"), ("10", "100", "new"), ("12", "12", "old")]
+    assert list(rows[0]) == list(report.CSV_FIELDS)
+    assert report.parse_frame_list("1-3,7, 10..12,20-24:2") == [1, 2, 3, 7, 10, 11, 12, 20, 22, 24]
+
+    def refused(frames, pattern):
+        (tmp_path / "stats.csv").unlink()
+        with pytest.raises(ValueError, match=pattern):
+            report.merge_frame_stats(str(tmp_path), frames)
+        assert not (tmp_path / "stats.csv").exists()
+        (tmp_path / "stats.csv").write_text("")
+
+    (tmp_path / "stats.csv").write_text("")
+    refused("9-12", r"frames without stats in .*: \[11\]")
+    refused([9, 10], r"stats of frames not asked for in .*: \[12\]")
+    refused("9-", "bad frame range")
+    (tmp_path / report.FRAME_STATS_FOLDER / "frame_000011.csv").write_text("frame\n11\n")
+    refused("9-12", "frame_000011.csv: not a frame's stats")
+
+
 def _chunk(folder, header, rows, frames_with_pictures):
     os.makedirs(folder)
     with open(os.path.join(folder, "stats.csv"), "w") as f:
