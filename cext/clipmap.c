@@ -113,7 +113,7 @@ struct plod_clipmap {
     const plod_planet *planet;
     double radius;
     plod_projection projection;
-    int ring_cells, block_level, morph, finest;
+    int ring_cells, block_level, finest;
     uint64_t stamp;
     int handed[PLOD_FACE_COUNT]; /* e_u x e_v points outward */
     double centre[CM_LEVELS][3]; /* C_l (level 0: unused) */
@@ -143,7 +143,6 @@ void plod_clipmap_params_default(plod_clipmap_params *params)
     params->max_pixel_error = 1.0;
     params->max_level = 24;
     params->block_level = 3;
-    params->morph = 1;
     params->backface = 1;
     params->frustum = 1;
 }
@@ -572,7 +571,6 @@ plod_status plod_clipmap_update(plod_clipmap *cm, const plod_planet *planet,
             cm->handed[f] = plod_dot3(n, c) > 0.0;
         }
     }
-    cm->morph = params->morph != 0;
     cm->updated = 0;
 
     /* the finest level: cells of max_pixel_error pixels at the eye's height */
@@ -740,14 +738,15 @@ typedef struct cm__request {
 } cm__request;
 
 /* The ring's blend weight of a vertex (Losasso and Hoppe's alpha over the
- * angular distance to the ring's centre, in its cells). */
-static double cm__alpha(const plod_clipmap *cm, int level, const double dir[3])
+ * angular distance to the ring's centre, in its cells); morph off: 1 in
+ * the ring's outer margin, else 0. */
+static double cm__alpha(const plod_clipmap *cm, int morph, int level, const double dir[3])
 {
     if (level == 0)
         return 0.0;
     double phi = cm__angle(dir, cm->centre[level]) / cm__cell_angle(level);
     double k = cm->ring_cells, end = k - CM_MARGIN;
-    if (!cm->morph)
+    if (!morph)
         return phi >= end ? 1.0 : 0.0;
     double begin = end - k / 5.0;
     begin = begin > k / 2.0 + CM_INNER ? begin : k / 2.0 + CM_INNER;
@@ -755,116 +754,111 @@ static double cm__alpha(const plod_clipmap *cm, int level, const double dir[3])
     return a <= 0.0 ? 0.0 : (a >= 1.0 ? 1.0 : a);
 }
 
-static int cm__band(const plod_surface_source *surface, double radius, int level)
-{
-    return surface->ops->octaves_for_cell
-               ? surface->ops->octaves_for_cell(surface->self, radius * cm__cell_angle(level))
-               : 0;
-}
-
 typedef struct cm__emit {
     const plod_clipmap *cm;
-    const plod_surface_source *surface;
-    const double *origin;
+    const plod_mesh_params *params;
+    plod_mesh_sampler sampler;
     const plod_mesh_buffers *out;
-    int bands[CM_LEVELS];
+    int morph;
     atomic_int failed;
 } cm__emit;
 
-/* Vertex values for n requests into the outputs at `vbase` (positions
- * relative to the origin, normals, uv unwrapped around lon_ref, morph,
- * detail).  scratch: CM_SCRATCH n doubles; iscratch 2 n ints. */
-#define CM_SCRATCH 24
+/* Per vertex: 3 dirs, 1 cell, 3 world, 1 alpha, 3 target dirs, 1 target
+ * cell, 3 target world, 3 target sum (doubles); 3 normals, 1 detail, 3
+ * target normals, 1 target detail (floats). */
+#define CM_DOUBLES 18
+#define CM_FLOATS 8
+
+/* Vertex values for n requests into the outputs at `vbase`: the shared
+ * vertex evaluation (plod_mesh_sample) at the vertex and, where alpha > 0,
+ * at its coarse neighbours, blended in double. */
 static void cm__vertices(const cm__emit *e, const cm__request *req, size_t n, double lon_ref,
-                         size_t vbase, double *scratch, int *iscratch)
+                         size_t vbase, double *scratch, float *fscratch)
 {
     const plod_clipmap *cm = e->cm;
     const plod_mesh_buffers *out = e->out;
-    double *dirs = scratch, *heights = dirs + 3 * n, *normals = heights + n,
-           *detail = normals + 3 * n, *alpha = detail + n;
-    double *tdirs = alpha + n, *theights = tdirs + 3 * n, *tnormals = theights + n,
-           *tdetail = tnormals + 3 * n;
-    double *tp = tdetail + n, *tn = tp + 3 * n, *td = tn + 3 * n;
-    int *octaves = iscratch, *toctaves = iscratch + n;
-    int banded = e->surface->ops->octaves_for_cell != NULL;
+    const double *origin = e->params->origin;
+    double *dirs = scratch, *cells = dirs + 3 * n, *world = cells + n, *alpha = world + 3 * n;
+    double *tdirs = alpha + n, *tcells = tdirs + 3 * n, *tworld = tcells + n, *tsum = tworld + 3 * n;
+    float *normals = fscratch, *detail = normals + 3 * n, *tnormals = detail + n,
+          *tdetail = tnormals + 3 * n;
     for (size_t v = 0; v < n; v++) {
         cm__dir(cm, req[v].face, req[v].gi, req[v].gj, req[v].level, dirs + 3 * v);
-        alpha[v] = cm__alpha(cm, req[v].level, dirs + 3 * v);
-        octaves[v] = e->bands[req[v].level];
-        toctaves[v] = req[v].level > 0 ? e->bands[req[v].level - 1] : 0;
+        alpha[v] = cm__alpha(cm, e->morph, req[v].level, dirs + 3 * v);
+        cells[v] = cm->radius * cm__cell_angle(req[v].level);
+        tcells[v] = cm->radius * cm__cell_angle(req[v].level > 0 ? req[v].level - 1 : 0);
     }
-    e->surface->ops->sample_n(e->surface->self, n, dirs, banded ? octaves : NULL,
-                              banded ? octaves : NULL, heights, normals, detail);
-    double radius = cm->radius;
+    plod_mesh_sample(&e->sampler, n, dirs, cells, lon_ref, NULL, normals,
+                     out->uv ? out->uv + 2 * vbase : NULL, detail, world);
     /* coarse targets: the midpoint of the two level l-1 neighbours on the
      * coarse triangulation (diagonal (i, j)-(i+1, j+1)), or, for a point of
-     * the coarse grid, the point itself, sampled with the coarser level's
-     * band; one pass per end */
+     * the coarse grid, the point itself, sampled as the coarser level
+     * samples it; one pass per end */
+    double *tn = malloc(4 * n * sizeof *tn); /* normal sums and detail sums */
+    if (!tn) {
+        atomic_store((atomic_int *)&e->failed, 1);
+        return;
+    }
     for (int end = 0; end < 2; end++) {
         for (size_t v = 0; v < n; v++) {
             uint32_t oi = req[v].gi & 1u, oj = req[v].gj & 1u;
-            if (!(alpha[v] > 0.0) || (end == 1 && !oi && !oj)) {
-                memcpy(tdirs + 3 * v, dirs + 3 * v, 3 * sizeof(double));
-                continue;
-            }
             uint32_t gi = end == 0 ? req[v].gi - oi : req[v].gi + oi;
             uint32_t gj = end == 0 ? req[v].gj - oj : req[v].gj + oj;
-            cm__dir(cm, req[v].face, gi, gj, req[v].level, tdirs + 3 * v);
+            if (alpha[v] > 0.0)
+                cm__dir(cm, req[v].face, gi, gj, req[v].level, tdirs + 3 * v);
+            else
+                memcpy(tdirs + 3 * v, dirs + 3 * v, 3 * sizeof(double));
         }
-        e->surface->ops->sample_n(e->surface->self, n, tdirs, banded ? toctaves : NULL,
-                                  banded ? toctaves : NULL, theights, tnormals, tdetail);
+        plod_mesh_sample(&e->sampler, n, tdirs, tcells, lon_ref, NULL, tnormals, NULL, tdetail,
+                         tworld);
         for (size_t v = 0; v < n; v++) {
             if (!(alpha[v] > 0.0))
                 continue;
             int even = !(req[v].gi & 1u) && !(req[v].gj & 1u);
             if (end == 1 && even)
                 continue;
-            double r = radius + theights[v];
             for (int c = 0; c < 3; c++) {
-                double p = tdirs[3 * v + c] * r;
-                if (end == 0) {
-                    tp[3 * v + c] = p;
-                    tn[3 * v + c] = tnormals[3 * v + c];
-                } else {
-                    tp[3 * v + c] = (tp[3 * v + c] + p) * 0.5;
-                    tn[3 * v + c] = tn[3 * v + c] + tnormals[3 * v + c];
-                }
+                tsum[3 * v + c] = end == 0 ? tworld[3 * v + c]
+                                           : (tsum[3 * v + c] + tworld[3 * v + c]) * 0.5;
+                tn[4 * v + c] = end == 0 ? (double)tnormals[3 * v + c]
+                                         : tn[4 * v + c] + (double)tnormals[3 * v + c];
             }
-            td[v] = end == 0 ? tdetail[v] : (td[v] + tdetail[v]) * 0.5;
+            tn[4 * v + 3] = end == 0 ? (double)tdetail[v]
+                                     : (tn[4 * v + 3] + (double)tdetail[v]) * 0.5;
             if (end == 1) {
-                double len = plod_norm3(tn + 3 * v);
+                double len = plod_norm3(tn + 4 * v);
                 for (int c = 0; c < 3; c++)
-                    tn[3 * v + c] = len > 0.0 ? tn[3 * v + c] / len : normals[3 * v + c];
+                    tn[4 * v + c] = len > 0.0 ? tn[4 * v + c] / len : (double)normals[3 * v + c];
             }
         }
     }
     for (size_t v = 0; v < n; v++) {
         size_t o = vbase + v;
-        const double *dir = dirs + 3 * v;
         double a = alpha[v], p[3], nrm[3], det = detail[v];
-        double r = radius + heights[v];
         for (int c = 0; c < 3; c++) {
-            p[c] = dir[c] * r;
+            p[c] = world[3 * v + c];
             nrm[c] = normals[3 * v + c];
         }
         if (a >= 1.0) {
-            memcpy(p, tp + 3 * v, sizeof p);
-            memcpy(nrm, tn + 3 * v, sizeof nrm);
-            det = td[v];
+            for (int c = 0; c < 3; c++) {
+                p[c] = tsum[3 * v + c];
+                nrm[c] = tn[4 * v + c];
+            }
+            det = tn[4 * v + 3];
         } else if (a > 0.0) {
             for (int c = 0; c < 3; c++) {
-                p[c] = (1.0 - a) * p[c] + a * tp[3 * v + c];
-                nrm[c] = (1.0 - a) * nrm[c] + a * tn[3 * v + c];
+                p[c] = (1.0 - a) * p[c] + a * tsum[3 * v + c];
+                nrm[c] = (1.0 - a) * nrm[c] + a * tn[4 * v + c];
             }
             double len = plod_norm3(nrm);
             if (len > 0.0)
                 for (int c = 0; c < 3; c++)
                     nrm[c] /= len;
-            det = (1.0 - a) * det + a * td[v];
+            det = (1.0 - a) * det + a * tn[4 * v + 3];
         }
         if (out->positions)
             for (int c = 0; c < 3; c++)
-                out->positions[3 * o + c] = (float)(p[c] - e->origin[c]);
+                out->positions[3 * o + c] = (float)(p[c] - origin[c]);
         if (out->normals)
             for (int c = 0; c < 3; c++)
                 out->normals[3 * o + c] = (float)nrm[c];
@@ -872,17 +866,8 @@ static void cm__vertices(const cm__emit *e, const cm__request *req, size_t n, do
             out->morph[o] = (float)a;
         if (out->detail)
             out->detail[o] = (float)det;
-        if (out->uv) {
-            double horizontal = sqrt(dir[0] * dir[0] + dir[1] * dir[1]);
-            double lon = atan2(dir[1], dir[0]);
-            lon = lon - lon_ref > PLOD_PI ? lon - 2 * PLOD_PI : lon;
-            lon = lon - lon_ref < -PLOD_PI ? lon + 2 * PLOD_PI : lon;
-            lon = horizontal > 1e-12 ? lon : lon_ref;
-            double lat = atan2(dir[2], horizontal);
-            out->uv[2 * o] = (float)(lon / (2 * PLOD_PI) + 0.5);
-            out->uv[2 * o + 1] = (float)(lat / PLOD_PI + 0.5);
-        }
     }
+    free(tn);
 }
 
 static int cm__emit_block(cm__emit *e, const cm__visible *vis)
@@ -897,10 +882,10 @@ static int cm__emit_block(cm__emit *e, const cm__visible *vis)
     size_t nreq = b->grid_vertices + 3 * ns;
     int32_t *index = malloc(grid * sizeof *index);
     cm__request *req = malloc(nreq * sizeof *req);
-    double *scratch = malloc(CM_SCRATCH * nreq * sizeof *scratch);
-    int *iscratch = malloc(2 * nreq * sizeof *iscratch);
-    if (!index || !req || !scratch || !iscratch) {
-        free(index), free(req), free(scratch), free(iscratch);
+    double *scratch = malloc(CM_DOUBLES * nreq * sizeof *scratch);
+    float *fscratch = malloc(CM_FLOATS * nreq * sizeof *fscratch);
+    if (!index || !req || !scratch || !fscratch) {
+        free(index), free(req), free(scratch), free(fscratch);
         return 0;
     }
     for (size_t k = 0; k < grid; k++)
@@ -933,8 +918,8 @@ static int cm__emit_block(cm__emit *e, const cm__visible *vis)
         req[next + 3 * s + 1] = bq;
         req[next + 3 * s + 2] = aq;
     }
-    double lon_ref = atan2(b->axis[1], b->axis[0]);
-    cm__vertices(e, req, nreq, lon_ref, vis->vertex_base, scratch, iscratch);
+    double lon_ref = plod_mesh_atan2(b->axis[1], b->axis[0]);
+    cm__vertices(e, req, nreq, lon_ref, vis->vertex_base, scratch, fscratch);
 
     size_t t = vis->triangle_base;
     int32_t base = (int32_t)vis->vertex_base;
@@ -967,7 +952,7 @@ static int cm__emit_block(cm__emit *e, const cm__visible *vis)
         if (out->face)
             out->face[t] = L->stitches[b->stitch_begin + s].face;
     }
-    free(index), free(req), free(scratch), free(iscratch);
+    free(index), free(req), free(scratch), free(fscratch);
     return 1;
 }
 
@@ -979,32 +964,41 @@ static void cm__run(void *context, size_t begin, size_t end)
             atomic_store(&e->failed, 1);
 }
 
-plod_status plod_clipmap_emit(const plod_clipmap *clipmap, const plod_surface_source *surface,
-                              const double origin[3], int threads,
-                              const plod_mesh_buffers *out, size_t *vertex_count,
-                              size_t *triangle_count)
+plod_status plod_clipmap_emit(const plod_clipmap *clipmap, const plod_mesh_params *params,
+                              const plod_surface_source *surface, const plod_mesh_buffers *out,
+                              size_t *vertex_count, size_t *triangle_count)
 {
     if (vertex_count)
         *vertex_count = 0;
     if (triangle_count)
         *triangle_count = 0;
-    if (!clipmap || !surface || !surface->ops || !origin || !out)
+    if (!clipmap || !params || !params->planet || !surface || !surface->ops || !out)
         return PLOD_ERR_NULL;
-    if (!clipmap->updated || threads < 1 || threads > PLOD_MESH_MAX_THREADS)
+    if (!clipmap->updated || params->threads < 1 || params->threads > PLOD_MESH_MAX_THREADS ||
+        params->planet->radius != clipmap->radius || !(params->detail_fade_cell >= 0.0))
         return PLOD_ERR_BAD_PARAM;
-    if (!isfinite(origin[0]) || !isfinite(origin[1]) || !isfinite(origin[2]))
+    const double *o = params->origin, *eye = params->eye;
+    if (!isfinite(o[0]) || !isfinite(o[1]) || !isfinite(o[2]) || !isfinite(eye[0]) ||
+        !isfinite(eye[1]) || !isfinite(eye[2]))
         return PLOD_ERR_BAD_COORD;
-    cm__emit e;
-    memset(&e, 0, sizeof e);
-    atomic_init(&e.failed, 0);
-    e.cm = clipmap;
-    e.surface = surface;
-    e.origin = origin;
-    e.out = out;
-    for (int l = 0; l <= clipmap->finest; l++)
-        e.bands[l] = cm__band(surface, clipmap->radius, l);
-    plod_parallel_for(clipmap->n_visible, threads, cm__run, &e);
-    if (atomic_load(&e.failed))
+    cm__emit *e = malloc(sizeof *e);
+    if (!e)
+        return PLOD_ERR_NO_MEMORY;
+    memset(e, 0, sizeof *e);
+    atomic_init(&e->failed, 0);
+    e->cm = clipmap;
+    e->params = params;
+    e->out = out;
+    e->morph = params->morph != 0;
+    plod_mesh_sampler_init(&e->sampler, params, surface);
+    /* blocks of a few hundred vertices: a handful per chunk */
+    if (params->workers && params->threads > 1)
+        plod_workers_for(params->workers, clipmap->n_visible, 4, cm__run, e);
+    else
+        plod_parallel_for(clipmap->n_visible, params->threads, cm__run, e);
+    int failed = atomic_load(&e->failed);
+    free(e);
+    if (failed)
         return PLOD_ERR_NO_MEMORY;
     if (vertex_count)
         *vertex_count = clipmap->vertices;

@@ -79,7 +79,6 @@ typedef struct plod_clipmap_params {
                                pixels under the eye; > 0, finite */
     int max_level;          /* finest level allowed, 1..PLOD_CLIPMAP_MAX_LEVEL */
     int block_level;        /* culling blocks of 2^b x 2^b cells, 0..6 */
-    int morph;              /* blend the transition regions (0: hard) */
     int backface;           /* cull blocks beyond the horizon */
     int frustum;            /* cull blocks outside the view frustum */
 } plod_clipmap_params;
@@ -124,18 +123,22 @@ plod_status plod_clipmap_update(plod_clipmap *clipmap, const plod_planet *planet
 size_t plod_clipmap_vertex_count(const plod_clipmap *clipmap);
 size_t plod_clipmap_triangle_count(const plod_clipmap *clipmap);
 
-/* Emits the last update's visible blocks (ring by ring, finest first;
+/* Emits the last update's visible blocks (ring by ring, coarsest first;
  * blocks in cell order) into `out` (plod_mesh_buffers; sizes from the
- * counts above; keys unused): positions relative to `origin`, normals,
- * uv (longitude unwrapped per block), morph (alpha), triangles
- * (counter-clockwise from outside), sector_level (the ring's level),
- * face, detail.  threads 1..PLOD_MESH_MAX_THREADS (identical output).
- * PLOD_ERR_NULL; PLOD_ERR_BAD_PARAM (threads, no update yet);
- * PLOD_ERR_BAD_COORD (a non-finite origin); PLOD_ERR_NO_MEMORY. */
-plod_status plod_clipmap_emit(const plod_clipmap *clipmap, const plod_surface_source *surface,
-                              const double origin[3], int threads,
-                              const plod_mesh_buffers *out, size_t *vertex_count,
-                              size_t *triangle_count);
+ * counts above; keys unused) through the shared vertex evaluation
+ * (plod_mesh_sample with params: origin, eye, detail fade; without the
+ * fade each ring samples the detail band its cells resolve): positions
+ * relative to params->origin, normals, uv (longitude unwrapped per
+ * block), morph (alpha), triangles (counter-clockwise from outside),
+ * sector_level (the ring's level), face, detail.  params->morph on: the
+ * transition regions blend (alpha ramps); off: hard rings (alpha 0 or 1).
+ * params->threads 1..PLOD_MESH_MAX_THREADS (identical output; on
+ * params->workers when given).  PLOD_ERR_NULL; PLOD_ERR_BAD_PARAM
+ * (threads, no update yet, another planet radius); PLOD_ERR_BAD_COORD (a
+ * non-finite origin or eye); PLOD_ERR_NO_MEMORY. */
+plod_status plod_clipmap_emit(const plod_clipmap *clipmap, const plod_mesh_params *params,
+                              const plod_surface_source *surface, const plod_mesh_buffers *out,
+                              size_t *vertex_count, size_t *triangle_count);
 
 #ifdef __cplusplus
 }

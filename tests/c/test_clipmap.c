@@ -144,16 +144,28 @@ static void mesh_free(mesh *m)
     memset(m, 0, sizeof *m);
 }
 
-static int emit(const plod_clipmap *cm, const plod_surface_source *surface, const double origin[3],
-                int threads, mesh *m)
+/* Emission options as a session gives them: morph, and the detail fade
+ * (cells of one pixel) or the rings' own bands. */
+static int morph_on = 1, fade_on = 1;
+
+static int emit(const plod_clipmap *cm, const plod_planet *planet,
+                const plod_surface_source *surface, const plod_camera *camera,
+                const double origin[3], int threads, mesh *m)
 {
+    plod_mesh_params mp;
+    plod_mesh_params_init(&mp, planet, 0);
+    memcpy(mp.origin, origin, sizeof mp.origin);
+    memcpy(mp.eye, camera->position, sizeof mp.eye);
+    mp.threads = threads;
+    mp.morph = morph_on;
+    mp.detail_fade_cell = fade_on ? 1.0 / camera->pixels_per_radian : 0.0;
     memset(m, 0, sizeof *m);
     size_t v = plod_clipmap_vertex_count(cm), t = plod_clipmap_triangle_count(cm);
     size_t vc = v ? v : 1, tc = t ? t : 1;
     m->b.positions = malloc(12 * vc), m->b.normals = malloc(12 * vc), m->b.uv = malloc(8 * vc);
     m->b.morph = malloc(4 * vc), m->b.triangles = malloc(12 * tc);
     m->b.sector_level = malloc(4 * tc), m->b.face = malloc(4 * tc), m->b.detail = malloc(4 * vc);
-    if (plod_clipmap_emit(cm, surface, origin, threads, &m->b, &m->nv, &m->nt) != PLOD_OK)
+    if (plod_clipmap_emit(cm, &mp, surface, &m->b, &m->nv, &m->nt) != PLOD_OK)
         return 0;
     uint64_t h = 0xcbf29ce484222325ull;
     h = fnv(m->b.positions, 12 * m->nv, h);
@@ -269,7 +281,7 @@ static plod_session *make_session(plod_projection projection, const plod_cubemap
 
 /* Whole planet, culling off: closed at every frame of the descent. */
 static void check_closed(plod_projection projection, const plod_cubemap *map, int morph,
-                         int frames_step)
+                         int fade, int frames_step)
 {
     plod_session *session = make_session(projection, map);
     CHECK(session != NULL, "session");
@@ -284,7 +296,8 @@ static void check_closed(plod_projection projection, const plod_cubemap *map, in
     plod_clipmap_params params;
     plod_clipmap_params_default(&params);
     params.backface = params.frustum = 0;
-    params.morph = morph;
+    morph_on = morph;
+    fade_on = fade;
     for (int k = 0; k < FRAMES; k += frames_step) {
         plod_camera camera;
         descent(k, top, 0.0, &camera, planet);
@@ -295,17 +308,17 @@ static void check_closed(plod_projection projection, const plod_cubemap *map, in
         double origin[3];
         plod_mesh_origin(&surface, RADIUS, camera.position, origin);
         mesh m;
-        CHECK(emit(cm, &surface, origin, 2, &m), "emit");
+        CHECK(emit(cm, planet, &surface, &camera, origin, 2, &m), "emit");
         weld w;
         weld_mesh(&m, &w);
         CHECK(w.n_open == 0 && w.n_over == 0,
-              "%s morph=%d frame %d: %zu open edges, %zu edges in 3+ triangles",
-              plod_projection_name(projection), morph, k, w.n_open, w.n_over);
+              "%s morph=%d fade=%d frame %d: %zu open edges, %zu edges in 3+ triangles",
+              plod_projection_name(projection), morph, fade, k, w.n_open, w.n_over);
         CHECK(stats.stitches_open == 0, "%s frame %d: %zu stitches not closed",
               plod_projection_name(projection), k, stats.stitches_open);
-        printf("closed %s morph=%d frame %2d finest %2d cells %7zu stitches %5zu "
+        printf("closed %s morph=%d fade=%d frame %2d finest %2d cells %7zu stitches %5zu "
                "triangles %8zu vertices %8zu open %zu\n",
-               plod_projection_name(projection), morph, k, stats.finest_level, stats.cells,
+               plod_projection_name(projection), morph, fade, k, stats.finest_level, stats.cells,
                stats.stitches, m.nt, m.nv, w.n_open);
         weld_free(&w);
         mesh_free(&m);
@@ -375,9 +388,9 @@ static void check_flight(const plod_cubemap *map)
         double origin[3];
         plod_mesh_origin(&surface, RADIUS, camera.position, origin);
         mesh a, b, c;
-        CHECK(emit(kept, &surface, origin, 1, &a), "emit");
-        CHECK(emit(fresh, &surface, origin, 3, &b), "emit fresh");
-        CHECK(emit(kept, &surface, origin, 3, &c), "emit threads");
+        CHECK(emit(kept, planet, &surface, &camera, origin, 1, &a), "emit");
+        CHECK(emit(fresh, planet, &surface, &camera, origin, 3, &b), "emit fresh");
+        CHECK(emit(kept, planet, &surface, &camera, origin, 3, &c), "emit threads");
         CHECK(a.nv == b.nv && a.nt == b.nt && a.hash == b.hash,
               "frame %d: incremental %016llx != fresh %016llx", k, (unsigned long long)a.hash,
               (unsigned long long)b.hash);
@@ -474,21 +487,25 @@ static void check_bad_parameters(const plod_cubemap *map)
               PLOD_ERR_BAD_COORD, "eye at the centre");
     CHECK(plod_clipmap_update(cm, planet, NULL, &camera, &good, NULL, NULL) == PLOD_ERR_NULL,
           "NULL surface");
-    double origin[3] = {0, 0, 0};
+    plod_mesh_params mp;
+    plod_mesh_params_init(&mp, planet, 0);
     plod_mesh_buffers none;
     memset(&none, 0, sizeof none);
     plod_clipmap *empty = NULL;
     plod_clipmap_create(&empty);
-    CHECK(plod_clipmap_emit(empty, &surface, origin, 1, &none, NULL, NULL) == PLOD_ERR_BAD_PARAM,
+    CHECK(plod_clipmap_emit(empty, &mp, &surface, &none, NULL, NULL) == PLOD_ERR_BAD_PARAM,
           "emit before an update");
     CHECK(plod_clipmap_update(cm, planet, &surface, &camera, &good, NULL, NULL) == PLOD_OK,
           "good update");
-    CHECK(plod_clipmap_emit(cm, &surface, origin, 0, &none, NULL, NULL) == PLOD_ERR_BAD_PARAM,
+    mp.threads = 0;
+    CHECK(plod_clipmap_emit(cm, &mp, &surface, &none, NULL, NULL) == PLOD_ERR_BAD_PARAM,
           "threads 0");
-    CHECK(plod_clipmap_emit(cm, &surface, origin, 65, &none, NULL, NULL) == PLOD_ERR_BAD_PARAM,
+    mp.threads = 65;
+    CHECK(plod_clipmap_emit(cm, &mp, &surface, &none, NULL, NULL) == PLOD_ERR_BAD_PARAM,
           "threads 65");
-    double nan_origin[3] = {NAN, 0, 0};
-    CHECK(plod_clipmap_emit(cm, &surface, nan_origin, 1, &none, NULL, NULL) == PLOD_ERR_BAD_COORD,
+    mp.threads = 1;
+    mp.origin[0] = NAN;
+    CHECK(plod_clipmap_emit(cm, &mp, &surface, &none, NULL, NULL) == PLOD_ERR_BAD_COORD,
           "NaN origin");
     plod_clipmap_destroy(empty);
     plod_clipmap_destroy(cm);
@@ -504,11 +521,12 @@ int main(int argc, char **argv)
         return 1;
     }
     if (!strcmp(only, "all") || !strcmp(only, "closed")) {
-        check_closed(PLOD_PROJ_QSC, map, 1, 1);
-        check_closed(PLOD_PROJ_QSC, map, 0, 3);
-        check_closed(PLOD_PROJ_TSC, NULL, 1, 3);
-        check_closed(PLOD_PROJ_CSC, NULL, 1, 3);
-        check_closed(PLOD_PROJ_SPHERIFIED, NULL, 1, 3);
+        check_closed(PLOD_PROJ_QSC, map, 1, 1, 1);
+        check_closed(PLOD_PROJ_QSC, map, 1, 0, 3);
+        check_closed(PLOD_PROJ_QSC, map, 0, 1, 3);
+        check_closed(PLOD_PROJ_TSC, NULL, 1, 1, 3);
+        check_closed(PLOD_PROJ_CSC, NULL, 1, 0, 3);
+        check_closed(PLOD_PROJ_SPHERIFIED, NULL, 1, 1, 3);
     }
     if (!strcmp(only, "all") || !strcmp(only, "flight"))
         check_flight(map);
