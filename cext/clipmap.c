@@ -181,6 +181,11 @@ size_t plod_clipmap_triangle_count(const plod_clipmap *clipmap)
     return clipmap && clipmap->updated ? clipmap->triangles : 0;
 }
 
+size_t plod_clipmap_block_count(const plod_clipmap *clipmap)
+{
+    return clipmap && clipmap->updated ? clipmap->n_visible : 0;
+}
+
 /* ---- geometry helpers ------------------------------------------------------------ */
 
 /* Nominal angular size of a level-l cell (a face spans pi/2). */

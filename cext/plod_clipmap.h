@@ -122,6 +122,8 @@ plod_status plod_clipmap_update(plod_clipmap *clipmap, const plod_planet *planet
  * an update). */
 size_t plod_clipmap_vertex_count(const plod_clipmap *clipmap);
 size_t plod_clipmap_triangle_count(const plod_clipmap *clipmap);
+/* Visible blocks the last update emits (0 before an update). */
+size_t plod_clipmap_block_count(const plod_clipmap *clipmap);
 
 /* Emits the last update's visible blocks (ring by ring, coarsest first;
  * blocks in cell order) into `out` (plod_mesh_buffers; sizes from the

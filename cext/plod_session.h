@@ -67,9 +67,12 @@ typedef struct plod_method_params {
     int chunked_skirts;  /* chunked: 1 skirts, 0 stitched edge variants */
     int geomipmap_tiles; /* geomipmapping: tiles per cube-face edge, a power
                             of two in 1..PLOD_GEOMIPMAP_MAX_TILES */
+    int clipmap_ring_cells; /* clipmaps: a ring's outer radius in its own
+                               cells, 24..1024 (plod_clipmap.h) */
 } plod_method_params;
 
-/* HRTMR, stitched chunks, 16 geomipmap tiles per face edge. */
+/* HRTMR, stitched chunks, 16 geomipmap tiles per face edge, clipmap rings
+ * of 32 cells. */
 void plod_method_params_default(plod_method_params *params);
 /* "hrtmr", "chunked", "geomipmap", "clipmap"; NULL outside the enum. */
 const char *plod_lod_method_name(int method);
@@ -120,8 +123,7 @@ plod_status plod_session_refine(plod_session *session, const plod_camera *camera
                                 const plod_refine_params *params, plod_refine_stats *stats,
                                 plod_error *error);
 /* The LOD method of the next refines.  PLOD_ERR_BAD_PARAM (with *error,
- * may be NULL) for an unknown method or bad method parameters, and for
- * PLOD_LOD_CLIPMAP until the clipmap module is built in.  A change of
+ * may be NULL) for an unknown method or bad method parameters.  A change of
  * method forgets the last camera (emit then emits nothing until the next
  * refine). */
 plod_status plod_session_set_method(plod_session *session, const plod_method_params *params,

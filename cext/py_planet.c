@@ -501,7 +501,7 @@ static PyObject *plod__planet_refine(plod_py_planet *self, PyObject *args, PyObj
                              "merge_border", "hysteresis", "template_level", "max_level",
                              "budget", "backface", "frustum", "skip_sea", "max_sectors",
                              "threads", "max_splits", "method", "chunk_cracks",
-                             "geomipmap_tiles", NULL};
+                             "geomipmap_tiles", "clipmap_ring_cells", NULL};
     PyObject *cam_obj;
     const char *criterion = "pixel", *method = NULL, *cracks = NULL;
     plod_method_params mp;
@@ -511,13 +511,13 @@ static PyObject *plod__planet_refine(plod_py_planet *self, PyObject *args, PyObj
     Py_ssize_t budget = 0, max_sectors = (Py_ssize_t)PLOD_DEFAULT_MAX_SECTORS, max_splits = 0;
     if (!plod__planet_ready(self))
         return NULL;
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O|sdddpiinpppninzzi", kwlist, &cam_obj,
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O|sdddpiinpppninzzii", kwlist, &cam_obj,
                                      &criterion, &p.max_pixel_error, &p.split_border,
                                      &p.merge_border, &p.hysteresis, &p.template_level,
                                      &p.max_level, &budget, &p.backface_culling,
                                      &p.frustum_culling, &p.skip_sea, &max_sectors,
                                      &p.threads, &max_splits, &method, &cracks,
-                                     &mp.geomipmap_tiles))
+                                     &mp.geomipmap_tiles, &mp.clipmap_ring_cells))
         return NULL;
     /* the LOD method: named here, checked and kept by the session */
     mp.method = method ? (plod_lod_method)plod_lod_method_from_name(method) : PLOD_LOD_HRTMR;

@@ -11,6 +11,7 @@
  * relative to it keep millimetres at a planet's scale), and geomorphing
  * follows the refine criterion's split distance.
  */
+#include "plod_clipmap.h"
 #include "plod_session.h"
 #include "plod_platform.h"
 
@@ -34,6 +35,7 @@ struct plod_session {
     plod_method_params method;
     plod_chunked *chunked;     /* owned; created by the first chunked refine */
     plod_geomipmap *geomipmap; /* owned; created by the first geomipmap refine */
+    plod_clipmap *clipmap;     /* owned; created by the first clipmap refine */
     plod_mutex lock;
 };
 
@@ -47,6 +49,7 @@ void plod_method_params_default(plod_method_params *params)
     params->method = PLOD_LOD_HRTMR;
     params->chunked_skirts = 0;
     params->geomipmap_tiles = 16;
+    params->clipmap_ring_cells = 32;
 }
 
 const char *plod_lod_method_name(int method)
@@ -141,6 +144,7 @@ void plod_session_destroy(plod_session *session)
     plod_refiner_destroy(session->refiner);
     plod_chunked_destroy(session->chunked);
     plod_geomipmap_destroy(session->geomipmap);
+    plod_clipmap_destroy(session->clipmap);
     plod_mesh_cache_destroy(session->mesh_cache);
     plod_workers_destroy(session->mesh_workers);
     plod_cubemap_bundle_destroy(session->bundle);
@@ -207,14 +211,15 @@ plod_status plod_session_set_method(plod_session *session, const plod_method_par
         return plod_error_set(error, PLOD_ERR_BAD_PARAM,
                               "geomipmap_tiles must be a power of two in 1..%d",
                               PLOD_GEOMIPMAP_MAX_TILES);
-    /* ---- clipmap dispatch point: the clipmap module's parameters are
-     * checked here once it is built in (plod_clipmap.h) ---- */
-    if (params->method == PLOD_LOD_CLIPMAP)
+    /* ---- clipmap dispatch point: the clipmap module's parameters ---- */
+    if (params->clipmap_ring_cells < 24 || params->clipmap_ring_cells > 1024)
         return plod_error_set(error, PLOD_ERR_BAD_PARAM,
-                              "the clipmap LOD method is not built in this version");
+                              "clipmap_ring_cells must be 24..1024 (got %d)",
+                              params->clipmap_ring_cells);
     if (params->method != session->method.method ||
         params->chunked_skirts != session->method.chunked_skirts ||
-        params->geomipmap_tiles != session->method.geomipmap_tiles)
+        params->geomipmap_tiles != session->method.geomipmap_tiles ||
+        params->clipmap_ring_cells != session->method.clipmap_ring_cells)
         session->has_camera = 0;
     session->method = *params;
     return PLOD_OK;
@@ -244,10 +249,41 @@ plod_status plod_session_refine(plod_session *session, const plod_camera *camera
         st = plod_geomipmap_refine(session->geomipmap, &session->planet, camera, params,
                                    session->method.geomipmap_tiles, &frame, error);
         break;
-    case PLOD_LOD_CLIPMAP:
-        /* ---- clipmap dispatch point (plod_clipmap.h) ---- */
-        return plod_error_set(error, PLOD_ERR_BAD_PARAM,
-                              "the clipmap LOD method is not built in this version");
+    case PLOD_LOD_CLIPMAP: {
+        /* ---- clipmap dispatch point (plod_clipmap.h): the refine's pixel
+         * error, culling and level limit (one clipmap level per two
+         * bisection levels), template_level as the culling blocks ---- */
+        if (params->template_level > PLOD_CLIPMAP_MAX_BLOCK_LEVEL)
+            return plod_error_set(error, PLOD_ERR_BAD_PARAM,
+                                  "the clipmap's culling blocks (2^template_level cells a "
+                                  "side) take template_level 0..%d",
+                                  PLOD_CLIPMAP_MAX_BLOCK_LEVEL);
+        if (!session->clipmap && plod_clipmap_create(&session->clipmap) != PLOD_OK)
+            return plod_error_set(error, PLOD_ERR_NO_MEMORY, "clipmap: out of memory");
+        plod_clipmap_params cp;
+        plod_clipmap_params_default(&cp);
+        cp.ring_cells = session->method.clipmap_ring_cells;
+        cp.max_pixel_error = params->max_pixel_error;
+        cp.max_level = params->max_level / 2 < PLOD_CLIPMAP_MAX_LEVEL ? params->max_level / 2
+                                                                       : PLOD_CLIPMAP_MAX_LEVEL;
+        cp.block_level = params->template_level;
+        cp.backface = params->backface_culling;
+        cp.frustum = params->frustum_culling;
+        plod_surface_source surface = plod_planet_surface_source(&session->planet);
+        plod_clipmap_stats cs;
+        st = plod_clipmap_update(session->clipmap, &session->planet, &surface, camera, &cp, &cs,
+                                 error);
+        if (st == PLOD_OK) {
+            memset(&frame, 0, sizeof frame);
+            frame.sectors_total = cs.blocks;
+            frame.sectors_after_backface = frame.sectors_after_frustum = cs.blocks_visible;
+            frame.sectors_after_budget = cs.blocks_visible;
+            frame.splits = cs.cells_refreshed; /* leaf cells new this frame */
+            frame.max_level_reached = cs.finest_level;
+            frame.refine_us = cs.update_us;
+        }
+        break;
+    }
     default:
         st = plod_refiner_update(session->refiner, camera, params, &frame, error);
         break;
@@ -268,6 +304,7 @@ plod_status plod_session_refine(plod_session *session, const plod_camera *camera
 void plod_session_reset(plod_session *session)
 {
     plod_refiner_reset(session->refiner);
+    plod_clipmap_reset(session->clipmap);
     session->has_camera = 0;
 }
 
@@ -445,6 +482,8 @@ static const plod_face_tile *plod__method_tiles(const plod_session *session, siz
 
 size_t plod_session_sector_count(const plod_session *session, int visible_only)
 {
+    if (session->method.method == PLOD_LOD_CLIPMAP)
+        return session->has_camera ? plod_clipmap_block_count(session->clipmap) : 0;
     if (session->method.method != PLOD_LOD_HRTMR) {
         size_t count;
         plod__method_tiles(session, &count);
@@ -460,6 +499,11 @@ void plod_session_emit_bounds(const plod_session *session, int template_level,
 {
     size_t count = plod_session_sector_count(session, visible_only);
     *sectors = count;
+    if (session->method.method == PLOD_LOD_CLIPMAP) {
+        *vertices = session->has_camera ? plod_clipmap_vertex_count(session->clipmap) : 0;
+        *triangles = session->has_camera ? plod_clipmap_triangle_count(session->clipmap) : 0;
+        return;
+    }
     if (session->method.method != PLOD_LOD_HRTMR) {
         size_t n;
         const plod_face_tile *tiles = plod__method_tiles(session, &n);
@@ -509,6 +553,18 @@ static plod_status plod__emit_patches(plod_session *session, plod_mesh_params *m
     if (mp->changed_only ||
         (session->has_camera && mp->template_level != session->params.template_level))
         return PLOD_ERR_BAD_PARAM;
+    if (session->method.method == PLOD_LOD_CLIPMAP) {
+        /* ---- clipmap dispatch point (plod_clipmap.h) ---- */
+        if (!session->has_camera)
+            return PLOD_OK;
+        mp->workers = plod__emission_workers(session, mp->threads);
+        plod_surface_source surface = plod_planet_surface_source(&session->planet);
+        plod_workers_begin(mp->workers);
+        plod_status st = plod_clipmap_emit(session->clipmap, mp, &surface, out, vertex_count,
+                                           triangle_count);
+        plod_workers_end(mp->workers);
+        return st;
+    }
     size_t count;
     const plod_face_tile *tiles = plod__method_tiles(session, &count);
     const plod_camera *camera = session->has_camera ? &session->camera : NULL;
