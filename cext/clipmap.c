@@ -220,23 +220,35 @@ static void cm__corners(const plod_clipmap *cm, int face, uint32_t i, uint32_t j
     }
 }
 
-/* Level-l cell refined into level l+1: every corner within ring_cells *
- * s_{l+1} of C_{l+1}. */
-static int cm__refines(const plod_clipmap *cm, int level, int face, uint32_t i, uint32_t j)
+/* Chord bound of the ring of level l+1: a level-l cell is refined when
+ * every corner lies within ring_cells * s_{l+1} of C_{l+1} (chord
+ * 2 sin(theta / 2)); *all: the ring covers the sphere. */
+static double cm__ring_chord2(const plod_clipmap *cm, int level, int *all)
 {
     double theta = cm->ring_cells * cm__cell_angle(level + 1);
-    if (theta >= PLOD_PI)
-        return 1;
-    double limit = 2.0 * sin(theta / 2), limit2 = limit * limit;
-    const double *c = cm->centre[level + 1];
-    for (int k = 0; k < 4; k++) {
-        double d[3];
-        cm__dir(cm, face, i + (uint32_t)(k & 1), j + (uint32_t)(k >> 1), level, d);
-        double x = d[0] - c[0], y = d[1] - c[1], z = d[2] - c[2];
-        if (x * x + y * y + z * z > limit2)
-            return 0;
+    *all = theta >= PLOD_PI;
+    double limit = 2.0 * sin((*all ? PLOD_PI : theta) / 2);
+    return limit * limit;
+}
+
+static int cm__within(const double d[3], const double c[3], double chord2)
+{
+    double x = d[0] - c[0], y = d[1] - c[1], z = d[2] - c[2];
+    return x * x + y * y + z * z <= chord2;
+}
+
+/* A binary search in a sorted array. */
+static int cm__contains(const uint64_t *sorted, size_t n, uint64_t key)
+{
+    size_t lo = 0, hi = n;
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (sorted[mid] < key)
+            lo = mid + 1;
+        else
+            hi = mid;
     }
-    return 1;
+    return lo < n && sorted[lo] == key;
 }
 
 /* ---- edge set: the edges of a level's refined cells --------------------------------- */
@@ -251,12 +263,13 @@ typedef struct cm__edges {
     size_t mask;
 } cm__edges;
 
-static uint64_t cm__hash_bytes(const void *data, size_t bytes, uint64_t h)
+static uint64_t cm__hash_doubles(const double *values, int n, uint64_t h)
 {
-    const unsigned char *p = data;
-    for (size_t i = 0; i < bytes; i++) {
-        h ^= p[i];
-        h *= 0x100000001b3ull;
+    for (int k = 0; k < n; k++) {
+        uint64_t x;
+        memcpy(&x, values + k, sizeof x);
+        h = (h ^ x) * 0x9e3779b97f4a7c15ull;
+        h ^= h >> 31;
     }
     return h;
 }
@@ -271,8 +284,8 @@ static void cm__edge_make(const double p[3], const double q[3], cm__edge *e)
 
 static size_t cm__edge_slot(const cm__edges *set, const cm__edge *e)
 {
-    uint64_t h = cm__hash_bytes(e->a, sizeof e->a, 0xcbf29ce484222325ull);
-    h = cm__hash_bytes(e->b, sizeof e->b, h);
+    uint64_t h = cm__hash_doubles(e->a, 3, 0xcbf29ce484222325ull);
+    h = cm__hash_doubles(e->b, 3, h);
     size_t s = (size_t)(h ^ (h >> 29)) & set->mask;
     while (set->slots[s].used && (memcmp(set->slots[s].a, e->a, sizeof e->a) != 0 ||
                                   memcmp(set->slots[s].b, e->b, sizeof e->b) != 0))
@@ -342,6 +355,9 @@ static int cm__build_level(plod_clipmap *cm, int level, int has_next)
     int b = cm->block_level < level ? cm->block_level : level;
 
     size_t parents = level == 0 ? PLOD_FACE_COUNT : cm->levels[level - 1].n_refined;
+    int all = 0;
+    double chord2 = has_next ? cm__ring_chord2(cm, level, &all) : 0.0;
+    const double *centre = has_next ? cm->centre[level + 1] : NULL;
     for (size_t p = 0; p < parents; p++) {
         int face;
         uint32_t pi = 0, pj = 0;
@@ -349,10 +365,21 @@ static int cm__build_level(plod_clipmap *cm, int level, int has_next)
             face = (int)p;
         else
             cm__unkey(cm->levels[level - 1].refined[p], &face, &pi, &pj);
+        /* the children's corners: the parent's 3 x 3 grid points (2 x 2 at
+         * level 0), each tested once */
+        int side = level == 0 ? 2 : 3, inside[3][3];
+        for (int a = 0; a < side && has_next && !all; a++)
+            for (int c = 0; c < side; c++) {
+                double d[3];
+                cm__dir(cm, face, 2 * pi + (uint32_t)a, 2 * pj + (uint32_t)c, level, d);
+                inside[a][c] = cm__within(d, centre, chord2);
+            }
         for (int c = 0; c < (level == 0 ? 1 : 4); c++) {
-            uint32_t i = level == 0 ? 0 : 2 * pi + (uint32_t)(c >> 1);
-            uint32_t j = level == 0 ? 0 : 2 * pj + (uint32_t)(c & 1);
-            int ok = has_next && cm__refines(cm, level, face, i, j)
+            int ci = level == 0 ? 0 : c >> 1, cj = level == 0 ? 0 : c & 1;
+            uint32_t i = 2 * pi + (uint32_t)ci, j = 2 * pj + (uint32_t)cj;
+            int refines = has_next && (all || (inside[ci][cj] && inside[ci + 1][cj] &&
+                                               inside[ci][cj + 1] && inside[ci + 1][cj + 1]));
+            int ok = refines
                          ? cm__push_u64(&L->refined, &L->n_refined, &L->cap_refined,
                                         cm__key(face, i, j))
                          : cm__push_u64(&L->leaves, &L->n_leaves, &L->cap_leaves,
@@ -374,10 +401,13 @@ static int cm__build_level(plod_clipmap *cm, int level, int has_next)
         if (!set.slots)
             return 0;
         set.mask = slots - 1;
+        uint32_t last = (uint32_t)1 << level; /* cells per face side */
         for (size_t r = 0; r < L->n_refined; r++) {
             int face;
             uint32_t i, j, c[4][2];
             cm__unkey(L->refined[r], &face, &i, &j);
+            if (i != 0 && j != 0 && i + 1 != last && j + 1 != last)
+                continue; /* its edges meet cells of its own face only */
             cm__corners(cm, face, i, j, c);
             double d[4][3];
             for (int k = 0; k < 4; k++)
@@ -421,15 +451,33 @@ static int cm__build_level(plod_clipmap *cm, int level, int has_next)
             used[li * (uint32_t)(n + 1) + lj + 1] = used[(li + 1) * (uint32_t)(n + 1) + lj + 1] = 1;
             if (!set.slots)
                 continue;
-            uint32_t c[4][2];
+            uint32_t c[4][2], last = (uint32_t)1 << level;
             cm__corners(cm, gf, gi, gj, c);
+            int border = gi == 0 || gj == 0 || gi + 1 == last || gj + 1 == last;
             double d[4][3];
-            for (int k = 0; k < 4; k++)
+            for (int k = 0; k < 4 && border; k++)
                 cm__dir(cm, gf, c[k][0], c[k][1], level, d[k]);
             for (int k = 0; k < 4; k++) {
-                cm__edge e;
-                cm__edge_make(d[k], d[(k + 1) % 4], &e);
-                if (!set.slots[cm__edge_slot(&set, &e)].used)
+                /* the cell across edge k: on this face, an integer look-up;
+                 * across a face edge, by the edge's directions */
+                uint32_t a0 = c[k][0], a1 = c[k][1], b0 = c[(k + 1) % 4][0],
+                         b1 = c[(k + 1) % 4][1];
+                int shared;
+                if (a0 == b0 && (a0 == 0 || a0 == last)) {
+                    cm__edge e;
+                    cm__edge_make(d[k], d[(k + 1) % 4], &e);
+                    shared = set.slots[cm__edge_slot(&set, &e)].used;
+                } else if (a1 == b1 && (a1 == 0 || a1 == last)) {
+                    cm__edge e;
+                    cm__edge_make(d[k], d[(k + 1) % 4], &e);
+                    shared = set.slots[cm__edge_slot(&set, &e)].used;
+                } else {
+                    /* the neighbour is the cell on the far side of the edge */
+                    uint32_t ni = a0 == b0 ? (a0 == gi ? gi - 1 : gi + 1) : gi;
+                    uint32_t nj = a1 == b1 ? (a1 == gj ? gj - 1 : gj + 1) : gj;
+                    shared = cm__contains(L->refined, L->n_refined, cm__key(gf, ni, nj));
+                }
+                if (!shared)
                     continue;
                 if (L->n_stitches == L->cap_stitches) {
                     cm__stitch *grown = plod_grow(L->stitches, &L->cap_stitches,
