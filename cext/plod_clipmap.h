@@ -43,10 +43,12 @@
  * alpha is 1 (Losasso and Hoppe's zero-area triangles), so the emitted
  * surface is closed: welded by position, every edge has two triangles.
  *
- * Each level's detail band is the one its cells resolve (a level is a
- * filtered terrain, as a clipmap level is); heights, normals and detail
- * come from the surface source, positions are computed in double and
- * written relative to the origin as float32.  Culling (horizon against
+ * Vertices go through the shared vertex evaluation (plod_mesh_sample):
+ * heights, normals and detail from the surface source, positions computed
+ * in double and written relative to the origin as float32.  Each level
+ * samples the detail band its cells resolve (a level is a filtered
+ * terrain, as a clipmap level is), or, with the emission's detail fade,
+ * the fade's band (a function of the direction and the eye).  Culling (horizon against
  * the lowest surface's ball, frustum) is per block of 2^block_level x
  * 2^block_level cells, with the block's elevation bounds.
  *
