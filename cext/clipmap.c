@@ -186,6 +186,19 @@ size_t plod_clipmap_block_count(const plod_clipmap *clipmap)
     return clipmap && clipmap->updated ? clipmap->n_visible : 0;
 }
 
+size_t plod_clipmap_memory_bytes(const plod_clipmap *clipmap)
+{
+    if (!clipmap)
+        return 0;
+    size_t bytes = sizeof *clipmap + clipmap->cap_visible * sizeof *clipmap->visible;
+    for (int l = 0; l < CM_LEVELS; l++) {
+        const cm__level *L = &clipmap->levels[l];
+        bytes += (L->cap_refined + L->cap_leaves) * sizeof(uint64_t) +
+                 L->cap_stitches * sizeof *L->stitches + L->cap_blocks * sizeof *L->blocks;
+    }
+    return bytes;
+}
+
 /* ---- geometry helpers ------------------------------------------------------------ */
 
 /* Nominal angular size of a level-l cell (a face spans pi/2). */
@@ -930,6 +943,9 @@ static int cm__emit_block(cm__emit *e, const cm__visible *vis)
     const cm__block *b = &L->blocks[vis->block];
     const plod_mesh_buffers *out = e->out;
     int level = vis->level, n = 1 << b->shift;
+    if (out->keys)
+        out->keys[vis - cm->visible] = ((uint64_t)b->face << 56) | ((uint64_t)level << 50) |
+                                       ((uint64_t)b->bj << 25) | (uint64_t)b->bi;
     size_t grid = (size_t)(n + 1) * (size_t)(n + 1);
     size_t ns = b->stitch_end - b->stitch_begin;
     size_t nreq = b->grid_vertices + 3 * ns;

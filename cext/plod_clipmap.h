@@ -126,15 +126,20 @@ size_t plod_clipmap_vertex_count(const plod_clipmap *clipmap);
 size_t plod_clipmap_triangle_count(const plod_clipmap *clipmap);
 /* Visible blocks the last update emits (0 before an update). */
 size_t plod_clipmap_block_count(const plod_clipmap *clipmap);
+/* Bytes the clipmap holds (every level's cells, stitches and blocks, and
+ * the visible list; capacities included; 0 for NULL). */
+size_t plod_clipmap_memory_bytes(const plod_clipmap *clipmap);
 
 /* Emits the last update's visible blocks (ring by ring, coarsest first;
  * blocks in cell order) into `out` (plod_mesh_buffers; sizes from the
- * counts above; keys unused) through the shared vertex evaluation
+ * counts above; keys: plod_clipmap_block_count) through the shared vertex evaluation
  * (plod_mesh_sample with params: origin, eye, detail fade; without the
  * fade each ring samples the detail band its cells resolve): positions
  * relative to params->origin, normals, uv (longitude unwrapped per
  * block), morph (alpha), triangles (counter-clockwise from outside),
- * sector_level (the ring's level), face, detail.  params->morph on: the
+ * sector_level (the ring's level), face, detail, keys (per visible block:
+ * face << 56 | level << 50 | block row << 25 | block column, the block's
+ * cell at level - min(block_level, level)).  params->morph on: the
  * transition regions blend (alpha ramps); off: hard rings (alpha 0 or 1).
  * params->threads 1..PLOD_MESH_MAX_THREADS (identical output; on
  * params->workers when given).  PLOD_ERR_NULL; PLOD_ERR_BAD_PARAM

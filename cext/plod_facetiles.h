@@ -11,7 +11,8 @@
  *
  * Cracks where neighbours differ in spacing: either stitched (an edge whose
  * neighbour is 2^k times coarser keeps every 2^k-th boundary vertex and its
- * border strip is zipped to the inner row: 004's edge variants, and any
+ * border strip is zipped to the inner row: the edge variants of chunked LOD
+ * and geomipmapping, and any
  * difference up to the tile's cell count) or hidden by skirts (a strip down
  * from every edge, as deep as the tile's relief and curvature sag).
  *

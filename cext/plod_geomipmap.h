@@ -1,5 +1,5 @@
 /* plod_geomipmap.h -- geomipmapping on the cube faces (W. H. de Boer,
- * "Fast Terrain Rendering Using Geometrical MipMapping", 2000; 003).
+ * "Fast Terrain Rendering Using Geometrical MipMapping", 2000).
  *
  * Each cube face is a fixed grid of tiles x tiles tiles of (2^n + 1)^2
  * vertices, n = the refinement's template_level (plod_facetiles.h).  Each
@@ -14,9 +14,10 @@
  * and the one below, so levels never get finer with distance.  Cracks:
  * every edge keeps its coarser neighbour's vertices and is zipped to the
  * tile's inner row (index variants for any level difference).  Culling:
- * the HRTMR bounds (horizon, elevation, frustum); with skip_sea, 003's
- * lower-bound culling: tiles whose heights all lie at or below sea_level
- * are left out, and so are the triangles of the others whose three
+ * the HRTMR bounds (horizon, elevation, frustum); with skip_sea, the
+ * lower-bound culling of D. Jankauskas ("Fast Terrain Rendering:
+ * Geomipmap Optimization", master's thesis, Vilnius University, 2009):
+ * tiles whose heights all lie at or below sea_level are left out, and so are the triangles of the others whose three
  * vertices do; the sea sphere is the gap plane that covers them.  The
  * finest detail is the grid's: 2 tiles x 2^n cells per face edge; nearer
  * than that resolves, the error exceeds the threshold.  Internal to the

@@ -136,6 +136,10 @@ void plod_session_emit_bounds(const plod_session *session, int template_level,
                               int visible_only, size_t *vertices, size_t *triangles,
                               size_t *sectors);
 
+/* Bytes of the LOD method's own state (HRTMR: plod_refiner_memory_bytes;
+ * the others: their trees, tables and patch lists), capacities included. */
+size_t plod_session_method_bytes(const plod_session *session);
+
 /* Back to the base sectors; forgets the last camera. */
 void plod_session_reset(plod_session *session);
 /* plod_refiner_reserve. */

@@ -563,21 +563,40 @@ static PyObject *plod__planet_refine(plod_py_planet *self, PyObject *args, PyObj
     if (st != PLOD_OK)
         return plod_py_raise_detail(st, "refine", error.message);
     /* what planet.mesh(template_level) would emit for the visible sectors */
+    if (mp.method == PLOD_LOD_HRTMR) {
+        /* what planet.mesh(template_level) would emit for the visible sectors */
+        size_t per_v = plod_template_vertex_count(p.template_level);
+        size_t per_t = plod_template_triangle_count(p.template_level);
+        return Py_BuildValue(
+            "{s:n,s:n,s:n,s:n,s:n,s:n,s:n,s:d,s:d,s:i,s:O,s:O,s:I,s:K,s:K}", "sectors_total",
+            (Py_ssize_t)s.sectors_total, "sectors_after_backface",
+            (Py_ssize_t)s.sectors_after_backface, "sectors_after_frustum",
+            (Py_ssize_t)s.sectors_after_frustum, "sectors_after_budget",
+            (Py_ssize_t)s.sectors_after_budget, "sectors_sea_skipped",
+            (Py_ssize_t)s.sectors_sea_skipped, "splits", (Py_ssize_t)s.splits, "merges",
+            (Py_ssize_t)s.merges, "refine_us", s.refine_us, "cull_us", s.cull_us, "max_level",
+            s.max_level_reached, "truncated", s.truncated ? Py_True : Py_False, "pending",
+            s.pending ? Py_True : Py_False, "frame", s.frame, "vertices",
+            (unsigned long long)(s.sectors_after_budget * per_v), "triangles",
+            (unsigned long long)(s.sectors_after_budget * per_t));
+    }
+    /* the other methods: the bounds of their mesh, their name and state */
     size_t vertices, triangles, emitted;
     plod_session_emit_bounds(self->session, p.template_level, 1, &vertices, &triangles,
                              &emitted);
     return Py_BuildValue(
-        "{s:n,s:n,s:n,s:n,s:n,s:n,s:n,s:d,s:d,s:i,s:O,s:O,s:I,s:K,s:K,s:s}", "sectors_total",
-        (Py_ssize_t)s.sectors_total, "sectors_after_backface",
+        "{s:n,s:n,s:n,s:n,s:n,s:n,s:n,s:d,s:d,s:i,s:O,s:O,s:I,s:K,s:K,s:s,s:K}",
+        "sectors_total", (Py_ssize_t)s.sectors_total, "sectors_after_backface",
         (Py_ssize_t)s.sectors_after_backface, "sectors_after_frustum",
         (Py_ssize_t)s.sectors_after_frustum, "sectors_after_budget",
         (Py_ssize_t)s.sectors_after_budget, "sectors_sea_skipped",
         (Py_ssize_t)s.sectors_sea_skipped, "splits", (Py_ssize_t)s.splits, "merges",
         (Py_ssize_t)s.merges, "refine_us", s.refine_us, "cull_us", s.cull_us, "max_level",
         s.max_level_reached, "truncated", s.truncated ? Py_True : Py_False, "pending",
-        s.pending ? Py_True : Py_False, "frame",
-        s.frame, "vertices", (unsigned long long)vertices, "triangles",
-        (unsigned long long)triangles, "method", plod_lod_method_name((int)mp.method));
+        s.pending ? Py_True : Py_False, "frame", s.frame, "vertices",
+        (unsigned long long)vertices, "triangles", (unsigned long long)triangles, "method",
+        plod_lod_method_name((int)mp.method), "state_bytes",
+        (unsigned long long)plod_session_method_bytes(self->session));
 }
 
 static PyObject *plod__planet_reset(plod_py_planet *self, PyObject *unused)

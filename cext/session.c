@@ -230,6 +230,20 @@ const plod_method_params *plod_session_method(const plod_session *session)
     return &session->method;
 }
 
+size_t plod_session_method_bytes(const plod_session *session)
+{
+    switch (session->method.method) {
+    case PLOD_LOD_CHUNKED:
+        return session->chunked ? plod_chunked_memory_bytes(session->chunked) : 0;
+    case PLOD_LOD_GEOMIPMAP:
+        return session->geomipmap ? plod_geomipmap_memory_bytes(session->geomipmap) : 0;
+    case PLOD_LOD_CLIPMAP:
+        return plod_clipmap_memory_bytes(session->clipmap);
+    default:
+        return plod_refiner_memory_bytes(session->refiner);
+    }
+}
+
 plod_status plod_session_refine(plod_session *session, const plod_camera *camera,
                                 const plod_refine_params *params, plod_refine_stats *stats,
                                 plod_error *error)
@@ -475,6 +489,9 @@ static const plod_face_tile *plod__method_tiles(const plod_session *session, siz
         return session->chunked ? plod_chunked_tiles(session->chunked, count) : NULL;
     case PLOD_LOD_GEOMIPMAP:
         return session->geomipmap ? plod_geomipmap_tiles(session->geomipmap, count) : NULL;
+    /* ---- clipmap dispatch point: its patch count (sector_count),
+     * bounds (plod_session_emit_bounds) and emission (plod_session_emit)
+     * go beside the tile methods' (plod_clipmap.h) ---- */
     default:
         return NULL;
     }
