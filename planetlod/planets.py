@@ -296,11 +296,15 @@ LOD_METHOD_ITEMS = [
     ("GEOMIPMAP", "Geomipmapping", "A fixed grid of tiles on the cube faces, each drawn at "
                                    "a mip level (W. H. de Boer, Fast Terrain Rendering Using "
                                    "Geometrical MipMapping, 2000)"),
+    ("CLIPMAP", "Geometry Clipmaps", "Nested rings of regular grids on the cube faces centred "
+                                     "under the camera (F. Losasso, H. Hoppe, Geometry "
+                                     "Clipmaps, 2004)"),
 ]
 LEVEL_MEANING = {
     "HRTMR": "level: bisections of a base sector (higher is finer)",
     "CHUNKED": "level: quadtree depth of the chunk (higher is finer)",
     "GEOMIPMAP": "level: mip level of the tile (0 is full resolution, higher is coarser)",
+    "CLIPMAP": "level: clipmap ring (cells halve per level, higher is finer and nearer)",
 }
 
 
