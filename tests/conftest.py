@@ -68,13 +68,18 @@ C_TEST_FLAGS = ["-std=c11", "-O2", "-Wall", "-Wextra", "-Werror", "-Wno-missing-
 def run_c_test(tmp_path):
     """run(name, core_sources, extra_flags=()): builds tests/c/<name>.c with
     those cext/ sources and the platform layer, runs it and returns its stdout (the build and the
-    run must succeed)."""
+    run must succeed).  Under tools/sanitize.sh (PLANETLOD_SANITIZE_C_TESTS=1) built with
+    ASan+UBSan."""
     if shutil.which("gcc") is None:
         pytest.skip("needs gcc")
 
+    sanitize = (["-fsanitize=address,undefined", "-fno-sanitize-recover=undefined",
+                 "-fno-omit-frame-pointer"]
+                if os.environ.get("PLANETLOD_SANITIZE_C_TESTS") == "1" else [])
+
     def run(name, core_sources, extra_flags=()):
         exe = tmp_path / name
-        cmd = ["gcc", *C_TEST_FLAGS, *extra_flags, "-I", os.path.join(ROOT, "cext"),
+        cmd = ["gcc", *C_TEST_FLAGS, *sanitize, *extra_flags, "-I", os.path.join(ROOT, "cext"),
                os.path.join(ROOT, "tests", "c", name + ".c")]
         # the platform layer with them: base.c's threads and clocks need it
         sources = list(core_sources) + ["platform_posix.c", "platform_win32.c"]
