@@ -401,8 +401,10 @@ static int cm__build_level(plod_clipmap *cm, int level, int has_next)
                 return 0;
         }
     }
-    qsort(L->refined, L->n_refined, sizeof *L->refined, cm__compare_u64);
-    qsort(L->leaves, L->n_leaves, sizeof *L->leaves, cm__compare_u64);
+    if (L->n_refined)
+        qsort(L->refined, L->n_refined, sizeof *L->refined, cm__compare_u64);
+    if (L->n_leaves)
+        qsort(L->leaves, L->n_leaves, sizeof *L->leaves, cm__compare_u64);
 
     /* stitches: leaf edges that a refined cell of this level shares */
     cm__edges set = {NULL, 0};
