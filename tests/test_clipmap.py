@@ -156,3 +156,11 @@ def test_mesh_level_must_be_the_refines():
     with pytest.raises(pl.InvalidArgument):
         planet.mesh(template_level=2)
     assert planet.mesh(template_level=3).triangle_count > 0
+
+
+def test_the_addon_work_draws_clipmaps(planetlod):
+    """The add-on's refresh refines with LOD Method 'Geometry Clipmaps' and
+    draws the rings' whole mesh as one preview patch (as for the other
+    patch methods)."""
+    from test_lod_methods import test_the_addon_work_draws_a_method as draws_a_method
+    draws_a_method(planetlod, "CLIPMAP")
