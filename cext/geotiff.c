@@ -18,6 +18,7 @@
  * east and south; with PixelIsPoint (i, j) is the sample itself.
  */
 #include "plod_image.h"
+#include "plod_platform.h"
 
 #include <errno.h>
 #include <limits.h>
@@ -26,7 +27,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 
 enum {
     PLOD__TAG_MODEL_PIXEL_SCALE = 33550,
@@ -46,7 +46,7 @@ enum {
 };
 
 typedef struct plod__tiff {
-    FILE *file;
+    plod_file file;
     unsigned long long size;
     int big_endian;
     int big_tiff; /* 8-byte offsets and counts, 20-byte entries */
@@ -65,9 +65,7 @@ static int plod__tiff_read(const plod__tiff *t, unsigned long long offset, void 
 {
     if (offset > t->size || bytes > t->size - offset)
         return 0;
-    if (offset > (unsigned long long)LONG_MAX || fseek(t->file, (long)offset, SEEK_SET) != 0)
-        return 0;
-    return fread(out, 1, bytes, t->file) == bytes;
+    return plod_file_read_at(t->file, out, bytes, offset);
 }
 
 static size_t plod__tiff_type_bytes(unsigned type)
@@ -280,18 +278,21 @@ plod_status plod_georef_read(plod_georef *geo, const char *path, char *message,
     if (!geo || !path)
         return PLOD_ERR_NULL;
     memset(geo, 0, sizeof *geo);
-    struct stat info;
+    plod_path_info info;
     plod__tiff t = {0};
     errno = 0;
-    if (stat(path, &info) != 0 || !S_ISREG(info.st_mode) || !(t.file = fopen(path, "rb"))) {
+    if (!plod_path_info_get(path, &info) || !info.regular ||
+        !plod_file_open(&t.file, path, PLOD_FILE_READ)) {
         plod_status_format(message, message_size, "cannot open '%s': %s", path,
                           errno ? strerror(errno) : "not a regular file");
         return PLOD_ERR_IO;
     }
-    t.size = (unsigned long long)info.st_size;
+    t.size = (unsigned long long)info.size;
     unsigned char head[16];
     plod_status status = PLOD_OK;
-    size_t got = fread(head, 1, sizeof head, t.file);
+    size_t got = t.size < sizeof head ? (size_t)t.size : sizeof head;
+    if (!plod_file_read_at(t.file, head, got, 0))
+        got = 0;
     int tiff = got >= 4 && ((head[0] == 'I' && head[1] == 'I') ||
                             (head[0] == 'M' && head[1] == 'M'));
     if (tiff) {
@@ -315,7 +316,7 @@ plod_status plod_georef_read(plod_georef *geo, const char *path, char *message,
             status = PLOD_ERR_BAD_IMAGE;
         }
     }
-    fclose(t.file);
+    plod_file_close(t.file);
     return status;
 }
 

@@ -9,6 +9,7 @@
  * guessed or mistyped size is an error, never a garbled map.
  */
 #include "plod_image.h"
+#include "plod_platform.h"
 
 #include <errno.h>
 #include <stdint.h>
@@ -16,7 +17,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 
 size_t plod_raw_sample_bytes(plod_raw_type type)
 {
@@ -88,18 +88,18 @@ int plod_hgt_origin(const char *path, int *lon, int *lat)
 static int plod__file_size(const char *path, long long *size, char *message, size_t message_size,
                            plod_status *status)
 {
-    struct stat info;
-    if (stat(path, &info) != 0) {
+    plod_path_info info;
+    if (!plod_path_info_get(path, &info)) {
         plod_status_format(message, message_size, "cannot open '%s': %s", path, strerror(errno));
         *status = PLOD_ERR_IO;
         return 0;
     }
-    if (!S_ISREG(info.st_mode)) {
+    if (!info.regular) {
         plod_status_format(message, message_size, "'%s' is not a regular file", path);
         *status = PLOD_ERR_IO;
         return 0;
     }
-    *size = (long long)info.st_size;
+    *size = (long long)info.size;
     return 1;
 }
 
@@ -263,7 +263,7 @@ plod_status plod_image_read_raw(plod_image *image, const char *path,
                           format->width, format->height, path);
         return status;
     }
-    FILE *file = fopen(path, "rb");
+    FILE *file = plod_fopen(path, "rb");
     size_t row_bytes = (size_t)format->width * sample;
     unsigned char *row = file ? malloc(row_bytes) : NULL;
     if (!file || !row) {

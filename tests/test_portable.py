@@ -87,3 +87,12 @@ def test_the_scan_finds_what_it_looks_for(tmp_path):
     found = posix_only_uses(str(sample))
     assert [use.split(" ", 1)[1] for use in found] == [
         "imports fcntl", "uses os.fork", "passes preexec_fn=", "reads /proc/self/status"], found
+
+
+def test_core_opens_files_named_beyond_ascii(run_c_test, tmp_path, monkeypatch):
+    """tests/c/test_paths.c: the grid, format-guess and GeoTIFF readers open
+    UTF-8 names with accents and CJK (also run under Wine by test_wheels)."""
+    monkeypatch.chdir(tmp_path)
+    out = run_c_test("test_paths", ["image_raw.c", "geotiff.c", "image_buffer.c", "base.c",
+                                    "status.c"])
+    assert "paths C tests passed" in out

@@ -269,3 +269,25 @@ def test_descent_hashes_alike_on_windows(descent_lines):
     # difference reaches the emitted buffers.
     linux, windows = descent_lines
     assert linux == windows
+
+
+# ---- the release command -------------------------------------------------------
+
+def test_one_command_builds_every_wheel_and_package(tmp_path):
+    """tools/build_extension.py without --wheels builds the wheel of every
+    platform and then an extension and a legacy add-on from each."""
+    import sys
+    from tools import blender_versions
+    toolchain_or_skip()
+    if blender_versions.installed() == []:
+        pytest.skip("no bpy wheel installed: Blender's extension tool ships in it")
+    proc = subprocess.run([sys.executable, os.path.join(ROOT, "tools", "build_extension.py"),
+                           "--out", str(tmp_path)], capture_output=True, text=True, timeout=1200)
+    assert proc.returncode == 0, (proc.stdout + proc.stderr)[-4000:]
+    names = sorted(os.listdir(tmp_path))
+    for key, platform in build_wheels.PLATFORMS.items():
+        assert sum(name.endswith(f"-{platform['tag']}.whl") for name in names) == 1, (key, names)
+    for blender_platform in ("linux_x64", "linux_arm64", "windows_x64", "macos_x64",
+                             "macos_arm64"):
+        assert len(glob.glob(str(tmp_path / f"planet_lod-*[0-9]-{blender_platform}.zip"))) == 1
+        assert len(glob.glob(str(tmp_path / f"planet_lod-*-legacy-{blender_platform}.zip"))) == 1

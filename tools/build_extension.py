@@ -1,7 +1,12 @@
 #!/usr/bin/env python3
 """Builds the installable packages of the add-on, one per platform, into dist/:
 
-    python3 tools/build_extension.py [--out dist] [--wheels dist] [--no-legacy]
+    python3 tools/build_extension.py [--out dist] [--wheels DIR] [--no-legacy]
+
+Without --wheels it first builds the planetlod wheels of every platform
+into --out (tools/build_wheels.py: manylinux x86_64/aarch64, win_amd64,
+macosx arm64/x86_64), so this one command makes every wheel and every
+package; --wheels DIR packages the wheels already in DIR instead.
 
 For each platform that has a native module (planetlod/_native):
 
@@ -236,8 +241,8 @@ def build_legacy(staged, out, version, platform):
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--out", default=os.path.join(REPO, "dist"))
-    p.add_argument("--wheels", default=os.path.join(REPO, "dist"),
-                   help="folder of the planetlod wheels (tools/build_wheels.py)")
+    p.add_argument("--wheels", help="package the planetlod wheels already in this folder "
+                   "(default: build every platform's wheels into --out first)")
     p.add_argument("--no-legacy", action="store_true", help="only the 4.2+ extension")
     p.add_argument("--blender-ext", help="path of Blender's blender_ext.py")
     args = p.parse_args(argv)
@@ -255,8 +260,13 @@ def main(argv=None):
         die("Blender's blender_ext.py not found in the bpy wheel (pass --blender-ext)")
     out = os.path.abspath(args.out)
     os.makedirs(out, exist_ok=True)
+    wheels = args.wheels
+    if wheels is None:
+        import build_wheels
+        build_wheels.main(["--dist", out])
+        wheels = out
     packages = []
-    for platform, module in native_modules(os.path.abspath(args.wheels)).items():
+    for platform, module in native_modules(os.path.abspath(wheels)).items():
         print(f"build_extension: {platform}: {module[1]} from {module[0]}", flush=True)
         with tempfile.TemporaryDirectory(prefix="planet_lod-package-") as tmp:
             staged = stage(tmp, platform, module)

@@ -5,6 +5,8 @@
 # install, add, render, farm split -- in 4.2, 4.5, 5.0, 5.1 and 5.2:
 # tools/blender_versions.py, tests/test_blender.py).  pytest prints the time
 # of each part (no Blender, each Blender) at its end.
+# Arguments name tests to run instead of the suite.  The suite runs as two
+# streams side by side (below).
 # With CI=true (the CI runner, .ci/run) it also runs a short fuzz smoke
 # (FUZZ_SMOKE_SECONDS, default 10 s per harness, ~1 min with the build) and the
 # suite's in-process tests again under ASan+UBSan+LSan (tools/sanitize.sh).
@@ -27,14 +29,47 @@ start=$(date +%s)
 echo "tests: Blender versions ready ($(( $(date +%s) - start )) s): $("$PYTHON" tools/blender_versions.py list | cut -d' ' -f1 | tr '\n' ' ')"
 # The Open Job Description runtime for the farm's job templates (tests/test_openjd.py)
 "$PYTHON" -m tools.openjd_env install
-start=$(date +%s)
-"$PYTHON" -m pytest -q tests "$@"
-echo "tests: pytest took $(( $(date +%s) - start )) s"
-if [ "${CI:-}" = true ]; then
+if [ $# -gt 0 ]; then  # the tests named, in one pytest
     start=$(date +%s)
-    FUZZ_SMOKE_SECONDS=${FUZZ_SMOKE_SECONDS:-10} bash tools/fuzz.sh smoke
-    echo "ci: fuzz smoke took $(( $(date +%s) - start )) s"
-    start=$(date +%s)
-    bash tools/sanitize.sh
-    echo "ci: sanitize took $(( $(date +%s) - start )) s"
+    "$PYTHON" -m pytest -q --durations=40 "$@"
+    echo "tests: pytest took $(( $(date +%s) - start )) s"
+    exit 0
 fi
+# Two streams side by side (most of each is one busy thread: Blender's
+# Python, the UI's event waits, one C test at a time): the tests that drive
+# Blender, Wine or the OpenJD runtime in one pytest, the rest of the suite
+# in another, followed under CI=true by the fuzz smoke and the sanitizer
+# pass.  The second stream's output is printed when it ends.
+DRIVERS=(tests/test_ui.py tests/test_blender.py tests/test_farm.py tests/test_batch.py
+         tests/test_ground_relief.py tests/test_openjd.py tests/test_wheels.py)
+logs=$(mktemp -d "${TMPDIR:-/tmp}/planetlod-tests.XXXXXX")
+core_stream() {
+    local start status=0
+    start=$(date +%s)
+    "$PYTHON" -m pytest -q --durations=25 --basetemp "$logs/core-tmp" tests \
+        "${DRIVERS[@]/#/--ignore=}" || status=1
+    echo "tests: pytest (no Blender) took $(( $(date +%s) - start )) s"
+    if [ "${CI:-}" = true ]; then
+        start=$(date +%s)
+        FUZZ_SMOKE_SECONDS=${FUZZ_SMOKE_SECONDS:-10} bash tools/fuzz.sh smoke || status=1
+        echo "ci: fuzz smoke took $(( $(date +%s) - start )) s"
+        start=$(date +%s)
+        SANITIZE_REUSE_BUILD=1 bash tools/sanitize.sh || status=1
+        echo "ci: sanitize took $(( $(date +%s) - start )) s"
+    fi
+    return $status
+}
+start=$(date +%s)
+core_stream > "$logs/core.log" 2>&1 &
+core_pid=$!
+drivers_status=0
+"$PYTHON" -m pytest -q --durations=40 --basetemp "$logs/drivers-tmp" "${DRIVERS[@]}" \
+    || drivers_status=1
+echo "tests: pytest (Blender, Wine, OpenJD) took $(( $(date +%s) - start )) s"
+core_status=0
+wait "$core_pid" || core_status=1
+echo "======== the other stream: pytest without Blender$([ "${CI:-}" = true ] && echo ", fuzz smoke, sanitizer") ========"
+cat "$logs/core.log"
+echo "tests: both streams took $(( $(date +%s) - start )) s"
+rm -rf "$logs"
+[ "$drivers_status" = 0 ] && [ "$core_status" = 0 ]

@@ -17,6 +17,13 @@
 # CPython and OpenImageIO keep for the process lifetime (matched on the
 # allocating frames of the interpreter / OIIO's static state), so a block
 # malloc'ed by our code and never freed is still reported.
+# The C unit tests (tests/c, run_c_test) are built with -fsanitize=address,
+# undefined here, so they run instrumented too.
+# Tests that only drive other processes (Blender, Wine, the OpenJD runtime,
+# the benchmark and soak scripts, the SIMD-path rebuilds) load no sanitized
+# code and are left out unless named.
+# SANITIZE_REUSE_BUILD=1: the checkout's module is already built (the test
+# command runs this beside the Blender tests, which must not see it rebuilt).
 # Output is kept in build/sanitize/sanitize.log (pytest runs with
 # --capture=sys so reports written to fd 2 by a dying test are not lost);
 # any sanitizer report, or a pytest failure, fails the script.
@@ -79,12 +86,12 @@ os.environ.pop("PYTHONPATH", None)  # and import the checkout's build
 
 import pytest  # noqa: E402
 
-# Tests that only drive other processes (Blender, Wine, the OpenJD runtime)
-# load no sanitized code: left out unless named.
-IN_OTHER_PROCESSES = ["test_batch.py", "test_blender.py", "test_farm.py", "test_openjd.py",
-                      "test_ui.py", "test_wheels.py"]
+IN_OTHER_PROCESSES = ["test_batch.py", "test_bench_smoke.py", "test_blender.py",
+                      "test_cpu_paths.py", "test_farm.py", "test_ground_relief.py",
+                      "test_openjd.py", "test_soak.py", "test_ui.py", "test_wheels.py"]
+os.environ["PLANETLOD_SANITIZER"] = "1"  # conftest.UNDER_SANITIZER
 default = ["tests"] + [f"--ignore=tests/{name}" for name in IN_OTHER_PROCESSES]
-sys.exit(pytest.main(["-q", "-p", "no:cacheprovider", "--capture=sys"] + (sys.argv[2:] or default)))
+sys.exit(pytest.main(["-q", "-p", "no:cacheprovider", "--capture=sys", "--durations=25"] + (sys.argv[2:] or default)))
 PY
 ) 2>&1 | tee "$LOG"
 status=${PIPESTATUS[0]}
