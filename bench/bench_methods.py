@@ -79,7 +79,7 @@ def fly(planet, cams, method, options, threads, cracks_every):
         t2 = time.perf_counter()
         row = dict(tris=mesh.triangle_count, verts=mesh.vertex_count,
                    refine_ms=(t1 - t0) * 1e3, mesh_ms=(t2 - t1) * 1e3,
-                   state=stats["state_bytes"],
+                   state=stats.get("state_bytes", planet.memory_bytes),
                    mesh_bytes=40 * mesh.vertex_count + 20 * mesh.triangle_count, cracks=None)
         if cracks_every and k % cracks_every == 0:
             planet.refine(cam, method=method, threads=threads, backface=False, frustum=False,

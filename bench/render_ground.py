@@ -13,12 +13,16 @@ sun stands 20 degrees above the horizon at each place, 90 degrees right of
 the view.
 
 --white: the white-diffuse pass (every planet face a white diffuse surface
-shaded with the core's normals, no sky, no haze): what is left of the
-picture is the relief lit by the sun.  --metrics writes, per shot, the
+shaded with the core's normals, no sky, no haze, direct sunlight alone):
+what is left of the picture is the relief lit by the sun, its shadows black.  --metrics writes, per shot, the
 ground's fine-scale luminance variation: the mean absolute difference
 between the luminance and its 5x5 box blur over the pixels below the
 horizon, relative to their mean luminance (relief shows as shading that
-changes from pixel to pixel; smooth blobs score low).
+changes from pixel to pixel; smooth blobs score low), and the count of dark
+specks: pixels under half the median luminance of their eight lit
+neighbours (black pixels along ridges; in the white pass a cast shadow one
+pixel wide counts too, and at few samples so does the noise of a sky-lit
+picture).
 --jacksboro-inset places matplotlib's sample DEM of the Jacksboro fault
 (Tennessee, 3 arc-seconds) as an inset at its own coordinates: the real
 terrain, rendered as the synthetic one, calibrates the score.
@@ -126,7 +130,7 @@ def ground_variation(path):
     px = np.array(image.pixels[:], dtype=np.float64).reshape(h, w, 4)
     bpy.data.images.remove(image)
     lum = px[..., 0] * 0.2126 + px[..., 1] * 0.7152 + px[..., 2] * 0.0722
-    ground = (px[..., 3] > 0.99) & (lum > 1e-4)
+    ground = px[..., 3] > 0.99  # the sky is transparent (--white) or lit
     pad = np.pad(lum, 2, mode="edge")
     blur = sum(pad[i:i + h, j:j + w] for i in range(5) for j in range(5)) / 25.0
     gpad = np.pad(ground, 2, mode="constant")
@@ -135,6 +139,21 @@ def ground_variation(path):
         return float("nan"), float(inner.mean())
     return (float(np.abs(lum - blur)[inner].mean() / max(lum[inner].mean(), 1e-6)),
             float(inner.mean()))
+
+
+def dark_specks(path):
+    """Ground pixels darker than half the median of their eight neighbours
+    (where those are lit): single black pixels along ridges and horizons."""
+    import numpy as np
+    image = bpy.data.images.load(path)
+    w, h = image.size
+    px = np.array(image.pixels[:], dtype=np.float64).reshape(h, w, 4)
+    bpy.data.images.remove(image)
+    lum = px[..., 0] * 0.2126 + px[..., 1] * 0.7152 + px[..., 2] * 0.0722
+    pad = np.pad(lum, 1, mode="edge")
+    around = np.median([pad[i:i + h, j:j + w] for i in range(3) for j in range(3)
+                        if (i, j) != (1, 1)], axis=0)
+    return int(((lum < 0.5 * around) & (around > 0.05) & (px[..., 3] > 0.99)).sum())
 
 
 def main():
@@ -180,6 +199,9 @@ def main():
         sun.data.angle = math.radians(0.5)
         scene.collection.objects.link(sun)
     if args.white:
+        # direct sunlight alone: at a few samples, light bounced into the
+        # shadows is noise that the fine-scale score would count as relief
+        scene.cycles.max_bounces = 0
         scene.view_layers[0].material_override = white_material()
         world = bpy.data.worlds.new("black")
         world.use_nodes = True
@@ -209,11 +231,14 @@ def main():
         if bpy.ops.render.render(write_still=True) != {'FINISHED'} or not os.path.isfile(target):
             raise SystemExit(f"render of {name} failed")
         variation, share = ground_variation(target)
-        lines.append(f"{name},{lon},{lat},{alt},{heading},{pitch},{variation:.4f},{share:.3f}")
-        print(f"render_ground: {name} variation {variation:.4f} ground {share:.0%}", flush=True)
+        specks = dark_specks(target)
+        lines.append(f"{name},{lon},{lat},{alt},{heading},{pitch},{variation:.4f},{share:.3f},"
+                     f"{specks}")
+        print(f"render_ground: {name} variation {variation:.4f} ground {share:.0%} "
+              f"dark specks {specks}", flush=True)
     if args.metrics:
         with open(args.metrics, "w") as f:
-            f.write("name,lon,lat,altitude,heading,pitch,variation,ground_share\n")
+            f.write("name,lon,lat,altitude,heading,pitch,variation,ground_share,dark_specks\n")
             f.write("\n".join(lines) + "\n")
 
 

@@ -121,6 +121,62 @@ static int32_t plod__neighbour(const plod_chunked *c, const plod__chunk *n, int 
     return plod__leaf_at(c, face, u, v);
 }
 
+/* One selection at the view's threshold: the quadtree's splits by screen
+ * error, then (stitched) the forced splits of the restricted tree.
+ * PLOD_ERR_NO_MEMORY; *leaves, *splits, *truncated as found. */
+static plod_status plod__select(plod__pass *p, int max_level, int t, int skirts,
+                                size_t *leaves_out, size_t *splits_out, int *truncated_out)
+{
+    plod_chunked *c = p->c;
+    const plod_refine_params *params = p->params;
+    c->count = 0;
+    for (int f = 0; f < 6; f++)
+        if (plod__add(p, f, 0, 0, 0) < 0)
+            return PLOD_ERR_NO_MEMORY;
+    size_t splits = 0, leaves = 6;
+    int truncated = 0;
+    /* breadth first (nodes in creation order): splits by screen error */
+    for (size_t k = 0; k < c->count; k++) {
+        plod__chunk *n = &c->nodes[k];
+        if (n->culled || n->level >= max_level)
+            continue;
+        plod_bound b[2];
+        plod_facetiles_bounds(&p->fv, n->face, n->level, n->x, n->y, b);
+        if (!(plod_facetiles_score(&p->fv, b, t) > 1.0))
+            continue;
+        if (leaves + 3 > params->max_sectors) {
+            truncated = 1;
+            break;
+        }
+        if (plod__split(p, (int32_t)k) < 0)
+            return PLOD_ERR_NO_MEMORY;
+        splits++;
+        leaves += 3;
+    }
+    /* stitched edges: neighbours at most one level apart (forced splits) */
+    for (int changed = !skirts; changed;) {
+        changed = 0;
+        for (size_t k = 0; k < c->count; k++) {
+            if (c->nodes[k].child >= 0)
+                continue;
+            for (int e = 0; e < 4; e++) {
+                int32_t m = plod__neighbour(c, &c->nodes[k], e);
+                if (c->nodes[m].level + 1 >= c->nodes[k].level)
+                    continue;
+                if (plod__split(p, m) < 0)
+                    return PLOD_ERR_NO_MEMORY;
+                splits++;
+                leaves += 3;
+                changed = 1;
+            }
+        }
+    }
+    *leaves_out = leaves;
+    *splits_out = splits;
+    *truncated_out = truncated;
+    return PLOD_OK;
+}
+
 plod_status plod_chunked_refine(plod_chunked *c, const plod_planet *planet,
                                 const plod_camera *camera, const plod_refine_params *params,
                                 int skirts, plod_refine_stats *stats, plod_error *error)
@@ -139,48 +195,20 @@ plod_status plod_chunked_refine(plod_chunked *c, const plod_planet *planet,
     int t = params->template_level;
     if (max_level > PLOD_FACETILE_MAX_LEVEL)
         max_level = PLOD_FACETILE_MAX_LEVEL;
-    c->count = 0;
-    for (int f = 0; f < 6; f++)
-        if (plod__add(&p, f, 0, 0, 0) < 0)
-            return plod_error_set(error, PLOD_ERR_NO_MEMORY, "chunked: out of memory");
-    size_t splits = 0, leaves = 6;
+    /* a budget of chunks: the threshold rises in steps of sqrt 2 to the
+     * first whose selection fits (as HRTMR's budget; still a function of
+     * the camera alone) */
+    size_t splits = 0, leaves = 0, all_splits = 0;
     int truncated = 0;
-    /* breadth first (nodes in creation order): splits by screen error */
-    for (size_t k = 0; k < c->count; k++) {
-        plod__chunk *n = &c->nodes[k];
-        if (n->culled || n->level >= max_level)
-            continue;
-        plod_bound b[2];
-        plod_facetiles_bounds(&p.fv, n->face, n->level, n->x, n->y, b);
-        if (!(plod_facetiles_score(&p.fv, b, t) > 1.0))
-            continue;
-        if (leaves + 3 > params->max_sectors) {
-            truncated = 1;
-            break;
-        }
-        if (plod__split(&p, (int32_t)k) < 0)
+    for (int step = 0;; step++) {
+        p.fv.view.coarsening = ldexp(step & 1 ? sqrt(2.0) : 1.0, step >> 1);
+        if (plod__select(&p, max_level, t, skirts, &leaves, &splits, &truncated) != PLOD_OK)
             return plod_error_set(error, PLOD_ERR_NO_MEMORY, "chunked: out of memory");
-        splits++;
-        leaves += 3;
+        all_splits += splits;
+        if (!params->budget || leaves <= params->budget || step >= 128)
+            break;
     }
-    /* stitched edges: neighbours at most one level apart (forced splits) */
-    for (int changed = !skirts; changed;) {
-        changed = 0;
-        for (size_t k = 0; k < c->count; k++) {
-            if (c->nodes[k].child >= 0)
-                continue;
-            for (int e = 0; e < 4; e++) {
-                int32_t m = plod__neighbour(c, &c->nodes[k], e);
-                if (c->nodes[m].level + 1 >= c->nodes[k].level)
-                    continue;
-                if (plod__split(&p, m) < 0)
-                    return plod_error_set(error, PLOD_ERR_NO_MEMORY, "chunked: out of memory");
-                splits++;
-                leaves += 3;
-                changed = 1;
-            }
-        }
-    }
+    splits = all_splits;
     /* the visible leaves, depth first (the stack never holds more than
      * the nodes and the six roots) */
     c->tile_count = 0;

@@ -10,9 +10,10 @@
  * at max_level / 2 (quadtree levels halve the size where bisection levels
  * halve the area).  Cracks: skirts (any level difference), or stitched edge
  * variants over a restricted quadtree (neighbours differ by at most one
- * level; forced splits keep it so), the 16 variants of an edge set.  The
- * selection is a function of the camera and parameters alone (no state
- * between refines).  Internal to the core; the session drives it.
+ * level; forced splits keep it so), the 16 variants of an edge set.  Over
+ * params->budget leaves the threshold rises in steps of sqrt 2 until the
+ * selection fits.  The selection is a function of the camera and
+ * parameters alone (no state between refines).  Internal to the core; the session drives it.
  */
 #ifndef PLOD_CHUNKED_H
 #define PLOD_CHUNKED_H

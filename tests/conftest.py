@@ -58,6 +58,11 @@ def planetlod():
     return module
 
 
+# Under tools/sanitize.sh: the C unit tests are built instrumented, and the
+# heaviest in-process walks take fewer steps (ASan runs them several times
+# slower; the code paths are the same).
+UNDER_SANITIZER = os.environ.get("PLANETLOD_SANITIZER") == "1"
+
 # the core's C flags (setup.py), warnings as errors
 C_TEST_FLAGS = ["-std=c11", "-O2", "-Wall", "-Wextra", "-Werror", "-Wno-missing-field-initializers",
                 "-ffp-contract=off", "-fno-math-errno", "-fno-strict-aliasing",
@@ -68,14 +73,13 @@ C_TEST_FLAGS = ["-std=c11", "-O2", "-Wall", "-Wextra", "-Werror", "-Wno-missing-
 def run_c_test(tmp_path):
     """run(name, core_sources, extra_flags=()): builds tests/c/<name>.c with
     those cext/ sources and the platform layer, runs it and returns its stdout (the build and the
-    run must succeed).  Under tools/sanitize.sh (PLANETLOD_SANITIZE_C_TESTS=1) built with
-    ASan+UBSan."""
+    run must succeed).  Under tools/sanitize.sh built with ASan+UBSan."""
     if shutil.which("gcc") is None:
         pytest.skip("needs gcc")
 
     sanitize = (["-fsanitize=address,undefined", "-fno-sanitize-recover=undefined",
                  "-fno-omit-frame-pointer"]
-                if os.environ.get("PLANETLOD_SANITIZE_C_TESTS") == "1" else [])
+                if UNDER_SANITIZER else [])
 
     def run(name, core_sources, extra_flags=()):
         exe = tmp_path / name
@@ -111,7 +115,8 @@ def _part(item):
     if which is not None:
         return f"Blender {which}"
     return {"test_blender.py": "Blender: packages and the viewport",
-            "test_ui.py": "Blender blender: UI", "test_farm.py": "Blender blender: farm"}.get(
+            "test_ui.py": "Blender blender: UI", "test_farm.py": "Blender blender: farm",
+            "test_ground_relief.py": "Blender blender: ground relief"}.get(
                 module, "no Blender")
 
 

@@ -71,6 +71,16 @@ def test_chunked_levels_follow_the_camera(planetlod, moon_planet):
     assert cell < 2.0
 
 
+def test_chunked_budget_coarsens_the_whole_view(planetlod, moon_planet):
+    cam = camera(planetlod, moon_planet, 2e3)
+    free = moon_planet.refine(cam, method="chunked", backface=False, frustum=False)
+    capped = moon_planet.refine(cam, method="chunked", backface=False, frustum=False,
+                                budget=free["sectors_total"] // 3)
+    assert capped["sectors_total"] <= free["sectors_total"] // 3 < free["sectors_total"]
+    assert 0 < capped["max_level"] <= free["max_level"]
+    assert edge_report(*arrays(moon_planet.mesh())) == (0, 0, 0, 2)
+
+
 def test_geomipmap_levels_are_mip_levels(planetlod, moon_planet):
     moon_planet.refine(camera(planetlod, moon_planet, 1e6), method="geomipmap",
                        template_level=5, geomipmap_tiles=8, backface=False, frustum=False)

@@ -41,7 +41,7 @@ fi
 # in another, followed under CI=true by the fuzz smoke and the sanitizer
 # pass.  The second stream's output is printed when it ends.
 DRIVERS=(tests/test_ui.py tests/test_blender.py tests/test_farm.py tests/test_batch.py
-         tests/test_openjd.py tests/test_wheels.py)
+         tests/test_ground_relief.py tests/test_openjd.py tests/test_wheels.py)
 logs=$(mktemp -d "${TMPDIR:-/tmp}/planetlod-tests.XXXXXX")
 core_stream() {
     local start status=0

@@ -87,9 +87,9 @@ os.environ.pop("PYTHONPATH", None)  # and import the checkout's build
 import pytest  # noqa: E402
 
 IN_OTHER_PROCESSES = ["test_batch.py", "test_bench_smoke.py", "test_blender.py",
-                      "test_cpu_paths.py", "test_farm.py", "test_openjd.py", "test_soak.py",
-                      "test_ui.py", "test_wheels.py"]
-os.environ["PLANETLOD_SANITIZE_C_TESTS"] = "1"  # conftest's run_c_test
+                      "test_cpu_paths.py", "test_farm.py", "test_ground_relief.py",
+                      "test_openjd.py", "test_soak.py", "test_ui.py", "test_wheels.py"]
+os.environ["PLANETLOD_SANITIZER"] = "1"  # conftest.UNDER_SANITIZER
 default = ["tests"] + [f"--ignore=tests/{name}" for name in IN_OTHER_PROCESSES]
 sys.exit(pytest.main(["-q", "-p", "no:cacheprovider", "--capture=sys", "--durations=25"] + (sys.argv[2:] or default)))
 PY
