@@ -1566,3 +1566,77 @@ plod_status plod_mesh_instances(const plod_mesh_params *params,
         *instance_count = slot;
     return PLOD_OK;
 }
+
+/* ---- the shared vertex evaluation (plod_mesh_sampler) --------------------------- */
+
+_Static_assert(PLOD_MESH_SAMPLER_OCTAVES == PLOD_DETAIL_MAX_OCTAVES,
+               "the sampler keeps one fade threshold per detail octave");
+
+void plod_mesh_sampler_init(plod_mesh_sampler *sampler, const plod_mesh_params *params,
+                            const plod_surface_source *surface)
+{
+    plod__emitter e;
+    memset(&e, 0, sizeof e);
+    e.params = params;
+    e.surface = surface;
+    e.banded = surface->ops->octaves_for_cell != NULL;
+    if (e.banded && params->detail_fade_cell > 0.0)
+        plod__fade_init(&e);
+    sampler->params = params;
+    sampler->surface = surface;
+    sampler->banded = e.banded;
+    sampler->fade_octaves = e.fade_octaves;
+    memcpy(sampler->fade_log2_cell, e.fade_log2_cell, sizeof sampler->fade_log2_cell);
+}
+
+double plod_mesh_atan2(double y, double x)
+{
+    return plod__atan2(y, x);
+}
+
+void plod_mesh_sample(const plod_mesh_sampler *sampler, size_t count, const double *dirs,
+                      const double *cells, double lon_ref, float *positions, float *normals,
+                      float *uv, float *detail, double *world)
+{
+    enum { GROUP = (1 << PLOD_MAX_TEMPLATE_LEVEL) + 161 };
+    plod__emitter e;
+    memset(&e, 0, sizeof e);
+    e.params = sampler->params;
+    e.surface = sampler->surface;
+    e.banded = sampler->banded;
+    e.fade_octaves = sampler->fade_octaves;
+    memcpy(e.fade_log2_cell, sampler->fade_log2_cell, sizeof e.fade_log2_cell);
+    const plod_mesh_params *params = sampler->params;
+    int fading = e.banded && params->detail_fade_cell > 0.0;
+    double heights[GROUP], normals_d[3 * GROUP], detail_d[GROUP], fade[GROUP];
+    double position_scratch[3 * GROUP];
+    float positions_scratch[3 * GROUP];
+    int octaves[GROUP];
+    for (size_t at = 0; at < count; at += GROUP) {
+        size_t n = count - at < GROUP ? count - at : GROUP;
+        const double *d = dirs + 3 * at;
+        int any_fade = 0;
+        for (size_t j = 0; j < n && e.banded; j++) {
+            if (fading) {
+                plod__fade_band(&e, d + 3 * j, octaves + j, fade + j);
+                any_fade |= fade[j] > 0.0;
+            } else {
+                octaves[j] = cells ? e.surface->ops->octaves_for_cell(e.surface->self,
+                                                                      cells[at + j])
+                                   : PLOD_DETAIL_MAX_OCTAVES;
+            }
+        }
+        e.surface->ops->sample_n(e.surface->self, n, d, e.banded ? octaves : NULL,
+                                 e.banded ? octaves : NULL, heights,
+                                 normals ? normals_d : NULL, detail ? detail_d : NULL);
+        if (any_fade)
+            plod__fade_blend(&e, n, d, octaves, fade, heights, normals ? normals_d : NULL,
+                             detail ? detail_d : NULL);
+        plod__row row = {world ? world + 3 * at : position_scratch,
+                         positions ? positions + 3 * at : positions_scratch,
+                         normals ? normals + 3 * at : NULL, uv ? uv + 2 * at : NULL,
+                         detail ? detail + at : NULL};
+        plod__row_outputs(n, d, heights, normals_d, detail_d, params->planet->radius,
+                          params->origin, lon_ref, &row);
+    }
+}

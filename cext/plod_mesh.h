@@ -254,6 +254,41 @@ plod_status plod_mesh_instances(const plod_mesh_params *params,
                                 const plod_surface_source *surface, float *corners,
                                 float *levels, float *morph, size_t *instance_count);
 
+/* ---- the shared vertex evaluation ------------------------------------------
+ * What every LOD method's vertices go through, so that they sample the same
+ * surface as the sector emission: heights, normals and detail from the
+ * surface source (its sea and detail field included), the detail band of
+ * each vertex, positions in double relative to the origin then cast, the
+ * equirectangular uv.  A vertex's results are a function of its direction,
+ * its cell and the params (origin, eye, detail fade) alone, so a vertex two
+ * patches share is bit-identical from both. */
+#define PLOD_MESH_SAMPLER_OCTAVES 40 /* = PLOD_DETAIL_MAX_OCTAVES */
+typedef struct plod_mesh_sampler {
+    const plod_mesh_params *params;   /* borrowed */
+    const plod_surface_source *surface; /* borrowed */
+    int banded;                       /* the surface limits detail per point */
+    int fade_octaves;                 /* detail fade thresholds (see params) */
+    double fade_log2_cell[PLOD_MESH_SAMPLER_OCTAVES];
+} plod_mesh_sampler;
+
+/* Prepares a sampler for `params` (origin, eye, detail_fade_cell read) and
+ * `surface`; both must outlive it. */
+void plod_mesh_sampler_init(plod_mesh_sampler *sampler, const plod_mesh_params *params,
+                            const plod_surface_source *surface);
+/* `count` unit directions (3 count doubles) into the outputs (any may be
+ * NULL; sizes as plod_mesh_buffers: positions and normals 3 per vertex, uv
+ * 2, detail 1; `world` 3 doubles per vertex, the planet-space positions).
+ * Detail band per vertex: with params->detail_fade_cell > 0 the fade's
+ * (a function of the direction and the eye); else the octaves that cells
+ * of cells[i] metres resolve (cells NULL: every octave).  uv longitudes are
+ * unwrapped to within pi of lon_ref (radians).  Thread-safe for distinct
+ * outputs. */
+void plod_mesh_sample(const plod_mesh_sampler *sampler, size_t count, const double *dirs,
+                      const double *cells, double lon_ref, float *positions, float *normals,
+                      float *uv, float *detail, double *world);
+/* atan2(y, x) as the emission's uv computes it (1e-9 rad). */
+double plod_mesh_atan2(double y, double x);
+
 #ifdef __cplusplus
 }
 #endif

@@ -36,7 +36,9 @@
 #ifndef PLOD_SESSION_H
 #define PLOD_SESSION_H
 
+#include "plod_chunked.h"
 #include "plod_detail.h"
+#include "plod_geomipmap.h"
 #include "plod_mesh.h"
 #include "plod_refine.h"
 
@@ -45,6 +47,37 @@ extern "C" {
 #endif
 
 typedef struct plod_session plod_session; /* opaque */
+
+/* ---- LOD methods ------------------------------------------------------------
+ * How a refine selects the surface's patches.  Every method samples the
+ * same surface through the same vertex evaluation (plod_mesh_sample:
+ * heights, detail field and its fade, normals, uv, origin), culls against
+ * the same camera and bounds, and emits plod_mesh_buffers (sector_level =
+ * the method's level), so their meshes compare like with like. */
+typedef enum plod_lod_method {
+    PLOD_LOD_HRTMR = 0,     /* longest-edge bisection of the sectors (default) */
+    PLOD_LOD_CHUNKED = 1,   /* chunked LOD on cube-face quadtrees (plod_chunked.h) */
+    PLOD_LOD_GEOMIPMAP = 2, /* geomipmapping on cube-face tiles (plod_geomipmap.h) */
+    PLOD_LOD_CLIPMAP = 3    /* geometry clipmaps (plod_clipmap.h) */
+} plod_lod_method;
+#define PLOD_LOD_METHOD_COUNT 4
+
+typedef struct plod_method_params {
+    plod_lod_method method;
+    int chunked_skirts;  /* chunked: 1 skirts, 0 stitched edge variants */
+    int geomipmap_tiles; /* geomipmapping: tiles per cube-face edge, a power
+                            of two in 1..PLOD_GEOMIPMAP_MAX_TILES */
+    int clipmap_ring_cells; /* clipmaps: a ring's outer radius in its own
+                               cells, 24..1024 (plod_clipmap.h) */
+} plod_method_params;
+
+/* HRTMR, stitched chunks, 16 geomipmap tiles per face edge, clipmap rings
+ * of 32 cells. */
+void plod_method_params_default(plod_method_params *params);
+/* "hrtmr", "chunked", "geomipmap", "clipmap"; NULL outside the enum. */
+const char *plod_lod_method_name(int method);
+/* The method named `name`, or -1. */
+int plod_lod_method_from_name(const char *name);
 
 /* ---- create / destroy ---------------------------------------------------- */
 
@@ -89,6 +122,24 @@ const plod_refine_params *plod_session_refine_params(const plod_session *session
 plod_status plod_session_refine(plod_session *session, const plod_camera *camera,
                                 const plod_refine_params *params, plod_refine_stats *stats,
                                 plod_error *error);
+/* The LOD method of the next refines.  PLOD_ERR_BAD_PARAM (with *error,
+ * may be NULL) for an unknown method or bad method parameters.  A change of
+ * method forgets the last camera (emit then emits nothing until the next
+ * refine). */
+plod_status plod_session_set_method(plod_session *session, const plod_method_params *params,
+                                    plod_error *error);
+const plod_method_params *plod_session_method(const plod_session *session);
+/* Vertices and triangles an emission of the last refine can write at
+ * most (buffer sizes), and the sectors (HRTMR) or patches it emits; 0, 0
+ * when they would not fit int32 indices. */
+void plod_session_emit_bounds(const plod_session *session, int template_level,
+                              int visible_only, size_t *vertices, size_t *triangles,
+                              size_t *sectors);
+
+/* Bytes of the LOD method's own state (HRTMR: plod_refiner_memory_bytes;
+ * the others: their trees, tables and patch lists), capacities included. */
+size_t plod_session_method_bytes(const plod_session *session);
+
 /* Back to the base sectors; forgets the last camera. */
 void plod_session_reset(plod_session *session);
 /* plod_refiner_reserve. */

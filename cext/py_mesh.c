@@ -129,11 +129,10 @@ typedef plod_status (*plod__instances_fn)(const void *context, float *corners, f
 /* Emits at most `sectors` sectors through `emit` into a new Mesh (its
  * buffers cut to what was emitted, their storage from `pool`); the GIL is
  * released meanwhile. */
-static PyObject *plod__mesh_build(const plod_mesh_params *params, size_t sectors,
-                                  plod__emit_fn emit, const void *context, plod_py_pool *pool)
+static PyObject *plod__mesh_build(const plod_mesh_params *params, size_t sectors, size_t vb,
+                                  size_t tb, int whole_patches, plod__emit_fn emit,
+                                  const void *context, plod_py_pool *pool)
 {
-    size_t vb = plod_mesh_vertex_bound(sectors, params->template_level);
-    size_t tb = plod_mesh_triangle_bound(sectors, params->template_level);
     if (sectors > 0 && (vb == 0 || tb == 0))
         return plod_py_raise_detail(PLOD_ERR_NO_MEMORY, "mesh",
                                     "too many vertices for int32 indices; lower "
@@ -182,9 +181,12 @@ static PyObject *plod__mesh_build(const plod_mesh_params *params, size_t sectors
     }
     mesh->vertex_count = (Py_ssize_t)vertices;
     mesh->triangle_count = (Py_ssize_t)triangles;
-    size_t emitted = vertices / plod_template_vertex_count(params->template_level);
+    /* whole_patches: every patch emitted, with as many vertices as it uses */
+    size_t emitted = whole_patches
+                         ? sectors
+                         : vertices / plod_template_vertex_count(params->template_level);
     mesh->sector_count = (Py_ssize_t)emitted;
-    if (emitted < sectors &&
+    if ((emitted < sectors || vertices < vb || triangles < tb) &&
         (plod_py_buffer_truncate(mesh->positions, 3 * vertices) < 0 ||
          plod_py_buffer_truncate(mesh->normals, 3 * vertices) < 0 ||
          plod_py_buffer_truncate(mesh->uv, 2 * vertices) < 0 ||
@@ -296,8 +298,18 @@ PyObject *plod_py_mesh_emit(plod_session *session, plod_py_pool *pool, int templ
     plod__session_emission e = {session, {0}, visible_only, use_cache};
     plod_session_mesh_params(session, template_level, morph, threads, &e.params);
     e.params.changed_only = changed_only;
-    return plod__mesh_build(&e.params, plod_session_sector_count(session, visible_only),
-                            plod__session_emit, &e, pool);
+    size_t vb, tb, sectors;
+    plod_session_emit_bounds(session, template_level, visible_only, &vb, &tb, &sectors);
+    int patches = plod_session_method(session)->method != PLOD_LOD_HRTMR;
+    if (patches && changed_only)
+        return plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "mesh",
+                                    "changed_only needs the hrtmr method (the other methods "
+                                    "keep no cache)");
+    if (patches && template_level != plod_session_refine_params(session)->template_level)
+        return plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "mesh",
+                                    "with this LOD method template_level must be the "
+                                    "refine's (its patches' grids are chosen by the refine)");
+    return plod__mesh_build(&e.params, sectors, vb, tb, patches, plod__session_emit, &e, pool);
 }
 
 PyObject *plod_py_instances(plod_session *session, int template_level)
@@ -462,7 +474,10 @@ static PyObject *plod__mesh_from_corners(PyObject *module, PyObject *args, PyObj
                                       plod_planet_surface_source(&planet)};
     result = instances
                  ? plod__instances_build(&params, count, plod__corner_instances, &emission)
-                 : plod__mesh_build(&params, count, plod__corner_emit, &emission, NULL);
+                 : plod__mesh_build(&params, count,
+                                    plod_mesh_vertex_bound(count, template_level),
+                                    plod_mesh_triangle_bound(count, template_level), 0,
+                                    plod__corner_emit, &emission, NULL);
     plod_cubemap_destroy(normals);
 done:
     free(corners);

@@ -500,21 +500,36 @@ static PyObject *plod__planet_refine(plod_py_planet *self, PyObject *args, PyObj
     static char *kwlist[] = {"camera", "criterion", "max_pixel_error", "split_border",
                              "merge_border", "hysteresis", "template_level", "max_level",
                              "budget", "backface", "frustum", "skip_sea", "max_sectors",
-                             "threads", "max_splits", NULL};
+                             "threads", "max_splits", "method", "chunk_cracks",
+                             "geomipmap_tiles", "clipmap_ring_cells", NULL};
     PyObject *cam_obj;
-    const char *criterion = "pixel";
+    const char *criterion = "pixel", *method = NULL, *cracks = NULL;
+    plod_method_params mp;
+    plod_method_params_default(&mp);
     plod_refine_params p;
     plod_refine_params_default(&p);
     Py_ssize_t budget = 0, max_sectors = (Py_ssize_t)PLOD_DEFAULT_MAX_SECTORS, max_splits = 0;
     if (!plod__planet_ready(self))
         return NULL;
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O|sdddpiinpppnin", kwlist, &cam_obj,
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O|sdddpiinpppninzzii", kwlist, &cam_obj,
                                      &criterion, &p.max_pixel_error, &p.split_border,
                                      &p.merge_border, &p.hysteresis, &p.template_level,
                                      &p.max_level, &budget, &p.backface_culling,
                                      &p.frustum_culling, &p.skip_sea, &max_sectors,
-                                     &p.threads, &max_splits))
+                                     &p.threads, &max_splits, &method, &cracks,
+                                     &mp.geomipmap_tiles, &mp.clipmap_ring_cells))
         return NULL;
+    /* the LOD method: named here, checked and kept by the session */
+    mp.method = method ? (plod_lod_method)plod_lod_method_from_name(method) : PLOD_LOD_HRTMR;
+    if (method && (int)mp.method < 0)
+        return plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "refine",
+                                    "method must be 'hrtmr', 'chunked', 'geomipmap' or "
+                                    "'clipmap'");
+    if (cracks && strcmp(cracks, "stitch") && strcmp(cracks, "skirts"))
+        return plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "refine",
+                                    "chunk_cracks must be 'stitch' or 'skirts'");
+    if (cracks)
+        mp.chunked_skirts = !strcmp(cracks, "skirts");
     const plod_camera *cam = plod__camera_arg(cam_obj);
     if (!cam)
         return NULL;
@@ -539,26 +554,49 @@ static PyObject *plod__planet_refine(plod_py_planet *self, PyObject *args, PyObj
     plod_refine_stats s;
     plod_error error = {PLOD_OK, ""};
     plod_status st;
+    st = plod_session_set_method(self->session, &mp, &error);
+    if (st != PLOD_OK)
+        return plod_py_raise_detail(st, "refine", error.message);
     Py_BEGIN_ALLOW_THREADS
     st = plod_session_refine(self->session, cam, &p, &s, &error);
     Py_END_ALLOW_THREADS
     if (st != PLOD_OK)
         return plod_py_raise_detail(st, "refine", error.message);
     /* what planet.mesh(template_level) would emit for the visible sectors */
-    size_t per_v = plod_template_vertex_count(p.template_level);
-    size_t per_t = plod_template_triangle_count(p.template_level);
+    if (mp.method == PLOD_LOD_HRTMR) {
+        /* what planet.mesh(template_level) would emit for the visible sectors */
+        size_t per_v = plod_template_vertex_count(p.template_level);
+        size_t per_t = plod_template_triangle_count(p.template_level);
+        return Py_BuildValue(
+            "{s:n,s:n,s:n,s:n,s:n,s:n,s:n,s:d,s:d,s:i,s:O,s:O,s:I,s:K,s:K}", "sectors_total",
+            (Py_ssize_t)s.sectors_total, "sectors_after_backface",
+            (Py_ssize_t)s.sectors_after_backface, "sectors_after_frustum",
+            (Py_ssize_t)s.sectors_after_frustum, "sectors_after_budget",
+            (Py_ssize_t)s.sectors_after_budget, "sectors_sea_skipped",
+            (Py_ssize_t)s.sectors_sea_skipped, "splits", (Py_ssize_t)s.splits, "merges",
+            (Py_ssize_t)s.merges, "refine_us", s.refine_us, "cull_us", s.cull_us, "max_level",
+            s.max_level_reached, "truncated", s.truncated ? Py_True : Py_False, "pending",
+            s.pending ? Py_True : Py_False, "frame", s.frame, "vertices",
+            (unsigned long long)(s.sectors_after_budget * per_v), "triangles",
+            (unsigned long long)(s.sectors_after_budget * per_t));
+    }
+    /* the other methods: the bounds of their mesh, their name and state */
+    size_t vertices, triangles, emitted;
+    plod_session_emit_bounds(self->session, p.template_level, 1, &vertices, &triangles,
+                             &emitted);
     return Py_BuildValue(
-        "{s:n,s:n,s:n,s:n,s:n,s:n,s:n,s:d,s:d,s:i,s:O,s:O,s:I,s:K,s:K}", "sectors_total",
-        (Py_ssize_t)s.sectors_total, "sectors_after_backface",
+        "{s:n,s:n,s:n,s:n,s:n,s:n,s:n,s:d,s:d,s:i,s:O,s:O,s:I,s:K,s:K,s:s,s:K}",
+        "sectors_total", (Py_ssize_t)s.sectors_total, "sectors_after_backface",
         (Py_ssize_t)s.sectors_after_backface, "sectors_after_frustum",
         (Py_ssize_t)s.sectors_after_frustum, "sectors_after_budget",
         (Py_ssize_t)s.sectors_after_budget, "sectors_sea_skipped",
         (Py_ssize_t)s.sectors_sea_skipped, "splits", (Py_ssize_t)s.splits, "merges",
         (Py_ssize_t)s.merges, "refine_us", s.refine_us, "cull_us", s.cull_us, "max_level",
         s.max_level_reached, "truncated", s.truncated ? Py_True : Py_False, "pending",
-        s.pending ? Py_True : Py_False, "frame",
-        s.frame, "vertices", (unsigned long long)(s.sectors_after_budget * per_v),
-        "triangles", (unsigned long long)(s.sectors_after_budget * per_t));
+        s.pending ? Py_True : Py_False, "frame", s.frame, "vertices",
+        (unsigned long long)vertices, "triangles", (unsigned long long)triangles, "method",
+        plod_lod_method_name((int)mp.method), "state_bytes",
+        (unsigned long long)plod_session_method_bytes(self->session));
 }
 
 static PyObject *plod__planet_reset(plod_py_planet *self, PyObject *unused)
@@ -827,6 +865,10 @@ static PyObject *plod__planet_instances(plod_py_planet *self, PyObject *args, Py
     int level;
     if (plod__template_level_arg(self, level_obj, &level) < 0)
         return NULL;
+    if (plod_session_method(self->session)->method != PLOD_LOD_HRTMR)
+        return plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "instances",
+                                    "instances() draws HRTMR's sectors: refine with "
+                                    "method='hrtmr' first");
     return plod_py_instances(self->session, level);
 }
 

@@ -11,6 +11,7 @@
  * relative to it keep millimetres at a planet's scale), and geomorphing
  * follows the refine criterion's split distance.
  */
+#include "plod_clipmap.h"
 #include "plod_session.h"
 #include "plod_platform.h"
 
@@ -31,8 +32,38 @@ struct plod_session {
     plod_camera camera;        /* last refine's */
     plod_refine_params params;
     int has_camera;
+    plod_method_params method;
+    plod_chunked *chunked;     /* owned; created by the first chunked refine */
+    plod_geomipmap *geomipmap; /* owned; created by the first geomipmap refine */
+    plod_clipmap *clipmap;     /* owned; created by the first clipmap refine */
     plod_mutex lock;
 };
+
+/* ---- LOD methods ------------------------------------------------------------------ */
+
+static const char *const plod__method_names[PLOD_LOD_METHOD_COUNT] = {"hrtmr", "chunked",
+                                                                      "geomipmap", "clipmap"};
+
+void plod_method_params_default(plod_method_params *params)
+{
+    params->method = PLOD_LOD_HRTMR;
+    params->chunked_skirts = 0;
+    params->geomipmap_tiles = 16;
+    params->clipmap_ring_cells = 32;
+}
+
+const char *plod_lod_method_name(int method)
+{
+    return method >= 0 && method < PLOD_LOD_METHOD_COUNT ? plod__method_names[method] : NULL;
+}
+
+int plod_lod_method_from_name(const char *name)
+{
+    for (int m = 0; name && m < PLOD_LOD_METHOD_COUNT; m++)
+        if (!strcmp(name, plod__method_names[m]))
+            return m;
+    return -1;
+}
 
 static void plod__session_message(char *message, size_t size, const char *text)
 {
@@ -100,6 +131,7 @@ plod_status plod_session_create(plod_session **out, const plod_planet *planet,
         return st;
     }
     plod_refine_params_default(&s->params);
+    plod_method_params_default(&s->method);
     s->mesh_cache_max_bytes = PLOD_MESH_CACHE_DEFAULT_BYTES;
     *out = s;
     return PLOD_OK;
@@ -110,6 +142,9 @@ void plod_session_destroy(plod_session *session)
     if (!session)
         return;
     plod_refiner_destroy(session->refiner);
+    plod_chunked_destroy(session->chunked);
+    plod_geomipmap_destroy(session->geomipmap);
+    plod_clipmap_destroy(session->clipmap);
     plod_mesh_cache_destroy(session->mesh_cache);
     plod_workers_destroy(session->mesh_workers);
     plod_cubemap_bundle_destroy(session->bundle);
@@ -160,14 +195,118 @@ const plod_refine_params *plod_session_refine_params(const plod_session *session
 
 /* ---- per frame ---------------------------------------------------------------------- */
 
+plod_status plod_session_set_method(plod_session *session, const plod_method_params *params,
+                                    plod_error *error)
+{
+    if (!params)
+        return plod_error_set(error, PLOD_ERR_NULL, "missing method parameters");
+    if (!plod_lod_method_name((int)params->method))
+        return plod_error_set(error, PLOD_ERR_BAD_PARAM,
+                              "method must be hrtmr, chunked, geomipmap or clipmap");
+    if (params->chunked_skirts != 0 && params->chunked_skirts != 1)
+        return plod_error_set(error, PLOD_ERR_BAD_PARAM,
+                              "chunked cracks must be stitched (0) or skirts (1)");
+    int tiles = params->geomipmap_tiles;
+    if (tiles < 1 || tiles > PLOD_GEOMIPMAP_MAX_TILES || (tiles & (tiles - 1)))
+        return plod_error_set(error, PLOD_ERR_BAD_PARAM,
+                              "geomipmap_tiles must be a power of two in 1..%d",
+                              PLOD_GEOMIPMAP_MAX_TILES);
+    /* ---- clipmap dispatch point: the clipmap module's parameters ---- */
+    if (params->clipmap_ring_cells < 24 || params->clipmap_ring_cells > 1024)
+        return plod_error_set(error, PLOD_ERR_BAD_PARAM,
+                              "clipmap_ring_cells must be 24..1024 (got %d)",
+                              params->clipmap_ring_cells);
+    if (params->method != session->method.method ||
+        params->chunked_skirts != session->method.chunked_skirts ||
+        params->geomipmap_tiles != session->method.geomipmap_tiles ||
+        params->clipmap_ring_cells != session->method.clipmap_ring_cells)
+        session->has_camera = 0;
+    session->method = *params;
+    return PLOD_OK;
+}
+
+const plod_method_params *plod_session_method(const plod_session *session)
+{
+    return &session->method;
+}
+
+size_t plod_session_method_bytes(const plod_session *session)
+{
+    switch (session->method.method) {
+    case PLOD_LOD_CHUNKED:
+        return session->chunked ? plod_chunked_memory_bytes(session->chunked) : 0;
+    case PLOD_LOD_GEOMIPMAP:
+        return session->geomipmap ? plod_geomipmap_memory_bytes(session->geomipmap) : 0;
+    case PLOD_LOD_CLIPMAP:
+        return plod_clipmap_memory_bytes(session->clipmap);
+    default:
+        return plod_refiner_memory_bytes(session->refiner);
+    }
+}
+
 plod_status plod_session_refine(plod_session *session, const plod_camera *camera,
                                 const plod_refine_params *params, plod_refine_stats *stats,
                                 plod_error *error)
 {
     plod_refine_stats frame;
-    plod_status st = plod_refiner_update(session->refiner, camera, params, &frame, error);
-    if (st != PLOD_OK)
+    plod_status st;
+    switch (session->method.method) {
+    case PLOD_LOD_CHUNKED:
+        if (!session->chunked && plod_chunked_create(&session->chunked) != PLOD_OK)
+            return plod_error_set(error, PLOD_ERR_NO_MEMORY, "chunked: out of memory");
+        st = plod_chunked_refine(session->chunked, &session->planet, camera, params,
+                                 session->method.chunked_skirts, &frame, error);
+        break;
+    case PLOD_LOD_GEOMIPMAP:
+        if (!session->geomipmap && plod_geomipmap_create(&session->geomipmap) != PLOD_OK)
+            return plod_error_set(error, PLOD_ERR_NO_MEMORY, "geomipmap: out of memory");
+        st = plod_geomipmap_refine(session->geomipmap, &session->planet, camera, params,
+                                   session->method.geomipmap_tiles, &frame, error);
+        break;
+    case PLOD_LOD_CLIPMAP: {
+        /* ---- clipmap dispatch point (plod_clipmap.h): the refine's pixel
+         * error, culling and level limit (one clipmap level per two
+         * bisection levels), template_level as the culling blocks ---- */
+        if (params->template_level > PLOD_CLIPMAP_MAX_BLOCK_LEVEL)
+            return plod_error_set(error, PLOD_ERR_BAD_PARAM,
+                                  "the clipmap's culling blocks (2^template_level cells a "
+                                  "side) take template_level 0..%d",
+                                  PLOD_CLIPMAP_MAX_BLOCK_LEVEL);
+        if (!session->clipmap && plod_clipmap_create(&session->clipmap) != PLOD_OK)
+            return plod_error_set(error, PLOD_ERR_NO_MEMORY, "clipmap: out of memory");
+        plod_clipmap_params cp;
+        plod_clipmap_params_default(&cp);
+        cp.ring_cells = session->method.clipmap_ring_cells;
+        cp.max_pixel_error = params->max_pixel_error;
+        cp.max_level = params->max_level / 2 < PLOD_CLIPMAP_MAX_LEVEL ? params->max_level / 2
+                                                                       : PLOD_CLIPMAP_MAX_LEVEL;
+        cp.block_level = params->template_level;
+        cp.backface = params->backface_culling;
+        cp.frustum = params->frustum_culling;
+        plod_surface_source surface = plod_planet_surface_source(&session->planet);
+        plod_clipmap_stats cs;
+        st = plod_clipmap_update(session->clipmap, &session->planet, &surface, camera, &cp, &cs,
+                                 error);
+        if (st == PLOD_OK) {
+            memset(&frame, 0, sizeof frame);
+            frame.sectors_total = cs.blocks;
+            frame.sectors_after_backface = frame.sectors_after_frustum = cs.blocks_visible;
+            frame.sectors_after_budget = cs.blocks_visible;
+            frame.splits = cs.cells_refreshed; /* leaf cells new this frame */
+            frame.max_level_reached = cs.finest_level;
+            frame.refine_us = cs.update_us;
+        }
+        break;
+    }
+    default:
+        st = plod_refiner_update(session->refiner, camera, params, &frame, error);
+        break;
+    }
+    if (st != PLOD_OK) {
+        if (session->method.method != PLOD_LOD_HRTMR)
+            session->has_camera = 0; /* the patches are not this camera's */
         return st;
+    }
     session->camera = *camera;
     session->params = *params;
     session->has_camera = 1;
@@ -179,6 +318,7 @@ plod_status plod_session_refine(plod_session *session, const plod_camera *camera
 void plod_session_reset(plod_session *session)
 {
     plod_refiner_reset(session->refiner);
+    plod_clipmap_reset(session->clipmap);
     session->has_camera = 0;
 }
 
@@ -314,9 +454,20 @@ void plod_session_mesh_params(const plod_session *session, int template_level, i
         plod_mesh_origin(&surface, session->planet.radius, camera->position, params->origin);
         for (int c = 0; c < 3; c++)
             params->eye[c] = camera->position[c];
+        int patches = session->method.method != PLOD_LOD_HRTMR;
+        if (patches && !camera->desc.orthographic && camera->pixels_per_radian > 0.0 &&
+            session->params.max_pixel_error > 0.0)
+            /* the patch methods' vertices take their detail band from the
+             * fade (a function of the direction and the eye), so that
+             * patches of any level agree where they meet */
+            params->detail_fade_cell = PLOD__FADE_CELL_PIXELS *
+                                       session->params.max_pixel_error /
+                                       camera->pixels_per_radian;
         if (morph) {
             params->morph =
                 plod_session_set_morph_scale(params, camera, &session->params) > 0.0;
+            if (patches) /* one quadtree level per two bisection levels */
+                params->morph_level_rate *= 0.5;
             /* detail fades with distance (perspective cameras) */
             if (!camera->desc.orthographic && camera->pixels_per_radian > 0.0 &&
                 session->params.max_pixel_error > 0.0)
@@ -327,10 +478,60 @@ void plod_session_mesh_params(const plod_session *session, int template_level, i
     }
 }
 
+/* The last refine's patches of a patch method (NULL, 0 for HRTMR). */
+static const plod_face_tile *plod__method_tiles(const plod_session *session, size_t *count)
+{
+    *count = 0;
+    if (!session->has_camera)
+        return NULL;
+    switch (session->method.method) {
+    case PLOD_LOD_CHUNKED:
+        return session->chunked ? plod_chunked_tiles(session->chunked, count) : NULL;
+    case PLOD_LOD_GEOMIPMAP:
+        return session->geomipmap ? plod_geomipmap_tiles(session->geomipmap, count) : NULL;
+    /* ---- clipmap dispatch point: its patch count (sector_count),
+     * bounds (plod_session_emit_bounds) and emission (plod_session_emit)
+     * go beside the tile methods' (plod_clipmap.h) ---- */
+    default:
+        return NULL;
+    }
+}
+
 size_t plod_session_sector_count(const plod_session *session, int visible_only)
 {
+    if (session->method.method == PLOD_LOD_CLIPMAP)
+        return session->has_camera ? plod_clipmap_block_count(session->clipmap) : 0;
+    if (session->method.method != PLOD_LOD_HRTMR) {
+        size_t count;
+        plod__method_tiles(session, &count);
+        return count;
+    }
     plod__leaf_source leaves;
     return plod__leaf_source_init(session, visible_only, &leaves).count;
+}
+
+void plod_session_emit_bounds(const plod_session *session, int template_level,
+                              int visible_only, size_t *vertices, size_t *triangles,
+                              size_t *sectors)
+{
+    size_t count = plod_session_sector_count(session, visible_only);
+    *sectors = count;
+    if (session->method.method == PLOD_LOD_CLIPMAP) {
+        *vertices = session->has_camera ? plod_clipmap_vertex_count(session->clipmap) : 0;
+        *triangles = session->has_camera ? plod_clipmap_triangle_count(session->clipmap) : 0;
+        return;
+    }
+    if (session->method.method != PLOD_LOD_HRTMR) {
+        size_t n;
+        const plod_face_tile *tiles = plod__method_tiles(session, &n);
+        plod_facetiles_bound(tiles, n,
+                             session->method.method == PLOD_LOD_CHUNKED &&
+                                 session->method.chunked_skirts,
+                             vertices, triangles);
+        return;
+    }
+    *vertices = plod_mesh_vertex_bound(count, template_level);
+    *triangles = plod_mesh_triangle_bound(count, template_level);
 }
 
 /* Persistent workers for an emission on `threads` threads, as many as
@@ -355,6 +556,55 @@ static plod_workers *plod__emission_workers(plod_session *session, int threads)
     return session->mesh_workers;
 }
 
+/* A patch method's emission: its tiles through the shared tile emitter. */
+static plod_status plod__emit_patches(plod_session *session, plod_mesh_params *mp,
+                                      const plod_mesh_buffers *out, size_t *vertex_count,
+                                      size_t *triangle_count)
+{
+    if (vertex_count)
+        *vertex_count = 0;
+    if (triangle_count)
+        *triangle_count = 0;
+    /* the patches' grids are the refine's: another level, or an emission
+     * of changes only (no cache), cannot be honoured */
+    if (mp->changed_only ||
+        (session->has_camera && mp->template_level != session->params.template_level))
+        return PLOD_ERR_BAD_PARAM;
+    if (session->method.method == PLOD_LOD_CLIPMAP) {
+        /* ---- clipmap dispatch point (plod_clipmap.h) ---- */
+        if (!session->has_camera)
+            return PLOD_OK;
+        mp->workers = plod__emission_workers(session, mp->threads);
+        plod_surface_source surface = plod_planet_surface_source(&session->planet);
+        plod_workers_begin(mp->workers);
+        plod_status st = plod_clipmap_emit(session->clipmap, mp, &surface, out, vertex_count,
+                                           triangle_count);
+        plod_workers_end(mp->workers);
+        return st;
+    }
+    size_t count;
+    const plod_face_tile *tiles = plod__method_tiles(session, &count);
+    const plod_camera *camera = session->has_camera ? &session->camera : NULL;
+    plod_facetiles_emission options;
+    memset(&options, 0, sizeof options);
+    options.projection = session->planet.projection;
+    options.skirts =
+        session->method.method == PLOD_LOD_CHUNKED && session->method.chunked_skirts;
+    options.morph = mp->morph && session->method.method == PLOD_LOD_CHUNKED;
+    options.drop_sea = session->method.method == PLOD_LOD_GEOMIPMAP &&
+                       session->params.skip_sea && session->planet.has_sea_level;
+    options.sea_level = session->planet.sea_level;
+    if (camera && camera->desc.orthographic && camera->pixels_per_metre > 0.0)
+        options.ortho_cell = session->params.max_pixel_error / camera->pixels_per_metre;
+    mp->workers = plod__emission_workers(session, mp->threads);
+    plod_surface_source surface = plod_planet_surface_source(&session->planet);
+    plod_workers_begin(mp->workers);
+    plod_status st = plod_facetiles_emit(mp, &surface, &options, tiles, count, out,
+                                         vertex_count, triangle_count);
+    plod_workers_end(mp->workers);
+    return st;
+}
+
 plod_status plod_session_emit(plod_session *session, const plod_mesh_params *params,
                               int visible_only, int use_cache,
                               const plod_mesh_buffers *out, size_t *vertex_count,
@@ -365,6 +615,8 @@ plod_status plod_session_emit(plod_session *session, const plod_mesh_params *par
     plod_mesh_params mp = *params;
     mp.planet = &session->planet;
     mp.cache = NULL;
+    if (session->method.method != PLOD_LOD_HRTMR)
+        return plod__emit_patches(session, &mp, out, vertex_count, triangle_count);
     mp.workers = plod__emission_workers(session, mp.threads);
     if (use_cache) {
         if (!session->mesh_cache &&
@@ -390,6 +642,8 @@ plod_status plod_session_instances(plod_session *session, const plod_mesh_params
 {
     if (!params)
         return PLOD_ERR_NULL;
+    if (session->method.method != PLOD_LOD_HRTMR)
+        return PLOD_ERR_BAD_PARAM; /* the instanced form is HRTMR's sectors */
     plod_mesh_params mp = *params;
     mp.planet = &session->planet;
     mp.cache = NULL;

@@ -285,6 +285,34 @@ def make_camera(params):
 REFINE_THREADS = max(1, min(2, os.cpu_count() or 1))
 
 
+# The LOD methods (Planet.refine(method=...)) as the add-on names them, with
+# what a level means in each (the Show Levels legend).
+LOD_METHOD_ITEMS = [
+    ("HRTMR", "HRTMR", "Longest-edge bisection of triangular sectors (hierarchical "
+                       "triangular mesh refinement, the default)"),
+    ("CHUNKED", "Chunked LOD", "Quadtrees of fixed-size chunks on the six cube faces (T. "
+                               "Ulrich, Rendering Massive Terrains using Chunked Level of "
+                               "Detail Control, 2002)"),
+    ("GEOMIPMAP", "Geomipmapping", "A fixed grid of tiles on the cube faces, each drawn at "
+                                   "a mip level (W. H. de Boer, Fast Terrain Rendering Using "
+                                   "Geometrical MipMapping, 2000)"),
+    ("CLIPMAP", "Geometry Clipmaps", "Nested rings of regular grids on the cube faces centred "
+                                     "under the camera (F. Losasso, H. Hoppe, Geometry "
+                                     "Clipmaps, 2004)"),
+]
+LEVEL_MEANING = {
+    "HRTMR": "level: bisections of a base sector (higher is finer)",
+    "CHUNKED": "level: quadtree depth of the chunk (higher is finer)",
+    "GEOMIPMAP": "level: mip level of the tile (0 is full resolution, higher is coarser)",
+    "CLIPMAP": "level: clipmap ring (cells halve per level, higher is finer and nearer)",
+}
+
+
+def lod_method(settings):
+    """The core's name of the settings' LOD method ('hrtmr', 'chunked', ...)."""
+    return str(settings.get("lod_method", "HRTMR")).lower()
+
+
 def refine(planet, camera, settings, hysteresis=False, max_splits=0):
     """Refines `planet` for `camera`; returns the stats dict plus 'triangles'.
     hysteresis=False (renders) makes the LOD a function of the camera alone.
@@ -301,12 +329,18 @@ def refine(planet, camera, settings, hysteresis=False, max_splits=0):
                   budget=int(settings["budget"]), backface=bool(settings["backface"]),
                   frustum=bool(settings["frustum"]),
                   skip_sea=bool(settings.get("use_sea_level") and settings.get("skip_sea")),
-                  threads=REFINE_THREADS)
+                  threads=REFINE_THREADS, method=lod_method(settings))
+    if kwargs["method"] != "hrtmr":  # the other methods' own settings
+        kwargs["chunk_cracks"] = str(settings.get("chunk_cracks", "STITCH")).lower()
+        kwargs["geomipmap_tiles"] = int(settings.get("geomipmap_tiles", 16))
     if max_splits > 0:
         kwargs["max_splits"] = int(max_splits)
     stats = dict(planet.refine(camera, **kwargs))
-    stats["triangles"] = planet.visible_count * 4 ** template_level
-    stats["visible"] = planet.visible_count
+    if kwargs["method"] == "hrtmr":
+        stats["triangles"] = planet.visible_count * 4 ** template_level
+        stats["visible"] = planet.visible_count
+    else:  # the refine's bound on what the mesh of its patches holds
+        stats["visible"] = stats["sectors_after_budget"]
     return stats
 
 
@@ -318,7 +352,7 @@ MAX_MESH_TRIANGLES = 1 << 24
 
 def check_mesh_size(stats, template_level):
     """Raises InvalidArgument when the refined LOD would emit more than MAX_MESH_TRIANGLES."""
-    triangles = stats["visible"] * 4 ** template_level
+    triangles = stats.get("triangles", stats["visible"] * 4 ** template_level)
     if triangles > MAX_MESH_TRIANGLES:
         raise InvalidArgument(
             f"the LOD would build {triangles:,} triangles ({stats['visible']:,} sectors x "

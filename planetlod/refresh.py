@@ -105,6 +105,14 @@ class SurfaceWork:
         # bench_viewport_detail.py)
         origin, radius, sea_level, morph, old_key, old_data = self.preview
         level = settings["template_level"]
+        if planets.lod_method(settings) != "hrtmr":
+            # the other methods' patches are not copies of one template and
+            # keep no cache: their whole mesh, drawn as one patch
+            self.preview_key = None
+            visible = planet.mesh(template_level=level, morph=morph)
+            self.preview_data = surface.preview_data(visible, origin, radius, sea_level,
+                                                     whole=True)
+            return
         ids = numpy.frombuffer(planet.sector_ids(visible_only=True), numpy.uint64)
         self.preview_key = preview_key(planet, level, origin, radius, sea_level, morph)
         if morph:  # the morph moves every vertex with the eye

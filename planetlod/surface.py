@@ -161,8 +161,12 @@ class PreviewData:
 PREVIEW_ROW_TEXELS = 4096  # even: a vertex's two texels share a row
 
 
-def preview_data(mesh, anchor, radius, sea_level=None, row_texels=PREVIEW_ROW_TEXELS):
+def preview_data(mesh, anchor, radius, sea_level=None, row_texels=PREVIEW_ROW_TEXELS,
+                 whole=False):
     """PreviewData of `mesh` (numpy required: the GPU preview runs in Blender).
+    whole: the mesh is not copies of one template (the LOD methods other than
+    HRTMR): it is drawn as a single patch, each vertex with the finest level of
+    its triangles.
     Float32 where that is exact enough for a picture (heights for colours,
     to a few metres), float64 where vertex_data uses it for a decision: a
     vertex near or below the sea is lifted exactly as the render mesh's is."""
@@ -195,6 +199,16 @@ def preview_data(mesh, anchor, radius, sea_level=None, row_texels=PREVIEW_ROW_TE
             sea[lifted] = 1.0
         height -= f32(sea_level)
         height[sea > 0.0] = 0.0
+    if whole:
+        triangles = numpy.frombuffer(mesh.triangles, dtype=numpy.int32).reshape(-1, 3)
+        levels = numpy.zeros(n, dtype=numpy.int32)
+        face_levels = numpy.frombuffer(mesh.sector_level, dtype=numpy.int32)
+        for corner in range(3):
+            numpy.maximum.at(levels, triangles[:, corner], face_levels)
+        vertex[:, 0, 3] = height
+        vertex[:, 1, 3] = levels.astype(f32) * 2.0 + sea
+        return PreviewData(texels, row_texels, n, 1, triangles.copy(),
+                           numpy.ones(1, dtype=numpy.uint64))
     sectors = mesh.sector_count
     tris_per_sector = mesh.triangle_count // sectors
     # the first sector's triangles index vertices 0..vertices_per_sector-1

@@ -1,6 +1,7 @@
 """The legend of Show Levels: a swatch per refinement level, drawn in the 3D
 view's corner while a planet shows its levels, in the preview's colours
-(shaders/planet_preview_frag.glsl, level_colour)."""
+(shaders/planet_preview_frag.glsl, level_colour), with what a level means in
+the planet's LOD method."""
 import math
 
 import bpy
@@ -8,6 +9,7 @@ import gpu
 from gpu_extras.batch import batch_for_shader
 
 from . import runtime
+from .core import planets
 
 SWATCH = 12  # pixels, at interface scale 1
 
@@ -23,13 +25,17 @@ def level_colour(level):
 
 
 def levels_shown(scene):
-    """(planet name, deepest level) of the first planet showing its levels, or None."""
+    """(planet name, deepest level, what a level means) of the first planet
+    showing its levels, or None."""
     for obj in runtime.planet_objects(scene):
         s = obj.planet_lod
         if s.show_levels and s.gpu_preview:
             st = runtime.existing_state(obj)
             depth = int(st.stats.get("max_level", 0)) if st is not None and st.stats else 0
-            return obj.name, max(depth, 1)
+            if s.lod_method == 'GEOMIPMAP':  # mip levels 0..n of the tiles' grid
+                depth = int(s.as_dict()["template_level"])
+            meaning = planets.LEVEL_MEANING.get(s.lod_method, planets.LEVEL_MEANING["HRTMR"])
+            return obj.name, max(depth, 1), meaning
     return None
 
 
@@ -50,7 +56,7 @@ def draw_legend():
     shader = _shader() if shown else None
     if shader is None:
         return
-    name, depth = shown
+    name, depth, meaning = shown
     scale = context.preferences.system.ui_scale
     size = SWATCH * scale
     x = 20 * scale
@@ -73,7 +79,7 @@ def draw_legend():
         blf.position(font, x + size + 6 * scale, top + 2 * scale, 0)
         blf.draw(font, f"level {level}")
     blf.position(font, x, y + (len(levels[::step])) * (size + 2 * scale) + 4 * scale, 0)
-    blf.draw(font, f"{name}: levels of detail")
+    blf.draw(font, f"{name}: {meaning}")
     gpu.state.blend_set('NONE')
 
 

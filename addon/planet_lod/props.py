@@ -202,6 +202,21 @@ class PLOD_PG_settings(bpy.types.PropertyGroup):
                                           "cube cross (4:3) in the planet's projection. Empty: "
                                           "colours by height",
                               update=_material_changed)
+    lod_method: EnumProperty(name="LOD Method", default="HRTMR", update=_changed,
+                             items=planets.LOD_METHOD_ITEMS,
+                             description="How the terrain's patches are chosen: the seeds' "
+                                         "methods side by side on the same surface")
+    chunk_cracks: EnumProperty(name="Chunk Edges", default="STITCH", update=_changed,
+                               description="How chunked LOD closes the gaps between chunks "
+                                           "of different levels",
+                               items=[("STITCH", "Stitched", "Edge variants that meet the "
+                                       "coarser neighbour exactly (watertight)"),
+                                      ("SKIRTS", "Skirts", "Strips hanging down from every "
+                                       "chunk edge that hide the gaps")])
+    geomipmap_tiles: EnumProperty(name="Tiles", default="16", update=_changed,
+                                  items=[(str(2 ** k), str(2 ** k), "") for k in range(9)],
+                                  description="Geomipmap tiles per cube-face edge: the finest "
+                                              "detail is this times the patch density's cells")
     criterion: EnumProperty(name="Criterion", default="PIXEL", update=_changed,
                             description="How the add-on decides where the terrain needs detail",
                             items=[
@@ -290,6 +305,8 @@ class PLOD_PG_settings(bpy.types.PropertyGroup):
             "height_scale": self.height_scale, "height_offset": self.height_offset,
             "height_signed": self.height_signed, "use_sea_level": self.use_sea_level,
             "sea_level": self.sea_level, "skip_sea": self.skip_sea,
+            "lod_method": self.lod_method, "chunk_cracks": self.chunk_cracks,
+            "geomipmap_tiles": int(self.geomipmap_tiles),
             "criterion": self.criterion, "max_pixel_error": self.max_pixel_error,
             "split_border": self.split_border, "merge_border": self.merge_border,
             "template_level": template_level(self), "budget": self.budget,

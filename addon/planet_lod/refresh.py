@@ -257,7 +257,9 @@ def write_mesh(obj, mesh):
     face-averaged normals stay for everything but the planet's shading."""
     me = obj.data
     nv, nt = mesh.vertex_count, mesh.triangle_count
-    if len(me.vertices) != nv or len(me.polygons) != nt or me.has_custom_normals:
+    # (the other LOD methods' patches differ in their triangles at equal counts)
+    if (len(me.vertices) != nv or len(me.polygons) != nt or me.has_custom_normals or
+            obj.planet_lod.lod_method != 'HRTMR'):
         me.clear_geometry()  # (custom normals of an older file go with it)
         me.vertices.add(nv)
         compat.set_triangle_topology(me, mesh.triangles, nt)

@@ -223,6 +223,11 @@ class PLOD_PT_lod(PLOD_PT_planet_sub, bpy.types.Panel):
         layout.use_property_split = True
         layout.use_property_decorate = False
         col = layout.column()
+        col.prop(s, "lod_method")
+        if s.lod_method == 'CHUNKED':
+            col.prop(s, "chunk_cracks")
+        elif s.lod_method == 'GEOMIPMAP':
+            col.prop(s, "geomipmap_tiles")
         col.prop(s, "criterion")
         if s.criterion == 'PIXEL':
             col.prop(s, "max_pixel_error", text="Error")

@@ -1,0 +1,65 @@
+"""In the real UI (xvfb): the LOD Method setting of the Level of Detail panel.
+Each method draws the asteroid's GPU preview with Show LOD levels (several
+levels' colours in view, no error), the legend's text comes from the method,
+and the render mesh of each method is a closed surface with the method's
+levels in its sector_level attribute."""
+import bpy
+import numpy as np
+from mathutils import Vector
+
+import plod_testlib as lib
+import plod_uilib as ui
+
+
+def colours(image, mask):
+    """Distinct quantised colours among the planet's pixels."""
+    q = np.round(image[mask] * 8.0).astype(np.int32)
+    return len(np.unique(q[:, 0] * 81 + q[:, 1] * 9 + q[:, 2]))
+
+
+def test():
+    lib.enable()
+    ui.clean_view()
+    for obj in [o for o in bpy.data.objects if o.type == 'MESH']:
+        bpy.data.objects.remove(obj)
+    with ui.override():
+        assert bpy.ops.mesh.planet_add(preset='ASTEROID') == {'FINISHED'}
+    planet = bpy.context.object
+    from planet_lod import legend, refresh, runtime
+    s = planet.planet_lod
+    _, area, _, _ = ui.view3d()
+    r3d = area.spaces.active.region_3d
+    r3d.view_distance = 1.6 * s.radius
+    r3d.view_rotation = Vector((0.5, -1.0, 0.4)).to_track_quat('Z', 'Y')
+    s.show_levels = True
+    for method in ('HRTMR', 'CHUNKED', 'GEOMIPMAP'):
+        s.lod_method = method
+        yield from ui.refreshed(planet)
+        st = runtime.state(planet)
+        assert not st.error, st.error
+        shot = ui.screenshot(f"lod_method_{method.lower()}.png")
+        mask = ui.foreground(shot)
+        shown = legend.levels_shown(bpy.context.scene)
+        print(f"{method}: {st.stats['visible']} patches, level {st.stats['max_level']}, "
+              f"planet {mask.mean():.1%} of the view, {colours(shot, mask)} colours; legend "
+              f"{shown[2]!r}", flush=True)
+        assert mask.mean() > 0.2 and colours(shot, mask) >= 4
+        from planet_lod.core import planets
+        assert shown[2] == planets.LEVEL_MEANING[method]
+        # the render path: the Blender mesh of the method
+        refresh.refresh(planet, bpy.context.scene, build_mesh=True)
+        levels = np.zeros(len(planet.data.polygons), dtype=np.int32)
+        planet.data.attributes["sector_level"].data.foreach_get("value", levels)
+        print(f"{method}: mesh {len(planet.data.vertices)} vertices, "
+              f"{len(planet.data.polygons)} triangles, levels {levels.min()}..{levels.max()}",
+              flush=True)
+        assert len(planet.data.polygons) == st.stats["triangles"] or method != 'HRTMR'
+        assert levels.max() > levels.min()
+    s.lod_method = 'CHUNKED'
+    s.chunk_cracks = 'SKIRTS'
+    yield from ui.refreshed(planet)
+    assert not runtime.state(planet).error
+    ui.screenshot("lod_method_chunked_skirts.png")
+
+
+ui.run(test)
