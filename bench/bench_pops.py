@@ -2,7 +2,8 @@
 to the next.
 
     /usr/bin/python3 -m bench.bench_pops [--paths descent,walk,dive,flyby]
-        [--frames N] [--template-level 4] [--plot bench/results/pops.png]
+        [--frames N] [--range FIRST:LAST] [--every N | --at F1,F2] [--morph on,off]
+        [--template-level 4] [--plot bench/results/pops.png]
 
 For each frame f of a path, frame f's camera looks at two surfaces: the mesh
 refined and emitted for frame f-1's camera and the one for frame f's.  Every
@@ -231,7 +232,7 @@ def compare(view, before, after, chunk=200000):
     both (same id) compares vertex for vertex; the vertices of a sector in
     one only are matched along their rays with the other's sectors that are
     not in the first (a split's children with their parent, and back)."""
-    pixels, normal, detail, slope, missing = [], [], [], [], 0
+    pixels, normal, detail, slope, distance, missing = [], [], [], [], [], 0
     common, in_after, in_before = np.intersect1d(after.ids, before.ids, assume_unique=True,
                                                  return_indices=True)
     if len(common):
@@ -243,6 +244,7 @@ def compare(view, before, after, chunk=200000):
             a, _ = view.project(pa[keep])
             b, _ = view.project(pb[keep])
             pixels.append(np.linalg.norm(a - b, axis=1))
+            distance.append(np.linalg.norm(pa[keep] - view.location, axis=1))
             normal.append(angle_deg(after.normals[a_rows][keep], before.normals[b_rows][keep]))
             detail.append(np.abs(after.detail[a_rows][keep] - before.detail[b_rows][keep]))
             slope.append(np.abs(after.slope[a_rows][keep] - before.slope[b_rows][keep]))
@@ -269,20 +271,22 @@ def compare(view, before, after, chunk=200000):
         a, _ = view.project(p[found])
         b, _ = view.project(point[found])
         pixels.append(np.linalg.norm(a - b, axis=1))
+        distance.append(np.linalg.norm(p[found] - view.location, axis=1))
         normal.append(angle_deg(mine.normals[rows][found], n[found]))
         detail.append(np.abs(mine.detail[rows][found] - dt[found]))
         slope.append(np.abs(mine.slope[rows][found] - sl[found]))
     cat = (lambda xs: np.concatenate(xs) if xs else np.zeros(0))
     return dict(pixels=cat(pixels), normal_deg=cat(normal), detail_m=cat(detail),
-                slope_deg=cat(slope), missing=missing)
+                slope_deg=cat(slope), distance_m=cat(distance), missing=missing)
 
 
 def stats_of(change):
     px = change["pixels"]
     if not len(px):
         return dict(max_px=0.0, p99_px=0.0, normal_p99=0.0, normal_max=0.0, detail_max=0.0,
-                    slope_p99=0.0, vertices=0, missing=change["missing"])
+                    slope_p99=0.0, vertices=0, missing=change["missing"], worst_at_m=0.0)
     return dict(max_px=float(px.max()), p99_px=float(np.percentile(px, 99)),
+                worst_at_m=float(change["distance_m"][np.argmax(px)]),
                 normal_p99=float(np.percentile(change["normal_deg"], 99)),
                 normal_max=float(change["normal_deg"].max()),
                 detail_max=float(change["detail_m"].max()),
@@ -295,12 +299,28 @@ def refine_kwargs(template_level):
     return dict(max_pixel_error=1.0, template_level=template_level, hysteresis=False)
 
 
-def fly(planet, poses, morph=True, template_level=4, timings=None, on_frame=None):
-    """Per frame f >= 1: stats of frame f's camera against surfaces f-1 and f.
-    timings (a dict) gets the summed refine and mesh seconds."""
+def sampled_frames(count, every):
+    """Frames f whose pair (f-1, f) is measured when a path is sampled every
+    `every` frames: every, 2 every, ... and the last frame (the path's
+    speed kept: each pair is two consecutive frames)."""
+    frames = set(range(every, count, every))
+    if count > 1:
+        frames.add(count - 1)
+    return frames
+
+
+def fly(planet, poses, morph=True, template_level=4, timings=None, on_frame=None,
+        measured=None):
+    """Per frame f >= 1 (f in `measured` when given): stats of frame f's
+    camera against surfaces f-1 and f.  Frames neither measured nor before
+    a measured one are skipped (renders' refinement is a function of the
+    camera alone).  timings (a dict) gets the summed refine and mesh seconds."""
     rows = []
     before = None
     for k, (matrix, width, height, lens) in enumerate(poses):
+        if measured is not None and k not in measured and k + 1 not in measured:
+            before = None
+            continue
         cam = camera(planet, matrix, width, height, lens)
         t0 = time.perf_counter()
         planet.refine(cam, **refine_kwargs(template_level))
@@ -311,7 +331,7 @@ def fly(planet, poses, morph=True, template_level=4, timings=None, on_frame=None
             timings["refine_s"] = timings.get("refine_s", 0.0) + t1 - t0
             timings["mesh_s"] = timings.get("mesh_s", 0.0) + t2 - t1
         after = Surface(mesh)
-        if before is not None:
+        if before is not None and (measured is None or k in measured):
             row = stats_of(compare(View(matrix, width, height, lens), before, after))
             row["frame"] = k
             rows.append(row)
@@ -357,19 +377,31 @@ def plot(results, path):
     fig.savefig(path, dpi=90)
 
 
+def print_frame(row):
+    print(f"  frame {row['frame']:4d}: max {row['max_px']:.3f} px at {row['worst_at_m']:.4g} m, "
+          f"p99 {row['p99_px']:.4f} px, normal max {row['normal_max']:.3f} deg, "
+          f"detail max {row['detail_max']:.4f} m", flush=True)
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--paths", default=",".join(PATHS))
     p.add_argument("--frames", type=int, default=None, help="frames per path (default: its own)")
     p.add_argument("--range", default=None,
                    help="FIRST:LAST frames of each path measured (the path's speed kept)")
+    p.add_argument("--every", type=int, default=None,
+                   help="measure only the pairs (f-1, f) for f = N, 2N, ... and the last frame")
+    p.add_argument("--at", default=None,
+                   help="F1,F2,...: measure only the pairs (F-1, F) of these frames")
     p.add_argument("--template-level", type=int, default=4)
     p.add_argument("--morph", default="on,off", help="on, off or both (on,off)")
     p.add_argument("--plot", default=None, help="PNG of the per-frame maxima")
+    p.add_argument("--per-frame", action="store_true",
+                   help="print each measured frame (max, p99, the worst vertex's distance)")
     args = p.parse_args()
     planet = earth()
     results = {}
-    print(f"{'path':8} {'morph':5} {'frames':>6} {'max px':>8} {'p99 px':>8} {'worst p99':>9} "
+    print(f"{'path':8} {'morph':5} {'frames':>6} {'pairs':>5} {'max px':>8} {'p99 px':>8} {'worst p99':>9} "
           f"{'normal max':>10} {'detail max m':>12} {'slope p99':>9} {'refine s':>8} {'mesh s':>7}")
     for name in args.paths.split(","):
         poses = path_cameras(planet, name, args.frames)
@@ -379,11 +411,16 @@ def main():
         for morph in [m.strip() == "on" for m in args.morph.split(",")]:
             planet.reset()
             timings = {}
+            measured = sampled_frames(len(poses), args.every) if args.every else None
+            if args.at:
+                measured = {int(f) for f in args.at.split(",")}
             rows = fly(planet, poses, morph=morph, template_level=args.template_level,
-                       timings=timings)
+                       timings=timings, measured=measured,
+                       on_frame=print_frame if args.per_frame else None)
             results[(name, morph)] = rows
             s = summary(rows)
-            print(f"{name:8} {'on' if morph else 'off':5} {len(poses):6d} {s['max_px']:8.3f} "
+            print(f"{name:8} {'on' if morph else 'off':5} {len(poses):6d} {len(rows):5d} "
+                  f"{s['max_px']:8.3f} "
                   f"{s['p99_px']:8.4f} {s['worst_p99_px']:9.4f} {s['normal_max']:10.3f} "
                   f"{s['detail_max']:12.4f} {s['slope_p99']:9.3f} {timings['refine_s']:8.2f} "
                   f"{timings['mesh_s']:7.2f}", flush=True)

@@ -154,7 +154,11 @@ static double plod__morph_ramp(const double eye[3], double log2_scale, double ra
     if (!isfinite(level))
         return 0.0;
     double fraction = level - floor(level);
-    double m = (ramp - fraction) / ramp;
+    /* down from 1 after a whole level, and back up to 1 before the next:
+     * a vertex crossing a level without its sector splitting there moves
+     * on, it does not jump from full detail to the coarser grid */
+    double down = (ramp - fraction) / ramp, up = (fraction - (1.0 - ramp)) / ramp;
+    double m = up > down ? up : down;
     return m < 0.0 ? 0.0 : (m > 1.0 ? 1.0 : m);
 }
 

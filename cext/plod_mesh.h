@@ -136,9 +136,11 @@ typedef struct plod_mesh_params {
      * is a function of the vertex's unmorphed position and `eye` only, so a
      * shared vertex morphs identically from both sides: continuous level
      * L = morph_level_rate * log2(morph_lod_scale / distance), f = L -
-     * floor(L), morph = clamp((morph_ramp - f) / morph_ramp, 0, 1): 1 just
-     * after the refiner's split distance for that level (looks like the
-     * coarser grid), 0 from morph_ramp of a level on (full detail). */
+     * floor(L), morph = clamp(max(morph_ramp - f, f - (1 - morph_ramp)) /
+     * morph_ramp, 0, 1): 1 at whole levels, near the refiner's split
+     * distance for a level (looks like the coarser grid), down to 0 over
+     * morph_ramp of a level (full detail) and back up over the level's last
+     * morph_ramp: continuous in the distance. */
     int morph;                  /* 0 off (morph output all 0) */
     double eye[3];              /* camera position, planet space (metres):
                                    the morph factor and the corner normals'

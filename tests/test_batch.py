@@ -77,6 +77,63 @@ def test_missing_map_stops_blend_render(tmp_path):
     assert sorted(os.listdir(tmp_path / "out")) == ["frame_0001.png", "frame_0002.png"]
 
 
+def _stats_without_timings(path):
+    import csv
+    with open(path, newline="") as f:
+        return [{k: v for k, v in row.items() if k not in ("refine_us", "mesh_ms", "render_s",
+                                                          "splits", "merges")}
+                for row in csv.DictReader(f)]
+
+
+def test_geo_camera_stats_from_parallel_chunks(tmp_path):
+    """`-a` through a keyframed planet_lod_geo camera: every frame writes its own
+    stats file, so two chunks rendering into one folder at the same time lose
+    none; merging them gives the stats.csv of one process rendering all the
+    frames (but for timings), a row per frame in frame order."""
+    env = user_env(tmp_path)
+    blend = tmp_path / "shot" / "geo.blend"
+    make_blend(tmp_path, dict(env, PLOD_GEO_CAMERA="1"), blend)
+
+    def command(out, first, last):
+        return [BLENDER, "-b", "-y", "--addons", "planet_lod", str(blend), "--render-output",
+                str(out / "frame_####"), "-s", str(first), "-e", str(last), "-a"]
+
+    def merge(out, frames):
+        return blender(["-b", "-y", "--addons", "planet_lod", "--python-exit-code", "1",
+                        "--python-expr", "import planet_lod; "
+                        f"print('PLOD rows', planet_lod.merge_frame_stats({str(out)!r}, {frames!r}))"],
+                       env)
+
+    chunks = tmp_path / "chunks"
+    running = [subprocess.Popen(command(chunks, first, last), env=env, stdout=subprocess.PIPE,
+                                stderr=subprocess.STDOUT, text=True) for first, last in ((1, 2), (3, 4))]
+    for proc in running:
+        output = proc.communicate(timeout=300)[0]
+        assert proc.returncode == 0, output[-4000:]
+    assert sorted(os.listdir(chunks / "planet_lod_stats")) == [f"frame_{f:06d}.csv" for f in range(1, 5)]
+    rc, output = merge(chunks, "1-4")
+    assert rc == 0 and "PLOD rows 4" in output, output[-4000:]
+
+    whole = tmp_path / "whole"
+    rc, output = blender(command(whole, 1, 4)[1:], env)
+    assert rc == 0, output[-4000:]
+    rc, output = merge(whole, "1-4")
+    assert rc == 0 and "PLOD rows 4" in output, output[-4000:]
+
+    rows = _stats_without_timings(chunks / "stats.csv")
+    assert rows == _stats_without_timings(whole / "stats.csv")
+    assert [int(r["frame"]) for r in rows] == [1, 2, 3, 4]
+    for row in rows:  # the keyframed 2 km above the ground
+        height = float(row["camera_altitude_m"]) - float(row["camera_ground_m"])
+        assert abs(height - 2000.0) < 1.0, row
+        assert int(row["triangles"]) > 0
+    assert len({r["camera_ground_m"] for r in rows}) == 4  # it moved over the ground
+
+    # a frame asked for that no chunk rendered: the merge fails with its number
+    rc, output = merge(chunks, "1-5")
+    assert rc != 0 and "frames without stats" in output and "[5]" in output, output[-4000:]
+
+
 def test_flyby_without_maps_fails(tmp_path):
     """tools/flyby.py with an add-on install that lacks its maps: a non-zero
     exit with the reason, no frame."""

@@ -31,6 +31,7 @@ NODE = shutil.which("node") or shutil.which("nodejs")
 needs_node = pytest.mark.skipif(NODE is None, reason="node is not installed (Debian package nodejs; "
                                                      "bash tools/install_deps.sh tests installs it)")
 from farm.flamenco import merge_chunks  # noqa: E402
+from farm.flamenco.compile_check import build as flamenco_build  # noqa: E402
 
 # Columns that measure time, not what was rendered.
 # How long, and how much incremental work (splits and merges since the frame the
@@ -61,6 +62,112 @@ def compile_job(tmp_path, name, settings, created="2001-02-03T04:05:06"):
                           capture_output=True, text=True, timeout=60)
     assert proc.returncode == 0, proc.stderr
     return json.loads(proc.stdout)
+
+
+@pytest.fixture(scope="module")
+def flamenco_compiler(tmp_path_factory):
+    """Flamenco's own job compiler (farm/flamenco/compile_check) with the job
+    type in the `scripts` folder next to it, as a Manager installs job types."""
+    try:
+        binary = flamenco_build.build()
+    except flamenco_build.BuildUnavailable as e:
+        pytest.skip(f"Flamenco's job compiler cannot be built here: {e}")
+    manager = tmp_path_factory.mktemp("manager")
+    shutil.copy2(binary, manager)
+    os.makedirs(manager / "scripts")
+    shutil.copy2(JOB_TYPE, manager / "scripts")
+    return str(manager / os.path.basename(binary))
+
+
+def compile_with(command, tmp_path, name, submitted):
+    """(exit status, stdout, stderr) of a compiler given a submitted job; the
+    Manager's local time is UTC for both."""
+    path = tmp_path / f"{name}.json"
+    path.write_text(json.dumps(submitted))
+    proc = subprocess.run(command + [str(path)], capture_output=True, text=True, timeout=60,
+                          env=dict(os.environ, TZ="UTC"))
+    return proc.returncode, proc.stdout, proc.stderr
+
+
+def without_ids(job):
+    """A compiled job with its random UUIDs replaced by task numbers."""
+    number = {task["uuid"]: i for i, task in enumerate(job["tasks"])}
+    tasks = [dict(task, uuid=number[task["uuid"]],
+                  dependencies=[number[d] for d in task["dependencies"]]) for task in job["tasks"]]
+    return dict(job, jobID=None, tasks=tasks)
+
+
+# Submissions both compilers must agree on, refusals included.
+FLAMENCO_JOBS = {
+    "flyby-defaults": {"source": "flyby", "frames": "1-8", "render_output_root": "/render"},
+    "flyby-chunks": {"source": "flyby", "frames": "1-10, 50-60,7", "chunk_size": 4, "preset": "moon",
+                     "quality": "final", "path_frames": 60, "resolution": "64x36", "samples": 2,
+                     "engine": "BLENDER_EEVEE", "skim_height": 2.5, "threads": 1,
+                     "render_output_root": "/render", "planet_lod_root": "/opt/planet_lod"},
+    "flyby-path": {"source": "flyby", "frames": "1-6", "chunk_size": 4, "render_output_root": "/render",
+                   "path_file": "/paths/alps walk.gpx", "path_frames": 6},
+    "bad-path": {"source": "flyby", "frames": "1-6", "render_output_root": "/render", "path_file": 7},
+    "blend-runs": {"source": "blendfile", "frames": "1-2,4,9-12", "chunk_size": 3,
+                   "render_output_root": "/render", "blendfile": "/shots/shot.blend", "format": "PNG",
+                   "scene": "Scene", "addon_module": "bl_ext.user_default.planet_lod",
+                   "render_output_path": "/render/shot/{timestamp}"},
+    "blend-movie": {"source": "blendfile", "frames": "1-4", "render_output_root": "/render",
+                    "blendfile": "/shots/shot.blend", "format": "FFMPEG"},
+    "bad-resolution": {"source": "flyby", "frames": "1-8", "render_output_root": "/render",
+                       "resolution": "640 by 360"},
+    "bad-chunk": {"source": "flyby", "frames": "1-8", "render_output_root": "/render", "chunk_size": 0},
+    "bad-frames": {"source": "flyby", "frames": "8-1", "render_output_root": "/render"},
+    "no-blendfile": {"source": "blendfile", "frames": "1-8", "render_output_root": "/render"},
+}
+
+
+def test_flamenco_compiler_compiles_the_job_type(flamenco_compiler, tmp_path):
+    """Flamenco's own compiler (goja) lists the job type with every setting
+    and compiles a flyby job: render tasks by chunk, then the merge task that
+    depends on them all, each a blender-render command with {blender}'s
+    variables left for the Manager."""
+    proc = subprocess.run([flamenco_compiler, "--job-type", "planet-lod"], capture_output=True, text=True,
+                          timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    job_type = json.loads(proc.stdout)
+    assert job_type["name"] == "planet-lod" and job_type["label"] == "Planet LOD" and job_type["etag"]
+    keys = [setting["key"] for setting in job_type["settings"]]
+    assert {"source", "frames", "chunk_size", "render_output_root", "preset", "blendfile"} <= set(keys)
+
+    status, out, err = compile_with([flamenco_compiler], tmp_path, "fly", {
+        "name": "fly", "type": "planet-lod", "created": "2001-02-03T04:05:06",
+        "settings": {"source": "flyby", "frames": "1-8", "chunk_size": 3, "render_output_root": "/render"}})
+    assert status == 0, err
+    job = json.loads(out)
+    assert job["settings"]["render_output_path"] == "/render/fly/2001-02-03_040506"
+    assert [t["name"] for t in job["tasks"]] == ["render-1-3", "render-4-6", "render-7,8", "merge-chunks"]
+    renders = [t["uuid"] for t in job["tasks"][:3]]
+    assert job["tasks"][3]["dependencies"] == renders
+    command = job["tasks"][0]["commands"][0]
+    assert command["name"] == "blender-render" and command["totalStepCount"] == 3
+    assert command["parameters"]["exe"] == "{blender}" and command["parameters"]["exeArgs"] == "{blenderArgs}"
+    assert "{planet_lod}/tools/flyby.py" in command["parameters"]["args"]
+
+
+@needs_node
+@pytest.mark.parametrize("name", sorted(FLAMENCO_JOBS))
+def test_flamenco_compiler_and_stand_in_agree(flamenco_compiler, tmp_path, name):
+    """The stand-in Manager that the other farm tests compile with gives the
+    job Flamenco's own compiler gives (tasks, commands, dependencies, settings
+    as stored), and refuses what it refuses."""
+    submitted = {"name": name, "type": "planet-lod", "created": "2001-02-03T04:05:06",
+                 "settings": FLAMENCO_JOBS[name]}
+    real = compile_with([flamenco_compiler], tmp_path, name, submitted)
+    stand_in = compile_with([NODE, os.path.join(FARM, "harness", "compile.js"), JOB_TYPE], tmp_path, name,
+                            submitted)
+    assert real[0] == stand_in[0], (real, stand_in)
+    if real[0] == 0:
+        assert without_ids(json.loads(real[1])) == without_ids(json.loads(stand_in[1]))
+    else:
+        assert name.startswith(("bad", "no", "blend-movie")), real[2]
+        # the script's own message, through either engine (goja adds where it was thrown)
+        reason = stand_in[2].strip().removeprefix("compile.js: ")
+        assert reason and reason in real[2], (real[2], stand_in[2])
 
 
 def worker_env(tmp_path):
@@ -203,7 +310,7 @@ def test_blendfile_job_chunks_give_identical_frames(tmp_path):
             "render_output_root": str(output_root), "blendfile": str(blend),
             "format": values["format"], "scene": values["scene"],
             "render_output_path": str(output_root / "shot" / "{timestamp}")})
-        assert len(job["tasks"]) == 3 // chunk_size
+        assert len(job["tasks"]) == 3 // chunk_size + 1  # and merge-stats
         run_job(job, env)
         out = job["settings"]["render_output_path"]
         assert sorted(os.listdir(out)) == ["frame_000001.png", "frame_000002.png", "frame_000004.png"]
@@ -219,6 +326,75 @@ def test_blendfile_job_chunks_give_identical_frames(tmp_path):
     with pytest.raises(AssertionError, match=r"planet_lod: Earth: height map not found: .*gone"):
         run_job(job, env)
     assert not (tmp_path / "moved").exists()
+
+
+# A walk along a valley: waypoints 300 m and then 50 m above the ground.
+WAYPOINTS = os.path.join(ROOT, "farm", "examples", "valley-walk.csv")
+
+@needs_node
+def test_flyby_job_on_a_path_file(tmp_path):
+    """A flyby job with `path_file`, in two chunks: the workers fly the
+    waypoints (the camera near their heights above the ground at their
+    frames); a frame outside the path fails its task."""
+    env = worker_env(tmp_path)
+    path_file = tmp_path / "paths" / "valley walk.csv"
+    os.makedirs(path_file.parent)
+    shutil.copy(WAYPOINTS, path_file)
+    job = compile_job(tmp_path, "walk", {
+        "source": "flyby", "frames": "1-4", "chunk_size": 2, "path_file": str(path_file),
+        "quality": "draft", "resolution": "48x27", "samples": 1, "threads": 1,
+        "render_output_root": str(tmp_path / "render")})
+    run_job(job, env)
+    out = job["settings"]["render_output_path"]
+    rows = read_stats(os.path.join(out, "stats.csv"))
+    pictures = [png_picture(os.path.join(out, f"frame_{f:04d}.png")) for f in range(1, 5)]
+    assert [int(r["frame"]) for r in rows] == [1, 2, 3, 4]
+    heights = [float(r["camera_altitude_m"]) - float(r["camera_ground_m"]) for r in rows]
+    # the path follows a smoothed ground: the height over the ground right under
+    # the camera differs from the waypoint's by tens of metres in the Alps
+    assert 250.0 < heights[0] < 350.0 and 20.0 < heights[3] < 100.0, heights
+    assert len(set(pictures)) == 4
+
+    job = compile_job(tmp_path, "beyond", {
+        "source": "flyby", "frames": "3-6", "path_file": str(path_file), "quality": "draft",
+        "resolution": "48x27", "samples": 1, "render_output_root": str(tmp_path / "beyond")})
+    with pytest.raises(AssertionError, match=r"frames 3-6 are outside the path \(frames 1-4\)"):
+        run_job(job, env)
+
+
+def test_merge_frame_stats(tmp_path):
+    """Per-frame stats files (as headless renders through a planet_lod_geo
+    camera write them) merge into one stats.csv in frame order; a re-written
+    frame replaces its row; missing and unasked-for frames, and files that are
+    not a frame's stats, are refused before stats.csv is written."""
+    from planetlod import report
+    assert report.merge_frame_stats(str(tmp_path)) == 0  # no stats: nothing to merge
+    assert not (tmp_path / "stats.csv").exists()
+    for frame in (12, 9, 10):
+        report.write_frame_stats(str(tmp_path), {"frame": frame, "triangles": frame, "mesh_hash": "old"})
+    report.write_frame_stats(str(tmp_path), {"frame": 10, "triangles": 100, "mesh_hash": "new"})
+    assert sorted(os.listdir(tmp_path / report.FRAME_STATS_FOLDER)) == \
+        ["frame_000009.csv", "frame_000010.csv", "frame_000012.csv"]
+    assert report.merge_frame_stats(str(tmp_path), "9-10,12") == 3
+    rows = read_stats(tmp_path / "stats.csv")
+    assert [(r["frame"], r["triangles"], r["mesh_hash"]) for r in rows] == \
+        [("9", "9", "old"), ("10", "100", "new"), ("12", "12", "old")]
+    assert list(rows[0]) == list(report.CSV_FIELDS)
+    assert report.parse_frame_list("1-3,7, 10..12,20-24:2") == [1, 2, 3, 7, 10, 11, 12, 20, 22, 24]
+
+    def refused(frames, pattern):
+        (tmp_path / "stats.csv").unlink()
+        with pytest.raises(ValueError, match=pattern):
+            report.merge_frame_stats(str(tmp_path), frames)
+        assert not (tmp_path / "stats.csv").exists()
+        (tmp_path / "stats.csv").write_text("")
+
+    (tmp_path / "stats.csv").write_text("")
+    refused("9-12", r"frames without stats in .*: \[11\]")
+    refused([9, 10], r"stats of frames not asked for in .*: \[12\]")
+    refused("9-", "bad frame range")
+    (tmp_path / report.FRAME_STATS_FOLDER / "frame_000011.csv").write_text("frame\n11\n")
+    refused("9-12", "frame_000011.csv: not a frame's stats")
 
 
 def _chunk(folder, header, rows, frames_with_pictures):

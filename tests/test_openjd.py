@@ -5,8 +5,10 @@ task by task, each chunk in its own Blender as a worker would run it
 
 * a flyby split into chunks of 4 and 3 frames gives the files (pictures,
   byte for byte) and stats rows of the run in one chunk;
+* a flyby on a waypoints file (PathFile) flies it, and refuses frames beyond it;
 * a .blend rendered in chunks of 3 and 1 frames gives the same pictures
-  (pixels: Blender writes Cycles' render timings into the .blend's PNGs);
+  (pixels: Blender writes Cycles' render timings into the .blend's PNGs), and
+  through its planet_lod_geo camera the same stats.csv (the MergeStats step);
 * a .blend whose map the worker cannot find fails its task with the reason
   and writes no frame.
 
@@ -110,6 +112,32 @@ def test_flyby_job_chunks_give_identical_files(tmp_path):
 
 
 @needs_openjd
+def test_flyby_job_on_a_path_file(tmp_path):
+    """PathFile: the chunks fly the waypoints of a file (frames of one path
+    alike whatever the chunks), and a frame beyond it fails the job."""
+    env = worker_env(tmp_path)
+    path_file = tmp_path / "paths" / "valley walk.csv"
+    os.makedirs(path_file.parent)
+    shutil.copy(os.path.join(ROOT, "farm", "examples", "valley-walk.csv"), path_file)
+    params = {"PlanetLodRoot": ROOT, "Blender": BLENDER, "PathFile": str(path_file), "Resolution": "48x27",
+              "Samples": 1, "Quality": "draft", "Threads": 1}
+    out = tmp_path / "walk"
+    rc, output = openjd_run("planet_lod_flyby.yaml", "Merge", dict(
+        params, OutputDir=str(out), Frames="1-4", ChunkSize=2), env, dependencies=True)
+    assert rc == 0, output[-6000:]
+    rows = stats(out)
+    assert [int(r["frame"]) for r in rows] == [1, 2, 3, 4]
+    heights = [float(r["camera_altitude_m"]) - float(r["camera_ground_m"]) for r in rows]
+    # near the waypoints' 300 m and 50 m above the ground (the path follows a smoothed ground)
+    assert 250.0 < heights[0] < 350.0 and 20.0 < heights[3] < 100.0, heights
+    assert len(set(files(out).values())) == 4
+
+    rc, output = openjd_run("planet_lod_flyby.yaml", "Render", dict(
+        params, OutputDir=str(tmp_path / "beyond"), Frames="3-6", ChunkSize=4), env)
+    assert rc != 0 and "frames 3-6 are outside the path (frames 1-4)" in output, output[-6000:]
+
+
+@needs_openjd
 def test_blend_job_chunks_and_a_missing_map(tmp_path):
     env = worker_env(tmp_path)
     shot = tmp_path / "shot"
@@ -118,9 +146,9 @@ def test_blend_job_chunks_and_a_missing_map(tmp_path):
     proc = subprocess.run([BLENDER, "-b", "--factory-startup", "--python-exit-code", "1", "--python",
                            os.path.join(ROOT, "tests", "blender", "batch_planet_blend.py"), "--",
                            str(shot / "shot.blend"), "earth", "//maps/earth.png"],
-                          env=env, capture_output=True, text=True, timeout=300)
+                          env=dict(env, PLOD_GEO_CAMERA="1"), capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, (proc.stdout + proc.stderr)[-4000:]
-    rendered = {}
+    rendered, merged = {}, {}
     for chunk_size in (3, 1):
         out = tmp_path / f"blend{chunk_size}"
         rc, output = openjd_run("planet_lod_blend.yaml", "Render", {
@@ -128,9 +156,17 @@ def test_blend_job_chunks_and_a_missing_map(tmp_path):
             "Frames": "1-3", "ChunkSize": chunk_size}, env)
         assert rc == 0, output[-6000:]
         rendered[chunk_size] = pictures(out)
+        # the frames' own stats files, from every chunk, into one stats.csv
+        rc, output = openjd_run("planet_lod_blend.yaml", "MergeStats", {
+            "BlendFile": str(shot / "shot.blend"), "OutputDir": str(out), "Blender": BLENDER,
+            "Frames": "1-3"}, env)
+        assert rc == 0 and "planet_lod: stats.csv rows: 3" in output, output[-6000:]
+        merged[chunk_size] = stats(out)
     assert sorted(rendered[3]) == ["frame_000001.png", "frame_000002.png", "frame_000003.png"]
     assert rendered[1] == rendered[3]
     assert len(set(rendered[3].values())) == 3
+    assert [int(r["frame"]) for r in merged[3]] == [1, 2, 3]
+    assert merged[1] == merged[3]
 
     os.rename(shot / "maps", shot / "elsewhere")
     out = tmp_path / "missing"

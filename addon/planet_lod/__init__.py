@@ -43,6 +43,10 @@ few functions that stay when the modules behind them move:
                                renders flyby frames, stats.csv and a contact sheet
   contact_sheet(paths, out_path)
                                a contact sheet of rendered frames
+  merge_frame_stats(folder, frames=None)
+                               folder/stats.csv from the per-frame stats files
+                               that headless renders through a planet_lod_geo
+                               camera write beside their frames
 bench/ also measures the refresh's own steps through their modules.
 """
 bl_info = {
@@ -147,6 +151,7 @@ refresh_for_render = refresh.refresh_for_render
 ensure_flyby_camera = placement.ensure_flyby_camera
 render_flyby = render.render_flyby
 contact_sheet = render.contact_sheet
+merge_frame_stats = render.merge_frame_stats
 
 
 def planet_errors(scene):

@@ -54,27 +54,78 @@ def fail_batch_render(message):
     os._exit(1)
 
 
+def _headless_main_thread():
+    return bpy.app.background and threading.current_thread() is threading.main_thread()
+
+
+# When the frame being rendered headless started rendering (for its render_s).
+_frame_started = {}
+
+
 @persistent
 def on_render_pre_check(scene, depsgraph=None):
     """Runs after the render_pre refresh (handlers.py): in a headless render (`blender -b
     file.blend -a`, scripts, farm tasks) a planet in error stops the render;
     the interactive UI reports the error in the panel and renders on."""
-    if not bpy.app.background or threading.current_thread() is not threading.main_thread():
+    if not _headless_main_thread():
         return
     message = batch_failure(scene)
     if message:
         fail_batch_render(message)
+    _frame_started[scene.name] = time.perf_counter()
+
+
+def geo_camera_planet(scene):
+    """The planet that the scene camera is placed on by its planet_lod_geo
+    settings, or None."""
+    cam = scene.camera
+    geo = cam.planet_lod_geo if cam is not None else None
+    if geo is None or not geo.enabled or geo.planet is None or not geo.planet.planet_lod.enabled:
+        return None
+    return geo.planet
+
+
+@persistent
+def on_render_write_stats(scene, depsgraph=None):
+    """In a headless render through a planet_lod_geo camera (`blender -b
+    file.blend -a`, farm tasks), each written frame gets its stats row in its
+    own file beside the frames (chunks rendering at once write different
+    files); merge_frame_stats() makes the stats.csv."""
+    if not _headless_main_thread():
+        return
+    planet_obj = geo_camera_planet(scene)
+    if planet_obj is None:
+        return
+    frame = scene.frame_current
+    started = _frame_started.pop(scene.name, None)
+    row = frame_stats(scene, planet_obj, frame,
+                      time.perf_counter() - started if started is not None else 0.0)
+    frames_folder = os.path.dirname(scene.render.frame_path(frame=frame))
+    try:
+        flyby_report.write_frame_stats(frames_folder, row)
+    except core.REPORTED_ERRORS as exc:  # stats that cannot be written fail the render
+        fail_batch_render(f"planet_lod: cannot write the stats of frame {frame}: {exc}")
+
+
+def merge_frame_stats(frames_folder, frames=None):
+    """frames_folder/stats.csv from the frames' own stats files (see
+    on_render_write_stats); the number of rows (0: the render wrote none)."""
+    return flyby_report.merge_frame_stats(bpy.path.abspath(frames_folder), frames)
 
 
 def add_handlers():
     """After handlers.add_handlers(): the check runs after the render refresh."""
     if on_render_pre_check not in bpy.app.handlers.render_pre:
         bpy.app.handlers.render_pre.append(on_render_pre_check)
+    if on_render_write_stats not in bpy.app.handlers.render_write:
+        bpy.app.handlers.render_write.append(on_render_write_stats)
 
 
 def remove_handlers():
     while on_render_pre_check in bpy.app.handlers.render_pre:
         bpy.app.handlers.render_pre.remove(on_render_pre_check)
+    while on_render_write_stats in bpy.app.handlers.render_write:
+        bpy.app.handlers.render_write.remove(on_render_write_stats)
 
 
 def check_flyby_frames(first, last, path_frames, path=None):
@@ -171,6 +222,21 @@ class _SceneState:
         scene.frame_set(self.frame)  # handlers rebuild the LOD for the restored camera
 
 
+def frame_stats(scene, planet_obj, frame, render_s):
+    """The stats row of a rendered frame: the planet's refinement for the
+    scene camera, the camera's altitude and the ground under it."""
+    row = dict(runtime.state(planet_obj).stats)
+    row["frame"] = frame
+    row["render_s"] = round(render_s, 3)
+    local = runtime.to_planet_space(planet_obj, scene.camera.matrix_world)
+    distance = math.sqrt(sum(local[i][3] ** 2 for i in range(3)))
+    row["camera_altitude_m"] = round(distance - planet_obj.planet_lod.radius, 3)
+    ground = placement.terrain_height(planet_obj)
+    if ground is not None:  # the terrain under the camera (the sea: <= sea level)
+        row["camera_ground_m"] = round(ground(tuple(local[i][3] / distance for i in range(3))), 3)
+    return row
+
+
 def _render_frames(scene, planet_obj, first, last, out_dir, path_frames, report, path=None):
     cam = bpy.data.objects.get("Flyby " + planet_obj.name)
     if cam is not None:  # placed by the default path until this run's is set
@@ -204,17 +270,7 @@ def _render_frames(scene, planet_obj, first, last, out_dir, path_frames, report,
                 if 'CANCELLED' in bpy.ops.render.render(write_still=True):
                     raise core.Cancelled(f"flyby cancelled at frame {frame}")
                 drop_timings(path)
-                row = dict(st.stats)
-                row["frame"] = frame
-                row["render_s"] = round(time.perf_counter() - t0, 3)
-                cam = scene.camera
-                local = runtime.to_planet_space(planet_obj, cam.matrix_world)
-                distance = math.sqrt(sum(local[i][3] ** 2 for i in range(3)))
-                row["camera_altitude_m"] = round(distance - planet_obj.planet_lod.radius, 3)
-                ground = placement.terrain_height(planet_obj)
-                if ground is not None:  # the terrain under the camera (the sea: <= sea level)
-                    row["camera_ground_m"] = round(ground(tuple(local[i][3] / distance
-                                                                for i in range(3))), 3)
+                row = frame_stats(scene, planet_obj, frame, time.perf_counter() - t0)
                 rows.append(row)
                 csv.write(flyby_report.csv_row(row) + "\n")
                 csv.flush()

@@ -10,7 +10,9 @@
 //              folder, one stats.csv and one contact sheet.
 //   blendfile  the submitted .blend is rendered with `-s A -e B -a`; the
 //              planet_lod add-on's frame-change handler refines each planet
-//              for that frame's camera before the frame renders.
+//              for that frame's camera before the frame renders.  Through a
+//              planet_lod_geo camera each frame writes its own stats file; a
+//              last task merges them into one stats.csv.
 // The LOD of a frame depends only on that frame's camera, so every chunk size
 // gives the same meshes, CSV rows and pictures.
 //
@@ -58,6 +60,10 @@ const JOB_TYPE = {
         { key: "path_frames", type: "int32", default: 120, propargs: { min: 1 },
           visible: "submission",
           description: "Flyby: length of the camera path (orbit, descent, skim) in frames" },
+        { key: "path_file", type: "string", subtype: "file_path", default: "", visible: "submission",
+          description: "Flyby: waypoints to fly instead of the orbit, descent and skim (.csv, " +
+              ".gpx or .kml, as workers see the file; a GPX or KML track is spread over " +
+              "path_frames frames); empty for the orbit, descent and skim" },
         { key: "resolution", type: "string", default: "640x360", visible: "submission",
           description: "Flyby: image size, WIDTHxHEIGHT" },
         { key: "samples", type: "int32", default: 16, propargs: { min: 1 },
@@ -128,6 +134,9 @@ function validateSettings(settings) {
     requireInteger(settings, "chunk_size", 1);
     if (settings.source === "flyby") {
         requireInteger(settings, "path_frames", 1);
+        if (typeof settings.path_file !== "string") {
+            throw `setting "path_file" is "${settings.path_file}"; expected a file name or nothing`;
+        }
         requireInteger(settings, "samples", 1);
         requireInteger(settings, "threads", 0);
         const skim = Number(settings.skim_height);
@@ -230,13 +239,14 @@ function authorFlybyTasks(job, settings, chunks, outputDir) {
                 "--quality", settings.quality,
                 "--frames", `${run[0]}-${run[1]}`,
                 "--path-frames", String(settings.path_frames),
+            ].concat(settings.path_file ? ["--path", settings.path_file] : [], [
                 "--resolution", String(settings.resolution),
                 "--samples", String(settings.samples),
                 "--engine", settings.engine,
                 "--skim-height", String(settings.skim_height),
                 "--threads", String(settings.threads),
                 "--out", path.join(chunksDir, runDirName(run)),
-            ];
+            ]);
             task.addCommand(blenderCommand("", [], args, run[1] - run[0] + 1));
         }
         renderTasks.push(task);
@@ -275,6 +285,7 @@ function authorBlendfileTasks(job, settings, chunks, outputDir) {
     const before = ["--addons", settings.addon_module];
     const check = ["--python-exit-code", "1", "--python-expr", planetCheck(settings.addon_module)];
     const sceneArgs = settings.scene ? ["--scene", settings.scene] : [];
+    const renderTasks = [];
     for (const chunk of chunks) {
         const task = author.Task(`render-${chunk}`, "blender");
         const args = sceneArgs.concat(check, ["--render-output", path.join(outputDir, "frame_######")]);
@@ -285,6 +296,26 @@ function authorBlendfileTasks(job, settings, chunks, outputDir) {
             steps += run[1] - run[0] + 1;
         }
         task.addCommand(blenderCommand(settings.blendfile, before, args, steps));
+        renderTasks.push(task);
+    }
+
+    // Frames rendered through a planet_lod_geo camera leave one stats file
+    // each (chunks render at the same time); this task writes stats.csv from
+    // them, and does nothing for a .blend whose camera is not one.
+    const stats = author.Task("merge-stats", "blender");
+    const allFrames = frameChunker(settings.frames, Number.MAX_SAFE_INTEGER)[0];
+    stats.addCommand(blenderCommand("", before, ["--python-exit-code", "1", "--python-expr",
+        mergeStats(settings.addon_module, outputDir, allFrames)], 0));
+    for (const task of renderTasks) {
+        stats.addDependency(task);
         job.addTask(task);
     }
+    job.addTask(stats);
+}
+
+// Python that writes OUT/stats.csv from the frames' own stats files; JSON's
+// string literals are Python's too.
+function mergeStats(module, outputDir, frames) {
+    return `import importlib; importlib.import_module('${module}').merge_frame_stats(` +
+        `${JSON.stringify(outputDir)}, ${JSON.stringify(frames)})`;
 }

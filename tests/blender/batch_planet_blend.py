@@ -8,7 +8,9 @@ the flyby camera over frames 1-4 (placed by the add-on's frame-change
 handler).  With HEIGHTMAP the planet's height map is that path, as typed
 (e.g. //maps/earth.png, relative to the .blend); with $PLOD_SAVE_AS_OLDER
 it is saved as older versions saved it (an absolute path of a bundled map
-stays as it is).
+stays as it is); with $PLOD_GEO_CAMERA the camera is instead a planet_lod_geo
+camera 2 km above the ground at 46 N 7.9 E, its east offset keyframed from 0 to
+6 km over frames 1-4.
 """
 import os
 import sys
@@ -41,7 +43,19 @@ scene.collection.objects.link(sun)
 bpy.ops.mesh.planet_add(preset=preset.upper(), quality='DRAFT')
 planet = bpy.context.object
 scene.frame_start, scene.frame_end = 1, 4
-placement.ensure_flyby_camera(scene, planet, 4)
+if os.environ.get("PLOD_GEO_CAMERA"):
+    cam = bpy.data.objects.new("Geo Camera", bpy.data.cameras.new("Geo Camera"))
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    geo = cam.planet_lod_geo
+    geo.planet = planet
+    geo.longitude, geo.latitude, geo.altitude, geo.pitch = 7.9, 46.0, 2000.0, -20.0
+    geo.enabled = True
+    for frame, east in ((1, 0.0), (4, 6000.0)):
+        geo.east = east
+        cam.keyframe_insert(data_path="planet_lod_geo.east", frame=frame)
+else:
+    placement.ensure_flyby_camera(scene, planet, 4)
 bpy.ops.wm.save_as_mainfile(filepath=blend_path)
 if heightmap:
     planet.planet_lod.heightmap = heightmap

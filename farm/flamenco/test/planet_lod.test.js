@@ -150,7 +150,8 @@ const CHECK = "import bpy, importlib; " +
 
 test("blendfile: -s A -e B -a over each chunk, the add-on enabled before the file loads", () => {
     const job = blendJob({ frames: "1-12", chunk_size: 5 });
-    assert.deepEqual(job.tasks.map((t) => t.name), ["render-1-5", "render-6-10", "render-11,12"]);
+    assert.deepEqual(job.tasks.map((t) => t.name),
+                     ["render-1-5", "render-6-10", "render-11,12", "merge-stats"]);
     assert.deepEqual(job.tasks[1].commands, [{
         name: "blender-render",
         parameters: {
@@ -167,14 +168,30 @@ test("blendfile: -s A -e B -a over each chunk, the add-on enabled before the fil
                             "--scene", "Scene", "--python-exit-code", "1", "--python-expr", CHECK,
                             "--render-output", `/render/shot/${STAMP}/frame_######`,
                             "-s", "11", "-e", "12", "-a"]);
-    for (const task of job.tasks) {
+    for (const task of job.tasks.slice(0, 3)) {
         assert.deepEqual(task.dependencies, []);
     }
 });
 
+test("blendfile: a last task merges the frames' stats files into stats.csv", () => {
+    const job = blendJob({ frames: "1-2,4,9-12", chunk_size: 3,
+                           render_output_path: "/render/it's \\ \"here\"/{timestamp}" });
+    const merge = job.tasks[job.tasks.length - 1];
+    assert.equal(merge.name, "merge-stats");
+    assert.deepEqual(merge.dependencies, job.tasks.slice(0, -1).map((t) => t.uuid));
+    const parameters = merge.commands[0].parameters;
+    assert.equal(parameters.blendfile, "");
+    assert.deepEqual(parameters.argsBefore, ["--addons", "planet_lod"]);
+    assert.equal(merge.commands[0].totalStepCount, 0);
+    // the folder as a Python string literal, quotes and backslashes escaped
+    assert.deepEqual(parameters.args, ["--python-exit-code", "1", "--python-expr",
+        "import importlib; importlib.import_module('planet_lod').merge_frame_stats(" +
+        `"/render/it's \\\\ \\"here\\"/${STAMP}", "1,2,4,9-12")`]);
+});
+
 test("blendfile: a chunk across a gap renders each run in the same Blender", () => {
     const job = blendJob({ frames: "1-2,4", chunk_size: 3, scene: "" });
-    assert.equal(job.tasks.length, 1);
+    assert.equal(job.tasks.length, 1 + 1);
     const args = job.tasks[0].commands[0].parameters.args;
     assert.deepEqual(args.slice(6), ["-s", "1", "-e", "2", "-a", "-s", "4", "-e", "4", "-a"]);
     assert.equal(args[0], "--python-exit-code");
@@ -215,6 +232,19 @@ test("every frame exactly once, in chunks of the chosen size, for many ranges an
     }
 });
 
+test("flyby: a path of waypoints from a file, spread over path_frames when it is a track", () => {
+    const job = flybyJob({ frames: "1-20", chunk_size: 10, path_file: "/paths/alps walk.gpx",
+                           path_frames: 20 });
+    for (const task of job.tasks.slice(0, 2)) {
+        const args = task.commands[0].parameters.args;
+        assert.equal(argValue(args, "--path"), "/paths/alps walk.gpx");
+        assert.equal(argValue(args, "--path-frames"), "20");
+    }
+    const orbit = flybyJob({ frames: "1-20" });
+    assert.ok(!orbit.tasks[0].commands[0].parameters.args.includes("--path"));
+    assert.equal(orbit.settings.path_file, "");
+});
+
 test("a job sent through the REST API with few settings takes the defaults", () => {
     const job = loaded.compile({ name: "short", type: "planet-lod", created: CREATED,
                                  settings: { source: "flyby", frames: "1-120", render_output_root: "/r" } });
@@ -235,7 +265,7 @@ test("a job from the Blender submitter: every setting present, evaluated ones in
         { frames: "1-9", render_output_path: "/render/shot/{timestamp}", format: "OPEN_EXR", scene: "Main" });
     settings.blendfile = "/jobs/shot.flamenco.blend";  // set by the submitter after packing
     const job = loaded.compile({ name: "shot", type: "planet-lod", created: CREATED, settings });
-    assert.deepEqual(job.tasks.map((t) => t.name), ["render-1-4", "render-5-8", "render-9"]);
+    assert.deepEqual(job.tasks.map((t) => t.name), ["render-1-4", "render-5-8", "render-9", "merge-stats"]);
     const args = job.tasks[0].commands[0].parameters.args;
     assert.equal(argValue(args, "--render-output"), `/render/shot/${STAMP}/frame_######`);
     assert.equal(argValue(args, "--scene"), "Main");
@@ -259,6 +289,7 @@ test("bad settings are refused with the setting's name", () => {
         [{ resolution: "0x10" }, /"resolution"/],
         [{ samples: 0 }, /"samples"/],
         [{ path_frames: -1 }, /"path_frames"/],
+        [{ path_file: 3 }, /"path_file"/],
         [{ threads: -2 }, /"threads"/],
         [{ skim_height: -1 }, /"skim_height"/],
         [{ skim_height: "high" }, /"skim_height"/],
