@@ -107,8 +107,10 @@ class SurfaceWork:
         level = settings["template_level"]
         if planets.lod_method(settings) != "hrtmr":
             # the other methods' patches are not copies of one template and
-            # keep no cache: their whole mesh, drawn as one patch
-            self.preview_key = None
+            # keep no cache: their whole mesh, drawn as one patch, under a key
+            # no HRTMR preview has (which then starts whole again)
+            self.preview_key = (planets.lod_method(settings),
+                                preview_key(planet, level, origin, radius, sea_level, morph))
             visible = planet.mesh(template_level=level, morph=morph)
             self.preview_data = surface.preview_data(visible, origin, radius, sea_level,
                                                      whole=True)

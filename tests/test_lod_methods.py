@@ -214,8 +214,9 @@ def test_the_addon_work_draws_a_method(planetlod, method):
         work = SurfaceWork(planet, values, camera_params(3000.0), refine=True, for_render=False,
                            check_size=True, preview=(anchor, EARTH, None, False, key, None))
         work.run()
-        assert work.preview_key is None
+        assert work.preview_key[0] == method.lower() and work.preview_key[1] != key
         data = work.preview_data
+        assert data.serial is None  # never taken for a cached HRTMR preview
         mesh = planet.mesh(template_level=values["template_level"])
         assert work.stats["visible"] == mesh.sector_count > 0
         assert data.sector_count == 1 and data.vertex_count == mesh.vertex_count
