@@ -38,20 +38,20 @@ fi
 # Two streams side by side, each mostly one busy thread (Blender's Python,
 # the UI's event waits, one C test at a time), of about equal length:
 # 1. the headless Blender tests (every Blender version, the farm, the batch
-#    renders, the OpenJD runtime);
-# 2. the rest: the UI tests in Blender's real interface, the core's tests,
-#    the wheels under Wine; then, under CI=true, the fuzz smoke and the
-#    sanitizer pass.
+#    renders, the OpenJD runtime), the wheels under Wine and the SIMD-path
+#    rebuilds;
+# 2. the rest: the UI tests in Blender's real interface, the core's tests;
+#    then, under CI=true, the fuzz smoke and the sanitizer pass.
 # The second stream's output is printed when both have ended.
-HEADLESS=(tests/test_blender.py tests/test_farm.py tests/test_batch.py
-          tests/test_ground_relief.py tests/test_openjd.py)
+FIRST=(tests/test_blender.py tests/test_farm.py tests/test_batch.py tests/test_ground_relief.py
+       tests/test_openjd.py tests/test_wheels.py tests/test_cpu_paths.py)
 logs=$(mktemp -d "${TMPDIR:-/tmp}/planetlod-tests.XXXXXX")
 second_stream() {
     local start status=0
     start=$(date +%s)
     "$PYTHON" -m pytest -q --durations=30 --basetemp "$logs/rest-tmp" tests \
-        "${HEADLESS[@]/#/--ignore=}" || status=1
-    echo "tests: pytest (UI, core, wheels) took $(( $(date +%s) - start )) s"
+        "${FIRST[@]/#/--ignore=}" || status=1
+    echo "tests: pytest (UI, core) took $(( $(date +%s) - start )) s"
     if [ "${CI:-}" = true ]; then
         start=$(date +%s)
         FUZZ_SMOKE_SECONDS=${FUZZ_SMOKE_SECONDS:-10} bash tools/fuzz.sh smoke || status=1
@@ -66,12 +66,12 @@ start=$(date +%s)
 second_stream > "$logs/second.log" 2>&1 &
 second_pid=$!
 first_status=0
-"$PYTHON" -m pytest -q --durations=30 --basetemp "$logs/headless-tmp" "${HEADLESS[@]}" \
+"$PYTHON" -m pytest -q --durations=30 --basetemp "$logs/first-tmp" "${FIRST[@]}" \
     || first_status=1
-echo "tests: pytest (headless Blender) took $(( $(date +%s) - start )) s"
+echo "tests: pytest (headless Blender, wheels) took $(( $(date +%s) - start )) s"
 second_status=0
 wait "$second_pid" || second_status=1
-echo "======== the second stream: UI, core and wheels tests$([ "${CI:-}" = true ] && echo ", fuzz smoke, sanitizer") ========"
+echo "======== the second stream: UI and core tests$([ "${CI:-}" = true ] && echo ", fuzz smoke, sanitizer") ========"
 cat "$logs/second.log"
 echo "tests: both streams took $(( $(date +%s) - start )) s"
 rm -rf "$logs"

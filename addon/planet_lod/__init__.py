@@ -117,8 +117,8 @@ def register():
     bpy.types.Object.planet_lod = PointerProperty(type=props.PLOD_PG_settings)
     bpy.types.Object.planet_lod_geo = PointerProperty(type=props.PLOD_PG_geo)
     bpy.types.VIEW3D_MT_mesh_add.append(operators.menu_func)
+    sky_preview.add_draw_handler()  # first: the planet preview draws over it
     draw.add_draw_handler()
-    sky_preview.add_draw_handler()
     handlers.add_handlers()
     render.add_handlers()
     recordpath.register()

@@ -4,7 +4,9 @@ the solid and Material Preview views show the sky a render gets, from orbit
 (black, the lit limb) to the ground (blue, hazy at the horizon, the sun).
 
 It fills only the pixels nothing else was drawn on (a triangle at the far
-plane, depth-tested), lit by the scene's sun and shown through the scene's
+plane, depth-tested), and is drawn before the planet preview, so a planet
+whose depth reaches the far plane (a huge clip range) still covers it; lit
+by the scene's sun and shown through the scene's
 exposure and view transform as the planet preview is.  The nearest planet
 with an atmosphere and a preview gives the sky; in Rendered shading the
 engine draws the world itself."""
@@ -76,13 +78,19 @@ def eye_of(obj, region_data):
 
 def sky_planet(scene, region_data):
     """(planet, its atmosphere) whose sky the view shows: the one whose
-    ground is nearest the viewer, among those previewed with an atmosphere."""
+    ground is nearest the viewer, among those previewed with an atmosphere
+    whose sky world is the scene's world (as in a render: another world, or
+    none, shows no planet sky)."""
+    world = scene.world
+    if world is None or not world.name.startswith(atmosphere.WORLD_PREFIX):
+        return None, None
     best = None
     for obj in runtime.planet_objects(scene):
         s = obj.planet_lod
         atm = atmosphere.params(s)
         if atm is None or not s.gpu_preview or not obj.visible_get() or \
-                runtime.existing_state(obj) is None:
+                runtime.existing_state(obj) is None or \
+                world.name != atmosphere.WORLD_PREFIX + obj.name:
             continue
         eye, _ = eye_of(obj, region_data)
         height = eye.length - s.radius
@@ -125,7 +133,8 @@ def draw_callback():
     context = bpy.context
     if context.scene is None or context.region_data is None or core.native is None:
         return
-    # after the planet preview: only pixels still at the far plane take the sky
+    # only pixels still at the far plane take the sky (Blender's own drawing
+    # done, the planet preview not yet: it draws over the sky)
     gpu.state.depth_test_set('LESS_EQUAL')
     gpu.state.depth_mask_set(False)
     try:

@@ -83,6 +83,7 @@ def frame_and_render(name, planet, st):
     r3d.view_perspective = 'CAMERA'
     with ui.override():
         bpy.ops.view3d.view_center_camera()
+    world, scene.world = scene.world, None  # viewport and render without the sky
     yield from ui.redraw(3)  # the add-on's timer sees the camera view meanwhile
     yield from ui.settled(planet)
     yield from ui.redraw(2)
@@ -90,7 +91,6 @@ def frame_and_render(name, planet, st):
     view = ui.screenshot(f"{name}_camera.png")
     x0, y0, x1, y1 = ui.camera_frame_rect(scene, camera, region, r3d)
     framed = view[y0:y1, x0:x1]
-    world, scene.world = scene.world, None
     preview_before = st.preview
     with ui.override():
         bpy.ops.render.render()
