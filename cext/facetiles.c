@@ -20,29 +20,15 @@ uint64_t plod_face_tile_key(int face, int level, int32_t x, int32_t y)
 plod_status plod_facetiles_check(const plod_planet *planet, const plod_camera *camera,
                                  const plod_refine_params *p, plod_error *error)
 {
-    const plod_status bad = PLOD_ERR_BAD_PARAM;
     if (!planet || !camera || !p)
         return plod_error_set(error, PLOD_ERR_NULL, "missing planet, camera or parameters");
     if (!plod_projection_is_cube(planet->projection))
         return plod_error_set(error, PLOD_ERR_BAD_PROJECTION,
                               "this LOD method tiles the cube faces: it needs a cube "
                               "projection (tsc, csc, qsc, spherified), not car");
-    if ((unsigned)p->criterion > PLOD_CRITERION_SIDE_DISTANCE)
-        return plod_error_set(error, bad, "unknown criterion");
-    if (!(isfinite(p->max_pixel_error) && p->max_pixel_error > 0))
-        return plod_error_set(error, bad, "max_pixel_error must be finite and > 0");
-    if (!(isfinite(p->split_border) && p->split_border > 0 && isfinite(p->merge_border) &&
-          p->merge_border > 0 && p->merge_border <= p->split_border))
-        return plod_error_set(error, bad,
-                              "borders must be finite, 0 < merge_border <= split_border");
-    if (p->template_level < 0 || p->template_level > 7)
-        return plod_error_set(error, bad, "template_level must be 0..7");
-    if (p->max_level < 0 || p->max_level > PLOD_MAX_LEVEL)
-        return plod_error_set(error, bad, "max_level must be 0..%d", PLOD_MAX_LEVEL);
-    if (p->max_sectors < 12)
-        return plod_error_set(error, bad, "max_sectors must be >= 12");
-    if (p->threads < 1 || p->threads > PLOD_REFINE_MAX_THREADS)
-        return plod_error_set(error, bad, "threads must be 1..%d", PLOD_REFINE_MAX_THREADS);
+    plod_status status = plod_refine_params_check(p, error);
+    if (status != PLOD_OK)
+        return status;
     double d = plod_norm3(camera->position);
     if (!isfinite(d) || !(d > 0.0))
         return plod_error_set(error, PLOD_ERR_BAD_COORD,

@@ -864,7 +864,7 @@ static plod_status plod__order_visible(plod_refiner *r, size_t visible)
 
 /* ---- one update ------------------------------------------------------------------ */
 
-static plod_status plod__check_params(const plod_refine_params *p, plod_error *error)
+plod_status plod_refine_params_check(const plod_refine_params *p, plod_error *error)
 {
     const plod_status bad = PLOD_ERR_BAD_PARAM;
     if ((unsigned)p->criterion > PLOD_CRITERION_SIDE_DISTANCE)
@@ -1071,7 +1071,7 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
 {
     if (!r || !camera || !params)
         return plod_error_set(error, PLOD_ERR_NULL, "no refiner, camera or parameters");
-    plod_status st = plod__check_params(params, error);
+    plod_status st = plod_refine_params_check(params, error);
     if (st != PLOD_OK)
         return st;
     double eye_dist = sqrt(camera->position[0] * camera->position[0] +

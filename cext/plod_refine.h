@@ -120,6 +120,11 @@ typedef struct plod_refine_params {
 #define PLOD_DEFAULT_MAX_SECTORS ((size_t)1 << 20)
 
 void plod_refine_params_default(plod_refine_params *params);
+/* PLOD_OK, or PLOD_ERR_BAD_PARAM with *error (may be NULL) naming the rule
+ * a parameter breaks (criterion, pixel error, borders, template and tree
+ * levels, sector limit, threads): what plod_refiner_update and the other
+ * LOD methods refuse. */
+plod_status plod_refine_params_check(const plod_refine_params *params, plod_error *error);
 
 typedef struct plod_refine_stats {
     size_t sectors_total;
