@@ -23,6 +23,7 @@
 #include "plod_detail.h"
 
 #include <math.h>
+#include <string.h>
 
 /* Cap angle inflation: slack against rounding in the corner angles. */
 #define PLOD__CAP_INFLATE 1.0001
@@ -564,4 +565,30 @@ void plod_recommended_clip(const plod_planet *planet, const plod_camera *camera,
         far_ = near_ * 2.0;
     *clip_start = near_;
     *clip_end = far_;
+}
+
+void plod_bound_view_init(plod_bound_view *v, const plod_planet *planet, double occluder,
+                          const plod_camera *camera, const plod_refine_params *params,
+                          double eye_dist)
+{
+    memset(v, 0, sizeof *v);
+    v->camera = camera;
+    v->detail = planet->detail;
+    memcpy(v->eye, camera->position, sizeof v->eye);
+    v->eye_dist = eye_dist;
+    for (int k = 0; k < 3; k++)
+        v->eye_unit[k] = camera->position[k] / eye_dist;
+    double rho = occluder;
+    v->horizon_on = params->backface_culling && !camera->desc.orthographic && eye_dist > rho;
+    double eye_horizon_angle =
+        v->horizon_on ? atan2(sqrt((eye_dist - rho) * (eye_dist + rho)), rho) : 0.0;
+    v->eye_horizon_cos = cos(eye_horizon_angle);
+    v->eye_horizon_sin = sin(eye_horizon_angle);
+    v->frustum_culling = params->frustum_culling;
+    v->criterion = params->criterion;
+    v->split_border = params->split_border;
+    v->max_pixel_error = params->max_pixel_error;
+    v->error_scale = ldexp(1.0, -params->template_level);
+    v->error_scale2 = v->error_scale * v->error_scale;
+    v->distance_floor = 1e-9 * planet->radius;
 }

@@ -55,26 +55,8 @@ plod_status plod_facetiles_view_init(plod_facetiles_view *fv, const plod_planet 
     }
     /* as the HRTMR update sets its view (memos off: every test evaluated) */
     plod_bound_view *v = &fv->view;
-    v->camera = camera;
-    v->detail = planet->detail;
-    memcpy(v->eye, camera->position, sizeof v->eye);
-    v->eye_dist = plod_norm3(camera->position);
-    for (int k = 0; k < 3; k++)
-        v->eye_unit[k] = camera->position[k] / v->eye_dist;
-    double rho = fv->setup.occluder;
-    v->horizon_on =
-        params->backface_culling && !camera->desc.orthographic && v->eye_dist > rho;
-    double eye_horizon_angle =
-        v->horizon_on ? atan2(sqrt((v->eye_dist - rho) * (v->eye_dist + rho)), rho) : 0.0;
-    v->eye_horizon_cos = cos(eye_horizon_angle);
-    v->eye_horizon_sin = sin(eye_horizon_angle);
-    v->frustum_culling = params->frustum_culling;
-    v->criterion = params->criterion;
-    v->split_border = params->split_border;
-    v->max_pixel_error = params->max_pixel_error;
-    v->error_scale = ldexp(1.0, -params->template_level);
-    v->error_scale2 = v->error_scale * v->error_scale;
-    v->distance_floor = 1e-9 * planet->radius;
+    plod_bound_view_init(v, planet, fv->setup.occluder, camera, params,
+                         plod_norm3(camera->position));
     v->coarsening = 1.0;
     if (params->criterion == PLOD_CRITERION_SIDE_DISTANCE) {
         v->split_mode = 0;

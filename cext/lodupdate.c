@@ -901,27 +901,7 @@ static void plod__frame_init(plod__frame *f, plod_refiner *r, const plod_camera 
     f->refiner = r;
     f->tree = &r->tree;
     f->params = params;
-    plod_bound_view *v = &f->view;
-    memset(v, 0, sizeof *v);
-    v->camera = camera;
-    v->detail = planet->detail;
-    memcpy(v->eye, camera->position, sizeof v->eye);
-    v->eye_dist = eye_dist;
-    for (int k = 0; k < 3; k++)
-        v->eye_unit[k] = camera->position[k] / eye_dist;
-    double rho = r->tree.setup.occluder;
-    v->horizon_on = params->backface_culling && !camera->desc.orthographic && eye_dist > rho;
-    double eye_horizon_angle =
-        v->horizon_on ? atan2(sqrt((eye_dist - rho) * (eye_dist + rho)), rho) : 0.0;
-    v->eye_horizon_cos = cos(eye_horizon_angle);
-    v->eye_horizon_sin = sin(eye_horizon_angle);
-    v->frustum_culling = params->frustum_culling;
-    v->criterion = params->criterion;
-    v->split_border = params->split_border;
-    v->max_pixel_error = params->max_pixel_error;
-    v->error_scale = ldexp(1.0, -params->template_level);
-    v->error_scale2 = v->error_scale * v->error_scale;
-    v->distance_floor = 1e-9 * planet->radius;
+    plod_bound_view_init(&f->view, planet, r->tree.setup.occluder, camera, params, eye_dist);
     f->merge_ratio = params->merge_border / params->split_border;
 }
 

@@ -95,6 +95,14 @@ typedef struct plod_bound_view {
                                     issued, rounded up */
 } plod_bound_view;
 
+/* The view's camera-derived values (eye, horizon against `occluder`,
+ * culling switches, error thresholds); memos off, coarsening and split mode
+ * left 0 for the caller.  eye_dist: |camera position|, as the caller
+ * measured it (> 0). */
+void plod_bound_view_init(plod_bound_view *view, const plod_planet *planet, double occluder,
+                          const plod_camera *camera, const plod_refine_params *params,
+                          double eye_dist);
+
 /* bit i: the surface is inside frustum plane i */
 #define PLOD_BOUND_ALL_PLANES 0x3Fu
 
