@@ -1261,13 +1261,26 @@ static double plod__score(const plod_bound_view *v, const plod_bound *b)
     return plod_bound_score(v, b, plod_bound_distance(v, b));
 }
 
-/* The larger score of leaf i and of its partner across its hypotenuse
- * when that partner is a leaf of its level (the diamond leaf i splits in). */
-static double plod__diamond_score(const plod_lodtree *t, const plod_bound_view *v, int32_t i)
+/* The score of the diamond that child `c` of a diamond splits in: the
+ * larger of c's and its partner's across c's hypotenuse.  c is the leaf
+ * `leaf` at the children's level `level`, or, when that leaf is one level
+ * deeper, the node it is a child of (c split already). */
+static double plod__child_diamond_score(const plod_lodtree *t, const plod_bound_view *v,
+                                        int32_t leaf, int level)
 {
-    double s = plod__score(v, &t->geom[i].self);
-    int32_t p = t->neighbours[i][2];
-    if (p >= 0 && t->leaves[p].level == t->leaves[i].level) {
+    if (t->leaves[leaf].level != level) {
+        int32_t c = t->leaf_parent[leaf];
+        double s = plod__score(v, &t->nodes[c].bound);
+        int32_t partner = t->node_partner[c];
+        if (partner >= 0) {
+            double sp = plod__score(v, &t->nodes[partner].bound);
+            s = sp > s ? sp : s;
+        }
+        return s;
+    }
+    double s = plod__score(v, &t->geom[leaf].self);
+    int32_t p = t->neighbours[leaf][2];
+    if (p >= 0 && t->leaves[p].level == level) {
         double sp = plod__score(v, &t->geom[p].self);
         s = sp > s ? sp : s;
     }
@@ -1280,8 +1293,8 @@ static void plod__split_morph(const plod_lodtree *t, const plod_bound_view *v, s
 {
     const plod_sector *leaf = &t->leaves[i];
     int32_t parent = t->leaf_parent[i];
+    memset(out, 0, sizeof *out);
     if (parent < 0) {
-        memset(out, 0, sizeof *out);
         out->factor = -1.0;
         return;
     }
@@ -1308,26 +1321,35 @@ static void plod__split_morph(const plod_lodtree *t, const plod_bound_view *v, s
         double s = plod__score(v, &t->nodes[partner].bound);
         s_d = s > s_d ? s : s_d;
     }
-    /* the diamond's four children around the midpoint: across edges 0 and
-     * 1 of this leaf, and across edge 0 of the one across edge 0 */
+    /* the diamond's four children around the midpoint m: across edges 0
+     * and 1 of this leaf (edge 0 of each child is edge 1 of the next one
+     * around m), and the one opposite, across edge 0 of the next or edge 1
+     * of the previous (one of them is a leaf of this level whenever this
+     * leaf shares an edge through m with another leaf of the diamond) */
     int level = leaf->level;
-    int32_t next = t->neighbours[i][0], prev = t->neighbours[i][1];
-    int32_t opposite = next >= 0 ? t->neighbours[next][0] : -1;
+    int32_t next = t->neighbours[i][0], prev = t->neighbours[i][1], opposite = -1;
+    if (next >= 0 && t->leaves[next].level == level) {
+        out->edges |= 1u;
+        opposite = t->neighbours[next][0];
+    }
+    if (prev >= 0 && t->leaves[prev].level == level) {
+        out->edges |= 2u;
+        if (opposite < 0)
+            opposite = t->neighbours[prev][1];
+    }
     int32_t ring[4] = {(int32_t)i, next, prev, opposite};
     double s_c = 0.0;
     for (int k = 0; k < 4; k++) {
-        if (ring[k] < 0 || t->leaves[ring[k]].level != level) {
-            s_c = INFINITY; /* a child split further (or no link): full detail */
-            break;
-        }
-        double s = plod__diamond_score(t, v, ring[k]);
+        if (ring[k] < 0)
+            continue; /* (a leaf whose edges through m both meet split children) */
+        double s = plod__child_diamond_score(t, v, ring[k], level);
         s_c = s > s_c ? s : s_c;
     }
     double m;
-    if (!(s_c < 1.0))
+    if (!(s_d > 1.0))
+        m = 1.0; /* at the split, or a forced one */
+    else if (!(s_c < 1.0))
         m = 0.0;
-    else if (!(s_d > 1.0))
-        m = 1.0;
     else
         m = (1.0 - s_c) / (s_d - s_c);
     out->factor = m < 0.0 ? 0.0 : (m > 1.0 ? 1.0 : m);

@@ -1002,6 +1002,9 @@ static void plod__split_morph_sector(const plod__emitter *e, const plod_mesh_sec
             if (!(j & 1))
                 continue; /* on the parent's grid */
             int k0 = n - i - j;
+            if ((i == 0 && !(sector->split_edges & 1u)) ||
+                (k0 == 0 && !(sector->split_edges & 2u)))
+                continue; /* an edge a finer sector meets unmorphed */
             /* the edge's ends: a inside, b inside or the sibling's */
             size_t a, b = 0;
             const float *bp, *bn = NULL, *bd = NULL;

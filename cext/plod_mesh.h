@@ -72,6 +72,9 @@ typedef struct plod_mesh_sector {
                              1: (parent 2, midpoint, parent 1) */
     double split_morph;   /* [0, 1]: 1 = the parent's surface */
     double third_corner[3]; /* the parent's corner this sector lacks */
+    unsigned split_edges; /* bit e (0, 1): vertices on edge e (corners e,
+                             e + 1) morph too; else they stay (a finer
+                             sector meets them there) */
 } plod_mesh_sector;
 
 /* Returns 1 if sector `index` (0..count-1) is emitted and then fills

@@ -213,9 +213,11 @@ size_t plod_refiner_memory_bytes(const plod_refiner *refiner);
  * factor = 1 where s_D <= 1 (D splits or merges right there, or D is a
  * forced split: the children look exactly like their parents), 0 where
  * s_C >= 1 (a child's diamond splits), else (1 - s_C) / (s_D - s_C):
- * continuous in the camera between the two.  0 as well when a child of D
- * is split further (its children share the leaves' edges unmorphed).
- * A function of the tree, the camera and the parameters alone. */
+ * continuous in the camera between the two (a child split already counts
+ * with its node's score).  A leaf's edges through the midpoint morph only
+ * where a leaf of its level lies across (a split child's children meet
+ * them unmorphed).  A function of the tree, the camera and the parameters
+ * alone. */
 typedef struct plod_split_morph {
     double factor;          /* in [0, 1]; -1 for a base sector (no parent) */
     double third_corner[3]; /* unit direction of the parent's corner the leaf
@@ -223,6 +225,8 @@ typedef struct plod_split_morph {
     int child;              /* which child of its parent: 0 = corners (parent
                                corner 1, midpoint, parent corner 0), 1 =
                                (parent corner 2, midpoint, parent corner 1) */
+    unsigned edges;         /* bit e (0, 1): the vertices on the leaf's edge e
+                               (corners e, e + 1) morph */
 } plod_split_morph;
 
 /* The split morph of `count` leaves (indices into plod_refiner_sectors, or

@@ -371,6 +371,7 @@ static int plod__leaf_sector(const void *context, size_t index, plod_mesh_sector
             const plod_split_morph *m = &src->split[index];
             out->split = 1;
             out->split_child = m->child;
+            out->split_edges = m->edges;
             out->split_morph = m->factor > 0.0 ? m->factor : 0.0; /* base: -1 */
             memcpy(out->third_corner, m->third_corner, sizeof out->third_corner);
         }
