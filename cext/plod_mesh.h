@@ -254,7 +254,8 @@ plod_status plod_mesh_emit(const plod_mesh_params *params,
                            const plod_mesh_sector_source *sectors,
                            const plod_surface_source *surface, const plod_mesh_buffers *out,
                            size_t *vertex_count, size_t *triangle_count);
-/* Same over a plain array (every sector emitted). */
+/* Same over a plain array (every sector emitted, each as given: its split
+ * fields too, so zero `split` where there is no split morph). */
 plod_status plod_mesh_emit_array(const plod_mesh_params *params,
                                  const plod_mesh_sector *sectors, size_t count,
                                  const plod_surface_source *surface,
