@@ -63,10 +63,11 @@ def error(data, path):
             x = np.mean([r["tris"] for r in rows])
             y = np.median([r["p99_px"] for r in rows])
             marker = "s" if name.startswith("clipmap") else "o"
-            ax.loglog(x, y, marker, color=f"C{k}")
+            ax.loglog(x, y, marker, color=("tab:blue", "tab:orange")[k % 2])
             ax.annotate(name, (x, y), fontsize=6)
     ax.axhline(1.0, color="k", lw=0.6)
-    ax.set_title("triangles (mean) against p99 error (median frame)", fontsize=9)
+    ax.set_title("triangles (mean) against p99 error (median frame); "
+                 + ", ".join(f"{c}: {t}" for c, t in zip(("blue", "orange"), groups)), fontsize=8)
     ax.set_xlabel("triangles")
     ax.set_ylabel("px")
     fig.tight_layout()
@@ -89,7 +90,7 @@ def renders(result, folder, path):
                          f"{extra}", fontsize=7)
             ax.axis("off")
     fig.tight_layout()
-    fig.savefig(path, dpi=90)
+    fig.savefig(path, dpi=65)
     plt.close(fig)
 
 
