@@ -2,7 +2,8 @@
 Each method draws the asteroid's GPU preview with Show LOD levels (several
 levels' colours in view, no error), the legend's text comes from the method,
 and the render mesh of each method is a closed surface with the method's
-levels in its sector_level attribute."""
+levels in its sector_level attribute.  Near the ground (2 km and 2 m) every
+method draws the ground under the horizon."""
 import bpy
 import numpy as np
 from mathutils import Vector
@@ -22,6 +23,8 @@ def test():
     ui.clean_view()
     for obj in [o for o in bpy.data.objects if o.type == 'MESH']:
         bpy.data.objects.remove(obj)
+    empty = ui.screenshot("lod_method_empty_view.png")
+    background = np.median(empty.reshape(-1, 3), axis=0)
     with ui.override():
         assert bpy.ops.mesh.planet_add(preset='ASTEROID') == {'FINISHED'}
     planet = bpy.context.object
@@ -60,6 +63,29 @@ def test():
     yield from ui.refreshed(planet)
     assert not runtime.state(planet).error
     ui.screenshot("lod_method_chunked_skirts.png")
+    s.chunk_cracks = 'STITCH'
+
+    # near the ground: every method draws the ground under the horizon, without holes
+    for altitude, pitch in ((2000.0, -35.0), (2.0, -20.0)):
+        for method in ('HRTMR', 'CHUNKED', 'GEOMIPMAP', 'CLIPMAP'):
+            s.lod_method = method
+            with ui.override():
+                assert bpy.ops.view3d.planet_go_to_surface(
+                    longitude=20.0, latitude=10.0, altitude=altitude,
+                    pitch=pitch) == {'FINISHED'}
+            st = runtime.state(planet)
+            # the view jumped from far away: the refinement takes a few refreshes
+            yield from ui.wait_until(lambda: st.settled() and not st.pending
+                                     and st.preview is not None,
+                                     what="the refinement near the ground")
+            yield from ui.redraw(2)
+            assert not st.error, st.error
+            shot = ui.screenshot(f"lod_method_{method.lower()}_{altitude:g}m.png")
+            ground = ui.foreground(shot, background)[shot.shape[0] * 2 // 3:]
+            print(f"{method} {altitude:g} m: {st.stats['visible']} patches, level "
+                  f"{st.stats['max_level']}, ground {ground.mean():.1%} of the lowest third",
+                  flush=True)
+            assert ground.mean() > 0.98, (method, altitude, ground.mean())
 
 
 ui.run(test)
