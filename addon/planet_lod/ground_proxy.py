@@ -42,10 +42,12 @@ def proxy_of(planet):
 
 
 class ProxyJob(threading.Thread):
-    """Samples the ground for a proxy off the main thread (0.1 s near the ground)."""
+    """Samples the ground for a proxy off the main thread (0.1 s near the
+    ground).  Not a daemon: the interpreter waits for it at exit instead of
+    freeing the planet under it."""
 
     def __init__(self, planet, radius, eye, anchor, sea_level, key):
-        super().__init__(name="planet_lod ground proxy", daemon=True)
+        super().__init__(name="planet_lod ground proxy")
         self.args = (planet.surface, radius, eye, anchor, sea_level)
         self.key, self.eye = key, eye
         self.result = self.error = None
@@ -147,9 +149,9 @@ def update(scene):
             if job.is_alive():
                 continue
             del _jobs[obj.name_full]
-            if job.error is not None:
+            if job.error is not None:  # the preview reports the planet's errors
                 if not isinstance(job.error, core.REPORTED_ERRORS):
-                    raise job.error
+                    print(f"planet_lod: {obj.name}: viewport ground: {job.error!r}")
                 continue
             proxy = proxy_of(obj) or _new_proxy(obj)
             _write(proxy, *job.result)

@@ -42,7 +42,10 @@ def tick():
         _tick_locked()
         scene = getattr(bpy.context, "scene", None)
         if scene is not None:
-            ground_proxy.update(scene)
+            try:
+                ground_proxy.update(scene)
+            except (ReferenceError, AttributeError, RuntimeError) as exc:  # keep the timer
+                print("planet_lod: viewport ground:", exc)
     finally:
         refresh.LOCK.release()
     # a job in flight or a progressive refinement to carry on: come back soon

@@ -48,9 +48,11 @@ def keep_pivot_on_ground(obj, area, r3d):
     height = altitude(obj, eye) * scale
     changed = False
     if -LIFT_DEPTH * radius < height < MIN_CLEARANCE:
-        lift = (eye - centre).normalized() * (MIN_CLEARANCE - height)
+        lift = _way_out(obj, eye, r3d.view_rotation @ Vector((0.0, 0.0, -1.0)),
+                        (eye - centre).normalized(), height, scale)
         r3d.view_location = Vector(r3d.view_location) + lift
-        eye, height, changed = eye + lift, MIN_CLEARANCE, True
+        eye, changed = eye + lift, True
+        height = altitude(obj, eye) * scale
     if height <= 0.0:
         return changed
     pivot = Vector(r3d.view_location)
@@ -64,6 +66,26 @@ def keep_pivot_on_ground(obj, area, r3d):
     if height < NEAR_GROUND * radius:
         changed |= level_horizon(r3d, eye, (eye - centre).normalized())
     return changed
+
+
+def _way_out(obj, eye, forward, up, height, scale):
+    """The move that takes an eye `height` m above the ground (less than
+    MIN_CLEARANCE) back above it: back along its view when it looks down (it
+    came that way: a Walk teleport or a zoom overshooting the ground), to
+    where the view crosses MIN_CLEARANCE; else straight up."""
+    if -forward.dot(up) > 0.1:
+        def above(back):
+            return altitude(obj, eye - forward * back) * scale
+        low, low_height = 0.0, height
+        for _ in range(64):  # steps of the depth left: never past a crossing by much
+            high = low + max(MIN_CLEARANCE - low_height, 1.0)
+            if above(high) >= MIN_CLEARANCE:
+                for _ in range(24):
+                    mid = 0.5 * (low + high)
+                    low, high = (low, mid) if above(mid) >= MIN_CLEARANCE else (mid, high)
+                return -forward * high
+            low, low_height = high, above(high)
+    return up * (MIN_CLEARANCE - height)
 
 
 def level_horizon(r3d, eye, up):

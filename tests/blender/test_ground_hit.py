@@ -57,6 +57,23 @@ def main():
     assert navigation.ground_hit(earth, eye + Vector((1.0e7, 0.0, 0.0)),
                                  Vector((0.0, 1.0, 0.0))) is None
 
+    # an eye that went under the ground along its view (a Walk teleport onto
+    # the viewport ground, which lies under the ground) comes back along it
+    eye, rotation = navigation.surface_view(earth, 7.9, 46.0, 2000.0, 0.0, -20.0)
+    forward = rotation @ Vector((0.0, 0.0, -1.0))
+    hit = navigation.ground_hit(earth, eye, forward)
+    under = hit + forward * 300.0
+    up = (under - navigation.planet_centre(earth)).normalized()
+    move = view_follow._way_out(earth, under, forward, up,
+                                navigation.altitude(earth, under), 1.0)
+    out = under + move
+    print(f"eye {navigation.altitude(earth, under):.1f} m under the ground: back "
+          f"{move.length:.1f} m along its view, {navigation.altitude(earth, out):.2f} m above "
+          f"it, {(out - hit).length:.1f} m from where the view met it", flush=True)
+    assert move.normalized().dot(forward) < -0.999
+    assert 0.5 * view_follow.MIN_CLEARANCE <= navigation.altitude(earth, out) < 50.0
+    assert (out - hit).length < 50.0
+
     speeds = [view_follow.walk_speed(h) for h in (0.5, 20.0, 2000.0, 4.0e5)]
     print("walk speeds at 0.5 m, 20 m, 2 km, 400 km:", speeds, flush=True)
     assert speeds == sorted(speeds) and speeds[0] >= 0.1 and speeds[-1] <= 100.0

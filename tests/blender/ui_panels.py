@@ -1,7 +1,8 @@
 """In the real UI (xvfb): every panel of the add-on's sidebar tab draws without
 error in each state -- no planet, each planet preset, a planet whose height map
-path is wrong, one with a missing inset file, a Large Map without its tile
-file -- and the error is shown in the panel (a red box); Write Tile File
+path is wrong, a text file named .png, a radius too small, one with a missing
+inset file, a Large Map without its tile file -- and the error is shown in
+plain words in the panel (a red box); Write Tile File
 writes it from the panel (a modal operator) and the planet refreshes."""
 import os
 
@@ -70,6 +71,29 @@ def test():
     # fixed again: the error goes away
     planet.planet_lod.heightmap = ""
     yield from redraw_and_check(recorder, ALL, "height map cleared", planet)
+    assert runtime.state(planet).error == "", runtime.state(planet).error
+    # plain words: a text file named .png, a radius too small for the relief
+    fake = os.path.join(lib.out_dir(), "notes.png")
+    with open(fake, "w") as f:
+        f.write("not pixels\n")
+    planet.planet_lod.heightmap = fake
+    yield from redraw_and_check(recorder, ALL, "a text file named .png", planet)
+    error = runtime.state(planet).error
+    print(f"fake .png: {error}", flush=True)
+    assert "not an image file (notes.png)" in error, error
+    assert red_pixels("panels_fake_png.png") > clean_red + 200, "the error is not shown"
+    planet.planet_lod.heightmap = ""
+    radius = planet.planet_lod.radius
+    planet.planet_lod.radius = 0.0  # clamped to the property's minimum
+    yield from redraw_and_check(recorder, ALL, "radius 0", planet)
+    yield from ui.settled(planet)
+    error = runtime.state(planet).error
+    print(f"radius 0: {error}", flush=True)
+    assert "radius must be at least" in error, error
+    assert red_pixels("panels_radius.png") > clean_red + 200, "the error is not shown"
+    planet.planet_lod.radius = radius
+    yield from redraw_and_check(recorder, ALL, "radius back", planet)
+    yield from ui.settled(planet)
     assert runtime.state(planet).error == "", runtime.state(planet).error
     # an inset whose file is missing: the list draws, the panel says why
     inset = planet.planet_lod.insets.add()
