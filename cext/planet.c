@@ -19,6 +19,22 @@
     "the terrain (height_scale and height_offset over the height data's range) must "   \
     "stay above half the radius below it and within 10 radii above it"
 
+/* The map's range [lo, hi] (map units) in metres must be finite, and the
+ * terrain must stay outside the centre and within sane bounds. */
+static plod_status plod__check_terrain(const plod_planet *planet, double lo, double hi,
+                                       plod_status not_finite, const char *not_finite_message,
+                                       plod_error *error)
+{
+    if (!isfinite(lo) || !isfinite(hi) || lo > hi)
+        return plod_error_set(error, not_finite, "%s", not_finite_message);
+    double a = lo * planet->height_scale + planet->height_offset,
+           b = hi * planet->height_scale + planet->height_offset;
+    double low = a < b ? a : b, high = a < b ? b : a;
+    if (low <= -0.5 * planet->radius || high > 10.0 * planet->radius)
+        return plod_error_set(error, PLOD_ERR_BAD_PARAM, PLOD__TERRAIN_RULE);
+    return PLOD_OK;
+}
+
 plod_status plod_planet_check(const plod_planet *planet, plod_error *error)
 {
     if (!planet)
@@ -42,15 +58,10 @@ plod_status plod_planet_check(const plod_planet *planet, plod_error *error)
                                   "height map has NaN samples (no-data texels)");
         double lo, hi;
         plod_cubemap_global_range(planet->heightmap, &lo, &hi);
-        if (!isfinite(lo) || !isfinite(hi) || lo > hi)
-            return plod_error_set(error, PLOD_ERR_BAD_PARAM,
-                                  "height map range is not finite");
-        /* the terrain must stay outside the centre and within sane bounds */
-        double a = lo * planet->height_scale + planet->height_offset,
-               b = hi * planet->height_scale + planet->height_offset;
-        double low = a < b ? a : b, high = a < b ? b : a;
-        if (low <= -0.5 * planet->radius || high > 10.0 * planet->radius)
-            return plod_error_set(error, PLOD_ERR_BAD_PARAM, PLOD__TERRAIN_RULE);
+        plod_status st = plod__check_terrain(planet, lo, hi, PLOD_ERR_BAD_PARAM,
+                                             "height map range is not finite", error);
+        if (st != PLOD_OK)
+            return st;
     }
     if (planet->source) {
         const plod_height_source *src = planet->source;
@@ -61,14 +72,10 @@ plod_status plod_planet_check(const plod_planet *planet, plod_error *error)
                                   "beside it");
         double lo, hi;
         src->ops->global_range(src->self, &lo, &hi);
-        if (!isfinite(lo) || !isfinite(hi) || lo > hi)
-            return plod_error_set(error, PLOD_ERR_BAD_IMAGE,
-                                  "height source range is not finite");
-        double a = lo * planet->height_scale + planet->height_offset,
-               b = hi * planet->height_scale + planet->height_offset;
-        double low = a < b ? a : b, high = a < b ? b : a;
-        if (low <= -0.5 * planet->radius || high > 10.0 * planet->radius)
-            return plod_error_set(error, PLOD_ERR_BAD_PARAM, PLOD__TERRAIN_RULE);
+        plod_status st = plod__check_terrain(planet, lo, hi, PLOD_ERR_BAD_IMAGE,
+                                             "height source range is not finite", error);
+        if (st != PLOD_OK)
+            return st;
     }
     if (planet->normalmap) {
         const plod_cubemap *n = planet->normalmap;

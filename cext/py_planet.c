@@ -562,30 +562,18 @@ static PyObject *plod__planet_refine(plod_py_planet *self, PyObject *args, PyObj
     Py_END_ALLOW_THREADS
     if (st != PLOD_OK)
         return plod_py_raise_detail(st, "refine", error.message);
-    /* what planet.mesh(template_level) would emit for the visible sectors */
+    size_t vertices, triangles;
     if (mp.method == PLOD_LOD_HRTMR) {
         /* what planet.mesh(template_level) would emit for the visible sectors */
-        size_t per_v = plod_template_vertex_count(p.template_level);
-        size_t per_t = plod_template_triangle_count(p.template_level);
-        return Py_BuildValue(
-            "{s:n,s:n,s:n,s:n,s:n,s:n,s:n,s:d,s:d,s:i,s:O,s:O,s:I,s:K,s:K}", "sectors_total",
-            (Py_ssize_t)s.sectors_total, "sectors_after_backface",
-            (Py_ssize_t)s.sectors_after_backface, "sectors_after_frustum",
-            (Py_ssize_t)s.sectors_after_frustum, "sectors_after_budget",
-            (Py_ssize_t)s.sectors_after_budget, "sectors_sea_skipped",
-            (Py_ssize_t)s.sectors_sea_skipped, "splits", (Py_ssize_t)s.splits, "merges",
-            (Py_ssize_t)s.merges, "refine_us", s.refine_us, "cull_us", s.cull_us, "max_level",
-            s.max_level_reached, "truncated", s.truncated ? Py_True : Py_False, "pending",
-            s.pending ? Py_True : Py_False, "frame", s.frame, "vertices",
-            (unsigned long long)(s.sectors_after_budget * per_v), "triangles",
-            (unsigned long long)(s.sectors_after_budget * per_t));
+        vertices = s.sectors_after_budget * plod_template_vertex_count(p.template_level);
+        triangles = s.sectors_after_budget * plod_template_triangle_count(p.template_level);
+    } else {
+        size_t emitted;
+        plod_session_emit_bounds(self->session, p.template_level, 1, &vertices, &triangles,
+                                 &emitted);
     }
-    /* the other methods: the bounds of their mesh, their name and state */
-    size_t vertices, triangles, emitted;
-    plod_session_emit_bounds(self->session, p.template_level, 1, &vertices, &triangles,
-                             &emitted);
-    return Py_BuildValue(
-        "{s:n,s:n,s:n,s:n,s:n,s:n,s:n,s:d,s:d,s:i,s:O,s:O,s:I,s:K,s:K,s:s,s:K}",
+    PyObject *stats = Py_BuildValue(
+        "{s:n,s:n,s:n,s:n,s:n,s:n,s:n,s:d,s:d,s:i,s:O,s:O,s:I,s:K,s:K}",
         "sectors_total", (Py_ssize_t)s.sectors_total, "sectors_after_backface",
         (Py_ssize_t)s.sectors_after_backface, "sectors_after_frustum",
         (Py_ssize_t)s.sectors_after_frustum, "sectors_after_budget",
@@ -594,9 +582,19 @@ static PyObject *plod__planet_refine(plod_py_planet *self, PyObject *args, PyObj
         (Py_ssize_t)s.merges, "refine_us", s.refine_us, "cull_us", s.cull_us, "max_level",
         s.max_level_reached, "truncated", s.truncated ? Py_True : Py_False, "pending",
         s.pending ? Py_True : Py_False, "frame", s.frame, "vertices",
-        (unsigned long long)vertices, "triangles", (unsigned long long)triangles, "method",
-        plod_lod_method_name((int)mp.method), "state_bytes",
-        (unsigned long long)plod_session_method_bytes(self->session));
+        (unsigned long long)vertices, "triangles", (unsigned long long)triangles);
+    if (!stats || mp.method == PLOD_LOD_HRTMR)
+        return stats;
+    /* the other methods also name themselves and the state they keep */
+    PyObject *name = PyUnicode_FromString(plod_lod_method_name((int)mp.method));
+    PyObject *state = PyLong_FromSize_t(plod_session_method_bytes(self->session));
+    int failed = !name || !state || PyDict_SetItemString(stats, "method", name) < 0 ||
+                 PyDict_SetItemString(stats, "state_bytes", state) < 0;
+    Py_XDECREF(name);
+    Py_XDECREF(state);
+    if (failed)
+        Py_CLEAR(stats);
+    return stats;
 }
 
 static PyObject *plod__planet_reset(plod_py_planet *self, PyObject *unused)

@@ -35,3 +35,16 @@ def test_finite_float_heightmap_accepted(planetlod, tmp_path):
     planet = planetlod.Planet(6371000.0, heightmap=path, height_scale=1000.0)
     assert planet.height(1.0, 0.0, 0.0) == pytest.approx(250.0)
     assert planet.heightmap is not None
+
+
+@pytest.mark.parametrize("radius,height_scale,height_offset", [
+    (100.0, 4e3, 0.0),           # 1-4 km above a 100 m planet: over ten radii
+    (6371000.0, 1000.0, -4e6),   # 4,000 km down: past half the radius
+    (6371000.0, -5e6, 0.0),      # a negative scale reaching 5,000 km down
+])
+def test_terrain_reaching_the_centre_or_far_above_refused(planetlod, tmp_path, radius,
+                                                         height_scale, height_offset):
+    path = _float_tiff(tmp_path / "steep.tif", 64, 32, [0.25] * (64 * 16) + [1.0] * (64 * 16))
+    with pytest.raises(planetlod.InvalidArgument, match="half the radius below"):
+        planetlod.Planet(radius, heightmap=path, height_scale=height_scale,
+                         height_offset=height_offset)

@@ -13,6 +13,7 @@
 #include "plod.h"
 #include "plod_clipmap.h"
 #include "plod_session.h"
+#include "test_support.h"
 
 #define FRAMES 24
 #define MAP_SIZE 128
@@ -29,26 +30,6 @@ static int failures = 0;
         }                                                                 \
     } while (0)
 
-static uint64_t fnv(const void *data, size_t bytes, uint64_t h)
-{
-    const unsigned char *p = data;
-    for (size_t i = 0; i < bytes; i++) {
-        h ^= p[i];
-        h *= 0x100000001b3ull;
-    }
-    return h;
-}
-
-static uint32_t mix32(uint32_t x)
-{
-    x ^= x >> 16;
-    x *= 0x7feb352du;
-    x ^= x >> 15;
-    x *= 0x846ca68bu;
-    x ^= x >> 16;
-    return x;
-}
-
 static plod_cubemap *make_heightmap(void)
 {
     plod_cubemap *map = NULL;
@@ -58,8 +39,8 @@ static plod_cubemap *make_heightmap(void)
         uint16_t *texels = plod_cubemap_face_data(map, face);
         for (int j = 0; j < MAP_SIZE; j++)
             for (int i = 0; i < MAP_SIZE; i++) {
-                uint32_t a = mix32((uint32_t)(face * 7919 + (i >> 3) * 131 + (j >> 3)));
-                uint32_t b = mix32((uint32_t)(face * 104729 + i * 31 + j));
+                uint32_t a = test_mix32((uint32_t)(face * 7919 + (i >> 3) * 131 + (j >> 3)));
+                uint32_t b = test_mix32((uint32_t)(face * 104729 + i * 31 + j));
                 texels[(size_t)j * MAP_SIZE + (size_t)i] =
                     (uint16_t)((a >> 17) + (b >> 20));
             }
@@ -69,34 +50,6 @@ static plod_cubemap *make_heightmap(void)
         return NULL;
     }
     return map;
-}
-
-static void look_at(const double eye[3], const double target[3], const double up[3],
-                    double m[16])
-{
-    double back[3], right[3], upv[3];
-    for (int i = 0; i < 3; i++)
-        back[i] = eye[i] - target[i];
-    double n = sqrt(back[0] * back[0] + back[1] * back[1] + back[2] * back[2]);
-    for (int i = 0; i < 3; i++)
-        back[i] /= n;
-    right[0] = up[1] * back[2] - up[2] * back[1];
-    right[1] = up[2] * back[0] - up[0] * back[2];
-    right[2] = up[0] * back[1] - up[1] * back[0];
-    n = sqrt(right[0] * right[0] + right[1] * right[1] + right[2] * right[2]);
-    for (int i = 0; i < 3; i++)
-        right[i] /= n;
-    upv[0] = back[1] * right[2] - back[2] * right[1];
-    upv[1] = back[2] * right[0] - back[0] * right[2];
-    upv[2] = back[0] * right[1] - back[1] * right[0];
-    for (int r = 0; r < 3; r++) {
-        m[4 * r + 0] = right[r];
-        m[4 * r + 1] = upv[r];
-        m[4 * r + 2] = back[r];
-        m[4 * r + 3] = eye[r];
-    }
-    m[12] = m[13] = m[14] = 0.0;
-    m[15] = 1.0;
 }
 
 /* Frame k of a descent from 20,000 km to 2 m above the highest terrain,
@@ -120,7 +73,7 @@ static void descent(int k, double top, double lon_shift, plod_camera *camera,
         target[i] = eye[i] + view;
     }
     double north[3] = {-sin(lat) * cos(lon), -sin(lat) * sin(lon), cos(lat)};
-    look_at(eye, target, fabs(pitch) < 89.0 * pi / 180.0 ? d : north, m);
+    test_look_at(eye, target, fabs(pitch) < 89.0 * pi / 180.0 ? d : north, m);
     plod_camera_desc desc;
     plod_camera_desc_default(&desc);
     memcpy(desc.matrix_world, m, sizeof m);
@@ -167,15 +120,15 @@ static int emit(const plod_clipmap *cm, const plod_planet *planet,
     m->b.sector_level = malloc(4 * tc), m->b.face = malloc(4 * tc), m->b.detail = malloc(4 * vc);
     if (plod_clipmap_emit(cm, &mp, surface, &m->b, &m->nv, &m->nt) != PLOD_OK)
         return 0;
-    uint64_t h = 0xcbf29ce484222325ull;
-    h = fnv(m->b.positions, 12 * m->nv, h);
-    h = fnv(m->b.normals, 12 * m->nv, h);
-    h = fnv(m->b.uv, 8 * m->nv, h);
-    h = fnv(m->b.morph, 4 * m->nv, h);
-    h = fnv(m->b.detail, 4 * m->nv, h);
-    h = fnv(m->b.triangles, 12 * m->nt, h);
-    h = fnv(m->b.sector_level, 4 * m->nt, h);
-    h = fnv(m->b.face, 4 * m->nt, h);
+    uint64_t h = TEST_FNV_OFFSET;
+    h = test_fnv1a(m->b.positions, 12 * m->nv, h);
+    h = test_fnv1a(m->b.normals, 12 * m->nv, h);
+    h = test_fnv1a(m->b.uv, 8 * m->nv, h);
+    h = test_fnv1a(m->b.morph, 4 * m->nv, h);
+    h = test_fnv1a(m->b.detail, 4 * m->nv, h);
+    h = test_fnv1a(m->b.triangles, 12 * m->nt, h);
+    h = test_fnv1a(m->b.sector_level, 4 * m->nt, h);
+    h = test_fnv1a(m->b.face, 4 * m->nt, h);
     m->hash = h;
     return 1;
 }
@@ -215,7 +168,7 @@ static void weld_mesh(const mesh *m, weld *w)
     uint32_t *first = malloc((m->nv ? m->nv : 1) * sizeof *first); /* id -> vertex */
     for (size_t v = 0; v < m->nv; v++) {
         const float *p = m->b.positions + 3 * v;
-        size_t s = (size_t)fnv(p, 12, 0xcbf29ce484222325ull) & (slots - 1);
+        size_t s = (size_t)test_fnv1a(p, 12, TEST_FNV_OFFSET) & (slots - 1);
         while (table[s] >= 0 && memcmp(m->b.positions + 3 * first[table[s]], p, 12) != 0)
             s = (s + 1) & (slots - 1);
         if (table[s] < 0) {
@@ -367,7 +320,7 @@ static void check_flight(const plod_cubemap *map)
     plod_clipmap_create(&kept);
     plod_clipmap_params params;
     plod_clipmap_params_default(&params);
-    uint64_t all = 0xcbf29ce484222325ull;
+    uint64_t all = TEST_FNV_OFFSET;
     size_t rebuilt_levels = 0, kept_levels = 0;
     for (int k = 0; k < 2 * FRAMES; k++) {
         plod_camera camera;
@@ -416,7 +369,7 @@ static void check_flight(const plod_cubemap *map)
         }
         CHECK(seen == 0 && w.n_over == 0, "frame %d: %zu open edges in view", k, seen);
         free(by_id);
-        all = fnv(&a.hash, sizeof a.hash, all);
+        all = test_fnv1a(&a.hash, sizeof a.hash, all);
         if (stats.first_rebuilt > stats.finest_level)
             kept_levels += (size_t)stats.finest_level + 1;
         else {

@@ -22,6 +22,7 @@
 
 #include "plod.h"
 #include "plod_session.h"
+#include "test_support.h"
 
 #define FRAMES 48
 #define MAP_SIZE 256
@@ -33,11 +34,7 @@ typedef struct hash64 { uint64_t h; } hash64;
 
 static void hash_bytes(hash64 *hash, const void *data, size_t bytes)
 {
-    const unsigned char *p = data;
-    for (size_t i = 0; i < bytes; i++) {
-        hash->h ^= p[i];
-        hash->h *= 0x100000001b3ull;
-    }
+    hash->h = test_fnv1a(data, bytes, hash->h);
 }
 
 static void hash_u64(hash64 *hash, uint64_t v)
@@ -50,16 +47,6 @@ static void hash_u64(hash64 *hash, uint64_t v)
 
 /* ---- the height map: integer value noise ----------------------------------- */
 
-static uint32_t mix32(uint32_t x)
-{
-    x ^= x >> 16;
-    x *= 0x7feb352du;
-    x ^= x >> 15;
-    x *= 0x846ca68bu;
-    x ^= x >> 16;
-    return x;
-}
-
 /* Lattice value noise at cell size 2^shift, bilinear in integers. */
 static uint32_t value_noise(int face, int i, int j, int shift, uint32_t seed)
 {
@@ -67,8 +54,10 @@ static uint32_t value_noise(int face, int i, int j, int shift, uint32_t seed)
     uint32_t fi = (uint32_t)(i & (cell - 1)), fj = (uint32_t)(j & (cell - 1));
     uint32_t v[4];
     for (int k = 0; k < 4; k++)
-        v[k] = mix32(seed ^ mix32((uint32_t)face * 0x9e3779b9u ^ mix32((uint32_t)(ci + (k & 1)) ^
-                                  mix32((uint32_t)(cj + (k >> 1)))))) >> 16;
+        v[k] = test_mix32(seed ^ test_mix32((uint32_t)face * 0x9e3779b9u ^
+                                            test_mix32((uint32_t)(ci + (k & 1)) ^
+                                                       test_mix32((uint32_t)(cj + (k >> 1)))))) >>
+               16;
     uint32_t bottom = v[0] * ((uint32_t)cell - fi) + v[1] * fi;
     uint32_t top = v[2] * ((uint32_t)cell - fi) + v[3] * fi;
     return (uint32_t)(((uint64_t)bottom * ((uint32_t)cell - fj) + (uint64_t)top * fj) >>
@@ -99,34 +88,6 @@ static plod_cubemap *make_heightmap(void)
 
 /* ---- the flight ---------------------------------------------------------------- */
 
-static void look_at(const double eye[3], const double target[3], const double up[3],
-                    double m[16])
-{
-    double back[3], right[3], upv[3];
-    for (int i = 0; i < 3; i++)
-        back[i] = eye[i] - target[i];
-    double n = sqrt(back[0] * back[0] + back[1] * back[1] + back[2] * back[2]);
-    for (int i = 0; i < 3; i++)
-        back[i] /= n;
-    right[0] = up[1] * back[2] - up[2] * back[1];
-    right[1] = up[2] * back[0] - up[0] * back[2];
-    right[2] = up[0] * back[1] - up[1] * back[0];
-    n = sqrt(right[0] * right[0] + right[1] * right[1] + right[2] * right[2]);
-    for (int i = 0; i < 3; i++)
-        right[i] /= n;
-    upv[0] = back[1] * right[2] - back[2] * right[1];
-    upv[1] = back[2] * right[0] - back[0] * right[2];
-    upv[2] = back[0] * right[1] - back[1] * right[0];
-    for (int r = 0; r < 3; r++) {
-        m[4 * r + 0] = right[r];
-        m[4 * r + 1] = upv[r];
-        m[4 * r + 2] = back[r];
-        m[4 * r + 3] = eye[r];
-    }
-    m[12] = m[13] = m[14] = 0.0;
-    m[15] = 1.0;
-}
-
 /* Frame k of the descent over a planet whose heights reach `top` metres. */
 static void descent_matrix(int k, double top, double m[16])
 {
@@ -146,7 +107,7 @@ static void descent_matrix(int k, double top, double m[16])
         target[i] = eye[i] + view;
     }
     double north[3] = {-sin(lat) * cos(lon), -sin(lat) * sin(lon), cos(lat)};
-    look_at(eye, target, fabs(pitch) < 89.0 * pi / 180.0 ? d : north, m);
+    test_look_at(eye, target, fabs(pitch) < 89.0 * pi / 180.0 ? d : north, m);
 }
 
 static int make_camera(const plod_planet *planet, const double matrix[16], plod_camera *camera)
@@ -245,7 +206,7 @@ static int fly(const plod_cubemap *map, int detail_on, int hysteresis, uint64_t 
     int ok = plod_session_build_normals(session, 2) == PLOD_OK;
     double bottom, top;
     plod_planet_height_range(plod_session_planet(session), &bottom, &top);
-    hash64 hash = {0xcbf29ce484222325ull};
+    hash64 hash = {TEST_FNV_OFFSET};
     for (int k = 0; ok && k < FRAMES; k++) {
         double matrix[16];
         descent_matrix(k, top, matrix);
@@ -286,7 +247,7 @@ int main(void)
         fprintf(stderr, "no memory for the height map\n");
         return 1;
     }
-    hash64 all = {0xcbf29ce484222325ull};
+    hash64 all = {TEST_FNV_OFFSET};
     int ok = 1;
     for (int detail_on = 1; ok && detail_on >= 0; detail_on--)
         for (int hysteresis = 1; ok && hysteresis >= 0; hysteresis--) {
