@@ -38,7 +38,8 @@ def ring_angles(radius, altitude, segments=SEGMENTS):
     quarter of the altitude's arc out, each next one 2 pi / segments farther
     in proportion, the last short of the antipode."""
     import numpy
-    first = max(altitude, 1.0) * 0.25 / radius
+    # (at most a quarter radian: from far away a few rings cover the planet)
+    first = min(max(altitude, 1.0) * 0.25 / radius, 0.25)
     ratio = 1.0 + 2.0 * math.pi / segments
     count = max(int(math.ceil(math.log(math.pi / first) / math.log(ratio))), 2)
     angles = first * ratio ** numpy.arange(count, dtype=numpy.float64)
@@ -89,8 +90,11 @@ def proxy_mesh(surface, radius, eye, anchor=(0.0, 0.0, 0.0), sea_level=None,
         r = radius + ground[row, take]
         points.append(dirs[row, take] * r[:, None])
     points = numpy.concatenate(points)
-    sink = DISTANCE_SINK * numpy.linalg.norm(points - eye, axis=1)
     lengths = numpy.linalg.norm(points, axis=1)
+    # (at most a hundredth of the radius: seen from far away the sink would
+    # otherwise pass the centre of a small body)
+    sink = numpy.minimum(DISTANCE_SINK * numpy.linalg.norm(points - eye, axis=1),
+                         0.01 * lengths)
     points *= ((lengths - sink) / lengths)[:, None]
     positions = (points - numpy.asarray(anchor, dtype=numpy.float64)).astype(numpy.float32)
     return positions, _triangles(len(rows) - 2, segments)

@@ -2,6 +2,7 @@
 depth-based tools see under a GPU-previewed planet.  It must be closed,
 facing out, small from any altitude, and lie at or under the ground, close
 to it near the eye."""
+import array
 import math
 
 import numpy as np
@@ -62,3 +63,18 @@ def test_proxy_sea_level(planet):
     distance = np.linalg.norm(positions.astype(np.float64) - eye, axis=1)
     near = distance < 20000.0
     assert ((RADIUS + sea) - r[near] <= 0.002 * distance[near] + 1.0).all()
+
+
+@pytest.mark.parametrize("radius,distance", [(1.0, 1.0e5), (20000.0, 1.0e9)])
+def test_proxy_seen_from_far_away(radius, distance):
+    """A viewer hundreds of thousands of radii away still gets a closed mesh
+    of a few rings (not an empty or broken one)."""
+    from planetlod import ground_proxy
+
+    def flat(directions):  # a smooth sphere
+        return array.array("d", [0.0] * (len(directions) // 3)), None
+    positions, triangles = ground_proxy.proxy_mesh(flat, radius, (0.0, 0.0, distance))
+    assert len(positions) > 2 * ground_proxy.SEGMENTS
+    assert triangles.min() >= 0 and triangles.max() == len(positions) - 1
+    r = np.linalg.norm(positions.astype(np.float64), axis=1)
+    assert (r <= radius * 1.0001).all()

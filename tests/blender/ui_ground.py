@@ -299,19 +299,32 @@ def zoom_and_horizon(planet, space):
     win, area, region, _ = ui.view3d()
     x, y = region.x + region.width // 2, region.y + region.height // 2
     yield from go_to_surface(planet)
-    heights = [navigation.altitude(planet, navigation.eye_of(r3d))]
+
+    def measure():
+        eye = navigation.eye_of(r3d)
+        ahead = r3d.view_rotation @ Vector((0.0, 0.0, -1.0))
+        hit = navigation.ground_hit(planet, eye, ahead)
+        return navigation.altitude(planet, eye), (hit - eye).length if hit else None
+    heights, distances = zip(*[measure()])
+    heights, distances = list(heights), list(distances)
     for notches in (3, 20):
         for _ in range(notches):
             win.event_simulate(type='MOUSEMOVE', value='NOTHING', x=x, y=y)
             win.event_simulate(type='WHEELUPMOUSE', value='PRESS', x=x, y=y)
             yield 0.05
+            assert navigation.altitude(planet, navigation.eye_of(r3d)) > 0.0
         yield from ui.redraw(2)
-        heights.append(navigation.altitude(planet, navigation.eye_of(r3d)))
-    print("altitude after 0, 3 and 23 wheel notches: "
-          + ", ".join(f"{h:.1f} m" for h in heights), flush=True)
-    # each notch takes a sixth of the distance left to the ground ahead
-    assert 0.0 < heights[2] < heights[1] < heights[0], heights
-    assert heights[1] < 0.75 * heights[0] and heights[2] < 0.05 * heights[0], heights
+        height, distance = measure()
+        heights.append(height)
+        distances.append(distance)
+    print("after 0, 3 and 23 wheel notches: altitude "
+          + ", ".join(f"{h:.1f} m" for h in heights) + "; ground ahead "
+          + ", ".join(f"{d:.1f} m" for d in distances), flush=True)
+    # each notch takes a sixth of the distance left to the ground ahead (the
+    # altitude above the ground below can grow, over a valley), never through it
+    assert min(heights) > 0.0 and None not in distances, (heights, distances)
+    assert 0.5 < distances[1] / distances[0] < 0.65, distances
+    assert distances[2] / distances[0] < 0.03, distances
 
     forward = r3d.view_rotation @ Vector((0.0, 0.0, -1.0))
     from mathutils import Quaternion

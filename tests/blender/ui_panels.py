@@ -83,18 +83,22 @@ def test():
     assert "not an image file (notes.png)" in error, error
     assert red_pixels("panels_fake_png.png") > clean_red + 200, "the error is not shown"
     planet.planet_lod.heightmap = ""
-    radius = planet.planet_lod.radius
-    planet.planet_lod.radius = 0.0  # clamped to the property's minimum
-    yield from redraw_and_check(recorder, ALL, "radius 0", planet)
-    yield from ui.settled(planet)
-    error = runtime.state(planet).error
+    # (the Earth's relief: its lowest ground cannot reach half way to a 1 m centre)
+    earth = bpy.data.objects["Earth"]
+    bpy.context.view_layer.objects.active = earth
+    radius = earth.planet_lod.radius
+    earth.planet_lod.radius = 0.0  # clamped to the property's minimum
+    yield from redraw_and_check(recorder, ALL, "radius 0", earth)
+    yield from ui.settled(earth)
+    error = runtime.state(earth).error
     print(f"radius 0: {error}", flush=True)
     assert "radius must be at least" in error, error
     assert red_pixels("panels_radius.png") > clean_red + 200, "the error is not shown"
-    planet.planet_lod.radius = radius
-    yield from redraw_and_check(recorder, ALL, "radius back", planet)
-    yield from ui.settled(planet)
-    assert runtime.state(planet).error == "", runtime.state(planet).error
+    earth.planet_lod.radius = radius
+    yield from redraw_and_check(recorder, ALL, "radius back", earth)
+    yield from ui.settled(earth)
+    assert runtime.state(earth).error == "", runtime.state(earth).error
+    bpy.context.view_layer.objects.active = planet
     # an inset whose file is missing: the list draws, the panel says why
     inset = planet.planet_lod.insets.add()
     inset.use_box = True  # its box fields draw too
