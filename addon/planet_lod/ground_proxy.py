@@ -80,6 +80,8 @@ def _new_proxy(planet):
 
 
 def _write(proxy, positions, triangles):
+    if len(triangles) == 0 or triangles.min() < 0 or triangles.max() >= len(positions):
+        return  # (Blender would crash on such indices)
     me = proxy.data
     if len(me.vertices) != len(positions) or len(me.polygons) != len(triangles):
         me.clear_geometry()
