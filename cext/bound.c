@@ -408,16 +408,42 @@ double plod_bound_distance(const plod_bound_view *v, const plod_bound *b)
  * there h = a + b x + c y + d x y with |d| <= 2 (hmax - hmin) per texel^2,
  * and linear interpolation over a template cell of diameter
  * sqrt 2 extent / 2^t leaves at most |d| diameter^2 / 2; times 1.5 for
- * the projection's curvature inside the cell.  Each term only decreases
- * from a parent to its children. */
-static double plod__error_m(const plod_bound_view *v, const plod_bound *b)
+ * the projection's curvature inside the cell.
+ * + the detail field's modulation maximum times its expected error at the
+ * template's cells, counting only the octaves of at least
+ * PLOD_DETAIL_VISIBLE_WAVE_PIXELS pixels' wavelength at the distance
+ * (plod_detail.h): the error shrinks with the distance, never grows.
+ * Each term only decreases from a parent to its children. */
+static double plod__error_m(const plod_bound_view *v, const plod_bound *b, int visible)
 {
     double relief = b->relief0 * v->error_scale, twist = b->twist0 * v->error_scale2;
     double error = b->sag0 * v->error_scale2 + (twist < relief ? twist : relief);
     if (b->detail0 > 0.0) /* the detail a template cell does not resolve */
-        error += b->detail0 *
-                 plod_detail_cell_error(v->detail, b->size * v->error_scale);
+        error += b->detail0 * plod_detail_cell_error_visible(v->detail, b->size * v->error_scale,
+                                                             visible);
     return error;
+}
+
+/* The detail octaves that count at `distance` (already floored): those of
+ * wavelength >= PLOD_DETAIL_VISIBLE_WAVE_PIXELS pixels there.  A finer
+ * octave is roughness below the pixel at that distance: no mesh can draw
+ * it, and refining for it would cut cells of a pixel wherever the field's
+ * fine octaves are steep (the mesh still draws every octave its cells
+ * resolve). */
+static double plod__visible_wave(const plod_bound_view *v, double distance)
+{
+    const plod_camera *camera = v->camera;
+    return camera->desc.orthographic
+               ? PLOD_DETAIL_VISIBLE_WAVE_PIXELS / camera->pixels_per_metre
+               : PLOD_DETAIL_VISIBLE_WAVE_PIXELS * distance / camera->pixels_per_radian;
+}
+
+static int plod__visible_octaves(const plod_bound_view *v, const plod_bound *b,
+                                 double distance)
+{
+    if (!v->detail || !(b->detail0 > 0.0))
+        return 0;
+    return plod_detail_octaves_at_least(v->detail, plod__visible_wave(v, distance));
 }
 
 double plod_bound_score(const plod_bound_view *v, const plod_bound *b, double distance)
@@ -425,10 +451,9 @@ double plod_bound_score(const plod_bound_view *v, const plod_bound *b, double di
     double d = distance > v->distance_floor ? distance : v->distance_floor;
     if (v->criterion == PLOD_CRITERION_SIDE_DISTANCE)
         return b->size / d / v->split_border / v->coarsening;
-    double error_m = plod__error_m(v, b);
-    double px = v->camera->desc.orthographic
-                    ? error_m * v->camera->pixels_per_metre
-                    : error_m * v->camera->pixels_per_radian / d;
+    double per = v->camera->desc.orthographic ? v->camera->pixels_per_metre
+                                              : v->camera->pixels_per_radian / d;
+    double px = plod__error_m(v, b, plod__visible_octaves(v, b, d)) * per;
     return px / v->max_pixel_error / v->coarsening;
 }
 
@@ -443,9 +468,9 @@ static int plod__exceeds(const plod_bound_view *v, const plod_bound *b, double d
     case 0:
         return b->size > v->split_scale * d;
     case 1:
-        return plod__error_m(v, b) * v->split_scale > d;
+        return plod__error_m(v, b, plod__visible_octaves(v, b, d)) * v->split_scale > d;
     default:
-        return plod__error_m(v, b) * v->split_scale > 1.0;
+        return plod__error_m(v, b, plod__visible_octaves(v, b, d)) * v->split_scale > 1.0;
     }
 }
 
@@ -460,14 +485,26 @@ static int plod__exceeds(const plod_bound_view *v, const plod_bound *b, double d
  * at both ends), or <= 0. */
 static int plod__exceeds_slack(const plod_bound_view *v, const plod_bound *b, double *slack)
 {
-    double reach; /* the distance threshold, metres */
+    double reach; /* the distance threshold, metres (pixel: its largest) */
+    double reach_near; /* pixel: the threshold for distances <= reach */
     switch (v->split_mode) {
     case 0:
-        reach = b->size / v->split_scale;
+        reach = reach_near = b->size / v->split_scale;
         break;
-    case 1:
-        reach = plod__error_m(v, b) * v->split_scale;
+    case 1: {
+        /* the error only shrinks with the distance (fewer octaves count):
+         * every octave's counted bounds it beyond reach, and those that
+         * count at reach bound it from below inside reach */
+        int all = v->detail ? plod_detail_octave_count(v->detail) : 0;
+        reach = plod__error_m(v, b, all) * v->split_scale;
+        reach_near = reach;
+        if (b->detail0 > 0.0 && reach > v->distance_floor) {
+            int at_reach = plod__visible_octaves(v, b, reach);
+            if (at_reach < all)
+                reach_near = plod__error_m(v, b, at_reach) * v->split_scale;
+        }
         break;
+    }
     default:
         if (slack)
             *slack = INFINITY; /* orthographic: no distance */
@@ -491,8 +528,8 @@ static int plod__exceeds_slack(const plod_bound_view *v, const plod_bound *b, do
             *slack = sqrt(gg) - far_ - 2.0 * margin;
         return 0;
     }
-    double near_ = reach - margin;
-    if (near_ > 0.0) {
+    double near_ = reach_near - margin;
+    if (near_ > (v->split_mode ? v->distance_floor : 0.0)) {
         double q[3] = {eye[0] - b->axis[0] * b->r_min, eye[1] - b->axis[1] * b->r_min,
                        eye[2] - b->axis[2] * b->r_min};
         double qq = plod_dot3(q, q);
@@ -505,8 +542,33 @@ static int plod__exceeds_slack(const plod_bound_view *v, const plod_bound *b, do
     }
     double distance = plod_bound_distance(v, b);
     int exceeds = plod__exceeds(v, b, distance);
-    if (slack)
-        *slack = fabs(distance - reach) - 3.0 * margin;
+    if (slack) {
+        if (v->split_mode == 0 || !(b->detail0 > 0.0)) {
+            *slack = fabs(distance - reach) - 3.0 * margin;
+        } else {
+            /* the decision holds while the distance stays on its side of
+             * the threshold at the octaves counted now, and those stay */
+            double d = distance > v->distance_floor ? distance : v->distance_floor;
+            int visible = plod__visible_octaves(v, b, d);
+            double threshold = plod__error_m(v, b, visible) * v->split_scale;
+            double per_wave = v->camera->pixels_per_radian / PLOD_DETAIL_VISIBLE_WAVE_PIXELS;
+            if (exceeds) {
+                double until = visible > 0 ? plod_detail_wavelength(v->detail, visible - 1) *
+                                                 per_wave * (1.0 - 1e-9)
+                                           : INFINITY;
+                until = until < threshold ? until : threshold;
+                *slack = until - distance - 3.0 * margin;
+            } else {
+                double from = visible < plod_detail_octave_count(v->detail)
+                                  ? plod_detail_wavelength(v->detail, visible) * per_wave *
+                                        (1.0 + 1e-9)
+                                  : 0.0;
+                from = from > threshold ? from : threshold;
+                from = from > v->distance_floor ? from : v->distance_floor;
+                *slack = distance - from - 3.0 * margin;
+            }
+        }
+    }
     return exceeds;
 }
 

@@ -64,7 +64,9 @@ struct plod_detail {
                                    practice, far above lo for many octaves */
     double tail_lo[PLOD_DETAIL_MAX_OCTAVES + 1], tail_hi[PLOD_DETAIL_MAX_OCTAVES + 1];
                                 /* bounds of the octaves from i on */
-    double err[PLOD__ERR_COUNT];
+    /* err[v][e]: cell error at cells of 2^(e + PLOD__ERR_EXP_MIN) metres
+     * counting the first v octaves (v = count: all of them) */
+    double err[PLOD_DETAIL_MAX_OCTAVES + 1][PLOD__ERR_COUNT];
     uint64_t stamp;
 };
 
@@ -930,36 +932,49 @@ static double plod__half_range(const plod_detail *d, int i)
     return noise + o->crater_weight * 0.5 * (1.0 + PLOD__CRATER_RIM);
 }
 
-static double plod__cell_error_exact(const plod_detail *d, double cell)
+static double plod__cell_error_exact(const plod_detail *d, double cell, int visible)
 {
     int keep = plod_detail_octaves_for_cell(d, cell);
-    double e = 0.0;
-    for (int i = 0; i < d->count; i++) {
-        double half = plod__half_range(d, i);
-        if (i >= keep) {
-            e += half;
-        } else {
+    double e2 = 0.0;
+    for (int i = 0; i < visible; i++) {
+        double half = plod__half_range(d, i), term = half;
+        if (i < keep) {
             /* linear interpolation over a cell: ~ a (pi cell / wavelength)^2 / 2 */
             double x = cell / d->octaves[i].wavelength;
             double f = 0.5 * PLOD_PI * PLOD_PI * x * x;
-            e += half * (f < 1.0 ? f : 1.0);
+            term = half * (f < 1.0 ? f : 1.0);
         }
+        e2 += term * term;
     }
-    return e;
+    return sqrt(e2);
+}
+
+double plod_detail_cell_error_visible(const plod_detail *detail, double cell, int visible)
+{
+    if (!(cell > 0.0) || visible <= 0)
+        return 0.0;
+    const double *err = detail->err[visible < detail->count ? visible : detail->count];
+    int e;
+    double mant = frexp(cell, &e); /* cell = mant 2^e, mant in [0.5, 1) */
+    if (e <= PLOD__ERR_EXP_MIN)
+        return err[0];
+    if (e > PLOD__ERR_EXP_MAX)
+        return err[PLOD__ERR_COUNT - 1];
+    double hi = err[e - PLOD__ERR_EXP_MIN], lo = err[e - 1 - PLOD__ERR_EXP_MIN];
+    return lo + (hi - lo) * (2.0 * mant - 1.0);
 }
 
 double plod_detail_cell_error(const plod_detail *detail, double cell)
 {
-    if (!(cell > 0.0))
-        return 0.0;
-    int e;
-    double mant = frexp(cell, &e); /* cell = mant 2^e, mant in [0.5, 1) */
-    if (e <= PLOD__ERR_EXP_MIN)
-        return detail->err[0];
-    if (e > PLOD__ERR_EXP_MAX)
-        return detail->err[PLOD__ERR_COUNT - 1];
-    double hi = detail->err[e - PLOD__ERR_EXP_MIN], lo = detail->err[e - 1 - PLOD__ERR_EXP_MIN];
-    return lo + (hi - lo) * (2.0 * mant - 1.0);
+    return plod_detail_cell_error_visible(detail, cell, detail->count);
+}
+
+int plod_detail_octaves_at_least(const plod_detail *detail, double wavelength)
+{
+    int k = 0;
+    while (k < detail->count && detail->octaves[k].wavelength >= wavelength)
+        k++;
+    return k;
 }
 
 /* ---- construction ------------------------------------------------------------ */
@@ -1237,8 +1252,9 @@ plod_status plod_detail_create(plod_detail **out, const plod_detail_params *para
         d->tail_lo[i] = d->tail_lo[i + 1] + d->octaves[i].lo;
         d->tail_hi[i] = d->tail_hi[i + 1] + d->octaves[i].hi;
     }
-    for (int e = 0; e < PLOD__ERR_COUNT; e++)
-        d->err[e] = plod__cell_error_exact(d, ldexp(1.0, e + PLOD__ERR_EXP_MIN));
+    for (int v = 0; v <= count; v++)
+        for (int e = 0; e < PLOD__ERR_COUNT; e++)
+            d->err[v][e] = plod__cell_error_exact(d, ldexp(1.0, e + PLOD__ERR_EXP_MIN), v);
     d->deepest = plod__deepest(d);
     if (planet->heightmap) {
         plod_status st = plod__build_modulation(d, planet);

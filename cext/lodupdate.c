@@ -314,10 +314,9 @@ static void plod__forget_memos(plod_lodtree *t)
 
 /* The split thresholds of coarsening step `step`: the criterion's threshold
  * times 2^(step / 2) (pixel error, or split border). */
-static void plod__set_threshold(plod__frame *f, int step)
+static void plod__view_threshold(plod_bound_view *v, const plod_refine_params *params,
+                                 int step)
 {
-    const plod_refine_params *params = f->params;
-    plod_bound_view *v = &f->view;
     v->coarsening = ldexp(step & 1 ? PLOD_SQRT2 : 1.0, step >> 1);
     if (params->criterion == PLOD_CRITERION_SIDE_DISTANCE) {
         v->split_mode = 0;
@@ -329,6 +328,13 @@ static void plod__set_threshold(plod__frame *f, int step)
         v->split_mode = 2;
         v->split_scale = v->camera->pixels_per_metre / (params->max_pixel_error * v->coarsening);
     }
+}
+
+static void plod__set_threshold(plod__frame *f, int step)
+{
+    const plod_refine_params *params = f->params;
+    plod_bound_view *v = &f->view;
+    plod__view_threshold(v, params, step);
     /* other thresholds than the memos were made under: a new key, whose
      * path starts here */
     plod_refiner *r = f->refiner;
@@ -1245,6 +1251,135 @@ void plod_refine_params_default(plod_refine_params *params)
     params->skip_sea = 0;
     params->max_sectors = PLOD_DEFAULT_MAX_SECTORS;
     params->threads = 1;
+}
+
+/* ---- split morph ------------------------------------------------------------------ */
+
+/* The split test's score of a bound (plod_bound_score at its distance). */
+static double plod__score(const plod_bound_view *v, const plod_bound *b)
+{
+    return plod_bound_score(v, b, plod_bound_distance(v, b));
+}
+
+/* The score of the diamond that child `c` of a diamond splits in: the
+ * larger of c's and its partner's across c's hypotenuse.  c is the leaf
+ * `leaf` at the children's level `level`, or, when that leaf is one level
+ * deeper, the node it is a child of (c split already). */
+static double plod__child_diamond_score(const plod_lodtree *t, const plod_bound_view *v,
+                                        int32_t leaf, int level)
+{
+    if (t->leaves[leaf].level != level) {
+        int32_t c = t->leaf_parent[leaf];
+        double s = plod__score(v, &t->nodes[c].bound);
+        int32_t partner = t->node_partner[c];
+        if (partner >= 0) {
+            double sp = plod__score(v, &t->nodes[partner].bound);
+            s = sp > s ? sp : s;
+        }
+        return s;
+    }
+    double s = plod__score(v, &t->geom[leaf].self);
+    int32_t p = t->neighbours[leaf][2];
+    if (p >= 0 && t->leaves[p].level == level) {
+        double sp = plod__score(v, &t->geom[p].self);
+        s = sp > s ? sp : s;
+    }
+    return s;
+}
+
+/* The split morph of leaf i (plod_refine.h). */
+static void plod__split_morph(const plod_lodtree *t, const plod_bound_view *v, size_t i,
+                              plod_split_morph *out)
+{
+    const plod_sector *leaf = &t->leaves[i];
+    int32_t parent = t->leaf_parent[i];
+    memset(out, 0, sizeof *out);
+    if (parent < 0) {
+        out->factor = -1.0;
+        return;
+    }
+    /* the parent: child 0 is (p1, m, p0), child 1 is (p2, m, p1) */
+    int bit = (int)(leaf->id & 1u);
+    plod_sector p = *leaf;
+    if (bit == 0) {
+        p.cu[0] = leaf->cu[2], p.cv[0] = leaf->cv[2];
+        p.cu[1] = leaf->cu[0], p.cv[1] = leaf->cv[0];
+        p.cu[2] = 2 * leaf->cu[1] - leaf->cu[2], p.cv[2] = 2 * leaf->cv[1] - leaf->cv[2];
+    } else {
+        p.cu[0] = 2 * leaf->cu[1] - leaf->cu[0], p.cv[0] = 2 * leaf->cv[1] - leaf->cv[0];
+        p.cu[1] = leaf->cu[2], p.cv[1] = leaf->cv[2];
+        p.cu[2] = leaf->cu[0], p.cv[2] = leaf->cv[0];
+    }
+    double corners[3][3];
+    plod_sector_corners(t->planet, &p, corners);
+    memcpy(out->third_corner, corners[bit ? 0 : 2], sizeof out->third_corner);
+    out->child = bit;
+
+    double s_d = plod__score(v, &t->nodes[parent].bound);
+    int32_t partner = t->node_partner[parent];
+    if (partner >= 0) {
+        double s = plod__score(v, &t->nodes[partner].bound);
+        s_d = s > s_d ? s : s_d;
+    }
+    /* the diamond's four children around the midpoint m: across edges 0
+     * and 1 of this leaf (edge 0 of each child is edge 1 of the next one
+     * around m), and the one opposite, across edge 0 of the next or edge 1
+     * of the previous (one of them is a leaf of this level whenever this
+     * leaf shares an edge through m with another leaf of the diamond) */
+    int level = leaf->level;
+    int32_t next = t->neighbours[i][0], prev = t->neighbours[i][1], opposite = -1;
+    if (next >= 0 && t->leaves[next].level == level) {
+        out->edges |= 1u;
+        opposite = t->neighbours[next][0];
+    }
+    if (prev >= 0 && t->leaves[prev].level == level) {
+        out->edges |= 2u;
+        if (opposite < 0)
+            opposite = t->neighbours[prev][1];
+    }
+    int32_t ring[4] = {(int32_t)i, next, prev, opposite};
+    double s_c = 0.0;
+    for (int k = 0; k < 4; k++) {
+        if (ring[k] < 0)
+            continue; /* (a leaf whose edges through m both meet split children) */
+        double s = plod__child_diamond_score(t, v, ring[k], level);
+        s_c = s > s_c ? s : s_c;
+    }
+    double m;
+    if (!(s_d > 1.0))
+        m = 1.0; /* at the split, or a forced one */
+    else if (!(s_c < 1.0))
+        m = 0.0;
+    else
+        m = (1.0 - s_c) / (s_d - s_c);
+    out->factor = m < 0.0 ? 0.0 : (m > 1.0 ? 1.0 : m);
+}
+
+plod_status plod_refiner_split_morphs(const plod_refiner *r, const plod_camera *camera,
+                                      const plod_refine_params *params,
+                                      const uint32_t *leaves, size_t count,
+                                      plod_split_morph *out)
+{
+    if (!r || !camera || !params || (count && !out))
+        return PLOD_ERR_NULL;
+    const plod_lodtree *t = &r->tree;
+    double eye_dist = sqrt(camera->position[0] * camera->position[0] +
+                           camera->position[1] * camera->position[1] +
+                           camera->position[2] * camera->position[2]);
+    if (!isfinite(eye_dist) || !(eye_dist > 1e-6 * t->planet->radius))
+        return PLOD_ERR_BAD_COORD;
+    plod_bound_view view;
+    plod_bound_view_init(&view, t->planet, t->setup.occluder, camera, params, eye_dist);
+    /* the last update's coarsening step (0 without a budget) */
+    plod__view_threshold(&view, params,
+                         params->budget && !params->max_splits ? r->coarsen_step : 0);
+    for (size_t k = 0; k < count; k++) {
+        size_t i = leaves ? leaves[k] : k;
+        if (i >= t->count)
+            return PLOD_ERR_BAD_PARAM;
+        plod__split_morph(t, &view, i, &out[k]);
+    }
+    return PLOD_OK;
 }
 
 size_t plod_refiner_memory_bytes(const plod_refiner *r)

@@ -911,6 +911,150 @@ static void plod__compute_vertices(const plod__emitter *e, const plod_mesh_secto
     }
 }
 
+/* Vertices (weights k on `corners`, template of e->n segments) evaluated
+ * as plod__compute_vertices evaluates them in a sector with those corners:
+ * the same direction sums, detail bands, samples and casts, so the same
+ * bits.  Outputs: positions 3 per vertex (relative to the origin), normals
+ * 3 and detail 1 where not NULL. */
+static void plod__sample_vertices(const plod__emitter *e, const double corners[3][3],
+                                  size_t count, const int (*k)[3], float *positions,
+                                  float *normals_f, float *detail_f)
+{
+    enum { MAX = 1 << (PLOD_MAX_TEMPLATE_LEVEL - 1) };
+    const plod_mesh_params *params = e->params;
+    double inv_n = 1.0 / (double)e->n;
+    double dirs[3 * MAX], heights[MAX], normals[3 * MAX], detail[MAX], fade[MAX];
+    double position[3 * MAX];
+    int octaves[MAX], normal_octaves[MAX], band[4];
+    assert(count <= MAX);
+    int fading = e->banded && params->detail_fade_cell > 0.0, any_fade = 0;
+    if (e->banded && !fading)
+        plod__detail_bands(e, corners, e->n, band);
+    for (size_t v = 0; v < count; v++) {
+        plod__vertex_direction(corners, k[v], inv_n, dirs + 3 * v);
+        if (fading) {
+            plod__fade_band(e, dirs + 3 * v, octaves + v, fade + v);
+            normal_octaves[v] = octaves[v];
+            any_fade |= fade[v] > 0.0;
+        } else if (e->banded) {
+            octaves[v] = plod__vertex_band(e, k[v], band, dirs + 3 * v, normal_octaves + v);
+        }
+    }
+    e->surface->ops->sample_n(e->surface->self, count, dirs, e->banded ? octaves : NULL,
+                              e->banded ? normal_octaves : NULL, heights,
+                              normals_f ? normals : NULL, detail_f ? detail : NULL);
+    if (any_fade)
+        plod__fade_blend(e, count, dirs, octaves, fade, heights, normals_f ? normals : NULL,
+                         detail_f ? detail : NULL);
+    plod__row row_out = {position, positions, normals_f, NULL, detail_f};
+    plod__row_outputs(count, dirs, heights, normals, detail, params->planet->radius,
+                      params->origin, 0.0, &row_out);
+}
+
+/* The split morph of a sector (plod_mesh_sector.split): each vertex off
+ * the parent's grid moves by split_morph toward the middle of the parent's
+ * edge through it.  Child 0 (p1, m, p0) keeps the weight on its corner 0
+ * (p1) along that edge, child 1 (p2, m, p1) the one on its corner 2; the
+ * edge's ends are the vertices with corner 1's weight -+1.  On the
+ * bisecting edge (child 0: weight 0 on corner 2; child 1: on corner 0) one
+ * end is the sibling's vertex, evaluated here from the sibling's corners. */
+static void plod__split_morph_sector(const plod__emitter *e, const plod_mesh_sector *sector,
+                                     size_t vbase)
+{
+    enum { MAX = 1 << (PLOD_MAX_TEMPLATE_LEVEL - 1) };
+    double m = sector->split_morph;
+    if (!(m > 0.0))
+        return; /* morph output already 0 */
+    if (m > 1.0)
+        m = 1.0;
+    const plod_mesh_buffers *out = e->out;
+    float *pos = out->positions + 3 * vbase;
+    float *nrm = out->normals ? out->normals + 3 * vbase : NULL;
+    float *det = out->detail ? out->detail + vbase : NULL;
+    float *morph_out = out->morph ? out->morph + vbase : NULL;
+    int n = e->n, child = sector->split_child != 0;
+    /* the sibling: child 1 = (p2, m, p1) = (third, c1, c0); child 0 =
+     * (p1, m, p0) = (c2, c1, third) */
+    double sibling[3][3];
+    for (int c = 0; c < 3; c++) {
+        sibling[0][c] = child ? sector->corners[2][c] : sector->third_corner[c];
+        sibling[1][c] = sector->corners[1][c];
+        sibling[2][c] = child ? sector->third_corner[c] : sector->corners[0][c];
+    }
+    int outside_k[MAX][3];
+    size_t outside = 0;
+    for (int k1 = 1; k1 < n; k1 += 2, outside++) {
+        int other = n - k1; /* the bisecting-edge vertex's other weight */
+        int *k = outside_k[outside];
+        if (!child) { /* own (other, k1, 0): the sibling's (1, k1 - 1, other) */
+            k[0] = 1, k[1] = k1 - 1, k[2] = other;
+        } else {      /* own (0, k1, other): the sibling's (other, k1 - 1, 1) */
+            k[0] = other, k[1] = k1 - 1, k[2] = 1;
+        }
+    }
+    float outside_pos[3 * MAX], outside_nrm[3 * MAX], outside_det[MAX];
+    plod__sample_vertices(e, (const double (*)[3])sibling, outside,
+                          (const int (*)[3])outside_k, outside_pos,
+                          nrm ? outside_nrm : NULL, det ? outside_det : NULL);
+    size_t v = 0;
+    for (int i = 0; i <= n; i++)
+        for (int j = 0; j <= n - i; j++, v++) {
+            if (!(j & 1))
+                continue; /* on the parent's grid */
+            int k0 = n - i - j;
+            if ((i == 0 && !(sector->split_edges & 1u)) ||
+                (k0 == 0 && !(sector->split_edges & 2u)))
+                continue; /* an edge a finer sector meets unmorphed */
+            /* the edge's ends: a inside, b inside or the sibling's */
+            size_t a, b = 0;
+            const float *bp, *bn = NULL, *bd = NULL;
+            if (!child) {
+                a = plod__vertex_index(n, i + 1, j - 1);
+                if (i > 0)
+                    b = plod__vertex_index(n, i - 1, j + 1);
+            } else {
+                a = plod__vertex_index(n, i, j - 1);
+                if (k0 > 0)
+                    b = plod__vertex_index(n, i, j + 1);
+            }
+            if ((!child && i == 0) || (child && k0 == 0)) {
+                size_t o = (size_t)(j - 1) / 2;
+                bp = outside_pos + 3 * o;
+                bn = outside_nrm + 3 * o;
+                bd = outside_det + o;
+            } else {
+                bp = pos + 3 * b;
+                if (nrm)
+                    bn = nrm + 3 * b;
+                if (det)
+                    bd = det + b;
+            }
+            if (morph_out)
+                morph_out[v] = (float)m;
+            for (int c = 0; c < 3; c++) {
+                double p = (double)pos[3 * v + c];
+                double target = 0.5 * ((double)pos[3 * a + c] + (double)bp[c]);
+                pos[3 * v + c] = (float)(p + m * (target - p));
+            }
+            if (nrm) {
+                double nv[3], len2 = 0.0;
+                for (int c = 0; c < 3; c++) {
+                    double target = 0.5 * ((double)nrm[3 * a + c] + (double)bn[c]);
+                    nv[c] = (double)nrm[3 * v + c] + m * (target - (double)nrm[3 * v + c]);
+                    len2 += nv[c] * nv[c];
+                }
+                double len = sqrt(len2);
+                if (len > 0.0)
+                    for (int c = 0; c < 3; c++)
+                        nrm[3 * v + c] = (float)(nv[c] / len);
+            }
+            if (det) {
+                double target = 0.5 * ((double)det[a] + (double)*bd);
+                det[v] = (float)((double)det[v] + m * (target - (double)det[v]));
+            }
+        }
+}
+
 /* A cached sector's corner normals for this emission's eye (they depend
  * on it, plod__vertex_band): as plod__compute_vertices computes them,
  * evaluated again only for corners whose band the eye changed (the cached
@@ -1062,8 +1206,12 @@ static plod_status plod__emit_sector(const plod__emitter *e, const plod_mesh_sec
     if (out->face)
         for (size_t t = 0; t < e->triangles_per_sector; t++)
             out->face[tbase + t] = sector->face;
-    if (params->morph && n > 1 && out->positions)
-        plod__morph_sector(e, vbase);
+    if (params->morph && n > 1 && out->positions) {
+        if (sector->split)
+            plod__split_morph_sector(e, sector, vbase);
+        else
+            plod__morph_sector(e, vbase);
+    }
     return PLOD_OK;
 }
 
@@ -1094,6 +1242,7 @@ static void plod__run_chunk(plod__chunk *chunk)
     chunk->status = PLOD_OK;
     for (size_t s = chunk->begin; s < chunk->end; s++) {
         sector.key = 0;
+        sector.split = 0;
         if (!chunk->source(chunk->context, s, &sector))
             continue;
         plod__slot_cache *sc = NULL;
@@ -1260,6 +1409,7 @@ static void plod__find_unchanged(void *context, size_t begin, size_t end)
     for (size_t s = begin; s < end; s++) {
         u->entry[s] = -1;
         sector.key = 0;
+        sector.split = 0;
         if (!u->source(u->context, s, &sector) || !sector.key)
             continue;
         int32_t hit = plod__cache_find(u->cache, sector.key);
@@ -1292,6 +1442,7 @@ static void plod__weigh(void *context, size_t begin, size_t end)
     plod_mesh_sector sector;
     for (size_t s = begin; s < end; s++) {
         sector.key = 0;
+        sector.split = 0;
         if (!w->source(w->context, s, &sector))
             w->weight[s] = 0;
         else if (sector.key && plod__cache_find(w->cache, sector.key) >= 0)

@@ -187,8 +187,23 @@ void plod_detail_local_range(const plod_detail *detail, const double dir[3], dou
                              double cell, double *lo, double *hi);
 /* Expected height error, per unit of modulation, of a mesh with cells of
  * `cell` metres against the field: the octaves it drops, and the
- * interpolation error of the ones it keeps.  Monotone in cell. */
+ * interpolation error of the ones it keeps, summed as independent errors
+ * (root of the sum of squares: the octaves' phases are independent, and
+ * the ridged octaves are weighted by the coarser ones, so their full
+ * ranges never add up in one place).  Monotone in cell. */
 double plod_detail_cell_error(const plod_detail *detail, double cell);
+/* The same counting only the first `visible` octaves (clamped to the
+ * count; <= 0: 0): neither the drop nor the interpolation error of the
+ * finer ones.  Monotone in cell and in visible; plod_detail_cell_error at
+ * visible >= the count. */
+double plod_detail_cell_error_visible(const plod_detail *detail, double cell, int visible);
+/* Octaves of wavelength >= `wavelength` metres (the first ones). */
+int plod_detail_octaves_at_least(const plod_detail *detail, double wavelength);
+/* Pixels of wavelength below which an octave counts in no refinement
+ * error (plod_bound.h): relief finer than that at its distance is below
+ * the pixel, which no mesh draws (its triangles would alias it), and
+ * steep fine octaves would otherwise cut cells of a pixel everywhere. */
+#define PLOD_DETAIL_VISIBLE_WAVE_PIXELS 2.0
 
 #ifdef __cplusplus
 }

@@ -56,6 +56,25 @@ typedef struct plod_mesh_sector {
                              sector id); 0 = never cached.  plod_mesh_emit
                              sets it to 0 before each source call;
                              plod_mesh_instances neither sets nor reads it. */
+    /* Split morph (plod_split_morph in plod_refine.h): with `split` set the
+     * sector is a child of a longest-edge bisection, and with params.morph
+     * its vertices off its parent's grid (odd weight on corner 1, the
+     * parent's hypotenuse midpoint) blend by split_morph toward the middle
+     * of the parent's edge through them (the edge of constant weight on the
+     * parent's right-angle corner); on the bisecting edge that edge ends in
+     * the sibling, whose vertex is evaluated from the sibling's corners
+     * (this sector's corners and third_corner), so both siblings agree bit
+     * for bit.  Sectors whose split_morph is 0 do not move.  split 0: the
+     * distance geomorph below (params.morph_*).  plod_mesh_emit sets split
+     * to 0 before each source call. */
+    int split;            /* 1: split_child, split_morph, third_corner set */
+    int split_child;      /* 0: corners (parent 1, midpoint, parent 0);
+                             1: (parent 2, midpoint, parent 1) */
+    double split_morph;   /* [0, 1]: 1 = the parent's surface */
+    double third_corner[3]; /* the parent's corner this sector lacks */
+    unsigned split_edges; /* bit e (0, 1): vertices on edge e (corners e,
+                             e + 1) morph too; else they stay (a finer
+                             sector meets them there) */
 } plod_mesh_sector;
 
 /* Returns 1 if sector `index` (0..count-1) is emitted and then fills
@@ -235,7 +254,8 @@ plod_status plod_mesh_emit(const plod_mesh_params *params,
                            const plod_mesh_sector_source *sectors,
                            const plod_surface_source *surface, const plod_mesh_buffers *out,
                            size_t *vertex_count, size_t *triangle_count);
-/* Same over a plain array (every sector emitted). */
+/* Same over a plain array (every sector emitted, each as given: its split
+ * fields too, so zero `split` where there is no split morph). */
 plod_status plod_mesh_emit_array(const plod_mesh_params *params,
                                  const plod_mesh_sector *sectors, size_t count,
                                  const plod_surface_source *surface,

@@ -201,6 +201,44 @@ void plod_sector_corners(const plod_planet *planet, const plod_sector *sector,
  * split marks, visible order), capacities included; 0 for NULL. */
 size_t plod_refiner_memory_bytes(const plod_refiner *refiner);
 
+/* ---- split morph (F. Strugar, "Continuous Distance-Dependent Level of
+ * Detail for Rendering Heightmaps", 2009, carried to longest-edge
+ * bisection) ------------------------------------------------------------------
+ * A diamond D (two parents split together) gives its four children one
+ * factor, so that the children's vertices off the parents' grid can blend
+ * toward the parents' surface: s_D = the larger of the refiner's split
+ * scores (plod_bound_score at the bound's distance) of D's two parents,
+ * s_C = the largest score over D's four children and their partners
+ * across the children's hypotenuses (the diamonds they split in);
+ * factor = 1 where s_D <= 1 (D splits or merges right there, or D is a
+ * forced split: the children look exactly like their parents), 0 where
+ * s_C >= 1 (a child's diamond splits), else (1 - s_C) / (s_D - s_C):
+ * continuous in the camera between the two (a child split already counts
+ * with its node's score).  A leaf's edges through the midpoint morph only
+ * where a leaf of its level lies across (a split child's children meet
+ * them unmorphed).  A function of the tree, the camera and the parameters
+ * alone. */
+typedef struct plod_split_morph {
+    double factor;          /* in [0, 1]; -1 for a base sector (no parent) */
+    double third_corner[3]; /* unit direction of the parent's corner the leaf
+                               lacks (plod_sector_corners of the parent) */
+    int child;              /* which child of its parent: 0 = corners (parent
+                               corner 1, midpoint, parent corner 0), 1 =
+                               (parent corner 2, midpoint, parent corner 1) */
+    unsigned edges;         /* bit e (0, 1): the vertices on the leaf's edge e
+                               (corners e, e + 1) morph */
+} plod_split_morph;
+
+/* The split morph of `count` leaves (indices into plod_refiner_sectors, or
+ * 0..count-1 when `leaves` is NULL) for `camera` and `params` (those of the
+ * last update: the tree is theirs) into out[0..count-1].  PLOD_ERR_NULL,
+ * PLOD_ERR_BAD_COORD for a camera at the planet's centre or not finite,
+ * PLOD_ERR_BAD_PARAM for an index out of range. */
+plod_status plod_refiner_split_morphs(const plod_refiner *refiner, const plod_camera *camera,
+                                      const plod_refine_params *params,
+                                      const uint32_t *leaves, size_t count,
+                                      plod_split_morph *out);
+
 /* Verifies the internal invariants (neighbour links match the leaves'
  * edges both ways, every edge shared by two leaves within one level,
  * internal nodes = leaves - base sectors, parent and diamond-partner

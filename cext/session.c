@@ -36,6 +36,8 @@ struct plod_session {
     plod_chunked *chunked;     /* owned; created by the first chunked refine */
     plod_geomipmap *geomipmap; /* owned; created by the first geomipmap refine */
     plod_clipmap *clipmap;     /* owned; created by the first clipmap refine */
+    plod_split_morph *split_morphs; /* owned: the morphing emission's per sector */
+    size_t split_morph_capacity;
     plod_mutex lock;
 };
 
@@ -150,6 +152,7 @@ void plod_session_destroy(plod_session *session)
     plod_cubemap_bundle_destroy(session->bundle);
     plod_cubemap_destroy(session->normalmap);
     plod_detail_destroy(session->detail);
+    free(session->split_morphs);
     plod_mutex_destroy(&session->lock);
     free(session);
 }
@@ -352,6 +355,7 @@ typedef struct plod__leaf_source {
     const plod_planet *planet;
     const plod_sector *sectors;
     const uint32_t *order; /* NULL: storage order */
+    const plod_split_morph *split; /* per index, or NULL: no split morph */
 } plod__leaf_source;
 
 static int plod__leaf_sector(const void *context, size_t index, plod_mesh_sector *out)
@@ -363,6 +367,14 @@ static int plod__leaf_sector(const void *context, size_t index, plod_mesh_sector
         out->level = s->level;
         out->face = s->face;
         out->key = s->id;
+        if (src->split) {
+            const plod_split_morph *m = &src->split[index];
+            out->split = 1;
+            out->split_child = m->child;
+            out->split_edges = m->edges;
+            out->split_morph = m->factor > 0.0 ? m->factor : 0.0; /* base: -1 */
+            memcpy(out->third_corner, m->third_corner, sizeof out->third_corner);
+        }
     }
     return 1;
 }
@@ -376,6 +388,7 @@ static plod_mesh_sector_source plod__leaf_source_init(const plod_session *sessio
     leaves->planet = &session->planet;
     leaves->sectors = plod_refiner_sectors(session->refiner, &count);
     leaves->order = plod_refiner_visible(session->refiner, &visible);
+    leaves->split = NULL;
     if (!visible_only)
         leaves->order = NULL;
     plod_mesh_sector_source source = {plod__leaf_sector, leaves,
@@ -627,6 +640,23 @@ plod_status plod_session_emit(plod_session *session, const plod_mesh_params *par
     }
     plod__leaf_source leaves;
     plod_mesh_sector_source sectors = plod__leaf_source_init(session, visible_only, &leaves);
+    if (mp.morph && session->has_camera && !session->camera.desc.orthographic) {
+        /* the split morph, from the last refine's split test (plod_refine.h) */
+        if (sectors.count > session->split_morph_capacity) {
+            plod_split_morph *grown =
+                realloc(session->split_morphs, sectors.count * sizeof *grown);
+            if (!grown)
+                return PLOD_ERR_NO_MEMORY;
+            session->split_morphs = grown;
+            session->split_morph_capacity = sectors.count;
+        }
+        plod_status st = plod_refiner_split_morphs(session->refiner, &session->camera,
+                                                   &session->params, leaves.order,
+                                                   sectors.count, session->split_morphs);
+        if (st != PLOD_OK)
+            return st;
+        leaves.split = session->split_morphs;
+    }
     plod_surface_source surface = plod_planet_surface_source(&session->planet);
     /* the workers spin from here (the emission's setup) to its loops, and
      * linger after it for the next call */

@@ -32,7 +32,7 @@ def test():
     r3d.view_distance = 1.6 * s.radius
     r3d.view_rotation = Vector((0.5, -1.0, 0.4)).to_track_quat('Z', 'Y')
     s.show_levels = True
-    for method in ('HRTMR', 'CHUNKED', 'GEOMIPMAP'):
+    for method in ('HRTMR', 'CHUNKED', 'GEOMIPMAP', 'CLIPMAP'):
         s.lod_method = method
         yield from ui.refreshed(planet)
         st = runtime.state(planet)
