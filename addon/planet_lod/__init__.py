@@ -61,7 +61,8 @@ bl_info = {
 
 if "bpy" in locals():  # script reload (F3 > Reload Scripts)
     import importlib
-    for _name in ("compat", "core", "prefs", "mappaths", "nodes", "runtime", "atmosphere",
+    for _name in ("compat", "core", "prefs", "mappaths", "nodes", "runtime", "ground_proxy",
+                  "atmosphere",
                   "terrain_shading", "materials", "cameras", "placement", "framing", "refresh",
                   "handlers", "navigation", "view_follow", "legend", "draw", "sky_preview",
                   "props", "operators", "map_files", "preset_menus", "render", "flyby_job", "recordpath", "ui"):
@@ -71,10 +72,10 @@ if "bpy" in locals():  # script reload (F3 > Reload Scripts)
 import bpy  # noqa: E402
 from bpy.props import PointerProperty  # noqa: E402
 
-from . import (compat, core, prefs, mappaths, nodes, runtime, atmosphere,  # noqa: E402
-               terrain_shading, materials, cameras, placement, framing, refresh, handlers,
-               navigation, view_follow, legend, draw, sky_preview, props, operators, map_files,
-               preset_menus, render, flyby_job, recordpath, ui)
+from . import (compat, core, prefs, mappaths, nodes, runtime, ground_proxy,  # noqa: E402
+               atmosphere, terrain_shading, materials, cameras, placement, framing, refresh,
+               handlers, navigation, view_follow, legend, draw, sky_preview, props, operators,
+               map_files, preset_menus, render, flyby_job, recordpath, ui)
 
 classes = (
     props.PLOD_PG_inset,
@@ -125,9 +126,11 @@ def register():
     navigation.register()
     view_follow.register()
     legend.register()
+    ground_proxy.register()
 
 
 def unregister():
+    ground_proxy.unregister()
     legend.unregister()
     view_follow.unregister()
     navigation.unregister()

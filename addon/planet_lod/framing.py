@@ -9,6 +9,8 @@ import math
 import bpy
 from mathutils import Vector
 
+from . import ground_proxy
+
 # The planet's disk fills this fraction of the smaller field of view.
 FILL = 0.8
 DEFAULT_DIRECTION = Vector((0.62, -0.58, 0.42)).normalized()
@@ -128,6 +130,7 @@ def hide_inside(scene, obj, top, undo):
     centre = obj.matrix_world.translation
     for other in scene.objects:
         if (other is obj or other.type in {'LIGHT', 'CAMERA'} or other.planet_lod.enabled
+                or ground_proxy.is_proxy(other)
                 or other.planet_lod_geo.enabled or other.hide_render
                 or (other.matrix_world.translation - centre).length >= top):
             continue

@@ -12,7 +12,7 @@ import time
 import bpy
 from bpy.app.handlers import persistent
 
-from . import cameras, compat, core, placement, refresh, runtime
+from . import cameras, compat, core, ground_proxy, placement, refresh, runtime
 from .core import planets as planet_settings
 
 REFRESH_INTERVAL_S = 0.1   # during navigation the detail follows at this rate
@@ -40,6 +40,12 @@ def tick():
         return TICK_S
     try:
         _tick_locked()
+        scene = getattr(bpy.context, "scene", None)
+        if scene is not None:
+            try:
+                ground_proxy.update(scene)
+            except (ReferenceError, AttributeError, RuntimeError) as exc:  # keep the timer
+                print("planet_lod: viewport ground:", exc)
     finally:
         refresh.LOCK.release()
     # a job in flight or a progressive refinement to carry on: come back soon

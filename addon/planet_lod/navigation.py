@@ -12,7 +12,7 @@ import bpy
 from bpy.props import BoolProperty, FloatProperty
 from mathutils import Matrix, Vector
 
-from . import cameras, core, framing, runtime
+from . import cameras, core, framing, ground_proxy, runtime
 from .core import flyby, planets, presets
 
 # Below this altitude (as a fraction of the radius) the view's up follows the
@@ -265,7 +265,10 @@ class PLOD_OT_go_to_surface(bpy.types.Operator):
         r3d = context.area.spaces.active.region_3d
         eye, rotation = surface_view(obj, self.longitude, self.latitude, self.altitude,
                                      self.heading, self.pitch)
-        set_view(r3d, eye, rotation, max(self.altitude, 1.0))
+        # the pivot on the ground ahead: the wheel then zooms towards the ground
+        hit = ground_hit(obj, eye, rotation @ Vector((0.0, 0.0, -1.0)))
+        set_view(r3d, eye, rotation, (hit - eye).length if hit is not None
+                 else max(self.altitude, 1.0))
         runtime.mark_dirty(obj)
         cameras.fit_view_clips(context.scene)
         context.area.tag_redraw()
@@ -311,7 +314,7 @@ class PLOD_OT_cursor_to_ground(bpy.types.Operator):
                                                                     distance=best)
             if not found:
                 break
-            if obj.original not in planets_here:
+            if obj.original not in planets_here and not ground_proxy.is_proxy(obj.original):
                 return {'PASS_THROUGH'}
             start = location + direction * 1e-3
         context.scene.cursor.location = point

@@ -56,10 +56,10 @@ def check_settings(obj):
     try:
         planet_settings.check_heightmap(settings.get("heightmap"))
         planet_settings.check_insets(planet_settings.inset_paths(settings))
-    except core.FileError as exc:
+    except (core.FileError, core.ImageError) as exc:
         st.error = str(exc)
     else:
-        if st.error.startswith(("height map", "inset")):
+        if st.error.startswith(("height map", "inset", "not an image file")):
             st.error = ""
 
 

@@ -3,27 +3,22 @@ the view, a zoom pivot kept on the ground (the wheel zooms towards the ground
 in shrinking steps, never through it), the view's up levelled to the planet's
 local up near the ground, and every view carried along when the floating
 origin moves, so the planet does not jump on screen."""
-import math
 import threading
 
 import bpy
 from mathutils import Vector
 
 from . import core, handlers, runtime
-from .navigation import NEAR_GROUND, altitude, eye_of, planet_centre
+from .navigation import NEAR_GROUND, altitude, eye_of, ground_hit, planet_centre
 
 # ---- keeping the views on the planet ----------------------------------------------
 
-def _ray_hits_sphere(origin, direction, centre, radius):
-    """Distance along the unit `direction` to the sphere, or None."""
-    oc = origin - centre
-    b = oc.dot(direction)
-    c = oc.length_squared - radius * radius
-    disc = b * b - c
-    if disc < 0.0:
-        return None
-    t = -b - math.sqrt(disc)
-    return t if t > 0.0 else None
+# Below this height (m) the eye is lifted back above the ground: a Walk
+# teleport lands on the depth proxy (ground_proxy.py), a little below it.
+MIN_CLEARANCE = 2.0
+# Deeper than this fraction of the radius under the ground the eye is left
+# where it is (it was put inside on purpose).
+LIFT_DEPTH = 0.01
 
 
 def _views():
@@ -37,8 +32,11 @@ def _views():
 
 
 def keep_pivot_on_ground(obj, area, r3d):
-    """Moves a perspective view's pivot (the point it zooms towards and orbits)
-    out of the planet onto the ground ahead, the eye unchanged; near the
+    """Keeps a perspective view out of the ground: an eye just below it is
+    lifted above it, and a pivot (the point Blender's wheel zooms towards and
+    its orbit turns around) under the ground is moved onto the ground ahead,
+    the eye unchanged, so each wheel notch covers a fixed share of the
+    distance left to the ground and never passes through it.  Near the
     ground, levels the view's horizon to the planet's local up.  True when
     the view changed."""
     if r3d.view_perspective != 'PERSP' or not area.spaces.active.planet_lod_follow_ground:
@@ -48,20 +46,46 @@ def keep_pivot_on_ground(obj, area, r3d):
     radius = obj.planet_lod.radius * scale
     eye = eye_of(r3d)
     height = altitude(obj, eye) * scale
-    if height <= 0.0:
-        return False
     changed = False
+    if -LIFT_DEPTH * radius < height < MIN_CLEARANCE:
+        lift = _way_out(obj, eye, r3d.view_rotation @ Vector((0.0, 0.0, -1.0)),
+                        (eye - centre).normalized(), height, scale)
+        r3d.view_location = Vector(r3d.view_location) + lift
+        eye, changed = eye + lift, True
+        height = altitude(obj, eye) * scale
+    if height <= 0.0:
+        return changed
     pivot = Vector(r3d.view_location)
-    if (pivot - centre).length < radius - 0.01 * height:
+    if altitude(obj, pivot) * scale < -max(0.01 * height, 0.5):
         forward = r3d.view_rotation @ Vector((0.0, 0.0, -1.0))
-        hit = _ray_hits_sphere(eye, forward, centre, radius)
-        distance = hit if hit is not None else max(height, 1.0)
+        hit = ground_hit(obj, eye, forward)
+        distance = (hit - eye).length if hit is not None else max(height, 1.0)
         r3d.view_distance = distance
         r3d.view_location = eye + forward * distance
         changed = True
     if height < NEAR_GROUND * radius:
         changed |= level_horizon(r3d, eye, (eye - centre).normalized())
     return changed
+
+
+def _way_out(obj, eye, forward, up, height, scale):
+    """The move that takes an eye `height` m above the ground (less than
+    MIN_CLEARANCE) back above it: back along its view when it looks down (it
+    came that way: a Walk teleport or a zoom overshooting the ground), to
+    where the view crosses MIN_CLEARANCE; else straight up."""
+    if -forward.dot(up) > 0.1:
+        def above(back):
+            return altitude(obj, eye - forward * back) * scale
+        low, low_height = 0.0, height
+        for _ in range(64):  # steps of the depth left: never past a crossing by much
+            high = low + max(MIN_CLEARANCE - low_height, 1.0)
+            if above(high) >= MIN_CLEARANCE:
+                for _ in range(24):
+                    mid = 0.5 * (low + high)
+                    low, high = (low, mid) if above(mid) >= MIN_CLEARANCE else (mid, high)
+                return -forward * high
+            low, low_height = high, above(high)
+    return up * (MIN_CLEARANCE - height)
 
 
 def level_horizon(r3d, eye, up):
@@ -165,7 +189,8 @@ class PLOD_OT_navigate(bpy.types.Operator):
             return {'PASS_THROUGH'}  # far out or inside: Blender's pace
         walk = context.preferences.inputs.walk_navigation
         # Walk reads its speed from the preferences when it starts: set for
-        # that moment only, the user's own value put back at once
+        # that moment only, the user's own value put back at once (Blender's
+        # Fly has no such setting: its speed grows by 1 m/s a step)
         saved = walk.walk_speed
         walk.walk_speed = walk_speed(height)
         try:

@@ -1,7 +1,9 @@
 """What the viewport's ground tools compute, without a window: where a view
 ray meets a planet's ground (Shift-RMB's 3D cursor), the walk's pace by
-altitude, and the viewport sky's GLSL assembled from the shared display and
-atmosphere functions."""
+altitude, the viewport sky's GLSL assembled from the shared display and
+atmosphere functions, and the viewport ground (the mesh Blender's depth
+tools see under the preview) and bounding-box mask as Blender data: out of
+renders and selection, none of it left in a saved file."""
 import math
 
 import bpy
@@ -55,6 +57,23 @@ def main():
     assert navigation.ground_hit(earth, eye + Vector((1.0e7, 0.0, 0.0)),
                                  Vector((0.0, 1.0, 0.0))) is None
 
+    # an eye that went under the ground along its view (a Walk teleport onto
+    # the viewport ground, which lies under the ground) comes back along it
+    eye, rotation = navigation.surface_view(earth, 7.9, 46.0, 2000.0, 0.0, -20.0)
+    forward = rotation @ Vector((0.0, 0.0, -1.0))
+    hit = navigation.ground_hit(earth, eye, forward)
+    under = hit + forward * 300.0
+    up = (under - navigation.planet_centre(earth)).normalized()
+    move = view_follow._way_out(earth, under, forward, up,
+                                navigation.altitude(earth, under), 1.0)
+    out = under + move
+    print(f"eye {navigation.altitude(earth, under):.1f} m under the ground: back "
+          f"{move.length:.1f} m along its view, {navigation.altitude(earth, out):.2f} m above "
+          f"it, {(out - hit).length:.1f} m from where the view met it", flush=True)
+    assert move.normalized().dot(forward) < -0.999
+    assert 0.5 * view_follow.MIN_CLEARANCE <= navigation.altitude(earth, out) < 50.0
+    assert (out - hit).length < 50.0
+
     speeds = [view_follow.walk_speed(h) for h in (0.5, 20.0, 2000.0, 4.0e5)]
     print("walk speeds at 0.5 m, 20 m, 2 km, 400 km:", speeds, flush=True)
     assert speeds == sorted(speeds) and speeds[0] >= 0.1 and speeds[-1] <= 100.0
@@ -67,6 +86,43 @@ def main():
         assert name in frag, name
     _, planet_frag = draw.shader_sources(draw.shader_defines(atm))
     assert "void aerial_perspective(" in planet_frag and "void main()" in planet_frag
+    viewport_ground(earth)
+
+
+def viewport_ground(earth):
+    import os
+    import tempfile
+    from planet_lod import ground_proxy, navigation
+    from planet_lod.core import planets
+    planet = planets.build_planet(earth.planet_lod.as_dict())
+    eye, _ = navigation.surface_view(earth, 7.9, 46.0, 2000.0, 0.0, -20.0)
+    local = earth.matrix_world.inverted() @ eye
+    proxy = ground_proxy._new_proxy(earth)
+    ground_proxy._write(proxy, *ground_proxy.proxy_geometry.proxy_mesh(
+        planet.surface, earth.planet_lod.radius, tuple(local), (0.0, 0.0, 0.0)))
+    earth.data.vertices.add(3)  # a mesh for the render (a real one has thousands)
+    ground_proxy.show_box(earth, False)
+    bpy.context.view_layer.update()
+    assert ground_proxy.proxy_of(earth) == proxy and ground_proxy.is_proxy(proxy)
+    assert proxy.hide_render and proxy.hide_select and proxy.display_type == 'SOLID'
+    assert proxy.matrix_world == earth.matrix_world
+    assert len(proxy.data.polygons) > 100
+    evaluated = earth.evaluated_get(bpy.context.evaluated_depsgraph_get())
+    assert len(evaluated.data.vertices) == 0, "the viewport box mask keeps geometry"
+    # a ray cast (Walk's teleport casts one) meets the proxy just under the ground
+    down = (navigation.planet_centre(earth) - eye).normalized()
+    found, location, *_ = bpy.context.scene.ray_cast(
+        bpy.context.evaluated_depsgraph_get(), eye, down)
+    depth = -navigation.altitude(earth, location) if found else None
+    print(f"viewport ground {depth} m under the ground below the eye", flush=True)
+    # (the Alps: the lowest ground within a cell, 2 km below the eye)
+    assert found and 0.0 <= depth < 0.1 * (location - eye).length
+    path = os.path.join(tempfile.mkdtemp(), "ground.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path, copy=True)
+    assert not any(ground_proxy.is_proxy(o) for o in bpy.data.objects)
+    assert ground_proxy.BOX_MASK not in earth.modifiers
+    assert ground_proxy.BOX_MASK not in earth.vertex_groups
+    print("viewport ground: built, masked, gone before the save", flush=True)
 
 
 lib.run(main)

@@ -6,7 +6,13 @@
   sky a Cycles render of the same camera gets; from orbit the viewport's
   space is black around the planet.
 * Shift-RMB puts the 3D cursor on the planet's ground under the mouse (the
-  preview is drawn outside the depth buffer Blender's own cursor reads)."""
+  preview is drawn outside the depth buffer Blender's own cursor reads).
+* Blender's own depth-based tools see the planet through its viewport
+  ground (a coarse mesh under the preview, which draws over it): Zoom
+  Border over the ground zooms in (without it: "Depth too large"), Walk's
+  teleport lands near the ground, above it.
+* The wheel zooms towards the ground in shrinking steps, never through it;
+  near the ground no bounding box crosses the sky."""
 import os
 
 import bpy
@@ -120,6 +126,9 @@ def test():
         f"viewport sky {viewport} against the render's {rendered}"
 
     yield from cursor_on_ground(planet, space)
+    yield from viewport_ground(planet, space)
+    yield from zoom_border(planet, space)
+    yield from walk_teleport(planet, space)
     yield from zoom_and_horizon(planet, space)
     yield from walk_at_altitude_pace(planet, space)
 
@@ -162,6 +171,125 @@ def cursor_on_ground(planet, space):
 
 
 
+def go_to_surface(planet, pitch=-20.0):
+    with ui.override():
+        assert bpy.ops.view3d.planet_go_to_surface(longitude=7.9, latitude=46.0,
+                                                   altitude=2000.0, pitch=pitch) == {'FINISHED'}
+    yield from refreshed(planet)
+
+
+def proxy_ready(planet):
+    from planet_lod import ground_proxy, runtime
+    proxy = ground_proxy.proxy_of(planet)
+    return proxy is not None and not ground_proxy._jobs and \
+        ground_proxy._key_if_stale(planet, runtime.state(planet)) is None
+
+
+def viewport_ground(planet, space):
+    """The viewport ground exists under a previewed planet, out of renders and
+    selection, and the preview draws over it: the view looks the same with
+    it hidden; no orange box (the selected planet's bounds) in the sky."""
+    from planet_lod import ground_proxy, runtime
+    yield from go_to_surface(planet, pitch=5.0)
+    yield from ui.wait_until(lambda: proxy_ready(planet), timeout=120,
+                             what="the viewport ground")
+    proxy = ground_proxy.proxy_of(planet)
+    assert proxy.hide_render and proxy.hide_select and proxy not in runtime.planet_objects(
+        bpy.context.scene)
+    print(f"viewport ground: {len(proxy.data.vertices)} vertices, "
+          f"{len(proxy.data.polygons)} triangles", flush=True)
+    planet.select_set(True)
+    bpy.context.view_layer.objects.active = planet
+    space.overlay.show_overlays = True
+    yield from ui.redraw(3)
+    with_ground = ui.screenshot("viewport_ground_shown.png")
+    orange = (np.abs(with_ground - np.array([1.0, 0.63, 0.16])).max(axis=2) < 0.12).mean()
+    print(f"orange pixels near the ground: {orange:.5f}", flush=True)
+    assert orange < 1e-4, "the planet's bounding box shows near the ground"
+    proxy.hide_set(True)
+    yield from ui.redraw(3)
+    without = ui.screenshot("viewport_ground_hidden.png")
+    proxy.hide_set(False)
+    space.overlay.show_overlays = False
+    differs = (np.abs(with_ground - without).sum(axis=2) > 0.1).mean()
+    print(f"pixels the viewport ground changes: {differs:.5f}", flush=True)
+    assert differs < 0.002, "the viewport ground shows through the preview"
+
+
+def zoom_border(planet, space):
+    """Zoom Border over the ground reads the depth there: without the viewport
+    ground Blender cancels it ("Depth too large")."""
+    from planet_lod import ground_proxy, navigation
+    r3d = space.region_3d
+    yield from go_to_surface(planet)
+    yield from ui.wait_until(lambda: proxy_ready(planet), timeout=120,
+                             what="the viewport ground")
+    win, area, region, _ = ui.view3d()
+    box = dict(xmin=region.width // 2 - 60, xmax=region.width // 2 + 60,
+               ymin=region.height // 2 - 140, ymax=region.height // 2 - 40, wait_for_input=False)
+    proxy = ground_proxy.proxy_of(planet)
+    proxy.hide_set(True)
+    yield from ui.redraw(2)
+    try:
+        with ui.override():
+            without = bpy.ops.view3d.zoom_border(**box)
+    except RuntimeError as exc:  # Blender's error report
+        without = str(exc)
+    proxy.hide_set(False)
+    yield from ui.redraw(2)
+    before = navigation.altitude(planet, navigation.eye_of(r3d))
+    with ui.override():
+        result = bpy.ops.view3d.zoom_border(**box)
+    yield from ui.redraw(2)
+    after = navigation.altitude(planet, navigation.eye_of(r3d))
+    print(f"Zoom Border: {result} ({without} without the viewport ground), altitude "
+          f"{before:.0f} m -> {after:.0f} m", flush=True)
+    assert "Depth too large" in str(without) and result == {'FINISHED'}
+    assert 0.0 < after < before
+
+
+def walk_teleport(planet, space):
+    """Walk's teleport (Space) flies to the ground at the view's centre and
+    stops near it, above it."""
+    from bpy_extras import view3d_utils
+    from planet_lod import navigation
+    r3d = space.region_3d
+    yield from go_to_surface(planet)
+    yield from ui.wait_until(lambda: proxy_ready(planet), timeout=120,
+                             what="the viewport ground")
+    win, area, region, _ = ui.view3d()
+    mx, my = region.width // 2, region.height // 2
+    origin = view3d_utils.region_2d_to_origin_3d(region, r3d, (mx, my))
+    ray = view3d_utils.region_2d_to_vector_3d(region, r3d, (mx, my)).normalized()
+    target = navigation.ground_hit(planet, origin, ray)
+    assert target is not None
+    x, y = region.x + mx, region.y + my
+    win.event_simulate(type='MOUSEMOVE', value='NOTHING', x=x, y=y)
+    yield 0.3
+    with ui.override():
+        assert bpy.ops.view3d.walk('INVOKE_DEFAULT') == {'RUNNING_MODAL'}
+    yield from ui.redraw(2)
+    win.event_simulate(type='SPACE', value='PRESS', x=x, y=y)
+    win.event_simulate(type='SPACE', value='RELEASE', x=x, y=y)
+    yield from ui.redraw(6)
+    win.event_simulate(type='RET', value='PRESS', x=x, y=y)
+    win.event_simulate(type='RET', value='RELEASE', x=x, y=y)
+    yield from ui.redraw(3)
+    start = (target - origin).length
+
+    def eye_height():
+        return navigation.altitude(planet, navigation.eye_of(r3d))
+    yield from ui.wait_until(lambda: eye_height() > 0.0, timeout=30,
+                             what="the eye above the ground after the teleport")
+    left = (navigation.eye_of(r3d) - target).length
+    print(f"Walk teleport: {start:.0f} m to the ground point, {left:.1f} m from it after, "
+          f"{eye_height():.1f} m above the ground", flush=True)
+    # (the viewport ground lies up to a few hundred metres under the Alps'
+    # ground: the teleport ends beyond the point, under the ground, and the
+    # view is taken back along its ray above it)
+    assert left < 0.05 * start, "Walk's teleport did not stop at the ground"
+
+
 def zoom_and_horizon(planet, space):
     """The wheel never takes the view through the ground; a rolled view near
     the ground comes back level with the planet's local up."""
@@ -170,17 +298,33 @@ def zoom_and_horizon(planet, space):
     r3d = space.region_3d
     win, area, region, _ = ui.view3d()
     x, y = region.x + region.width // 2, region.y + region.height // 2
-    heights = [navigation.altitude(planet, navigation.eye_of(r3d))]
+    yield from go_to_surface(planet)
+
+    def measure():
+        eye = navigation.eye_of(r3d)
+        ahead = r3d.view_rotation @ Vector((0.0, 0.0, -1.0))
+        hit = navigation.ground_hit(planet, eye, ahead)
+        return navigation.altitude(planet, eye), (hit - eye).length if hit else None
+    heights, distances = zip(*[measure()])
+    heights, distances = list(heights), list(distances)
     for notches in (3, 20):
         for _ in range(notches):
             win.event_simulate(type='MOUSEMOVE', value='NOTHING', x=x, y=y)
             win.event_simulate(type='WHEELUPMOUSE', value='PRESS', x=x, y=y)
             yield 0.05
+            assert navigation.altitude(planet, navigation.eye_of(r3d)) > 0.0
         yield from ui.redraw(2)
-        heights.append(navigation.altitude(planet, navigation.eye_of(r3d)))
-    print("altitude after 0, 3 and 23 wheel notches: "
-          + ", ".join(f"{h:.1f} m" for h in heights), flush=True)
-    assert min(heights) > 0.0, heights
+        height, distance = measure()
+        heights.append(height)
+        distances.append(distance)
+    print("after 0, 3 and 23 wheel notches: altitude "
+          + ", ".join(f"{h:.1f} m" for h in heights) + "; ground ahead "
+          + ", ".join(f"{d:.1f} m" for d in distances), flush=True)
+    # each notch takes a sixth of the distance left to the ground ahead (the
+    # altitude above the ground below can grow, over a valley), never through it
+    assert min(heights) > 0.0 and None not in distances, (heights, distances)
+    assert 0.5 < distances[1] / distances[0] < 0.65, distances
+    assert distances[2] / distances[0] < 0.03, distances
 
     forward = r3d.view_rotation @ Vector((0.0, 0.0, -1.0))
     from mathutils import Quaternion
@@ -208,6 +352,7 @@ def walk_at_altitude_pace(planet, space):
     r3d = space.region_3d
     walk = bpy.context.preferences.inputs.walk_navigation
     saved = walk.walk_speed
+    yield from go_to_surface(planet)
     win, area, region, _ = ui.view3d()
     x, y = region.x + region.width // 2, region.y + region.height // 2
     height = navigation.altitude(planet, navigation.eye_of(r3d))

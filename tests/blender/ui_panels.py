@@ -1,7 +1,8 @@
 """In the real UI (xvfb): every panel of the add-on's sidebar tab draws without
 error in each state -- no planet, each planet preset, a planet whose height map
-path is wrong, one with a missing inset file, a Large Map without its tile
-file -- and the error is shown in the panel (a red box); Write Tile File
+path is wrong, a text file named .png, a radius too small, one with a missing
+inset file, a Large Map without its tile file -- and the error is shown in
+plain words in the panel (a red box); Write Tile File
 writes it from the panel (a modal operator) and the planet refreshes."""
 import os
 
@@ -71,6 +72,33 @@ def test():
     planet.planet_lod.heightmap = ""
     yield from redraw_and_check(recorder, ALL, "height map cleared", planet)
     assert runtime.state(planet).error == "", runtime.state(planet).error
+    # plain words: a text file named .png, a radius too small for the relief
+    fake = os.path.join(lib.out_dir(), "notes.png")
+    with open(fake, "w") as f:
+        f.write("not pixels\n")
+    planet.planet_lod.heightmap = fake
+    yield from redraw_and_check(recorder, ALL, "a text file named .png", planet)
+    error = runtime.state(planet).error
+    print(f"fake .png: {error}", flush=True)
+    assert "not an image file (notes.png)" in error, error
+    assert red_pixels("panels_fake_png.png") > clean_red + 200, "the error is not shown"
+    planet.planet_lod.heightmap = ""
+    # (the Earth's relief: its lowest ground cannot reach half way to a 1 m centre)
+    earth = bpy.data.objects["Earth"]
+    bpy.context.view_layer.objects.active = earth
+    radius = earth.planet_lod.radius
+    earth.planet_lod.radius = 0.0  # clamped to the property's minimum
+    yield from redraw_and_check(recorder, ALL, "radius 0", earth)
+    yield from ui.settled(earth)
+    error = runtime.state(earth).error
+    print(f"radius 0: {error}", flush=True)
+    assert "radius must be at least" in error, error
+    assert red_pixels("panels_radius.png") > clean_red + 200, "the error is not shown"
+    earth.planet_lod.radius = radius
+    yield from redraw_and_check(recorder, ALL, "radius back", earth)
+    yield from ui.settled(earth)
+    assert runtime.state(earth).error == "", runtime.state(earth).error
+    bpy.context.view_layer.objects.active = planet
     # an inset whose file is missing: the list draws, the panel says why
     inset = planet.planet_lod.insets.add()
     inset.use_box = True  # its box fields draw too
