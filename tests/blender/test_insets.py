@@ -56,6 +56,7 @@ def main():
     earth = bpy.context.object
     s = earth.planet_lod
     s.use_detail, s.use_sea_level = False, False  # the map's heights alone
+    s.morph = False  # vertices on the surface itself, not between two levels
     look_down_at(cam, s.radius, 6.5, 45.5, 400.0e3)
     base = core.planets.build_planet(s.as_dict())
     assert base.height_range()[1] < TILE_HEIGHT - 1000.0, base.height_range()
