@@ -139,6 +139,38 @@ void plod_mesh_origin(const plod_surface_source *surface, double radius,
         origin[c] = dir[c] * r;
 }
 
+/* Vertex v moved the fraction m of the way to the middle of the edge from
+ * vertex a to the point b (position, and normal and detail where given): the
+ * coarser grid's interpolation there.  The shading follows the geometry, so
+ * a split does not flash the normals.  b may lie outside the arrays (a
+ * sibling sector's vertex). */
+static void plod__blend_to_edge(float *pos, float *nrm, float *det, size_t v, size_t a,
+                                const float *b_pos, const float *b_nrm, const float *b_det,
+                                double m)
+{
+    for (int c = 0; c < 3; c++) {
+        double p = (double)pos[3 * v + c];
+        double target = 0.5 * ((double)pos[3 * a + c] + (double)b_pos[c]);
+        pos[3 * v + c] = (float)(p + m * (target - p));
+    }
+    if (nrm) {
+        double nv[3], len2 = 0.0;
+        for (int c = 0; c < 3; c++) {
+            double target = 0.5 * ((double)nrm[3 * a + c] + (double)b_nrm[c]);
+            nv[c] = (double)nrm[3 * v + c] + m * (target - (double)nrm[3 * v + c]);
+            len2 += nv[c] * nv[c];
+        }
+        double len = sqrt(len2);
+        if (len > 0.0)
+            for (int c = 0; c < 3; c++)
+                nrm[3 * v + c] = (float)(nv[c] / len);
+    }
+    if (det) {
+        double target = 0.5 * ((double)det[a] + (double)*b_det);
+        det[v] = (float)((double)det[v] + m * (target - (double)det[v]));
+    }
+}
+
 /* The morph ramp with log2(scale) precomputed: level = rate * (log2(scale)
  * - log2(distance^2) / 2) avoids a square root per vertex. */
 static double plod__morph_ramp(const double eye[3], double log2_scale, double rate,
@@ -509,28 +541,8 @@ static void plod__morph_sector(const plod__emitter *e, size_t vbase)
                 morph_out[v] = (float)m;
             if (m == 0.0)
                 continue;
-            for (int c = 0; c < 3; c++) {
-                double target = 0.5 * ((double)pos[3 * a + c] + (double)pos[3 * b + c]);
-                pos[3 * v + c] = (float)(p[c] + m * (target - p[c]));
-            }
-            /* the shading follows the geometry: toward the coarser grid's
-             * interpolation too, so a split does not flash the normals */
-            if (nrm) {
-                double nv[3], len2 = 0.0;
-                for (int c = 0; c < 3; c++) {
-                    double target = 0.5 * ((double)nrm[3 * a + c] + (double)nrm[3 * b + c]);
-                    nv[c] = (double)nrm[3 * v + c] + m * (target - (double)nrm[3 * v + c]);
-                    len2 += nv[c] * nv[c];
-                }
-                double len = sqrt(len2);
-                if (len > 0.0)
-                    for (int c = 0; c < 3; c++)
-                        nrm[3 * v + c] = (float)(nv[c] / len);
-            }
-            if (det) {
-                double target = 0.5 * ((double)det[a] + (double)det[b]);
-                det[v] = (float)((double)det[v] + m * (target - (double)det[v]));
-            }
+            plod__blend_to_edge(pos, nrm, det, v, a, pos + 3 * b, nrm ? nrm + 3 * b : NULL,
+                                det ? det + b : NULL, m);
         }
 }
 
@@ -1031,27 +1043,7 @@ static void plod__split_morph_sector(const plod__emitter *e, const plod_mesh_sec
             }
             if (morph_out)
                 morph_out[v] = (float)m;
-            for (int c = 0; c < 3; c++) {
-                double p = (double)pos[3 * v + c];
-                double target = 0.5 * ((double)pos[3 * a + c] + (double)bp[c]);
-                pos[3 * v + c] = (float)(p + m * (target - p));
-            }
-            if (nrm) {
-                double nv[3], len2 = 0.0;
-                for (int c = 0; c < 3; c++) {
-                    double target = 0.5 * ((double)nrm[3 * a + c] + (double)bn[c]);
-                    nv[c] = (double)nrm[3 * v + c] + m * (target - (double)nrm[3 * v + c]);
-                    len2 += nv[c] * nv[c];
-                }
-                double len = sqrt(len2);
-                if (len > 0.0)
-                    for (int c = 0; c < 3; c++)
-                        nrm[3 * v + c] = (float)(nv[c] / len);
-            }
-            if (det) {
-                double target = 0.5 * ((double)det[a] + (double)*bd);
-                det[v] = (float)((double)det[v] + m * (target - (double)det[v]));
-            }
+            plod__blend_to_edge(pos, nrm, det, v, a, bp, bn, bd, m);
         }
 }
 
