@@ -8,7 +8,9 @@ solid at or just below the ground so the preview draws over it; hidden from
 renders, not selectable, rebuilt (in a thread) as the view the LOD follows
 moves, and removed before a save, so a file holds no trace of it.
 
-Near the ground the planet object's own viewport geometry (the mesh built
+The proxy exists only near the ground (below NEAR_GROUND of the radius),
+where those tools are used and a depth buffer resolves it; there the
+planet object's own viewport geometry (the mesh built
 for renders, drawn as its bounding box) is masked out by a viewport-only
 Mask modifier: its box would cross the sky.  The modifier goes before a save
 as the proxy does."""
@@ -23,7 +25,11 @@ from .core import planets as planet_settings
 
 PROXY_KEY = "planet_lod_ground_of"  # ID property: the planet a proxy stands under
 REBUILD_FRACTION = 0.05  # of the altitude: the eye's move that rebuilds the proxy
-NEAR_GROUND = 0.05  # of the radius: below this the planet's bounding box is hidden
+# of the radius: below this the planet's bounding box is hidden and the proxy
+# exists.  Farther out a depth buffer's step grows past the proxy's sink (the
+# proxy would show through the preview in dots), and the preview is the planet
+# Home and Frame Selected find.
+NEAR_GROUND = 0.05
 BOX_MASK = "Planet Viewport Box Off"  # the Mask modifier's and its vertex group's name
 
 _built = {}   # proxy name -> (what it was built from, eye, altitude)
@@ -145,7 +151,13 @@ def update(scene):
         if not _wanted(obj) or st is None or not st.frozen_camera:
             show_box(obj, True)
             continue
-        show_box(obj, _altitude(obj, st) > NEAR_GROUND * obj.planet_lod.radius)
+        near = _altitude(obj, st) <= NEAR_GROUND * obj.planet_lod.radius
+        show_box(obj, not near)
+        if not near:
+            proxy = proxy_of(obj)
+            if proxy is not None:
+                remove(proxy)
+            continue
         job = _jobs.get(obj.name_full)
         if job is not None:
             if job.is_alive():
