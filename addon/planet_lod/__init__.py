@@ -18,6 +18,7 @@ tests/test_layout.py checks it):
   handlers                     the viewport's timer and Blender's handlers
   navigation                   finding the planet with Blender's views: framing,
                                Go to Surface
+  planet_fly                   flying a view at the altitude's pace
   view_follow                  the views kept on the planet: altitude readout,
                                pivot on the ground, level horizon, floating origin
   legend                       the legend of Show Levels
@@ -64,7 +65,7 @@ if "bpy" in locals():  # script reload (F3 > Reload Scripts)
     for _name in ("compat", "core", "prefs", "mappaths", "nodes", "runtime", "ground_proxy",
                   "atmosphere",
                   "terrain_shading", "materials", "cameras", "placement", "framing", "refresh",
-                  "handlers", "navigation", "view_follow", "legend", "draw", "sky_preview",
+                  "handlers", "navigation", "planet_fly", "view_follow", "legend", "draw", "sky_preview",
                   "props", "operators", "map_files", "preset_menus", "render", "flyby_job", "recordpath", "ui"):
         if _name in locals():
             importlib.reload(locals()[_name])
@@ -74,7 +75,7 @@ from bpy.props import PointerProperty  # noqa: E402
 
 from . import (compat, core, prefs, mappaths, nodes, runtime, ground_proxy,  # noqa: E402
                atmosphere, terrain_shading, materials, cameras, placement, framing, refresh,
-               handlers, navigation, view_follow, legend, draw, sky_preview, props, operators,
+               handlers, navigation, planet_fly, view_follow, legend, draw, sky_preview, props, operators,
                map_files, preset_menus, render, flyby_job, recordpath, ui)
 
 classes = (
@@ -124,6 +125,7 @@ def register():
     render.add_handlers()
     recordpath.register()
     navigation.register()
+    planet_fly.register()
     view_follow.register()
     legend.register()
     ground_proxy.register()
@@ -133,6 +135,7 @@ def unregister():
     ground_proxy.unregister()
     legend.unregister()
     view_follow.unregister()
+    planet_fly.unregister()
     navigation.unregister()
     recordpath.unregister()
     render.remove_handlers()

@@ -52,8 +52,8 @@ def _import_package():
 
 
 planetlod = _import_package()
-from planetlod import (flyby, ground_proxy, mappaths, planets, presets, refresh,  # noqa: E402,F401
-                       report, surface, waypoints)
+from planetlod import (flight, flyby, ground_proxy, mappaths, planets,  # noqa: E402,F401
+                       presets, refresh, report, surface, waypoints)
 from planetlod import Cancelled, FileError, ImageError, PlanetLODError  # noqa: E402,F401
 
 # What operators and handlers report to the artist instead of raising: the

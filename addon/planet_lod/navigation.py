@@ -333,6 +333,7 @@ def view_menu(self, context):
     layout.separator()
     layout.operator(PLOD_OT_frame_planet.bl_idname, icon='WORLD')
     layout.operator(PLOD_OT_go_to_surface.bl_idname, icon='VIEW_CAMERA')
+    layout.operator("view3d.planet_fly", icon='VIEW_PAN')
     layout.prop(context.space_data, "planet_lod_follow_ground")
 
 

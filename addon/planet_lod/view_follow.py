@@ -8,7 +8,7 @@ import threading
 import bpy
 from mathutils import Vector
 
-from . import core, handlers, runtime
+from . import core, handlers, planet_fly, runtime
 from .navigation import NEAR_GROUND, altitude, eye_of, ground_hit, planet_centre
 
 # ---- keeping the views on the planet ----------------------------------------------
@@ -113,7 +113,8 @@ def follow_views():
     try:
         context = bpy.context
         scene = getattr(context, "scene", None)
-        if scene is None or core.native is None or handlers.render_job_running():
+        if scene is None or core.native is None or handlers.render_job_running() \
+                or planet_fly.flying():  # the flight holds the view
             return 0.1
         found = runtime.planet_objects(scene)
         if not found:
@@ -155,51 +156,6 @@ def shift_views(shift):
         pass
 
 
-# ---- walk and fly at the altitude's pace ----------------------------------------------
-
-# Walk's speed (m/s) per metre above the ground, and Blender's own bounds
-# on it: 100 m/s at 2 km, a metre a second at 20 m.
-WALK_SPEED_PER_METRE = 0.05
-WALK_SPEED_RANGE = (0.1, 100.0)
-
-
-def walk_speed(height):
-    low, high = WALK_SPEED_RANGE
-    return min(max(height * WALK_SPEED_PER_METRE, low), high)
-
-
-class PLOD_OT_navigate(bpy.types.Operator):
-    """Walk or fly through the view, at a pace that follows the altitude above the planet"""
-    bl_idname = "view3d.planet_navigate"
-    bl_label = "Walk/Fly Over Planet"
-
-    @classmethod
-    def poll(cls, context):
-        return context.area is not None and context.area.type == 'VIEW_3D' \
-            and context.region_data is not None
-
-    def invoke(self, context, event):
-        found = runtime.planet_objects(context.scene)
-        r3d = context.region_data
-        if not found or r3d.view_perspective == 'ORTHO':
-            return {'PASS_THROUGH'}
-        obj = found[0]
-        height = altitude(obj, eye_of(r3d)) * max(obj.matrix_world.to_scale())
-        if height <= 0.0 or height > NEAR_GROUND * obj.planet_lod.radius * 10.0:
-            return {'PASS_THROUGH'}  # far out or inside: Blender's pace
-        walk = context.preferences.inputs.walk_navigation
-        # Walk reads its speed from the preferences when it starts: set for
-        # that moment only, the user's own value put back at once (Blender's
-        # Fly has no such setting: its speed grows by 1 m/s a step)
-        saved = walk.walk_speed
-        walk.walk_speed = walk_speed(height)
-        try:
-            bpy.ops.view3d.navigate('INVOKE_DEFAULT')
-        finally:
-            walk.walk_speed = saved
-        return {'FINISHED'}
-
-
 # ---- altitude readout ---------------------------------------------------------------
 
 def readout(context):
@@ -226,7 +182,7 @@ def readout(context):
         text = f"{height / 1000.0:.2f} km"
     else:
         text = f"{height:.0f} m"
-    return f"Altitude {text} above the ground of {obj.name}"
+    return f"Altitude {text} above the ground of {obj.name}" + planet_fly.readout_suffix()
 
 
 def draw_readout():
@@ -254,16 +210,9 @@ def draw_readout():
 # ---- registration ---------------------------------------------------------------------
 
 _handles = {}
-_keymaps = []
 
 
 def register():
-    bpy.utils.register_class(PLOD_OT_navigate)
-    kc = bpy.context.window_manager.keyconfigs.addon
-    if kc is not None:
-        km = kc.keymaps.new(name="3D View", space_type='VIEW_3D')
-        _keymaps.append((km, km.keymap_items.new(PLOD_OT_navigate.bl_idname, 'ACCENT_GRAVE',
-                                                 'PRESS', shift=True)))
     runtime.ANCHOR_LISTENERS.append(anchor_moved)
     _handles["readout"] = bpy.types.SpaceView3D.draw_handler_add(draw_readout, (), 'WINDOW',
                                                                  'POST_PIXEL')
@@ -272,10 +221,6 @@ def register():
 
 
 def unregister():
-    for km, item in _keymaps:
-        km.keymap_items.remove(item)
-    _keymaps.clear()
-    bpy.utils.unregister_class(PLOD_OT_navigate)
     if anchor_moved in runtime.ANCHOR_LISTENERS:
         runtime.ANCHOR_LISTENERS.remove(anchor_moved)
     if bpy.app.timers.is_registered(follow_views):

@@ -1,10 +1,9 @@
 """What the viewport's ground tools compute, without a window: where a view
-ray meets a planet's ground (Shift-RMB's 3D cursor), the walk's pace by
-altitude, the viewport sky's GLSL assembled from the shared display and
-atmosphere functions, and the viewport ground (the mesh Blender's depth
-tools see under the preview) and bounding-box mask as Blender data: out of
-renders and selection, none of it left in a saved file."""
-import math
+ray meets a planet's ground (Shift-RMB's 3D cursor), the viewport sky's
+GLSL assembled from the shared display and atmosphere functions, and the
+viewport ground (the mesh Blender's depth tools see under the preview) and
+bounding-box mask as Blender data: out of renders and selection, none of it
+left in a saved file."""
 
 import bpy
 from mathutils import Vector
@@ -73,11 +72,6 @@ def main():
     assert move.normalized().dot(forward) < -0.999
     assert 0.5 * view_follow.MIN_CLEARANCE <= navigation.altitude(earth, out) < 50.0
     assert (out - hit).length < 50.0
-
-    speeds = [view_follow.walk_speed(h) for h in (0.5, 20.0, 2000.0, 4.0e5)]
-    print("walk speeds at 0.5 m, 20 m, 2 km, 400 km:", speeds, flush=True)
-    assert speeds == sorted(speeds) and speeds[0] >= 0.1 and speeds[-1] <= 100.0
-    assert math.isclose(speeds[1], 1.0)
 
     atm = atmosphere.params(earth.planet_lod)
     vert, frag = draw.shader_sources(draw.shader_defines(atm), "sky_preview_vert.glsl",
