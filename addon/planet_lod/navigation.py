@@ -75,11 +75,12 @@ def eye_of(r3d):
 def altitude(obj, world_point):
     """Metres above the ground of a world-space point (negative: underground)."""
     local = runtime.to_planet_space(obj, Matrix.Translation(world_point))
-    p = Vector([local[i][3] for i in range(3)])
-    distance = p.length
+    # float64 from here: a mathutils Vector at a planet's radius is half a metre coarse
+    p = [local[i][3] for i in range(3)]
+    distance = math.sqrt(sum(c * c for c in p))
     if distance < 1e-9:
         return -obj.planet_lod.radius
-    return distance - obj.planet_lod.radius - ground_height(obj)(tuple(p / distance))
+    return distance - obj.planet_lod.radius - ground_height(obj)(tuple(c / distance for c in p))
 
 
 def ground_hit(obj, origin, direction):
