@@ -289,6 +289,7 @@ typedef struct plod_mesh_sampler {
     int banded;                       /* the surface limits detail per point */
     int fade_octaves;                 /* detail fade thresholds (see params) */
     double fade_log2_cell[PLOD_MESH_SAMPLER_OCTAVES];
+    double fade_ground_radius;        /* metres to the ground below the eye */
 } plod_mesh_sampler;
 
 /* Prepares a sampler for `params` (origin, eye, detail_fade_cell read) and
