@@ -267,7 +267,7 @@ class PLOD_PG_settings(bpy.types.PropertyGroup):
                                          "its camera's view is drawn in yellow")
     show_levels: BoolProperty(name="Show Levels", default=False, update=_material_changed,
                               description="Colour the terrain patches by their level of detail")
-    morph: BoolProperty(name="Morphing", default=False, update=_changed,
+    morph: BoolProperty(name="Morphing", default=True, update=_changed,
                         description="Blend new detail in smoothly instead of popping: fine "
                                     "detail fades in with distance and new patches start "
                                     "as the coarser surface they replace (emission costs "
