@@ -1345,11 +1345,16 @@ static void plod__split_morph(const plod_lodtree *t, const plod_bound_view *v, s
         double s = plod__child_diamond_score(t, v, ring[k], level);
         s_c = s > s_c ? s : s_c;
     }
+    /* a child's diamond split decides first: its children start as the
+     * child's own surface, so the child shows it (m = 0) even where the
+     * diamond itself is split only because that split forced it; else the
+     * factor would fall from 1 to 0 in one frame, without a split, as the
+     * diamond's own score passed 1 */
     double m;
-    if (!(s_d > 1.0))
-        m = 1.0; /* at the split, or a forced one */
-    else if (!(s_c < 1.0))
+    if (!(s_c < 1.0))
         m = 0.0;
+    else if (!(s_d > 1.0))
+        m = 1.0; /* at the split, or a forced one */
     else
         m = (1.0 - s_c) / (s_d - s_c);
     out->factor = m < 0.0 ? 0.0 : (m > 1.0 ? 1.0 : m);

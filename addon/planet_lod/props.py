@@ -271,7 +271,7 @@ class PLOD_PG_settings(bpy.types.PropertyGroup):
                         description="Blend new detail in smoothly instead of popping: fine "
                                     "detail fades in with distance and new patches start "
                                     "as the coarser surface they replace (emission costs "
-                                    "about twice as much)")
+                                    "two to three times as much)")
     live_update: BoolProperty(name="Live Update", default=True, update=_changed,
                               description="Update the detail while you move the view")
     gpu_preview: BoolProperty(name="Fast Preview", default=True, update=_preview_changed,
