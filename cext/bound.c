@@ -151,11 +151,17 @@ static void plod__detail_bound(const plod_planet *planet, const plod_sector *s,
     }
     double excess = plod_detail_fine_excess_max(planet->detail, m[0], m[1]);
     if (excess > 0.0) {
-        double tlo, thi;
-        plod_detail_tail_range(planet->detail, plod_detail_fine_first(planet->detail), &tlo,
-                               &thi);
-        lo += excess * tlo;
-        hi += excess * thi;
+        double blo, bhi;
+        if (first < plod_detail_octave_count(planet->detail)) {
+            /* an inset: B may start at its first octave, any partial sum */
+            plod_detail_tail_range(planet->detail, plod_detail_fine_first(planet->detail), &blo,
+                                   &bhi);
+        } else {
+            plod_detail_band_local_range(planet->detail, corner, chord, b->size, &blo, &bhi);
+        }
+        /* (g - m) in [0, excess] */
+        lo += excess * (blo < 0.0 ? blo : 0.0);
+        hi += excess * (bhi > 0.0 ? bhi : 0.0);
     }
     *dmin = lo > *dmin ? lo : *dmin;
     *dmax = hi < *dmax ? hi : *dmax;

@@ -927,6 +927,40 @@ void plod_detail_local_range(const plod_detail *detail, const double dir[3], dou
         *lo = *hi;
 }
 
+void plod_detail_band_local_range(const plod_detail *detail, const double dir[3],
+                                  double reach, double cell, double *lo, double *hi)
+{
+    int first = detail->fine_first, end = detail->fine_end;
+    *lo = *hi = 0.0;
+    if (first >= end)
+        return;
+    /* the band's octaves alone: tail sums from `first` less those from `end` */
+    double slack = 1e-12 * (detail->hi - detail->lo);
+    *lo = detail->tail_lo[first] - detail->tail_lo[end] - slack;
+    *hi = detail->tail_hi[first] - detail->tail_hi[end] + slack;
+    int coarse = plod_detail_octaves_for_cell(detail, cell);
+    coarse = coarse < end ? coarse : end;
+    if (coarse <= first)
+        return;
+    double change = 0.0;
+    for (int i = first; i < coarse; i++) {
+        const plod__octave *o = &detail->octaves[i];
+        double width = o->hi - o->lo, step = o->slope * reach;
+        change += step < width ? step : width;
+    }
+    double fine_lo = detail->tail_lo[coarse] - detail->tail_lo[end];
+    double fine_hi = detail->tail_hi[coarse] - detail->tail_hi[end];
+    if (!(2.0 * change + (fine_hi - fine_lo) < 0.75 * (*hi - *lo)))
+        return; /* not worth the evaluation */
+    double centre = plod_detail_noise(detail, dir, coarse, NULL) -
+                    plod_detail_noise(detail, dir, first, NULL);
+    double a = centre - change + fine_lo - slack, b = centre + change + fine_hi + slack;
+    *lo = a > *lo ? a : *lo;
+    *hi = b < *hi ? b : *hi;
+    if (*lo > *hi)
+        *lo = *hi;
+}
+
 /* half the unit range of octave i's layers, metres */
 static double plod__half_range(const plod_detail *d, int i)
 {

@@ -13,7 +13,7 @@ PLANETS = {
                   detail_hills=0.25, detail_highlands=3500.0,
                   detail_fine_roughness=0.43, detail_fine_below=9000.0,
                   detail_hills_fine=4.0, detail_hills_fine_below=2500.0,
-                  detail_hills_fine_to=200.0),
+                  detail_hills_fine_to=500.0),
     "MOON": dict(label="Moon", radius=1737400.0, heightmap="lunar_bumpmap.jpg",
                  color_map="lunar_surface_2k.jpg", height_scale=19000.0,
                  use_sea_level=False, sea_level=0.0, ocean_sphere=False, projection="QSC",
