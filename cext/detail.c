@@ -952,8 +952,7 @@ void plod_detail_band_local_range(const plod_detail *detail, const double dir[3]
     double fine_hi = detail->tail_hi[coarse] - detail->tail_hi[end];
     if (!(2.0 * change + (fine_hi - fine_lo) < 0.75 * (*hi - *lo)))
         return; /* not worth the evaluation */
-    double centre = plod_detail_noise(detail, dir, coarse, NULL) -
-                    plod_detail_noise(detail, dir, first, NULL);
+    double centre = plod_detail_noise_from(detail, dir, first, coarse, NULL);
     double a = centre - change + fine_lo - slack, b = centre + change + fine_hi + slack;
     *lo = a > *lo ? a : *lo;
     *hi = b < *hi ? b : *hi;

@@ -320,12 +320,12 @@ static void plod__blend_apply(const plod_planet *planet, const double unit[3], d
 }
 
 /* The hills' band (plod_detail.h): the field applied as m N' with
- * N' = N + ((g(m) - m) / m) B, B = N_b - N_a the band's octaves below the
- * point's limits (N_k: the first k octaves, from the point's own start
- * `first`, NULL for 0), so that the detail is m N + (g - m) B; the
- * gradient alike.  Only points where g exceeds m and the band counts
- * evaluate N_a and N_b.  The same operations on the point and the batched
- * paths. */
+ * N' = N + ((g(m) - m) / m) B, B the band's octaves below the point's
+ * limits started fresh at the band (or at the point's own start `first`,
+ * NULL for 0, where that is later), so that the detail is m N + (g - m) B;
+ * the gradient alike.  Only points where g exceeds m and the band counts
+ * evaluate B (its few octaves).  The same operations on the point and the
+ * batched paths. */
 static void plod__fine_gain_n(const plod_planet *planet, size_t n, const double *unit,
                               const int *first, const int *octaves, const int *normal_octaves,
                               const double *modulation, double *sums, double *gradients)
@@ -335,9 +335,8 @@ static void plod__fine_gain_n(const plod_planet *planet, size_t n, const double 
     if (band_first >= band_end)
         return;
     enum { RUN = 64 };
-    double at_unit[3 * RUN], upper[RUN], upper_g[3 * RUN], lower[RUN], lower_g[3 * RUN];
-    double excess[RUN];
-    int at_first[RUN], up_oct[RUN], up_noct[RUN], lo_oct[RUN], lo_noct[RUN];
+    double at_unit[3 * RUN], band[RUN], band_g[3 * RUN], excess[RUN];
+    int at_first[RUN], at_oct[RUN], at_noct[RUN];
     size_t at[RUN];
     size_t k = 0;
     for (size_t i = 0; i <= n; i++) {
@@ -346,16 +345,16 @@ static void plod__fine_gain_n(const plod_planet *planet, size_t n, const double 
             double g = plod_detail_fine_modulation(d, m);
             if (!(g > m) || !(m > 0.0))
                 continue;
-            int start = first ? first[i] : 0;
-            int oct = octaves[i], noct = gradients ? normal_octaves[i] : 0;
-            int b = oct < band_end ? oct : band_end, nb = noct < band_end ? noct : band_end;
-            int a = oct < band_first ? oct : band_first;
-            int na = noct < band_first ? noct : band_first;
-            if (b <= a && nb <= na)
+            int start = first && first[i] > band_first ? first[i] : band_first;
+            int oct = octaves[i] < band_end ? octaves[i] : band_end;
+            int noct = !gradients ? 0
+                                  : (normal_octaves[i] < band_end ? normal_octaves[i] : band_end);
+            if (oct <= start && noct <= start)
                 continue; /* the band is not in the point's octaves */
             memcpy(at_unit + 3 * k, unit + 3 * i, 3 * sizeof(double));
             at_first[k] = start;
-            up_oct[k] = b, up_noct[k] = nb, lo_oct[k] = a, lo_noct[k] = na;
+            at_oct[k] = oct;
+            at_noct[k] = noct;
             excess[k] = (g - m) / m;
             at[k++] = i;
             if (k < RUN)
@@ -363,16 +362,15 @@ static void plod__fine_gain_n(const plod_planet *planet, size_t n, const double 
         }
         if (k == 0)
             continue;
-        plod_detail_noise_from_n(d, k, at_unit, at_first, up_oct, gradients ? up_noct : NULL,
-                                 upper, gradients ? upper_g : NULL);
-        plod_detail_noise_from_n(d, k, at_unit, at_first, lo_oct, gradients ? lo_noct : NULL,
-                                 lower, gradients ? lower_g : NULL);
+        plod_detail_noise_from_n(d, k, at_unit, at_first, at_oct, gradients ? at_noct : NULL,
+                                 band, gradients ? band_g : NULL);
         for (size_t j = 0; j < k; j++) {
             size_t p = at[j];
-            sums[p] += excess[j] * (upper[j] - lower[j]);
-            if (gradients)
+            if (at_oct[j] > at_first[j])
+                sums[p] += excess[j] * band[j];
+            if (gradients && at_noct[j] > at_first[j])
                 for (int c = 0; c < 3; c++)
-                    gradients[3 * p + c] += excess[j] * (upper_g[3 * j + c] - lower_g[3 * j + c]);
+                    gradients[3 * p + c] += excess[j] * band_g[3 * j + c];
         }
         k = 0;
     }

@@ -214,9 +214,11 @@ int plod_detail_octaves_at_least(const plod_detail *detail, double wavelength);
  * hills_fine_below, down to hills_fine_to; none when hills_fine is 1).
  * Where the modulation is m the surface's detail is
  *   m N + (g(m) - m) B,
- * B = N_b - N_a, the band's octaves of N below the point's band limit
- * (N_k the first k octaves), so the band's relief follows g(m) and the
- * rest m.  g is piecewise linear through (plains, plains), (hills,
+ * B the band's octaves below the point's band limit, started fresh at
+ * the band (plod_detail_noise_from: a few octaves more per point, not the
+ * whole sum again; inside the band its ridged weights are N's, so B is
+ * N's band but for its first octave's weight), so the band's relief
+ * follows g(m) and the rest m.  g is piecewise linear through (plains, plains), (hills,
  * min(1, hills_fine * hills)) and (1, 1), and m elsewhere (below plains,
  * or with hills 1): g >= m, monotone, 1 at m = 1, so plains and the
  * steepest ranges keep their relief and hills get the band's gain.
@@ -230,7 +232,7 @@ double plod_detail_fine_modulation(const plod_detail *detail, double m);
  * bounds and the refinement error. */
 double plod_detail_fine_excess_max(const plod_detail *detail, double m0, double m1);
 /* Bounds of B (any band limit >= the octaves a cell of `cell` metres
- * keeps) over the points within unit chord `reach` of `dir`, as
+ * keeps, started at the band) over the points within unit chord `reach` of `dir`, as
  * plod_detail_local_range (lo <= 0 <= hi is not promised); 0, 0 without a
  * band. */
 void plod_detail_band_local_range(const plod_detail *detail, const double dir[3],
