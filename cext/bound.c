@@ -428,7 +428,8 @@ double plod_bound_distance(const plod_bound_view *v, const plod_bound *b)
  * sqrt 2 extent / 2^t leaves at most |d| diameter^2 / 2; times 1.5 for
  * the projection's curvature inside the cell.
  * + the detail field's modulation maximum times its expected error at the
- * template's cells (and the hills' band's excess times its octaves' own), counting only the octaves of at least
+ * template's cells (and the hills' band's excess times its octaves' own),
+ * counting only the octaves of at least
  * PLOD_DETAIL_VISIBLE_WAVE_PIXELS pixels' wavelength at the distance
  * (plod_detail.h): the error shrinks with the distance, never grows.
  * Each term only decreases from a parent to its children. */

@@ -218,8 +218,9 @@ int plod_detail_octaves_at_least(const plod_detail *detail, double wavelength);
  * the band (plod_detail_noise_from: a few octaves more per point, not the
  * whole sum again; inside the band its ridged weights are N's, so B is
  * N's band but for its first octave's weight), so the band's relief
- * follows g(m) and the rest m.  g is piecewise linear through (plains, plains), (hills,
- * min(1, hills_fine * hills)) and (1, 1), and m elsewhere (below plains,
+ * follows g(m) and the rest m.  g is piecewise linear through (plains,
+ * plains), (hills, min(1, hills_fine * hills)) and (1, 1), and m
+ * elsewhere (below plains,
  * or with hills 1): g >= m, monotone, 1 at m = 1, so plains and the
  * steepest ranges keep their relief and hills get the band's gain.
  * After F. K. Musgrave's multifractals ("Texturing and Modeling: A

@@ -912,7 +912,8 @@ static PyObject *plod__planet_get(plod_py_planet *self, void *closure)
             Py_RETURN_NONE;
         const plod_detail_params *p = plod_detail_get_params(planet->detail);
         int octaves = plod_detail_octave_count(planet->detail);
-        return Py_BuildValue("{s:O,s:s,s:d,s:d,s:d,s:d,s:K,s:d,s:d,s:d,s:d,s:d,s:d,s:d,s:d,s:d,s:d,s:d,s:i,s:d}",
+        return Py_BuildValue("{s:O,s:s,s:d,s:d,s:d,s:d,s:K,s:d,s:d,s:d,s:d,s:d,s:d,s:d,s:d,"
+                             "s:d,s:d,s:d,s:i,s:d}",
                              "enabled", Py_True, "style", plod__detail_styles[p->style],
                              "amplitude", p->amplitude, "roughness", p->roughness, "largest",
                              p->largest, "smallest", p->smallest, "seed",
@@ -921,7 +922,8 @@ static PyObject *plod__planet_get(plod_py_planet *self, void *closure)
                              "relief", p->relief, "hills", p->hills, "highlands", p->highlands,
                              "fine_roughness", p->fine_roughness, "fine_below", p->fine_below,
                              "hills_fine", p->hills_fine, "hills_fine_below",
-                             p->hills_fine_below, "hills_fine_to", p->hills_fine_to, "octaves", octaves, "finest_wavelength",
+                             p->hills_fine_below, "hills_fine_to", p->hills_fine_to, "octaves",
+                             octaves, "finest_wavelength",
                              octaves ? plod_detail_wavelength(planet->detail, octaves - 1) : 0.0);
     }
     case 6:
