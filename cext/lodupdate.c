@@ -918,12 +918,24 @@ static void plod__refine(plod_refiner *r, plod__frame *f)
     r->limits.max_splits = f->params->max_splits;
     r->limited = 0;
     if (f->params->max_splits) {
-        /* progressive: the breadth-first pass, the budget as its cap (it
-         * stops the view a level short where it binds, uniformly) */
+        /* progressive: the breadth-first pass at the budget's last step, the
+         * budget as its cap.  Where the budget binds, or a finer step might
+         * fit, the step is searched as a camera-only update does: capped
+         * alone, the splits a view kept from an earlier place would crowd
+         * out the ones the new place needs (a jump down to the ground would
+         * end short of it, the coarse surface above the eye) */
         size_t budget = f->params->budget, cap = f->params->max_sectors;
-        plod__refine_pass(f, 0, budget && budget < cap ? budget : cap);
-        r->coarsen_step = 0;
-        r->budget_known = 0;
+        int step = budget && r->coarsen_step > 0 && r->coarsen_step <= PLOD__MAX_COARSEN_STEP
+                       ? r->coarsen_step
+                       : 0;
+        plod__refine_pass(f, step, budget && budget < cap ? budget : cap);
+        r->coarsen_step = step;
+        if (budget && !r->limited &&
+            (r->truncated || (step > 0 && plod__sectors_at_least(f, step - 1) <= budget))) {
+            r->limits.max_splits = 0; /* the search's passes run whole */
+            plod__fit_budget(r, f);
+            r->limits.max_splits = f->params->max_splits;
+        }
     } else if (f->params->budget == 0) {
         plod__refine_pass(f, 0, f->params->max_sectors);
         r->coarsen_step = 0;
@@ -1371,8 +1383,7 @@ plod_status plod_refiner_split_morphs(const plod_refiner *r, const plod_camera *
     plod_bound_view view;
     plod_bound_view_init(&view, t->planet, t->setup.occluder, camera, params, eye_dist);
     /* the last update's coarsening step (0 without a budget) */
-    plod__view_threshold(&view, params,
-                         params->budget && !params->max_splits ? r->coarsen_step : 0);
+    plod__view_threshold(&view, params, params->budget ? r->coarsen_step : 0);
     for (size_t k = 0; k < count; k++) {
         size_t i = leaves ? leaves[k] : k;
         if (i >= t->count)
