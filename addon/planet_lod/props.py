@@ -196,6 +196,22 @@ class PLOD_PG_settings(bpy.types.PropertyGroup):
                                      update=_geometry_changed,
                                      description="Wavelength under which Fine Roughness "
                                                  "applies (0: Roughness everywhere)")
+    detail_hills_fine: FloatProperty(name="Hills Fine Gain", default=1.0, min=1.0, max=16.0,
+                                     update=_geometry_changed,
+                                     description="Gain of the octaves below Hills Fine Below "
+                                                 "on hills: real hills are rougher at a "
+                                                 "kilometre for their broad relief than "
+                                                 "ranges (1: off)")
+    detail_hills_fine_below: FloatProperty(name="Hills Fine Below", default=0.0, min=0.0,
+                                           soft_max=50000.0, subtype='DISTANCE',
+                                           unit='LENGTH', update=_geometry_changed,
+                                           description="Wavelength under which Hills Fine "
+                                                       "Gain applies (0: off)")
+    detail_hills_fine_to: FloatProperty(name="Hills Fine To", default=0.0, min=0.0,
+                                        soft_max=50000.0, subtype='DISTANCE', unit='LENGTH',
+                                        update=_geometry_changed,
+                                        description="Wavelength down to which Hills Fine Gain "
+                                                    "applies (0: the finest)")
     detail_seed: IntProperty(name="Seed", default=1, min=0, update=_geometry_changed)
     color_map: StringProperty(name="Colour Map", subtype='FILE_PATH',
                               description="Colour image of the surface: a world map (2:1) or a "
@@ -322,6 +338,9 @@ class PLOD_PG_settings(bpy.types.PropertyGroup):
             "detail_highlands": self.detail_highlands,
             "detail_fine_roughness": self.detail_fine_roughness,
             "detail_fine_below": self.detail_fine_below,
+            "detail_hills_fine": self.detail_hills_fine,
+            "detail_hills_fine_below": self.detail_hills_fine_below,
+            "detail_hills_fine_to": self.detail_hills_fine_to,
             "detail_seed": self.detail_seed,
         }
 
