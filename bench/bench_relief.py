@@ -80,12 +80,12 @@ def data_path(name):
     raise FileNotFoundError(name)
 
 
-def earth(detail=True):
+def earth(detail=True, overrides=None):
     s = presets.PLANETS["EARTH"]
     kwargs = dict(heightmap=data_path(s["heightmap"]), height_scale=s["height_scale"],
                   sea_level=s["sea_level"], projection=s["projection"].lower())
     if detail:
-        kwargs["detail"] = presets.detail_settings("EARTH")
+        kwargs["detail"] = dict(presets.detail_settings("EARTH"), **(overrides or {}))
     return planetlod.Planet(s["radius"], **kwargs)
 
 
@@ -202,10 +202,15 @@ def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--windows", type=int, default=400,
                         help="random land windows per size for the elevation bins")
+    parser.add_argument("--set", default="",
+                        help="detail overrides, key=value,... (e.g. hills=0.25,hills_fine=2)")
+    parser.add_argument("--quick", action="store_true",
+                        help="the DEMs and the named places only")
     args = parser.parse_args()
-    planet = earth()
+    overrides = {k: float(v) for k, v in (kv.split("=") for kv in args.set.split(",") if kv)}
+    planet = earth(overrides=overrides)
     print(f"planetlod from {planetlod.__file__}; Earth preset detail "
-          f"{presets.detail_settings('EARTH')}")
+          f"{planet.detail}")
 
     print("\n### The same grids: real DEM against the preset (median over windows)\n")
     print("| place | window | real std | preset std | ratio | real range | preset range "
@@ -233,6 +238,8 @@ def main():
         bound = f"{'< ' if kind == 'plains' else ''}{fmt(published)} ({source})" \
             if published else source
         print(f"| {name} | {kind} | {fmt(mean)} | {std} | {rng} | {bound} | {ratio} |")
+    if args.quick:
+        return
 
     print(f"\n### Relief against elevation: {args.windows} random land windows per size "
           "(median std / range per bin of the window's mean elevation)\n")

@@ -51,6 +51,9 @@ def parse():
     parser.add_argument("--shot", action="append", default=[],
                         help="NAME,LON,LAT,ALTITUDE,HEADING,PITCH")
     parser.add_argument("--metrics", default="")
+    parser.add_argument("--detail", default="",
+                        help="the planet's detail settings changed after the preset, "
+                             "key=value,... (keys without the detail_ prefix)")
     parser.add_argument("--planet-sun", action="store_true",
                         help="light with the sun Add > Planet makes (an artist's F12), "
                              "not one 20 degrees above each place")
@@ -184,6 +187,9 @@ def main():
     if result != {'FINISHED'}:
         raise SystemExit("planet_add failed")
     planet = bpy.context.object
+    for item in filter(None, args.detail.split(",")):
+        key, value = item.split("=")
+        setattr(planet.planet_lod, "detail_" + key, float(value))
     if args.jacksboro_inset:
         path, box = jacksboro_inset(args.out)
         inset = planet.planet_lod.insets.add()

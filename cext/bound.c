@@ -96,11 +96,12 @@ static void plod__tighten_subtexel(const plod_planet *planet, plod_bound_corners
  * chord 2 sin(angle) (every point of the sector is within it of corner
  * 0), with the octaves a mesh of the sector drops counted by range;
  * over an inset widened by the range of the octaves the field keeps there.
- * *mod_max: the modulation bound (the error's scale). */
+ * *mod_max: the modulation bound (the error's scale); *band_max: the
+ * hills' band's excess bound (its error's scale). */
 static void plod__detail_bound(const plod_planet *planet, const plod_sector *s,
                                plod_bound_corners *memo, const int idx[3], const plod_bound *b,
                                double u0, double v0, double u1, double v1, double texels,
-                               double *dmin, double *dmax, double *mod_max)
+                               double *dmin, double *dmax, double *mod_max, double *band_max)
 {
     double m[2];
     if (plod_projection_is_cube(planet->projection))
@@ -109,6 +110,7 @@ static void plod__detail_bound(const plod_planet *planet, const plod_sector *s,
         plod_planet_detail_range_cap(planet, b->axis, atan2(b->sin_angle, b->cos_angle), dmin,
                                      dmax, m);
     *mod_max = m[1];
+    *band_max = plod_detail_fine_excess_max(planet->detail, m[0], m[1]);
     if (!(m[1] > 0.0))
         return; /* sea: no detail */
     const double *corner = memo->dir[idx[0]];
@@ -139,18 +141,34 @@ static void plod__detail_bound(const plod_planet *planet, const plod_sector *s,
         nlo = flo < nlo ? flo : nlo;
         nhi = fhi > nhi ? fhi : nhi;
     }
-    /* m in [m0, m1] >= 0 times N in [nlo, nhi] */
+    /* m in [m0, m1] >= 0 times N in [nlo, nhi], plus the hills' band's
+     * excess (g(m) - m) B, B a partial sum of the band's octaves */
     double p[4] = {m[0] * nlo, m[0] * nhi, m[1] * nlo, m[1] * nhi};
     double lo = p[0], hi = p[0];
     for (int k = 1; k < 4; k++) {
         lo = p[k] < lo ? p[k] : lo;
         hi = p[k] > hi ? p[k] : hi;
     }
+    double excess = plod_detail_fine_excess_max(planet->detail, m[0], m[1]);
+    if (excess > 0.0) {
+        double blo, bhi;
+        if (first < plod_detail_octave_count(planet->detail)) {
+            /* an inset: B may start at its first octave, any partial sum */
+            plod_detail_tail_range(planet->detail, plod_detail_fine_first(planet->detail), &blo,
+                                   &bhi);
+        } else {
+            plod_detail_band_local_range(planet->detail, corner, chord, b->size, &blo, &bhi);
+        }
+        /* (g - m) in [0, excess] */
+        lo += excess * (blo < 0.0 ? blo : 0.0);
+        hi += excess * (bhi > 0.0 ? bhi : 0.0);
+    }
     *dmin = lo > *dmin ? lo : *dmin;
     *dmax = hi < *dmax ? hi : *dmax;
     if (*dmin > *dmax)
         *dmin = *dmax;
     *mod_max = m[1];
+    *band_max = excess;
 }
 
 /* cos and sin of a cap angle (given by its cosine and sine) grown by the
@@ -276,11 +294,11 @@ void plod_bound_build(const plod_bound_setup *setup, const plod_sector *s,
     double relief_range = hmax - hmin;
     if (!insets) /* corner heights are blends there, not the map's bilinear patch */
         plod__tighten_subtexel(planet, memo, idx, texels, &hmin, &hmax);
-    b->detail0 = 0.0;
+    b->detail0 = b->band0 = 0.0;
     if (planet->detail) { /* the map's bounds (tightened on map heights) + the field's */
         double dmin, dmax;
         plod__detail_bound(planet, s, memo, idx, b, u0, v0, u1, v1, texels, &dmin, &dmax,
-                           &b->detail0);
+                           &b->detail0, &b->band0);
         hmin += dmin;
         hmax += dmax;
     }
@@ -410,7 +428,8 @@ double plod_bound_distance(const plod_bound_view *v, const plod_bound *b)
  * sqrt 2 extent / 2^t leaves at most |d| diameter^2 / 2; times 1.5 for
  * the projection's curvature inside the cell.
  * + the detail field's modulation maximum times its expected error at the
- * template's cells, counting only the octaves of at least
+ * template's cells (and the hills' band's excess times its octaves' own),
+ * counting only the octaves of at least
  * PLOD_DETAIL_VISIBLE_WAVE_PIXELS pixels' wavelength at the distance
  * (plod_detail.h): the error shrinks with the distance, never grows.
  * Each term only decreases from a parent to its children. */
@@ -421,6 +440,9 @@ static double plod__error_m(const plod_bound_view *v, const plod_bound *b, int v
     if (b->detail0 > 0.0) /* the detail a template cell does not resolve */
         error += b->detail0 * plod_detail_cell_error_visible(v->detail, b->size * v->error_scale,
                                                              visible);
+    if (b->band0 > 0.0) /* the hills' band's excess: its own octaves' error */
+        error += b->band0 * plod_detail_cell_error_band(v->detail, b->size * v->error_scale,
+                                                        visible);
     return error;
 }
 

@@ -58,6 +58,7 @@ struct plod_detail {
     plod_cubemap *modulation;   /* owned, or NULL */
     int count;
     plod__octave octaves[PLOD_DETAIL_MAX_OCTAVES];
+    int fine_first, fine_end;   /* the hills' band of octaves */
     double lo, hi;              /* bounds of N */
     double deepest;             /* N's lowest value over a fixed sample of
                                    directions (<= 0): how deep it digs in
@@ -67,6 +68,7 @@ struct plod_detail {
     /* err[v][e]: cell error at cells of 2^(e + PLOD__ERR_EXP_MIN) metres
      * counting the first v octaves (v = count: all of them) */
     double err[PLOD_DETAIL_MAX_OCTAVES + 1][PLOD__ERR_COUNT];
+    double err_band[PLOD_DETAIL_MAX_OCTAVES + 1][PLOD__ERR_COUNT]; /* the band's alone */
     uint64_t stamp;
 };
 
@@ -80,6 +82,7 @@ void plod_detail_params_init(plod_detail_params *params)
     params->plains = 0.15;
     params->hills = 1.0;
     params->fine_roughness = 0.5;
+    params->hills_fine = 1.0;
 }
 
 /* ---- hashing ------------------------------------------------------------- */
@@ -924,6 +927,39 @@ void plod_detail_local_range(const plod_detail *detail, const double dir[3], dou
         *lo = *hi;
 }
 
+void plod_detail_band_local_range(const plod_detail *detail, const double dir[3],
+                                  double reach, double cell, double *lo, double *hi)
+{
+    int first = detail->fine_first, end = detail->fine_end;
+    *lo = *hi = 0.0;
+    if (first >= end)
+        return;
+    /* the band's octaves alone: tail sums from `first` less those from `end` */
+    double slack = 1e-12 * (detail->hi - detail->lo);
+    *lo = detail->tail_lo[first] - detail->tail_lo[end] - slack;
+    *hi = detail->tail_hi[first] - detail->tail_hi[end] + slack;
+    int coarse = plod_detail_octaves_for_cell(detail, cell);
+    coarse = coarse < end ? coarse : end;
+    if (coarse <= first)
+        return;
+    double change = 0.0;
+    for (int i = first; i < coarse; i++) {
+        const plod__octave *o = &detail->octaves[i];
+        double width = o->hi - o->lo, step = o->slope * reach;
+        change += step < width ? step : width;
+    }
+    double fine_lo = detail->tail_lo[coarse] - detail->tail_lo[end];
+    double fine_hi = detail->tail_hi[coarse] - detail->tail_hi[end];
+    if (!(2.0 * change + (fine_hi - fine_lo) < 0.75 * (*hi - *lo)))
+        return; /* not worth the evaluation */
+    double centre = plod_detail_noise_from(detail, dir, first, coarse, NULL);
+    double a = centre - change + fine_lo - slack, b = centre + change + fine_hi + slack;
+    *lo = a > *lo ? a : *lo;
+    *hi = b < *hi ? b : *hi;
+    if (*lo > *hi)
+        *lo = *hi;
+}
+
 /* half the unit range of octave i's layers, metres */
 static double plod__half_range(const plod_detail *d, int i)
 {
@@ -932,11 +968,12 @@ static double plod__half_range(const plod_detail *d, int i)
     return noise + o->crater_weight * 0.5 * (1.0 + PLOD__CRATER_RIM);
 }
 
-static double plod__cell_error_exact(const plod_detail *d, double cell, int visible)
+/* octaves first..visible-1 */
+static double plod__cell_error_exact(const plod_detail *d, double cell, int first, int visible)
 {
     int keep = plod_detail_octaves_for_cell(d, cell);
     double e2 = 0.0;
-    for (int i = 0; i < visible; i++) {
+    for (int i = first; i < visible; i++) {
         double half = plod__half_range(d, i), term = half;
         if (i < keep) {
             /* linear interpolation over a cell: ~ a (pi cell / wavelength)^2 / 2 */
@@ -949,11 +986,13 @@ static double plod__cell_error_exact(const plod_detail *d, double cell, int visi
     return sqrt(e2);
 }
 
-double plod_detail_cell_error_visible(const plod_detail *detail, double cell, int visible)
+static double plod__cell_error_table(const plod_detail *detail,
+                                     const double (*table)[PLOD__ERR_COUNT], double cell,
+                                     int visible)
 {
     if (!(cell > 0.0) || visible <= 0)
         return 0.0;
-    const double *err = detail->err[visible < detail->count ? visible : detail->count];
+    const double *err = table[visible < detail->count ? visible : detail->count];
     int e;
     double mant = frexp(cell, &e); /* cell = mant 2^e, mant in [0.5, 1) */
     if (e <= PLOD__ERR_EXP_MIN)
@@ -962,6 +1001,18 @@ double plod_detail_cell_error_visible(const plod_detail *detail, double cell, in
         return err[PLOD__ERR_COUNT - 1];
     double hi = err[e - PLOD__ERR_EXP_MIN], lo = err[e - 1 - PLOD__ERR_EXP_MIN];
     return lo + (hi - lo) * (2.0 * mant - 1.0);
+}
+
+double plod_detail_cell_error_visible(const plod_detail *detail, double cell, int visible)
+{
+    return plod__cell_error_table(detail, detail->err, cell, visible);
+}
+
+double plod_detail_cell_error_band(const plod_detail *detail, double cell, int visible)
+{
+    if (detail->fine_first >= detail->fine_end)
+        return 0.0;
+    return plod__cell_error_table(detail, detail->err_band, cell, visible);
 }
 
 double plod_detail_cell_error(const plod_detail *detail, double cell)
@@ -975,6 +1026,50 @@ int plod_detail_octaves_at_least(const plod_detail *detail, double wavelength)
     while (k < detail->count && detail->octaves[k].wavelength >= wavelength)
         k++;
     return k;
+}
+
+int plod_detail_fine_first(const plod_detail *detail)
+{
+    return detail->fine_first;
+}
+
+int plod_detail_fine_end(const plod_detail *detail)
+{
+    return detail->fine_end;
+}
+
+double plod_detail_fine_modulation(const plod_detail *detail, double m)
+{
+    const plod_detail_params *p = &detail->params;
+    if (detail->fine_first >= detail->count || !(p->hills < 1.0) || !(m > p->plains))
+        return m; /* no band, no hills below the top, plains, sea or NaN */
+    double top = p->hills_fine * p->hills;
+    top = top < 1.0 ? top : 1.0;
+    if (m < p->hills)
+        return p->plains + (top - p->plains) * ((m - p->plains) / (p->hills - p->plains));
+    if (m < 1.0)
+        return top + (1.0 - top) * ((m - p->hills) / (1.0 - p->hills));
+    return m;
+}
+
+double plod_detail_fine_excess_max(const plod_detail *detail, double m0, double m1)
+{
+    if (detail->fine_first >= detail->count || m0 != m0 || m1 != m1)
+        return 0.0;
+    if (m0 > m1) {
+        double t = m0;
+        m0 = m1, m1 = t;
+    }
+    double best = plod_detail_fine_modulation(detail, m0) - m0;
+    double e1 = plod_detail_fine_modulation(detail, m1) - m1;
+    best = e1 > best ? e1 : best;
+    double h = detail->params.hills; /* g - m is piecewise linear: its knot */
+    if (m0 < h && h < m1) {
+        double eh = plod_detail_fine_modulation(detail, h) - h;
+        best = eh > best ? eh : best;
+    }
+    /* the division's rounding in g, far below any height's */
+    return best > 0.0 ? best * (1.0 + 1e-9) + 1e-12 : 0.0;
 }
 
 /* ---- construction ------------------------------------------------------------ */
@@ -1142,7 +1237,9 @@ static int plod__params_ok(const plod_detail_params *p)
            p->plains >= 0.0 && p->plains <= 1.0 && isfinite(p->relief) && p->relief >= 0.0 &&
            p->hills >= p->plains && p->hills <= 1.0 && isfinite(p->highlands) &&
            p->highlands >= 0.0 && p->fine_roughness >= 0.0 && p->fine_roughness < 1.0 &&
-           isfinite(p->fine_below) && p->fine_below >= 0.0;
+           isfinite(p->fine_below) && p->fine_below >= 0.0 && isfinite(p->hills_fine) &&
+           p->hills_fine >= 1.0 && p->hills_fine <= 16.0 && isfinite(p->hills_fine_below) &&
+           p->hills_fine_below >= 0.0 && isfinite(p->hills_fine_to) && p->hills_fine_to >= 0.0;
 }
 
 plod_status plod_detail_create(plod_detail **out, const plod_detail_params *params,
@@ -1247,14 +1344,27 @@ plod_status plod_detail_create(plod_detail **out, const plod_detail_params *para
         count++;
     }
     d->count = count;
+    d->fine_first = d->fine_end = count;
+    if (params->hills_fine > 1.0 && params->hills_fine_below > 0.0) {
+        d->fine_first = plod_detail_octaves_at_least(d, params->hills_fine_below);
+        d->fine_end = params->hills_fine_to > 0.0
+                          ? plod_detail_octaves_at_least(d, params->hills_fine_to)
+                          : count;
+        if (d->fine_end <= d->fine_first)
+            d->fine_first = d->fine_end = count; /* an empty band */
+    }
     d->tail_lo[count] = d->tail_hi[count] = 0.0;
     for (int i = count - 1; i >= 0; i--) {
         d->tail_lo[i] = d->tail_lo[i + 1] + d->octaves[i].lo;
         d->tail_hi[i] = d->tail_hi[i + 1] + d->octaves[i].hi;
     }
     for (int v = 0; v <= count; v++)
-        for (int e = 0; e < PLOD__ERR_COUNT; e++)
-            d->err[v][e] = plod__cell_error_exact(d, ldexp(1.0, e + PLOD__ERR_EXP_MIN), v);
+        for (int e = 0; e < PLOD__ERR_COUNT; e++) {
+            double cell = ldexp(1.0, e + PLOD__ERR_EXP_MIN);
+            d->err[v][e] = plod__cell_error_exact(d, cell, 0, v);
+            int band_end = v < d->fine_end ? v : d->fine_end;
+            d->err_band[v][e] = plod__cell_error_exact(d, cell, d->fine_first, band_end);
+        }
     d->deepest = plod__deepest(d);
     if (planet->heightmap) {
         plod_status st = plod__build_modulation(d, planet);
@@ -1269,7 +1379,8 @@ plod_status plod_detail_create(plod_detail **out, const plod_detail_params *para
                            params->craters, params->crater_density, params->plains,
                            params->relief, planet->radius, planet->height_scale,
                            (double)params->style, params->hills, params->highlands,
-                           params->fine_roughness, params->fine_below};
+                           params->fine_roughness, params->fine_below, params->hills_fine,
+                           params->hills_fine_below, params->hills_fine_to};
     for (size_t i = 0; i < sizeof vals / sizeof vals[0]; i++) {
         uint64_t bits;
         memcpy(&bits, &vals[i], sizeof bits);

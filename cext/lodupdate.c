@@ -918,12 +918,24 @@ static void plod__refine(plod_refiner *r, plod__frame *f)
     r->limits.max_splits = f->params->max_splits;
     r->limited = 0;
     if (f->params->max_splits) {
-        /* progressive: the breadth-first pass, the budget as its cap (it
-         * stops the view a level short where it binds, uniformly) */
+        /* progressive: the breadth-first pass at the budget's last step, the
+         * budget as its cap.  Where the budget binds, or a finer step might
+         * fit, the step is searched as a camera-only update does: capped
+         * alone, the splits a view kept from an earlier place would crowd
+         * out the ones the new place needs (a jump down to the ground would
+         * end short of it, the coarse surface above the eye) */
         size_t budget = f->params->budget, cap = f->params->max_sectors;
-        plod__refine_pass(f, 0, budget && budget < cap ? budget : cap);
-        r->coarsen_step = 0;
-        r->budget_known = 0;
+        int step = budget && r->coarsen_step > 0 && r->coarsen_step <= PLOD__MAX_COARSEN_STEP
+                       ? r->coarsen_step
+                       : 0;
+        plod__refine_pass(f, step, budget && budget < cap ? budget : cap);
+        r->coarsen_step = step;
+        if (budget && !r->limited &&
+            (r->truncated || (step > 0 && plod__sectors_at_least(f, step - 1) <= budget))) {
+            r->limits.max_splits = 0; /* the search's passes run whole */
+            plod__fit_budget(r, f);
+            r->limits.max_splits = f->params->max_splits;
+        }
     } else if (f->params->budget == 0) {
         plod__refine_pass(f, 0, f->params->max_sectors);
         r->coarsen_step = 0;
@@ -1345,11 +1357,16 @@ static void plod__split_morph(const plod_lodtree *t, const plod_bound_view *v, s
         double s = plod__child_diamond_score(t, v, ring[k], level);
         s_c = s > s_c ? s : s_c;
     }
+    /* a child's diamond split decides first: its children start as the
+     * child's own surface, so the child shows it (m = 0) even where the
+     * diamond itself is split only because that split forced it; else the
+     * factor would fall from 1 to 0 in one frame, without a split, as the
+     * diamond's own score passed 1 */
     double m;
-    if (!(s_d > 1.0))
-        m = 1.0; /* at the split, or a forced one */
-    else if (!(s_c < 1.0))
+    if (!(s_c < 1.0))
         m = 0.0;
+    else if (!(s_d > 1.0))
+        m = 1.0; /* at the split, or a forced one */
     else
         m = (1.0 - s_c) / (s_d - s_c);
     out->factor = m < 0.0 ? 0.0 : (m > 1.0 ? 1.0 : m);
@@ -1371,8 +1388,7 @@ plod_status plod_refiner_split_morphs(const plod_refiner *r, const plod_camera *
     plod_bound_view view;
     plod_bound_view_init(&view, t->planet, t->setup.occluder, camera, params, eye_dist);
     /* the last update's coarsening step (0 without a budget) */
-    plod__view_threshold(&view, params,
-                         params->budget && !params->max_splits ? r->coarsen_step : 0);
+    plod__view_threshold(&view, params, params->budget ? r->coarsen_step : 0);
     for (size_t k = 0; k < count; k++) {
         size_t i = leaves ? leaves[k] : k;
         if (i >= t->count)

@@ -425,6 +425,7 @@ typedef struct plod__emitter {
      * log2 of the largest cell that keeps octave i, i < fade_octaves */
     int fade_octaves;
     double fade_log2_cell[PLOD_DETAIL_MAX_OCTAVES];
+    double fade_ground_radius; /* metres from the centre to the ground below the eye */
     const plod_mesh_buffers *out;
     int n;
     size_t vertices_per_sector, triangles_per_sector;
@@ -455,20 +456,24 @@ static void plod__fade_init(plod__emitter *e)
         e->fade_log2_cell[i] = lo;
     }
     e->fade_octaves = count;
+    double ground[3];
+    plod_mesh_origin(s, e->params->planet->radius, e->params->eye, ground);
+    double r = sqrt(ground[0] * ground[0] + ground[1] * ground[1] + ground[2] * ground[2]);
+    e->fade_ground_radius = r > 0.0 && isfinite(r) ? r : e->params->planet->radius;
 }
 
-/* The fade's band at a unit direction: *whole octaves and the weight of the
- * next (0 <= *fraction < 1); a function of the direction and the eye only. */
-static void plod__fade_band(const plod__emitter *e, const double dir[3], int *whole,
-                            double *fraction)
+/* The fade's band of the point at `radius` metres along the unit direction
+ * `dir`: *whole octaves and the weight of the next (0 <= *fraction < 1). */
+static void plod__fade_band(const plod__emitter *e, const double dir[3], double radius,
+                            double log2_fade_cell, int *whole, double *fraction)
 {
     const plod_mesh_params *params = e->params;
-    double radius = params->planet->radius, d2 = 0.0;
+    double d2 = 0.0;
     for (int c = 0; c < 3; c++) {
         double x = dir[c] * radius - params->eye[c];
         d2 += x * x;
     }
-    double log2_cell = 0.5 * log2(d2) + log2(params->detail_fade_cell);
+    double log2_cell = 0.5 * log2(d2) + log2_fade_cell;
     double sum = 0.0;
     if (!isfinite(log2_cell)) /* at the eye: every octave */
         sum = (double)e->fade_octaves;
@@ -494,6 +499,7 @@ static void plod__emitter_init(plod__emitter *e, const plod_mesh_params *params,
     e->surface = surface;
     e->banded = surface->ops->octaves_for_cell != NULL;
     e->fade_octaves = 0;
+    e->fade_ground_radius = params->planet->radius;
     if (e->banded && params->detail_fade_cell > 0.0)
         plod__fade_init(e);
     e->out = out;
@@ -803,30 +809,39 @@ static int plod__vertex_band(const plod__emitter *e, const int k[3], const int b
 
 /* Fading vertices: the band one octave up sampled too, and heights,
  * normals and detail moved toward it by each vertex's fraction (the
- * fraction 0 ones unchanged, bit for bit). */
+ * fraction 0 ones unchanged, bit for bit; only the fading ones sampled
+ * again, a point's sample being a function of its direction and band). */
 static void plod__fade_blend(const plod__emitter *e, size_t count, const double *dirs,
                              const int *octaves, const double *fade, double *heights,
                              double *normals, double *detail)
 {
     enum { ROW = (1 << PLOD_MAX_TEMPLATE_LEVEL) + 1, GROUP = ROW + 160 };
-    double up_heights[GROUP], up_normals[3 * GROUP], up_detail[GROUP];
+    double up_dirs[3 * GROUP], up_heights[GROUP], up_normals[3 * GROUP], up_detail[GROUP];
     int up_octaves[GROUP];
-    for (size_t v = 0; v < count; v++)
-        up_octaves[v] = octaves[v] + (fade[v] > 0.0);
-    e->surface->ops->sample_n(e->surface->self, count, dirs, up_octaves, up_octaves,
+    size_t fading[GROUP], m = 0;
+    assert(count <= GROUP);
+    for (size_t v = 0; v < count; v++) {
+        if (!(fade[v] > 0.0))
+            continue;
+        memcpy(up_dirs + 3 * m, dirs + 3 * v, 3 * sizeof *dirs);
+        up_octaves[m] = octaves[v] + 1;
+        fading[m++] = v;
+    }
+    if (m == 0)
+        return;
+    e->surface->ops->sample_n(e->surface->self, m, up_dirs, up_octaves, up_octaves,
                               up_heights, normals ? up_normals : NULL,
                               detail ? up_detail : NULL);
-    for (size_t v = 0; v < count; v++) {
+    for (size_t j = 0; j < m; j++) {
+        size_t v = fading[j];
         double f = fade[v];
-        if (!(f > 0.0))
-            continue;
-        heights[v] += f * (up_heights[v] - heights[v]);
+        heights[v] += f * (up_heights[j] - heights[v]);
         if (detail)
-            detail[v] += f * (up_detail[v] - detail[v]);
+            detail[v] += f * (up_detail[j] - detail[v]);
         if (normals) {
             double *nv = normals + 3 * v, len2 = 0.0;
             for (int c = 0; c < 3; c++) {
-                nv[c] += f * (up_normals[3 * v + c] - nv[c]);
+                nv[c] += f * (up_normals[3 * j + c] - nv[c]);
                 len2 += nv[c] * nv[c];
             }
             double len = sqrt(len2);
@@ -835,6 +850,49 @@ static void plod__fade_blend(const plod__emitter *e, size_t count, const double 
                     nv[c] /= len;
         }
     }
+}
+
+/* The first height of the fade's distance keeps the octaves of cells of at
+ * least this fraction of the distance: the finer ones move the point by
+ * about their slope times their cell, a few per cent of the distance. */
+#define PLOD__FADE_FIRST_CELL (1.0 / 16.0)
+
+/* The fade's bands of `count` unit directions (count <= the emitter's row
+ * groups): the band follows each vertex's distance from the eye, and that
+ * distance its height, which the band shapes.  So the height is taken
+ * first from the surface faded for the distance to the point at the ground
+ * radius below the eye (right near the eye, where the ground lies within a
+ * few metres of that sphere while the planet's radius may be kilometres
+ * away), at cells of at least PLOD__FADE_FIRST_CELL of it, then the band
+ * from the distance to that height: continuous in the direction and the
+ * eye, and within what the first height's missing octaves move it of the
+ * true distance.  Returns whether any vertex fades. */
+static int plod__fade_bands(const plod__emitter *e, size_t count, const double *dirs,
+                            int *octaves, double *fade)
+{
+    enum { GROUP = (1 << PLOD_MAX_TEMPLATE_LEVEL) + 161 };
+    double heights[GROUP];
+    int any_fade = 0;
+    assert(count <= GROUP);
+    double log2_rate = log2(e->params->detail_fade_cell);
+    double log2_first = log2_rate > log2(PLOD__FADE_FIRST_CELL) ? log2_rate
+                                                                : log2(PLOD__FADE_FIRST_CELL);
+    for (size_t v = 0; v < count; v++) {
+        plod__fade_band(e, dirs + 3 * v, e->fade_ground_radius, log2_first, octaves + v,
+                        fade + v);
+        any_fade |= fade[v] > 0.0;
+    }
+    e->surface->ops->sample_n(e->surface->self, count, dirs, octaves, octaves, heights, NULL,
+                              NULL);
+    if (any_fade)
+        plod__fade_blend(e, count, dirs, octaves, fade, heights, NULL, NULL);
+    any_fade = 0;
+    double radius = e->params->planet->radius;
+    for (size_t v = 0; v < count; v++) {
+        plod__fade_band(e, dirs + 3 * v, radius + heights[v], log2_rate, octaves + v, fade + v);
+        any_fade |= fade[v] > 0.0;
+    }
+    return any_fade;
 }
 
 /* Computes the sector's vertices into the outputs and, when `block` is not
@@ -880,11 +938,6 @@ static void plod__compute_vertices(const plod__emitter *e, const plod_mesh_secto
         int row = 0, any_fade = 0;
         for (; i <= n && row + (n - i + 1) <= GROUP; i++) {
             plod__row_directions(corners, n, i, inv_n, dirs + 3 * row);
-            for (int j = 0; j <= n - i && fading; j++) {
-                plod__fade_band(e, dirs + 3 * (row + j), octaves + row + j, fade + row + j);
-                normal_octaves[row + j] = octaves[row + j];
-                any_fade |= fade[row + j] > 0.0;
-            }
             for (int j = 0; j <= n - i && e->banded && !fading; j++) {
                 int k[3] = {n - i - j, j, i};
                 octaves[row + j] = plod__vertex_band(e, k, band, dirs + 3 * (row + j),
@@ -894,6 +947,10 @@ static void plod__compute_vertices(const plod__emitter *e, const plod_mesh_secto
                         normal_octaves[row + j];
             }
             row += n - i + 1;
+        }
+        if (fading) {
+            any_fade = plod__fade_bands(e, (size_t)row, dirs, octaves, fade);
+            memcpy(normal_octaves, octaves, (size_t)row * sizeof *octaves);
         }
         e->surface->ops->sample_n(e->surface->self, (size_t)row, dirs,
                                   e->banded ? octaves : NULL,
@@ -944,13 +1001,12 @@ static void plod__sample_vertices(const plod__emitter *e, const double corners[3
         plod__detail_bands(e, corners, e->n, band);
     for (size_t v = 0; v < count; v++) {
         plod__vertex_direction(corners, k[v], inv_n, dirs + 3 * v);
-        if (fading) {
-            plod__fade_band(e, dirs + 3 * v, octaves + v, fade + v);
-            normal_octaves[v] = octaves[v];
-            any_fade |= fade[v] > 0.0;
-        } else if (e->banded) {
+        if (e->banded && !fading)
             octaves[v] = plod__vertex_band(e, k[v], band, dirs + 3 * v, normal_octaves + v);
-        }
+    }
+    if (fading) {
+        any_fade = plod__fade_bands(e, count, dirs, octaves, fade);
+        memcpy(normal_octaves, octaves, count * sizeof *octaves);
     }
     e->surface->ops->sample_n(e->surface->self, count, dirs, e->banded ? octaves : NULL,
                               e->banded ? normal_octaves : NULL, heights,
@@ -1730,6 +1786,7 @@ void plod_mesh_sampler_init(plod_mesh_sampler *sampler, const plod_mesh_params *
     sampler->banded = e.banded;
     sampler->fade_octaves = e.fade_octaves;
     memcpy(sampler->fade_log2_cell, e.fade_log2_cell, sizeof sampler->fade_log2_cell);
+    sampler->fade_ground_radius = e.fade_ground_radius;
 }
 
 double plod_mesh_atan2(double y, double x)
@@ -1749,6 +1806,7 @@ void plod_mesh_sample(const plod_mesh_sampler *sampler, size_t count, const doub
     e.banded = sampler->banded;
     e.fade_octaves = sampler->fade_octaves;
     memcpy(e.fade_log2_cell, sampler->fade_log2_cell, sizeof e.fade_log2_cell);
+    e.fade_ground_radius = sampler->fade_ground_radius;
     const plod_mesh_params *params = sampler->params;
     int fading = e.banded && params->detail_fade_cell > 0.0;
     double heights[GROUP], normals_d[3 * GROUP], detail_d[GROUP], fade[GROUP];
@@ -1758,17 +1816,11 @@ void plod_mesh_sample(const plod_mesh_sampler *sampler, size_t count, const doub
     for (size_t at = 0; at < count; at += GROUP) {
         size_t n = count - at < GROUP ? count - at : GROUP;
         const double *d = dirs + 3 * at;
-        int any_fade = 0;
-        for (size_t j = 0; j < n && e.banded; j++) {
-            if (fading) {
-                plod__fade_band(&e, d + 3 * j, octaves + j, fade + j);
-                any_fade |= fade[j] > 0.0;
-            } else {
-                octaves[j] = cells ? e.surface->ops->octaves_for_cell(e.surface->self,
-                                                                      cells[at + j])
-                                   : PLOD_DETAIL_MAX_OCTAVES;
-            }
-        }
+        int any_fade = fading ? plod__fade_bands(&e, n, d, octaves, fade) : 0;
+        for (size_t j = 0; j < n && e.banded && !fading; j++)
+            octaves[j] = cells ? e.surface->ops->octaves_for_cell(e.surface->self,
+                                                                  cells[at + j])
+                               : PLOD_DETAIL_MAX_OCTAVES;
         e.surface->ops->sample_n(e.surface->self, n, d, e.banded ? octaves : NULL,
                                  e.banded ? octaves : NULL, heights,
                                  normals ? normals_d : NULL, detail ? detail_d : NULL);

@@ -319,6 +319,63 @@ static void plod__blend_apply(const plod_planet *planet, const double unit[3], d
     plod__apply_detail(planet->radius, unit, m, noise, g, height, normal, detail);
 }
 
+/* The hills' band (plod_detail.h): the field applied as m N' with
+ * N' = N + ((g(m) - m) / m) B, B the band's octaves below the point's
+ * limits started fresh at the band (or at the point's own start `first`,
+ * NULL for 0, where that is later), so that the detail is m N + (g - m) B;
+ * the gradient alike.  Only points where g exceeds m and the band counts
+ * evaluate B (its few octaves).  The same operations on the point and the
+ * batched paths. */
+static void plod__fine_gain_n(const plod_planet *planet, size_t n, const double *unit,
+                              const int *first, const int *octaves, const int *normal_octaves,
+                              const double *modulation, double *sums, double *gradients)
+{
+    const plod_detail *d = planet->detail;
+    int band_first = plod_detail_fine_first(d), band_end = plod_detail_fine_end(d);
+    if (band_first >= band_end)
+        return;
+    enum { RUN = 64 };
+    double at_unit[3 * RUN], band[RUN], band_g[3 * RUN], excess[RUN];
+    int at_first[RUN], at_oct[RUN], at_noct[RUN];
+    size_t at[RUN];
+    size_t k = 0;
+    for (size_t i = 0; i <= n; i++) {
+        if (i < n) {
+            double m = modulation[i];
+            double g = plod_detail_fine_modulation(d, m);
+            if (!(g > m) || !(m > 0.0))
+                continue;
+            int start = first && first[i] > band_first ? first[i] : band_first;
+            int oct = octaves[i] < band_end ? octaves[i] : band_end;
+            int noct = !gradients ? 0
+                                  : (normal_octaves[i] < band_end ? normal_octaves[i] : band_end);
+            if (oct <= start && noct <= start)
+                continue; /* the band is not in the point's octaves */
+            memcpy(at_unit + 3 * k, unit + 3 * i, 3 * sizeof(double));
+            at_first[k] = start;
+            at_oct[k] = oct;
+            at_noct[k] = noct;
+            excess[k] = (g - m) / m;
+            at[k++] = i;
+            if (k < RUN)
+                continue;
+        }
+        if (k == 0)
+            continue;
+        plod_detail_noise_from_n(d, k, at_unit, at_first, at_oct, gradients ? at_noct : NULL,
+                                 band, gradients ? band_g : NULL);
+        for (size_t j = 0; j < k; j++) {
+            size_t p = at[j];
+            if (at_oct[j] > at_first[j])
+                sums[p] += excess[j] * band[j];
+            if (gradients && at_noct[j] > at_first[j])
+                for (int c = 0; c < 3; c++)
+                    gradients[3 * p + c] += excess[j] * band_g[3 * j + c];
+        }
+        k = 0;
+    }
+}
+
 static void plod__add_detail(const plod_planet *planet, const double dir[3], double m,
                              int octaves, int normal_octaves, const plod_inset_weight *inset,
                              double *height, double *normal, double *detail)
@@ -331,6 +388,8 @@ static void plod__add_detail(const plod_planet *planet, const double dir[3], dou
     if (!(w > 0.0)) {
         plod_detail_noise_n(planet->detail, 1, unit, &octaves, &normal_octaves, &noise,
                             normal ? g : NULL);
+        plod__fine_gain_n(planet, 1, unit, NULL, &octaves, &normal_octaves, &m, &noise,
+                          normal ? g : NULL);
         plod__apply_detail(planet->radius, unit, m, noise, g, height, normal, detail);
         return;
     }
@@ -338,12 +397,15 @@ static void plod__add_detail(const plod_planet *planet, const double dir[3], dou
     int first = plod__inset_first_octave(planet, inset);
     noise = 0.0, g[0] = g[1] = g[2] = 0.0;
     if (w < 1.0)
-        noise = plod_detail_noise(planet->detail, unit, octaves, NULL);
-    if (w < 1.0 && normal)
-        plod_detail_noise(planet->detail, unit, normal_octaves, g);
-    from = plod_detail_noise_from(planet->detail, unit, first, octaves, NULL);
-    if (normal)
-        plod_detail_noise_from(planet->detail, unit, first, normal_octaves, g_from);
+        plod_detail_noise_n(planet->detail, 1, unit, &octaves, &normal_octaves, &noise,
+                            normal ? g : NULL);
+    if (w < 1.0)
+        plod__fine_gain_n(planet, 1, unit, NULL, &octaves, &normal_octaves, &m, &noise,
+                          normal ? g : NULL);
+    plod_detail_noise_from_n(planet->detail, 1, unit, &first, &octaves, &normal_octaves, &from,
+                             normal ? g_from : NULL);
+    plod__fine_gain_n(planet, 1, unit, &first, &octaves, &normal_octaves, &m, &from,
+                      normal ? g_from : NULL);
     plod__blend_apply(planet, unit, m, w, noise, g, from, g_from, height, normal, detail);
 }
 
@@ -364,6 +426,7 @@ static void plod__add_detail_run(const plod_planet *planet, size_t count, const 
     double unit[3 * RUN], all_unit[3 * RUN], from_unit[3 * RUN];
     double noise[RUN], g[3 * RUN], from[RUN], g_from[3 * RUN];
     int all_oct[RUN], all_noct[RUN], from_first[RUN], from_oct[RUN], from_noct[RUN];
+    double all_m[RUN], from_m[RUN];
     size_t all_at[RUN], from_at[RUN], live_at[RUN];
     size_t live = 0, n_all = 0, n_from = 0;
     for (size_t i = 0; i < count; i++) {
@@ -374,12 +437,14 @@ static void plod__add_detail_run(const plod_planet *planet, size_t count, const 
         if (w < 1.0) {
             memcpy(all_unit + 3 * n_all, unit + 3 * live, 3 * sizeof(double));
             all_oct[n_all] = octaves[i], all_noct[n_all] = normal_octaves[i];
+            all_m[n_all] = modulation[i];
             all_at[live] = n_all++;
         }
         if (w > 0.0) {
             memcpy(from_unit + 3 * n_from, unit + 3 * live, 3 * sizeof(double));
             from_first[n_from] = plod__inset_first_octave(planet, &insets[i]);
             from_oct[n_from] = octaves[i], from_noct[n_from] = normal_octaves[i];
+            from_m[n_from] = modulation[i];
             from_at[live] = n_from++;
         }
         live_at[live++] = i;
@@ -388,6 +453,10 @@ static void plod__add_detail_run(const plod_planet *planet, size_t count, const 
                         normals ? g : NULL);
     plod_detail_noise_from_n(planet->detail, n_from, from_unit, from_first, from_oct, from_noct,
                              from, normals ? g_from : NULL);
+    plod__fine_gain_n(planet, n_all, all_unit, NULL, all_oct, all_noct, all_m, noise,
+                      normals ? g : NULL);
+    plod__fine_gain_n(planet, n_from, from_unit, from_first, from_oct, from_noct, from_m, from,
+                      normals ? g_from : NULL);
     for (size_t j = 0; j < live; j++) {
         size_t i = live_at[j];
         double w = insets[i].weight > 0.0 ? insets[i].weight : 0.0;
@@ -639,6 +708,8 @@ void plod_planet_surface_detail_n(const plod_planet *planet, size_t n, const dou
         plod__unit_dirs(live, unit);
         plod_detail_noise_n(planet->detail, live, unit, band_live, normal_band_live, noise,
                             normals ? gradient : NULL);
+        plod__fine_gain_n(planet, live, unit, NULL, band_live, normal_band_live, scale, noise,
+                          normals ? gradient : NULL);
         plod__apply_detail_n(planet->radius, live, unit, scale, noise, gradient, height_live,
                              normals ? normal_live : NULL, detail ? detail_live : NULL);
         for (size_t j = 0; j < live; j++) {
@@ -703,8 +774,10 @@ static void plod__detail_scaled(const plod_planet *planet, double mlo, double m,
     plod_detail_noise_range(planet->detail, &lo, &hi);
     m = m > 1.0 ? 1.0 : (m > 0.0 ? m : 0.0); /* NaN-free maps: m in [0, 1] */
     mlo = mlo > m ? m : (mlo > 0.0 ? mlo : 0.0);
-    *min_m = lo * m;
-    *max_m = hi * m;
+    /* m P + g T inside g (P + T)'s bounds: both ranges hold 0, g >= m */
+    double g = plod_detail_fine_modulation(planet->detail, m);
+    *min_m = lo * g;
+    *max_m = hi * g;
     if (modulation)
         modulation[0] = mlo, modulation[1] = m;
 }

@@ -37,6 +37,8 @@ typedef struct plod_bound {
                              (extent / texel)^2; else infinity */
     double detail0;       /* the detail field's modulation maximum over the
                              sector (0: no detail there) */
+    double band0;         /* the largest excess g(m) - m of the hills' band
+                             over the sector (plod_detail.h) */
     int horizon;          /* 0: r_max below the occluder, never hidden */
     double horizon_cos, horizon_sin; /* of the cap angle + the angle at
                              which r_max peeks over the occluder ball */

@@ -103,11 +103,22 @@ typedef struct plod_detail_params {
                           faster there keeps the error proportional to the
                           cell, so refinement near the ground stays
                           bounded */
+    double hills_fine; /* gain, >= 1, of the hills' band of octaves (wavelength
+                          below hills_fine_below, down to hills_fine_to) where
+                          the modulation is `hills` (1: none).  Real hills
+                          are rougher at a kilometre for their relief over
+                          ten than ranges are (the Jacksboro fault DEM: std
+                          50 m in 1 km windows against 114 m in 10 km), so
+                          one modulation of every octave cannot fit both */
+    double hills_fine_below; /* metres; 0 = no band */
+    double hills_fine_to;    /* metres: the band's octaves are of wavelength
+                                >= this (0: down to the finest) */
 } plod_detail_params;
 
 /* Defaults: MOUNTAINS, amplitude 0 (set it), roughness 0.5, largest 0,
  * smallest 0.1 m, seed 0, craters 0, density 0.5, plains 0.15, relief 0,
- * hills 1, highlands 0, fine_roughness 0.5, fine_below 0. */
+ * hills 1, highlands 0, fine_roughness 0.5, fine_below 0, hills_fine 1,
+ * hills_fine_below 0, hills_fine_to 0. */
 void plod_detail_params_init(plod_detail_params *params);
 
 /* Builds the field for `planet` (radius, projection, height map, height
@@ -199,6 +210,39 @@ double plod_detail_cell_error(const plod_detail *detail, double cell);
 double plod_detail_cell_error_visible(const plod_detail *detail, double cell, int visible);
 /* Octaves of wavelength >= `wavelength` metres (the first ones). */
 int plod_detail_octaves_at_least(const plod_detail *detail, double wavelength);
+/* The hills' band: octaves fine_first..fine_end-1 (wavelength below
+ * hills_fine_below, down to hills_fine_to; none when hills_fine is 1).
+ * Where the modulation is m the surface's detail is
+ *   m N + (g(m) - m) B,
+ * B the band's octaves below the point's band limit, started fresh at
+ * the band (plod_detail_noise_from: a few octaves more per point, not the
+ * whole sum again; inside the band its ridged weights are N's, so B is
+ * N's band but for its first octave's weight), so the band's relief
+ * follows g(m) and the rest m.  g is piecewise linear through (plains,
+ * plains), (hills, min(1, hills_fine * hills)) and (1, 1), and m
+ * elsewhere (below plains,
+ * or with hills 1): g >= m, monotone, 1 at m = 1, so plains and the
+ * steepest ranges keep their relief and hills get the band's gain.
+ * After F. K. Musgrave's multifractals ("Texturing and Modeling: A
+ * Procedural Approach", 2003), whose octaves' amplitudes follow the
+ * local character of the terrain rather than one spectrum. */
+int plod_detail_fine_first(const plod_detail *detail);
+int plod_detail_fine_end(const plod_detail *detail);
+double plod_detail_fine_modulation(const plod_detail *detail, double m);
+/* max of g(m) - m over m in [m0, m1] (>= 0; 0 without a band), for
+ * bounds and the refinement error. */
+double plod_detail_fine_excess_max(const plod_detail *detail, double m0, double m1);
+/* Bounds of B (any band limit >= the octaves a cell of `cell` metres
+ * keeps, started at the band) over the points within unit chord `reach` of `dir`, as
+ * plod_detail_local_range (lo <= 0 <= hi is not promised); 0, 0 without a
+ * band. */
+void plod_detail_band_local_range(const plod_detail *detail, const double dir[3],
+                                  double reach, double cell, double *lo, double *hi);
+/* plod_detail_cell_error_visible counting only the band's octaves (per
+ * unit of g - m): the error term of the band's excess.  Monotone in cell
+ * and in visible. */
+double plod_detail_cell_error_band(const plod_detail *detail, double cell, int visible);
+
 /* Pixels of wavelength below which an octave counts in no refinement
  * error (plod_bound.h): relief finer than that at its distance is below
  * the pixel, which no mesh draws (its triangles would alias it), and

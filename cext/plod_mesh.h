@@ -170,7 +170,10 @@ typedef struct plod_mesh_params {
     /* Detail fade: > 0 makes every vertex's detail band a continuous
      * function of its distance d to `eye` instead of its sector's cells,
      * so the surface changes continuously as the eye moves (no band
-     * switching when a sector splits or merges).  A cell of
+     * switching when a sector splits or merges).  d is measured to the
+     * vertex on the ground (its height from a first, coarser fade for the
+     * distance to the sphere through the ground below the eye), not to the
+     * planet's sphere, which lies kilometres below high ground.  A cell of
      * detail_fade_cell * d metres is assumed at the vertex; octave i gets
      * the weight clamp(log2(c_i / cell) + 0.5, 0, 1), c_i the largest cell
      * that keeps it (the surface's octaves_for_cell), i.e. it fades in over
@@ -289,6 +292,7 @@ typedef struct plod_mesh_sampler {
     int banded;                       /* the surface limits detail per point */
     int fade_octaves;                 /* detail fade thresholds (see params) */
     double fade_log2_cell[PLOD_MESH_SAMPLER_OCTAVES];
+    double fade_ground_radius;        /* metres to the ground below the eye */
 } plod_mesh_sampler;
 
 /* Prepares a sampler for `params` (origin, eye, detail_fade_cell read) and

@@ -340,13 +340,17 @@ static int plod__detail_arg(PyObject *obj, plod_detail_params *p, int *enabled)
         plod__detail_number(obj, "hills", &p->hills, &used) < 0 ||
         plod__detail_number(obj, "highlands", &p->highlands, &used) < 0 ||
         plod__detail_number(obj, "fine_roughness", &p->fine_roughness, &used) < 0 ||
-        plod__detail_number(obj, "fine_below", &p->fine_below, &used) < 0)
+        plod__detail_number(obj, "fine_below", &p->fine_below, &used) < 0 ||
+        plod__detail_number(obj, "hills_fine", &p->hills_fine, &used) < 0 ||
+        plod__detail_number(obj, "hills_fine_below", &p->hills_fine_below, &used) < 0 ||
+        plod__detail_number(obj, "hills_fine_to", &p->hills_fine_to, &used) < 0)
         return -1;
     if (used != (int)PyDict_Size(obj)) {
         plod_py_raise_detail(PLOD_ERR_BAD_PARAM, "Planet",
                              "detail keys: enabled, style, amplitude, roughness, largest, "
                              "smallest, seed, craters, crater_density, plains, relief, hills, "
-                             "highlands, fine_roughness, fine_below");
+                             "highlands, fine_roughness, fine_below, hills_fine, hills_fine_below, "
+                             "hills_fine_to");
         return -1;
     }
     return 0;
@@ -908,7 +912,8 @@ static PyObject *plod__planet_get(plod_py_planet *self, void *closure)
             Py_RETURN_NONE;
         const plod_detail_params *p = plod_detail_get_params(planet->detail);
         int octaves = plod_detail_octave_count(planet->detail);
-        return Py_BuildValue("{s:O,s:s,s:d,s:d,s:d,s:d,s:K,s:d,s:d,s:d,s:d,s:d,s:d,s:d,s:d,s:i,s:d}",
+        return Py_BuildValue("{s:O,s:s,s:d,s:d,s:d,s:d,s:K,s:d,s:d,s:d,s:d,s:d,s:d,s:d,s:d,"
+                             "s:d,s:d,s:d,s:i,s:d}",
                              "enabled", Py_True, "style", plod__detail_styles[p->style],
                              "amplitude", p->amplitude, "roughness", p->roughness, "largest",
                              p->largest, "smallest", p->smallest, "seed",
@@ -916,7 +921,9 @@ static PyObject *plod__planet_get(plod_py_planet *self, void *closure)
                              "crater_density", p->crater_density, "plains", p->plains,
                              "relief", p->relief, "hills", p->hills, "highlands", p->highlands,
                              "fine_roughness", p->fine_roughness, "fine_below", p->fine_below,
-                             "octaves", octaves, "finest_wavelength",
+                             "hills_fine", p->hills_fine, "hills_fine_below",
+                             p->hills_fine_below, "hills_fine_to", p->hills_fine_to, "octaves",
+                             octaves, "finest_wavelength",
                              octaves ? plod_detail_wavelength(planet->detail, octaves - 1) : 0.0);
     }
     case 6:

@@ -10,8 +10,10 @@ PLANETS = {
                   projection="QSC", atmosphere="EARTH", use_detail=True,
                   detail_style="MOUNTAINS", detail_amplitude=4000.0, detail_roughness=0.65,
                   detail_craters=0.0, detail_plains=0.01, detail_relief=150.0,
-                  detail_hills=0.27, detail_highlands=3500.0,
-                  detail_fine_roughness=0.43, detail_fine_below=9000.0),
+                  detail_hills=0.25, detail_highlands=3500.0,
+                  detail_fine_roughness=0.43, detail_fine_below=9000.0,
+                  detail_hills_fine=4.0, detail_hills_fine_below=2500.0,
+                  detail_hills_fine_to=500.0),
     "MOON": dict(label="Moon", radius=1737400.0, heightmap="lunar_bumpmap.jpg",
                  color_map="lunar_surface_2k.jpg", height_scale=19000.0,
                  use_sea_level=False, sea_level=0.0, ocean_sphere=False, projection="QSC",
@@ -55,7 +57,9 @@ DETAIL_SEED = 1
 # the detail settings presets may leave out, at their neutral values (the
 # modulation's plains-to-hills law alone, one roughness for every octave)
 DETAIL_LAW_DEFAULTS = dict(detail_relief=0.0, detail_hills=1.0, detail_highlands=0.0,
-                           detail_fine_roughness=0.5, detail_fine_below=0.0)
+                           detail_fine_roughness=0.5, detail_fine_below=0.0,
+                           detail_hills_fine=1.0, detail_hills_fine_below=0.0,
+                           detail_hills_fine_to=0.0)
 
 
 def detail_kwargs(settings):
@@ -73,6 +77,9 @@ def detail_kwargs(settings):
                 highlands=float(settings.get("detail_highlands", 0.0)),
                 fine_roughness=float(settings.get("detail_fine_roughness", 0.5)),
                 fine_below=float(settings.get("detail_fine_below", 0.0)),
+                hills_fine=float(settings.get("detail_hills_fine", 1.0)),
+                hills_fine_below=float(settings.get("detail_hills_fine_below", 0.0)),
+                hills_fine_to=float(settings.get("detail_hills_fine_to", 0.0)),
                 seed=int(settings.get("detail_seed", DETAIL_SEED)))
 
 

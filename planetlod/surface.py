@@ -116,12 +116,14 @@ class PreviewData:
     sector (0: a free slot, all zeros: it draws nothing), so that
     preview_update can replace only what changed.  `serial` is the planet's
     mesh-cache emission count after the mesh it was made from (None: not
-    from a cached mesh); preview_update needs it to be current."""
+    from a cached mesh); preview_update needs it to be current.  `whole`: one
+    slot holding a whole mesh (the LOD methods other than HRTMR), whose
+    triangles change with every preview."""
     __slots__ = ("texels", "row_texels", "vertex_count", "sector_count",
-                 "vertices_per_sector", "template_triangles", "slot_ids", "serial")
+                 "vertices_per_sector", "template_triangles", "slot_ids", "serial", "whole")
 
     def __init__(self, texels, row_texels, vertex_count, sector_count, template_triangles,
-                 slot_ids=None, serial=None):
+                 slot_ids=None, serial=None, whole=False):
         self.texels = texels          # (rows * row_texels, 4)
         self.row_texels = row_texels
         self.vertex_count = vertex_count
@@ -131,6 +133,7 @@ class PreviewData:
         self.slot_ids = (numpy.zeros(sector_count, dtype=numpy.uint64) if slot_ids is None
                          else slot_ids)
         self.serial = serial
+        self.whole = whole
 
     @property
     def sectors(self):
@@ -208,7 +211,7 @@ def preview_data(mesh, anchor, radius, sea_level=None, row_texels=PREVIEW_ROW_TE
         vertex[:, 0, 3] = height
         vertex[:, 1, 3] = levels.astype(f32) * 2.0 + sea
         return PreviewData(texels, row_texels, n, 1, triangles.copy(),
-                           numpy.ones(1, dtype=numpy.uint64))
+                           numpy.ones(1, dtype=numpy.uint64), whole=True)
     sectors = mesh.sector_count
     tris_per_sector = mesh.triangle_count // sectors
     # the first sector's triangles index vertices 0..vertices_per_sector-1

@@ -220,6 +220,7 @@ def test_the_addon_work_draws_a_method(planetlod, method):
         mesh = planet.mesh(template_level=values["template_level"])
         assert work.stats["visible"] == mesh.sector_count > 0
         assert data.sector_count == 1 and data.vertex_count == mesh.vertex_count
+        assert data.whole  # drawn once, with its own triangles (no template copies)
         assert len(data.template_triangles) == mesh.triangle_count
         assert data.levels.max() == np.frombuffer(mesh.sector_level, np.int32).max()
     whole = surface.preview_data(mesh, anchor, EARTH, whole=True)

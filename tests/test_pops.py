@@ -6,7 +6,10 @@ import math
 import numpy as np
 import pytest
 
+import planetlod
 from bench import bench_pops
+from planetlod import planets, presets
+from planetlod.flyby import geo_pose
 
 
 class FakeMesh:
@@ -214,3 +217,60 @@ def test_faded_vertices_stay_inside_the_refiners_bounds(earth, path, frame):
     assert np.all(h[on_surface] >= lo[on_surface] - tol[on_surface]), path
     assert np.all(h <= hi + tol), path
     earth.reset()
+
+
+def moon_draft_view():
+    """The Moon preset at Draft quality, a 96x54 camera 2 m above the ground
+    at 36 E, 38 N looking east 10 degrees up (24 mm): the ground there lies
+    7 km above the Moon's radius."""
+    s = presets.planet_settings("MOON", bench_pops.data_path)
+    moon = planetlod.Planet(float(s["radius"]), heightmap=s["heightmap"],
+                            height_scale=float(s["height_scale"]),
+                            projection=s["projection"].lower(), detail=presets.detail_kwargs(s))
+    quality = presets.quality_settings("DRAFT")
+    matrix = geo_pose(moon.radius, 36.0, 38.0, altitude=2.0, heading=90.0, pitch=10.0,
+                      base_height=bench_pops.surface_height(moon))
+    refine = dict(max_pixel_error=quality["max_pixel_error"], budget=quality["budget"],
+                  template_level=planets.template_level_from_density(
+                      int(quality["template_density"])), hysteresis=False)
+    return moon, (matrix, 96, 54, 24.0), refine
+
+
+def earth_walk_view(planet):
+    """The walk's first frame near Everest (the ground 8.8 km above the radius)."""
+    return planet, bench_pops.path_cameras(planet, "walk", 1)[0], \
+        bench_pops.refine_kwargs(4)
+
+
+@pytest.mark.parametrize("view", ["moon", "earth walk"])
+def test_faded_detail_near_the_eye_is_the_whole_surface(earth, view):
+    """The fade's distance is the eye's distance to the vertex on the ground,
+    not to the planet's sphere: the ground near a camera 2 m above a surface
+    kilometres above the radius keeps its fine octaves.  Measured from the
+    sphere the fade dropped them there: the ground near the eye rose 2.2 m
+    on the Moon, above the eye, and moved by 100 times the allowed error."""
+    planet, (matrix, width, height, lens), refine = \
+        moon_draft_view() if view == "moon" else earth_walk_view(earth)
+    planet.reset()
+    planet.refine(bench_pops.camera(planet, matrix, width, height, lens), **refine)
+    mesh = planet.mesh(template_level=refine["template_level"], morph=True, cache=False)
+    planet.reset()
+    pos = np.frombuffer(mesh.positions, np.float32).reshape(-1, 3).astype(np.float64)
+    pos += np.array(mesh.origin)
+    eye = np.array([row[3] for row in matrix[:3]])
+    distance = np.linalg.norm(pos - eye, axis=1)
+    up = eye / np.linalg.norm(eye)
+    rise = (pos - eye) @ up
+    below_eye = distance ** 2 - rise ** 2 < 0.5 ** 2  # within 0.5 m across
+    assert below_eye.any()
+    assert np.all(rise[below_eye] < -1.0), "the ground below the eye rose"
+    # vertices on their own surface (split morph 0): the whole surface there
+    # within a quarter of the allowed error at their distance
+    on_surface = (distance < 200.0) & (np.frombuffer(mesh.morph, np.float32) == 0.0)
+    assert on_surface.sum() > 100
+    radius = np.linalg.norm(pos[on_surface], axis=1)
+    dirs = pos[on_surface] / radius[:, None]
+    whole = np.array([planet.radius + planet.height(*d) for d in dirs])
+    allowed = refine["max_pixel_error"] / (width / (2.0 * math.atan(18.0 / lens)))
+    error = np.abs(radius - whole) / (allowed * distance[on_surface])
+    assert error.max() <= 0.25, error.max()

@@ -681,6 +681,34 @@ def test_progressive_refinement_fills_in_over_bounded_updates(planetlod, earth):
         p.refine(near, max_splits=-1)
 
 
+def test_progressive_jump_down_with_a_budget_reaches_the_ground(planetlod, earth):
+    """The viewport (progressive, hysteresis) settled at 2 km with a budget
+    that binds, then a jump to 2 m above the same ground: the refinement
+    does not stay crowded by the 2 km view's sectors, it coarsens the whole
+    view as a camera-only update does and reaches the same finest level
+    under the eye; refreshed again without a move, nothing changes."""
+    high = surface_camera(planetlod, EARTH_R, 2e3, lat=0.8, lon=0.15)
+    low = surface_camera(planetlod, EARTH_R, 2.0, lat=0.8, lon=0.15)
+    ref = planetlod.Planet(EARTH_R, heightmap=earth.heightmap, height_scale=8848.0)
+    budget = ref.refine(low, max_pixel_error=0.5)["sectors_total"] // 4
+    alone = ref.refine(low, max_pixel_error=0.5, budget=budget)
+    p = planetlod.Planet(EARTH_R, heightmap=earth.heightmap, height_scale=8848.0)
+    for cam in (high, low):
+        for _ in range(200):
+            s = p.refine(cam, max_pixel_error=0.5, max_splits=300, budget=budget,
+                         hysteresis=True)
+            assert s["sectors_total"] <= budget
+            if not s["pending"]:
+                break
+        assert not s["pending"]
+        check_conforming(p)
+    print(f"budget {budget}: camera alone level {alone['max_level']}, "
+          f"after the jump level {s['max_level']}")
+    assert s["max_level"] >= alone["max_level"]
+    again = p.refine(low, max_pixel_error=0.5, max_splits=300, budget=budget, hysteresis=True)
+    assert again["splits"] == again["merges"] == 0
+
+
 def test_budget_below_the_base_mesh_keeps_the_nearest(planetlod):
     """A budget that even the coarsest refinement exceeds keeps the nearest
     visible sectors (the only case where sectors in view are left out)."""

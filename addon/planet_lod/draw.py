@@ -154,10 +154,12 @@ def _ensure_batch(res, st):
     preview = st.preview
     tris = preview.template_triangles
     vt = preview.vertices_per_sector
-    key = (vt, len(tris))
+    # a whole mesh's triangles are its own (a new batch with each preview,
+    # one copy); a template's are the same for every sector of that size
+    key = ("whole", st.gpu_version) if preview.whole else (vt, len(tris))
     count = preview.sector_count
     if res.batch is None or res.template_key != key or count > res.capacity:
-        capacity = 64
+        capacity = 1 if preview.whole else 64
         while capacity < max(count, res.capacity if res.template_key == key else 0):
             capacity *= 2
         fmt = gpu.types.GPUVertFormat()

@@ -123,7 +123,8 @@ class PLOD_OT_preset_add(AddPresetBase, bpy.types.Operator):
         "morph", "atmosphere", "atmosphere_density", "use_detail", "detail_style",
         "detail_amplitude", "detail_roughness", "detail_smallest", "detail_craters",
         "detail_plains", "detail_relief", "detail_hills", "detail_highlands",
-        "detail_fine_roughness", "detail_fine_below", "detail_seed")]
+        "detail_fine_roughness", "detail_fine_below", "detail_hills_fine",
+        "detail_hills_fine_below", "detail_hills_fine_to", "detail_seed")]
 
 
 class PLOD_OT_quality_preset_add(AddPresetBase, bpy.types.Operator):

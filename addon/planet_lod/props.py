@@ -196,6 +196,22 @@ class PLOD_PG_settings(bpy.types.PropertyGroup):
                                      update=_geometry_changed,
                                      description="Wavelength under which Fine Roughness "
                                                  "applies (0: Roughness everywhere)")
+    detail_hills_fine: FloatProperty(name="Hills Fine Gain", default=1.0, min=1.0, max=16.0,
+                                     update=_geometry_changed,
+                                     description="Gain of the octaves below Hills Fine Below "
+                                                 "on hills: real hills are rougher at a "
+                                                 "kilometre for their broad relief than "
+                                                 "ranges (1: off)")
+    detail_hills_fine_below: FloatProperty(name="Hills Fine Below", default=0.0, min=0.0,
+                                           soft_max=50000.0, subtype='DISTANCE',
+                                           unit='LENGTH', update=_geometry_changed,
+                                           description="Wavelength under which Hills Fine "
+                                                       "Gain applies (0: off)")
+    detail_hills_fine_to: FloatProperty(name="Hills Fine To", default=0.0, min=0.0,
+                                        soft_max=50000.0, subtype='DISTANCE', unit='LENGTH',
+                                        update=_geometry_changed,
+                                        description="Wavelength down to which Hills Fine Gain "
+                                                    "applies (0: the finest)")
     detail_seed: IntProperty(name="Seed", default=1, min=0, update=_geometry_changed)
     color_map: StringProperty(name="Colour Map", subtype='FILE_PATH',
                               description="Colour image of the surface: a world map (2:1) or a "
@@ -267,11 +283,11 @@ class PLOD_PG_settings(bpy.types.PropertyGroup):
                                          "its camera's view is drawn in yellow")
     show_levels: BoolProperty(name="Show Levels", default=False, update=_material_changed,
                               description="Colour the terrain patches by their level of detail")
-    morph: BoolProperty(name="Morphing", default=False, update=_changed,
+    morph: BoolProperty(name="Morphing", default=True, update=_changed,
                         description="Blend new detail in smoothly instead of popping: fine "
                                     "detail fades in with distance and new patches start "
                                     "as the coarser surface they replace (emission costs "
-                                    "about twice as much)")
+                                    "two to three times as much)")
     live_update: BoolProperty(name="Live Update", default=True, update=_changed,
                               description="Update the detail while you move the view")
     gpu_preview: BoolProperty(name="Fast Preview", default=True, update=_preview_changed,
@@ -322,6 +338,9 @@ class PLOD_PG_settings(bpy.types.PropertyGroup):
             "detail_highlands": self.detail_highlands,
             "detail_fine_roughness": self.detail_fine_roughness,
             "detail_fine_below": self.detail_fine_below,
+            "detail_hills_fine": self.detail_hills_fine,
+            "detail_hills_fine_below": self.detail_hills_fine_below,
+            "detail_hills_fine_to": self.detail_hills_fine_to,
             "detail_seed": self.detail_seed,
         }
 

@@ -202,6 +202,9 @@ class PLOD_PT_detail(PLOD_PT_planet_sub, bpy.types.Panel):
         col.prop(s, "detail_hills")
         col.prop(s, "detail_relief")
         col.prop(s, "detail_highlands")
+        col.prop(s, "detail_hills_fine")
+        col.prop(s, "detail_hills_fine_below")
+        col.prop(s, "detail_hills_fine_to")
         col.prop(s, "detail_seed")
 
 

@@ -155,8 +155,14 @@ def main():
     assert bpy.ops.mesh.planet_add(preset='EARTH', quality='PREVIEW') == {'FINISHED'}
     earth = bpy.context.object
     cam = add_geo_camera(earth, "Alps", 7.9, 46.4, 3000.0)
+    assert earth.planet_lod.morph  # renders morph by default
     refresh.refresh_for_render(scene)
     check_borders(earth, "Earth, 3 km above the Alps")
+    # the surface itself from here on: a morphing vertex lies between two
+    # levels' surfaces (its detail their blend), not on the surface at its
+    # own direction
+    earth.planet_lod.morph = False
+    refresh.refresh_for_render(scene)
     check_detail(earth)
 
     # precision: vertices within 1 km of the camera vs the float64 surface
@@ -215,6 +221,7 @@ def main():
     assert spread < 1e-3, spread
     cam.animation_data_clear()
     earth.planet_lod.use_detail = True
+    earth.planet_lod.morph = True  # the coast as renders get it
 
     # ---- the sea at a coast (off Cabo da Roca, looking east at the land) ----------
     geo.longitude, geo.latitude, geo.east, geo.altitude = -10.0, 38.75, 0.0, 500.0

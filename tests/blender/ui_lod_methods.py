@@ -68,14 +68,17 @@ def test():
     # near the ground: every method draws the ground under the horizon, without holes
     for altitude, pitch in ((2000.0, -35.0), (2.0, -20.0)):
         for method in ('HRTMR', 'CHUNKED', 'GEOMIPMAP', 'CLIPMAP'):
+            st = runtime.state(planet)
+            since = st.serial
             s.lod_method = method
             with ui.override():
                 assert bpy.ops.view3d.planet_go_to_surface(
                     longitude=20.0, latitude=10.0, altitude=altitude,
                     pitch=pitch) == {'FINISHED'}
-            st = runtime.state(planet)
-            # the view jumped from far away: the refinement takes a few refreshes
-            yield from ui.wait_until(lambda: st.settled() and not st.pending
+            # the view jumped from far away: the refinement takes a few refreshes,
+            # the first of them begun after the jump
+            yield from ui.wait_until(lambda: st.serial > since and st.settled()
+                                     and not st.pending
                                      and st.preview is not None,
                                      what="the refinement near the ground")
             yield from ui.redraw(2)
