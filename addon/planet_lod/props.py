@@ -27,6 +27,12 @@ def _geometry_changed(self, context):
     runtime.mark_dirty(self.id_data, geometry=True, material=True)
 
 
+def _wavelength(name, description):
+    """A detail band's wavelength limit (0: off)."""
+    return FloatProperty(name=name, default=0.0, min=0.0, soft_max=50000.0, subtype='DISTANCE',
+                         unit='LENGTH', update=_geometry_changed, description=description)
+
+
 def _material_changed(self, context):
     runtime.mark_dirty(self.id_data, geometry=False, material=True)
 
@@ -191,10 +197,7 @@ class PLOD_PG_settings(bpy.types.PropertyGroup):
                                          description="Amplitude ratio from one octave to the "
                                                      "next below Fine Below (0.5 or less keeps "
                                                      "refinement near the ground affordable)")
-    detail_fine_below: FloatProperty(name="Fine Below", default=0.0, min=0.0,
-                                     soft_max=50000.0, subtype='DISTANCE', unit='LENGTH',
-                                     update=_geometry_changed,
-                                     description="Wavelength under which Fine Roughness "
+    detail_fine_below: _wavelength("Fine Below", "Wavelength under which Fine Roughness "
                                                  "applies (0: Roughness everywhere)")
     detail_hills_fine: FloatProperty(name="Hills Fine Gain", default=1.0, min=1.0, max=16.0,
                                      update=_geometry_changed,
@@ -202,16 +205,10 @@ class PLOD_PG_settings(bpy.types.PropertyGroup):
                                                  "on hills: real hills are rougher at a "
                                                  "kilometre for their broad relief than "
                                                  "ranges (1: off)")
-    detail_hills_fine_below: FloatProperty(name="Hills Fine Below", default=0.0, min=0.0,
-                                           soft_max=50000.0, subtype='DISTANCE',
-                                           unit='LENGTH', update=_geometry_changed,
-                                           description="Wavelength under which Hills Fine "
-                                                       "Gain applies (0: off)")
-    detail_hills_fine_to: FloatProperty(name="Hills Fine To", default=0.0, min=0.0,
-                                        soft_max=50000.0, subtype='DISTANCE', unit='LENGTH',
-                                        update=_geometry_changed,
-                                        description="Wavelength down to which Hills Fine Gain "
-                                                    "applies (0: the finest)")
+    detail_hills_fine_below: _wavelength("Hills Fine Below", "Wavelength under which Hills "
+                                                             "Fine Gain applies (0: off)")
+    detail_hills_fine_to: _wavelength("Hills Fine To", "Wavelength down to which Hills Fine "
+                                                       "Gain applies (0: the finest)")
     detail_seed: IntProperty(name="Seed", default=1, min=0, update=_geometry_changed)
     color_map: StringProperty(name="Colour Map", subtype='FILE_PATH',
                               description="Colour image of the surface: a world map (2:1) or a "
