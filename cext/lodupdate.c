@@ -65,6 +65,13 @@ struct plod_refiner {
                                budget_params (the same frame again) */
     plod_camera budget_camera;
     plod_refine_params budget_params;
+    /* the progressive refreshes' walk to the budget's step, a step a refresh */
+    int progressive_next;   /* the step the next progressive refresh refines at
+                               (-1: coarsen_step) */
+    int step_pending;       /* this refresh moved that step: refresh again */
+    int finer_failed;       /* the step below coarsen_step overflowed the
+                               budget for finer_failed_camera: not tried again */
+    plod_camera finer_failed_camera;
     /* this frame's visible sectors in canonical order (plod__order_visible)
      * and their keys, from which the next frame's order starts */
     uint32_t *order;
@@ -918,30 +925,49 @@ static void plod__refine(plod_refiner *r, plod__frame *f)
     r->limits.max_splits = f->params->max_splits;
     r->limited = 0;
     if (f->params->max_splits) {
-        /* progressive: the breadth-first pass at the budget's last step, the
-         * budget as its cap.  Where the budget binds, or a finer step might
-         * fit, the step is searched as a camera-only update does: capped
-         * alone, the splits a view kept from an earlier place would crowd
-         * out the ones the new place needs (a jump down to the ground would
-         * end short of it, the coarse surface above the eye) */
+        /* progressive: the breadth-first pass, the budget as its cap, at the
+         * budget's coarsening step.  Capped alone at one step, the splits a
+         * view kept from an earlier place would crowd out the ones the new
+         * place needs (a jump down to the ground would end short of it, the
+         * coarse surface above the eye), so where the budget binds the next
+         * refresh refines the whole view a step coarser, and where a finer
+         * step may fit (and has not overflowed for this camera) a step
+         * finer: the refreshes walk to the step a camera-only update finds,
+         * each within its split limit */
         size_t budget = f->params->budget, cap = f->params->max_sectors;
-        int step = budget && r->coarsen_step > 0 && r->coarsen_step <= PLOD__MAX_COARSEN_STEP
-                       ? r->coarsen_step
-                       : 0;
+        const plod_camera *camera = f->view.camera;
+        int step = r->progressive_next >= 0 ? r->progressive_next : r->coarsen_step;
+        if (!budget || step < 0 || step > PLOD__MAX_COARSEN_STEP)
+            step = 0;
         plod__refine_pass(f, step, budget && budget < cap ? budget : cap);
-        r->coarsen_step = step;
-        if (budget && !r->limited &&
-            (r->truncated || (step > 0 && plod__sectors_at_least(f, step - 1) <= budget))) {
-            r->limits.max_splits = 0; /* the search's passes run whole */
-            plod__fit_budget(r, f);
-            r->limits.max_splits = f->params->max_splits;
+        int next = step;
+        if (budget && !r->limited) {
+            int same = r->finer_failed &&
+                       memcmp(&r->finer_failed_camera, camera, sizeof *camera) == 0;
+            if (r->truncated && step < PLOD__MAX_COARSEN_STEP) {
+                next = step + 1;
+                r->finer_failed = 1;
+                r->finer_failed_camera = *camera;
+            } else if (!r->truncated && step > 0 && !same &&
+                       plod__sectors_at_least(f, step - 1) <= budget) {
+                next = step - 1;
+                plod__sweep(f, step); /* back to the refined step's thresholds */
+            }
         }
+        r->coarsen_step = step;
+        r->progressive_next = next;
+        r->step_pending = next != step;
+        r->budget_known = 0;
     } else if (f->params->budget == 0) {
         plod__refine_pass(f, 0, f->params->max_sectors);
         r->coarsen_step = 0;
         r->budget_known = 0;
+        r->progressive_next = -1;
+        r->step_pending = 0;
     } else {
         plod__fit_budget(r, f);
+        r->progressive_next = -1;
+        r->step_pending = 0;
     }
 }
 
@@ -1104,7 +1130,7 @@ plod_status plod_refiner_update(plod_refiner *r, const plod_camera *camera,
     s.refine_us = t1 - t0;
     s.cull_us = t2 - t1;
     s.truncated = r->truncated;
-    s.pending = r->limited;
+    s.pending = r->limited || r->step_pending;
     s.frame = r->tree.frame;
     if (stats)
         *stats = s;
