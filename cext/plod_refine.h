@@ -107,11 +107,12 @@ typedef struct plod_refine_params {
                                 gains a level before any part gains two);
                                 where the limit stops it, stats.pending is
                                 set and later updates carry on from there.
-                                The budget is then the pass's cap instead of
-                                a search over thresholds: where it binds
-                                the view stops short of a level (most of it
-                                uniformly coarser, a part of it finer).  The
-                                result depends on the updates before: the
+                                The budget then caps the pass at a
+                                coarsening step that later updates walk, a
+                                step each, to the one that fits (coarser
+                                where the budget binds, finer where it may
+                                fit), pending while it moves.  The result
+                                depends on the updates before: the
                                 viewport's, never a render's */
 } plod_refine_params;
 
@@ -136,7 +137,8 @@ typedef struct plod_refine_stats {
     double refine_us, cull_us;
     int max_level_reached;
     int truncated;                /* 1: max_sectors stopped the split pass */
-    int pending;                  /* 1: max_splits stopped it: refine again */
+    int pending;                  /* 1: max_splits stopped it, or the
+                                     budget's step moved: refine again */
     unsigned frame;               /* refine frame counter (sector.birth) */
 } plod_refine_stats;
 
