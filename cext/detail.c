@@ -417,6 +417,24 @@ static double plod__noise_value(const plod_detail *detail, const double dir[3], 
     return st.sum;
 }
 
+/* The hills' band's part of N's first `octaves` octaves at dir (N's own
+ * ridged weights), as the batches take it: the running sum after the
+ * band less the one before it. */
+static double plod__band_value(const plod_detail *detail, const double dir[3], int octaves)
+{
+    int ridged = detail->params.style == PLOD_DETAIL_MOUNTAINS;
+    int end = octaves < detail->fine_end ? octaves : detail->fine_end;
+    plod__noise_state st;
+    plod__noise_start(&st);
+    double before = 0.0;
+    for (int i = 0; i < end; i++) {
+        if (i == detail->fine_first)
+            before = st.sum;
+        plod__octave_step(detail, &detail->octaves[i], ridged, dir, 1, 0, 0, &st);
+    }
+    return end > detail->fine_first ? st.sum - before : 0.0;
+}
+
 static int plod__unit_range(const double dir[3])
 {
     return fabs(dir[0]) <= 2.0 && fabs(dir[1]) <= 2.0 && fabs(dir[2]) <= 2.0;
@@ -713,12 +731,31 @@ static const double plod__idle_dir[3] = {1.0, 0.0, 0.0};
 
 /* One batch of up to PLOD__LANES lanes: lane k is point lane_of[k] (deepest
  * first), depth_of[] the octaves each point evaluates. */
+/* The running sums and gradients of the lanes (k < count) into `sum`
+ * and `acc`: the hills' band's prefix sums. */
+static void plod__lanes_snapshot(const plod__lanes *l, int count, double *sum,
+                                 double (*acc)[PLOD__LANES])
+{
+    memcpy(sum, l->sum, (size_t)count * sizeof *sum);
+    for (int a = 0; a < 3; a++)
+        memcpy(acc[a], l->acc[a], (size_t)count * sizeof **acc);
+}
+
+/* band_sums (may be NULL): per point, the part of its sum from the hills'
+ * band's octaves (and band_gradients that of its gradient): the running
+ * sum after the band less the one before it, from the same pass. */
 static void plod__noise_batch(const plod_detail *detail, int ridged, plod__lanes *l,
                               const double *dirs, const int *first_octaves,
                               const int *octaves, const int *gradient_octaves,
                               const int *lane_of, const int *depth_of, int count,
-                              double *sums, double *gradients)
+                              double *sums, double *gradients, double *band_sums,
+                              double *band_gradients)
 {
+    double before_sum[PLOD__LANES], before_acc[3][PLOD__LANES];
+    double after_sum[PLOD__LANES], after_acc[3][PLOD__LANES];
+    int band_first = band_sums ? detail->fine_first : detail->count + 1;
+    int band_end = band_sums ? detail->fine_end : detail->count + 1;
+    int took_before = 0, took_after = 0;
     int deepest = 0, deepest_gradient = 0, depth[PLOD__LANES];
     int padded = PLOD__LANE_ROUND(count), earliest = detail->count;
     /* idle lanes are masked and may read any lattice point: the batch's
@@ -761,6 +798,10 @@ static void plod__noise_batch(const plod_detail *detail, int ridged, plod__lanes
     }
     int active = count;
     for (int i = 0; i < deepest; i++) {
+        if (i == band_first)
+            plod__lanes_snapshot(l, count, before_sum, before_acc), took_before = 1;
+        if (i == band_end)
+            plod__lanes_snapshot(l, count, after_sum, after_acc), took_after = 1;
         if (i < earliest)
             continue; /* no lane has started (lanes only ever drop out below) */
         while (active > 0 && depth[active - 1] <= i)
@@ -815,6 +856,21 @@ static void plod__noise_batch(const plod_detail *detail, int ridged, plod__lanes
             for (int a = 0; a < 3; a++)
                 gradients[3 * at + a] = unit ? l->acc[a][k] : NAN;
     }
+    if (!band_sums)
+        return;
+    /* a band the batch did not reach ends (or starts) at the last sums */
+    if (!took_before)
+        plod__lanes_snapshot(l, count, before_sum, before_acc);
+    if (!took_after)
+        plod__lanes_snapshot(l, count, after_sum, after_acc);
+    for (int k = 0; k < count; k++) {
+        size_t at = (size_t)lane_of[k];
+        int unit = plod__unit_range(dirs + 3 * at);
+        band_sums[at] = unit ? after_sum[k] - before_sum[k] : NAN;
+        if (gradients)
+            for (int a = 0; a < 3; a++)
+                band_gradients[3 * at + a] = unit ? after_acc[a][k] - before_acc[a][k] : NAN;
+    }
 }
 
 void plod_detail_noise_n(const plod_detail *detail, size_t n, const double *dirs,
@@ -827,6 +883,15 @@ void plod_detail_noise_n(const plod_detail *detail, size_t n, const double *dirs
 void plod_detail_noise_from_n(const plod_detail *detail, size_t n, const double *dirs,
                               const int *first_octaves, const int *octaves,
                               const int *gradient_octaves, double *sums, double *gradients)
+{
+    plod_detail_noise_band_n(detail, n, dirs, first_octaves, octaves, gradient_octaves, sums,
+                             gradients, NULL, NULL);
+}
+
+void plod_detail_noise_band_n(const plod_detail *detail, size_t n, const double *dirs,
+                              const int *first_octaves, const int *octaves,
+                              const int *gradient_octaves, double *sums, double *gradients,
+                              double *band_sums, double *band_gradients)
 {
     int ridged = detail->params.style == PLOD_DETAIL_MOUNTAINS;
     plod__lanes lanes, *l = &lanes;
@@ -864,7 +929,9 @@ void plod_detail_noise_from_n(const plod_detail *detail, size_t n, const double 
                               first_octaves ? first_octaves + first : NULL, octaves + first,
                               gradients ? gradient_octaves + first : NULL, order + batch,
                               depth_of, span - batch < PLOD__LANES ? span - batch : PLOD__LANES,
-                              sums + first, gradients ? gradients + 3 * first : NULL);
+                              sums + first, gradients ? gradients + 3 * first : NULL,
+                              band_sums ? band_sums + first : NULL,
+                              band_sums && gradients ? band_gradients + 3 * first : NULL);
     }
 }
 
@@ -952,7 +1019,7 @@ void plod_detail_band_local_range(const plod_detail *detail, const double dir[3]
     double fine_hi = detail->tail_hi[coarse] - detail->tail_hi[end];
     if (!(2.0 * change + (fine_hi - fine_lo) < 0.75 * (*hi - *lo)))
         return; /* not worth the evaluation */
-    double centre = plod_detail_noise_from(detail, dir, first, coarse, NULL);
+    double centre = plod__band_value(detail, dir, coarse);
     double a = centre - change + fine_lo - slack, b = centre + change + fine_hi + slack;
     *lo = a > *lo ? a : *lo;
     *hi = b < *hi ? b : *hi;
@@ -1363,7 +1430,8 @@ plod_status plod_detail_create(plod_detail **out, const plod_detail_params *para
             double cell = ldexp(1.0, e + PLOD__ERR_EXP_MIN);
             d->err[v][e] = plod__cell_error_exact(d, cell, 0, v);
             int band_end = v < d->fine_end ? v : d->fine_end;
-            d->err_band[v][e] = plod__cell_error_exact(d, cell, d->fine_first, band_end);
+            d->err_band[v][e] = PLOD_DETAIL_BAND_ERROR_SHARE *
+                                plod__cell_error_exact(d, cell, d->fine_first, band_end);
         }
     d->deepest = plod__deepest(d);
     if (planet->heightmap) {

@@ -320,59 +320,27 @@ static void plod__blend_apply(const plod_planet *planet, const double unit[3], d
 }
 
 /* The hills' band (plod_detail.h): the field applied as m N' with
- * N' = N + ((g(m) - m) / m) B, B the band's octaves below the point's
- * limits started fresh at the band (or at the point's own start `first`,
- * NULL for 0, where that is later), so that the detail is m N + (g - m) B;
- * the gradient alike.  Only points where g exceeds m and the band counts
- * evaluate B (its few octaves).  The same operations on the point and the
- * batched paths. */
-static void plod__fine_gain_n(const plod_planet *planet, size_t n, const double *unit,
-                              const int *first, const int *octaves, const int *normal_octaves,
-                              const double *modulation, double *sums, double *gradients)
+ * N' = N + ((g(m) - m) / m) B, B the band's part of N (band, band_g:
+ * plod_detail_noise_band_n's, from N's own pass), so that the detail is
+ * m N + (g - m) B; the gradient alike.  The same operations on the point
+ * and the batched paths. */
+static void plod__fine_gain_n(const plod_planet *planet, size_t n, const double *modulation,
+                              const double *band, const double *band_g, double *sums,
+                              double *gradients)
 {
     const plod_detail *d = planet->detail;
-    int band_first = plod_detail_fine_first(d), band_end = plod_detail_fine_end(d);
-    if (band_first >= band_end)
+    if (plod_detail_fine_first(d) >= plod_detail_fine_end(d))
         return;
-    enum { RUN = 64 };
-    double at_unit[3 * RUN], band[RUN], band_g[3 * RUN], excess[RUN];
-    int at_first[RUN], at_oct[RUN], at_noct[RUN];
-    size_t at[RUN];
-    size_t k = 0;
-    for (size_t i = 0; i <= n; i++) {
-        if (i < n) {
-            double m = modulation[i];
-            double g = plod_detail_fine_modulation(d, m);
-            if (!(g > m) || !(m > 0.0))
-                continue;
-            int start = first && first[i] > band_first ? first[i] : band_first;
-            int oct = octaves[i] < band_end ? octaves[i] : band_end;
-            int noct = !gradients ? 0
-                                  : (normal_octaves[i] < band_end ? normal_octaves[i] : band_end);
-            if (oct <= start && noct <= start)
-                continue; /* the band is not in the point's octaves */
-            memcpy(at_unit + 3 * k, unit + 3 * i, 3 * sizeof(double));
-            at_first[k] = start;
-            at_oct[k] = oct;
-            at_noct[k] = noct;
-            excess[k] = (g - m) / m;
-            at[k++] = i;
-            if (k < RUN)
-                continue;
-        }
-        if (k == 0)
+    for (size_t i = 0; i < n; i++) {
+        double m = modulation[i];
+        double g = plod_detail_fine_modulation(d, m);
+        if (!(g > m) || !(m > 0.0))
             continue;
-        plod_detail_noise_from_n(d, k, at_unit, at_first, at_oct, gradients ? at_noct : NULL,
-                                 band, gradients ? band_g : NULL);
-        for (size_t j = 0; j < k; j++) {
-            size_t p = at[j];
-            if (at_oct[j] > at_first[j])
-                sums[p] += excess[j] * band[j];
-            if (gradients && at_noct[j] > at_first[j])
-                for (int c = 0; c < 3; c++)
-                    gradients[3 * p + c] += excess[j] * band_g[3 * j + c];
-        }
-        k = 0;
+        double excess = (g - m) / m;
+        sums[i] += excess * band[i];
+        if (gradients)
+            for (int c = 0; c < 3; c++)
+                gradients[3 * i + c] += excess * band_g[3 * i + c];
     }
 }
 
@@ -385,27 +353,25 @@ static void plod__add_detail(const plod_planet *planet, const double dir[3], dou
     double unit[3], g[3], noise;
     plod__unit_dir(dir, unit);
     double w = inset && inset->weight > 0.0 ? inset->weight : 0.0;
+    double band, band_g[3];
     if (!(w > 0.0)) {
-        plod_detail_noise_n(planet->detail, 1, unit, &octaves, &normal_octaves, &noise,
-                            normal ? g : NULL);
-        plod__fine_gain_n(planet, 1, unit, NULL, &octaves, &normal_octaves, &m, &noise,
-                          normal ? g : NULL);
+        plod_detail_noise_band_n(planet->detail, 1, unit, NULL, &octaves, &normal_octaves,
+                                 &noise, normal ? g : NULL, &band, band_g);
+        plod__fine_gain_n(planet, 1, &m, &band, band_g, &noise, normal ? g : NULL);
         plod__apply_detail(planet->radius, unit, m, noise, g, height, normal, detail);
         return;
     }
     double from, g_from[3] = {0.0, 0.0, 0.0};
     int first = plod__inset_first_octave(planet, inset);
     noise = 0.0, g[0] = g[1] = g[2] = 0.0;
-    if (w < 1.0)
-        plod_detail_noise_n(planet->detail, 1, unit, &octaves, &normal_octaves, &noise,
-                            normal ? g : NULL);
-    if (w < 1.0)
-        plod__fine_gain_n(planet, 1, unit, NULL, &octaves, &normal_octaves, &m, &noise,
-                          normal ? g : NULL);
-    plod_detail_noise_from_n(planet->detail, 1, unit, &first, &octaves, &normal_octaves, &from,
-                             normal ? g_from : NULL);
-    plod__fine_gain_n(planet, 1, unit, &first, &octaves, &normal_octaves, &m, &from,
-                      normal ? g_from : NULL);
+    if (w < 1.0) {
+        plod_detail_noise_band_n(planet->detail, 1, unit, NULL, &octaves, &normal_octaves,
+                                 &noise, normal ? g : NULL, &band, band_g);
+        plod__fine_gain_n(planet, 1, &m, &band, band_g, &noise, normal ? g : NULL);
+    }
+    plod_detail_noise_band_n(planet->detail, 1, unit, &first, &octaves, &normal_octaves, &from,
+                             normal ? g_from : NULL, &band, band_g);
+    plod__fine_gain_n(planet, 1, &m, &band, band_g, &from, normal ? g_from : NULL);
     plod__blend_apply(planet, unit, m, w, noise, g, from, g_from, height, normal, detail);
 }
 
@@ -424,7 +390,7 @@ static void plod__add_detail_run(const plod_planet *planet, size_t count, const 
 {
     enum { RUN = PLOD__SURFACE_CHUNK };
     double unit[3 * RUN], all_unit[3 * RUN], from_unit[3 * RUN];
-    double noise[RUN], g[3 * RUN], from[RUN], g_from[3 * RUN];
+    double noise[RUN], g[3 * RUN], from[RUN], g_from[3 * RUN], band[RUN], band_g[3 * RUN];
     int all_oct[RUN], all_noct[RUN], from_first[RUN], from_oct[RUN], from_noct[RUN];
     double all_m[RUN], from_m[RUN];
     size_t all_at[RUN], from_at[RUN], live_at[RUN];
@@ -449,14 +415,12 @@ static void plod__add_detail_run(const plod_planet *planet, size_t count, const 
         }
         live_at[live++] = i;
     }
-    plod_detail_noise_n(planet->detail, n_all, all_unit, all_oct, all_noct, noise,
-                        normals ? g : NULL);
-    plod_detail_noise_from_n(planet->detail, n_from, from_unit, from_first, from_oct, from_noct,
-                             from, normals ? g_from : NULL);
-    plod__fine_gain_n(planet, n_all, all_unit, NULL, all_oct, all_noct, all_m, noise,
-                      normals ? g : NULL);
-    plod__fine_gain_n(planet, n_from, from_unit, from_first, from_oct, from_noct, from_m, from,
-                      normals ? g_from : NULL);
+    plod_detail_noise_band_n(planet->detail, n_all, all_unit, NULL, all_oct, all_noct, noise,
+                             normals ? g : NULL, band, band_g);
+    plod__fine_gain_n(planet, n_all, all_m, band, band_g, noise, normals ? g : NULL);
+    plod_detail_noise_band_n(planet->detail, n_from, from_unit, from_first, from_oct, from_noct,
+                             from, normals ? g_from : NULL, band, band_g);
+    plod__fine_gain_n(planet, n_from, from_m, band, band_g, from, normals ? g_from : NULL);
     for (size_t j = 0; j < live; j++) {
         size_t i = live_at[j];
         double w = insets[i].weight > 0.0 ? insets[i].weight : 0.0;
@@ -661,6 +625,7 @@ void plod_planet_surface_detail_n(const plod_planet *planet, size_t n, const dou
     int faces[CHUNK];
     double u[CHUNK], v[CHUNK], modulation[CHUNK];
     double unit[3 * CHUNK], scale[CHUNK], noise[CHUNK], gradient[3 * CHUNK];
+    double fine[CHUNK], fine_gradient[3 * CHUNK]; /* the hills' band's part */
     double height_live[CHUNK], normal_live[3 * CHUNK], detail_live[CHUNK];
     size_t index[CHUNK];
     int band_live[CHUNK], normal_band_live[CHUNK];
@@ -706,9 +671,9 @@ void plod_planet_surface_detail_n(const plod_planet *planet, size_t n, const dou
             live++;
         }
         plod__unit_dirs(live, unit);
-        plod_detail_noise_n(planet->detail, live, unit, band_live, normal_band_live, noise,
-                            normals ? gradient : NULL);
-        plod__fine_gain_n(planet, live, unit, NULL, band_live, normal_band_live, scale, noise,
+        plod_detail_noise_band_n(planet->detail, live, unit, NULL, band_live, normal_band_live,
+                                 noise, normals ? gradient : NULL, fine, fine_gradient);
+        plod__fine_gain_n(planet, live, scale, fine, fine_gradient, noise,
                           normals ? gradient : NULL);
         plod__apply_detail_n(planet->radius, live, unit, scale, noise, gradient, height_live,
                              normals ? normal_live : NULL, detail ? detail_live : NULL);

@@ -173,6 +173,16 @@ double plod_detail_noise_from(const plod_detail *detail, const double dir[3], in
 void plod_detail_noise_from_n(const plod_detail *detail, size_t n, const double *dirs,
                               const int *first_octaves, const int *octaves,
                               const int *gradient_octaves, double *sums, double *gradients);
+/* plod_detail_noise_from_n, and when band_sums is not NULL per point the
+ * hills' band's part of its sum (the running sum after the band's octaves
+ * less the one before them, from the same pass: N's band octaves with
+ * N's own ridged weights, nothing to evaluate again) and, with
+ * gradients, band_gradients that of its gradient.  sums and gradients
+ * bit for bit plod_detail_noise_from_n's. */
+void plod_detail_noise_band_n(const plod_detail *detail, size_t n, const double *dirs,
+                              const int *first_octaves, const int *octaves,
+                              const int *gradient_octaves, double *sums, double *gradients,
+                              double *band_sums, double *band_gradients);
 /* The first octave of wavelength <= `wavelength` metres (the octave count
  * if none): where data of half that wavelength's texels leaves the field
  * to start. */
@@ -214,11 +224,10 @@ int plod_detail_octaves_at_least(const plod_detail *detail, double wavelength);
  * hills_fine_below, down to hills_fine_to; none when hills_fine is 1).
  * Where the modulation is m the surface's detail is
  *   m N + (g(m) - m) B,
- * B the band's octaves below the point's band limit, started fresh at
- * the band (plod_detail_noise_from: a few octaves more per point, not the
- * whole sum again; inside the band its ridged weights are N's, so B is
- * N's band but for its first octave's weight), so the band's relief
- * follows g(m) and the rest m.  g is piecewise linear through (plains,
+ * B N's own octaves of the band below the point's band limit (their
+ * ridged weights N's: plod_detail_noise_band_n takes B from N's pass,
+ * at no cost of its own), so the band's relief follows g(m) and the rest
+ * m.  g is piecewise linear through (plains,
  * plains), (hills, min(1, hills_fine * hills)) and (1, 1), and m
  * elsewhere (below plains,
  * or with hills 1): g >= m, monotone, 1 at m = 1, so plains and the
@@ -233,15 +242,27 @@ double plod_detail_fine_modulation(const plod_detail *detail, double m);
  * bounds and the refinement error. */
 double plod_detail_fine_excess_max(const plod_detail *detail, double m0, double m1);
 /* Bounds of B (any band limit >= the octaves a cell of `cell` metres
- * keeps, started at the band) over the points within unit chord `reach` of `dir`, as
+ * keeps) over the points within unit chord `reach` of `dir`, as
  * plod_detail_local_range (lo <= 0 <= hi is not promised); 0, 0 without a
  * band. */
 void plod_detail_band_local_range(const plod_detail *detail, const double dir[3],
                                   double reach, double cell, double *lo, double *hi);
-/* plod_detail_cell_error_visible counting only the band's octaves (per
- * unit of g - m): the error term of the band's excess.  Monotone in cell
- * and in visible. */
+/* PLOD_DETAIL_BAND_ERROR_SHARE times plod_detail_cell_error_visible
+ * counting only the band's octaves (per unit of g - m): the error term of
+ * the band's excess.  Monotone in cell and in visible. */
 double plod_detail_cell_error_band(const plod_detail *detail, double cell, int visible);
+
+/* The share of the hills' band's excess that the pixel criterion counts.
+ * Over hills the band's relief of a kilometre shows as shading: light and
+ * shadow on slopes that every vertex's normal carries exactly (the
+ * analytic slope of the octaves its cell keeps), while the positions
+ * between vertices only need to hold the silhouette.  Counted in full,
+ * the band's four times stronger octaves asked for cells about half as
+ * large across the view (2-3 times the sectors over hills, for the same
+ * shading); a quarter asks for about 1.4 times (bench/RESULTS.md), and
+ * every octave the cells keep still lies in the mesh's heights and
+ * normals.  Bounds count the whole excess. */
+#define PLOD_DETAIL_BAND_ERROR_SHARE 0.25
 
 /* Pixels of wavelength below which an octave counts in no refinement
  * error (plod_bound.h): relief finer than that at its distance is below
