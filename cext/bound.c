@@ -128,13 +128,17 @@ static void plod__detail_bound(const plod_planet *planet, const plod_sector *s,
     double chord = 2.0 * b->sin_angle * (b->cos_angle > 0.0 ? 1.0 : 0.0);
     if (!(chord > 0.0))
         return; /* a cap past a hemisphere: the region's bounds */
-    double nlo, nhi;
-    plod_detail_local_range(planet->detail, corner, chord, b->size, &nlo, &nhi);
     /* the cap's angle only where insets may meet it */
     int first = planet->insets ? plod_planet_detail_first_octave_cap(
                                      planet, b->axis, atan2(b->sin_angle, b->cos_angle))
                                : plod_detail_octave_count(planet->detail);
-    if (first < plod_detail_octave_count(planet->detail)) {
+    double excess = plod_detail_fine_excess_max(planet->detail, m[0], m[1]);
+    int inset = first < plod_detail_octave_count(planet->detail);
+    /* N's range and, over the band's excess, B's: one evaluation */
+    double nlo, nhi, blo = 0.0, bhi = 0.0;
+    plod_detail_local_ranges(planet->detail, corner, chord, b->size, &nlo, &nhi,
+                             excess > 0.0 && !inset ? &blo : NULL, &bhi);
+    if (inset) {
         /* an inset: there the field blends toward its fine octaves alone */
         double flo, fhi;
         plod_detail_tail_range(planet->detail, first, &flo, &fhi);
@@ -149,16 +153,10 @@ static void plod__detail_bound(const plod_planet *planet, const plod_sector *s,
         lo = p[k] < lo ? p[k] : lo;
         hi = p[k] > hi ? p[k] : hi;
     }
-    double excess = plod_detail_fine_excess_max(planet->detail, m[0], m[1]);
     if (excess > 0.0) {
-        double blo, bhi;
-        if (first < plod_detail_octave_count(planet->detail)) {
-            /* an inset: B may start at its first octave, any partial sum */
+        if (inset) /* an inset: B may start at its first octave, any partial sum */
             plod_detail_tail_range(planet->detail, plod_detail_fine_first(planet->detail), &blo,
                                    &bhi);
-        } else {
-            plod_detail_band_local_range(planet->detail, corner, chord, b->size, &blo, &bhi);
-        }
         /* (g - m) in [0, excess] */
         lo += excess * (blo < 0.0 ? blo : 0.0);
         hi += excess * (bhi > 0.0 ? bhi : 0.0);

@@ -417,24 +417,6 @@ static double plod__noise_value(const plod_detail *detail, const double dir[3], 
     return st.sum;
 }
 
-/* The hills' band's part of N's first `octaves` octaves at dir (N's own
- * ridged weights), as the batches take it: the running sum after the
- * band less the one before it. */
-static double plod__band_value(const plod_detail *detail, const double dir[3], int octaves)
-{
-    int ridged = detail->params.style == PLOD_DETAIL_MOUNTAINS;
-    int end = octaves < detail->fine_end ? octaves : detail->fine_end;
-    plod__noise_state st;
-    plod__noise_start(&st);
-    double before = 0.0;
-    for (int i = 0; i < end; i++) {
-        if (i == detail->fine_first)
-            before = st.sum;
-        plod__octave_step(detail, &detail->octaves[i], ridged, dir, 1, 0, 0, &st);
-    }
-    return end > detail->fine_first ? st.sum - before : 0.0;
-}
-
 static int plod__unit_range(const double dir[3])
 {
     return fabs(dir[0]) <= 2.0 && fabs(dir[1]) <= 2.0 && fabs(dir[2]) <= 2.0;
@@ -967,64 +949,94 @@ void plod_detail_tail_range(const plod_detail *detail, int first, double *lo, do
     *hi = detail->tail_hi[first];
 }
 
-void plod_detail_local_range(const plod_detail *detail, const double dir[3], double reach,
-                             double cell, double *lo, double *hi)
+/* The ranges' centre: N's first `octaves` octaves at dir, and *band the
+ * hills' band's part of them, in one pass (N's sum bit for bit
+ * plod_detail_noise's). */
+static double plod__prefix_value(const plod_detail *detail, const double dir[3], int octaves,
+                                 double *band)
+{
+    int ridged = detail->params.style == PLOD_DETAIL_MOUNTAINS;
+    plod__noise_state st;
+    plod__noise_start(&st);
+    double before = 0.0, after = 0.0;
+    int took_before = 0, took_after = 0;
+    for (int i = 0; i < octaves; i++) {
+        if (i == detail->fine_first)
+            before = st.sum, took_before = 1;
+        if (i == detail->fine_end)
+            after = st.sum, took_after = 1;
+        plod__octave_step(detail, &detail->octaves[i], ridged, dir, 1, 0, 0, &st);
+    }
+    *band = (took_after ? after : st.sum) - (took_before ? before : st.sum);
+    return st.sum;
+}
+
+void plod_detail_local_ranges(const plod_detail *detail, const double dir[3], double reach,
+                              double cell, double *lo, double *hi, double *band_lo,
+                              double *band_hi)
 {
     *lo = detail->lo;
     *hi = detail->hi;
     int coarse = plod_detail_octaves_for_cell(detail, cell);
-    double change = 0.0;
+    double change = 0.0, band_change = 0.0;
+    int first = detail->fine_first, end = detail->fine_end;
     for (int i = 0; i < coarse; i++) {
         const plod__octave *o = &detail->octaves[i];
         double width = o->hi - o->lo, step = o->slope * reach;
         change += step < width ? step : width;
+        if (i >= first && i < end)
+            band_change += step < width ? step : width;
     }
-    double fine = detail->tail_hi[coarse] - detail->tail_lo[coarse];
-    if (!(2.0 * change + fine < 0.75 * (detail->hi - detail->lo)))
-        return; /* not worth the evaluation */
-    double centre = plod_detail_noise(detail, dir, coarse, NULL);
-    double a = centre - change + detail->tail_lo[coarse];
-    double b = centre + change + detail->tail_hi[coarse];
     /* the sum's rounding: far below any octave's range, but say so */
     double slack = 1e-12 * (detail->hi - detail->lo);
-    a -= slack, b += slack;
-    *lo = a > *lo ? a : *lo;
-    *hi = b < *hi ? b : *hi;
-    if (*lo > *hi)
-        *lo = *hi;
+    double fine = detail->tail_hi[coarse] - detail->tail_lo[coarse];
+    int want = 2.0 * change + fine < 0.75 * (detail->hi - detail->lo);
+    /* the band's octaves alone: tail sums from `first` less those from `end` */
+    int band_coarse = coarse < end ? coarse : end, want_band = 0;
+    double fine_lo = 0.0, fine_hi = 0.0;
+    if (band_lo) {
+        *band_lo = *band_hi = 0.0;
+        if (first < end) {
+            *band_lo = detail->tail_lo[first] - detail->tail_lo[end] - slack;
+            *band_hi = detail->tail_hi[first] - detail->tail_hi[end] + slack;
+            fine_lo = detail->tail_lo[band_coarse] - detail->tail_lo[end];
+            fine_hi = detail->tail_hi[band_coarse] - detail->tail_hi[end];
+            want_band = band_coarse > first &&
+                        2.0 * band_change + (fine_hi - fine_lo) < 0.75 * (*band_hi - *band_lo);
+        }
+    }
+    if (!want && !want_band)
+        return; /* not worth the evaluation */
+    double band;
+    double centre = plod__prefix_value(detail, dir, want ? coarse : band_coarse, &band);
+    if (want) {
+        double a = centre - change + detail->tail_lo[coarse] - slack;
+        double b = centre + change + detail->tail_hi[coarse] + slack;
+        *lo = a > *lo ? a : *lo;
+        *hi = b < *hi ? b : *hi;
+        if (*lo > *hi)
+            *lo = *hi;
+    }
+    if (want_band) {
+        double a = band - band_change + fine_lo - slack, b = band + band_change + fine_hi + slack;
+        *band_lo = a > *band_lo ? a : *band_lo;
+        *band_hi = b < *band_hi ? b : *band_hi;
+        if (*band_lo > *band_hi)
+            *band_lo = *band_hi;
+    }
+}
+
+void plod_detail_local_range(const plod_detail *detail, const double dir[3], double reach,
+                             double cell, double *lo, double *hi)
+{
+    plod_detail_local_ranges(detail, dir, reach, cell, lo, hi, NULL, NULL);
 }
 
 void plod_detail_band_local_range(const plod_detail *detail, const double dir[3],
                                   double reach, double cell, double *lo, double *hi)
 {
-    int first = detail->fine_first, end = detail->fine_end;
-    *lo = *hi = 0.0;
-    if (first >= end)
-        return;
-    /* the band's octaves alone: tail sums from `first` less those from `end` */
-    double slack = 1e-12 * (detail->hi - detail->lo);
-    *lo = detail->tail_lo[first] - detail->tail_lo[end] - slack;
-    *hi = detail->tail_hi[first] - detail->tail_hi[end] + slack;
-    int coarse = plod_detail_octaves_for_cell(detail, cell);
-    coarse = coarse < end ? coarse : end;
-    if (coarse <= first)
-        return;
-    double change = 0.0;
-    for (int i = first; i < coarse; i++) {
-        const plod__octave *o = &detail->octaves[i];
-        double width = o->hi - o->lo, step = o->slope * reach;
-        change += step < width ? step : width;
-    }
-    double fine_lo = detail->tail_lo[coarse] - detail->tail_lo[end];
-    double fine_hi = detail->tail_hi[coarse] - detail->tail_hi[end];
-    if (!(2.0 * change + (fine_hi - fine_lo) < 0.75 * (*hi - *lo)))
-        return; /* not worth the evaluation */
-    double centre = plod__band_value(detail, dir, coarse);
-    double a = centre - change + fine_lo - slack, b = centre + change + fine_hi + slack;
-    *lo = a > *lo ? a : *lo;
-    *hi = b < *hi ? b : *hi;
-    if (*lo > *hi)
-        *lo = *hi;
+    double nlo, nhi;
+    plod_detail_local_ranges(detail, dir, reach, cell, &nlo, &nhi, lo, hi);
 }
 
 /* half the unit range of octave i's layers, metres */

@@ -247,6 +247,12 @@ double plod_detail_fine_excess_max(const plod_detail *detail, double m0, double 
  * band. */
 void plod_detail_band_local_range(const plod_detail *detail, const double dir[3],
                                   double reach, double cell, double *lo, double *hi);
+/* plod_detail_local_range and, when band_lo is not NULL, into band_lo,
+ * band_hi plod_detail_band_local_range, both from one evaluation of the
+ * coarse octaves (the same bounds, bit for bit). */
+void plod_detail_local_ranges(const plod_detail *detail, const double dir[3], double reach,
+                              double cell, double *lo, double *hi, double *band_lo,
+                              double *band_hi);
 /* PLOD_DETAIL_BAND_ERROR_SHARE times plod_detail_cell_error_visible
  * counting only the band's octaves (per unit of g - m): the error term of
  * the band's excess.  Monotone in cell and in visible. */
