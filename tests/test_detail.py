@@ -638,8 +638,10 @@ def test_hills_band_batches_are_the_point_path(planetlod, earth_band):
         assert (h[0], list(n)) == (heights[k], normals[3 * k:3 * k + 3]), k
     cam = ground_camera(planetlod, earth_band, *JACKSBORO, 500.0)
     earth_band.refine(cam)
+    emitted = []
     for threads in (1, 2):
         mesh = earth_band.mesh(template_level=3, threads=threads, cache=False)
+        emitted.append((bytes(mesh.positions), bytes(mesh.normals)))
         pos = np.frombuffer(mesh.positions, np.float32).reshape(-1, 3).astype(np.float64)
         pos += np.array(mesh.origin)
         h = np.linalg.norm(pos, axis=1) - EARTH_R
@@ -649,6 +651,7 @@ def test_hills_band_batches_are_the_point_path(planetlod, earth_band):
         tol = 2e-7 * dist + 1e-3
         assert np.all(h >= np.repeat(bounds[:, 0], per) - tol)
         assert np.all(h <= np.repeat(bounds[:, 1], per) + tol)
+    assert emitted[0] == emitted[1]  # the same bytes for any thread count
 
 
 def test_bad_hills_band_arguments(planetlod):
