@@ -222,11 +222,12 @@ def water(b, normal):
 
 
 def _water_coloured(b, colour):
-    """How much a colour map texel reads as open water: blue above its red
-    and green, and dark (land is green, brown, grey or white)."""
+    """How much a colour map texel (scene-linear) reads as open water: blue
+    well above its red and green, and dark (land is green, brown, grey or
+    white).  The preview's shader (planet_preview_frag.glsl) reads it alike."""
     red, green, blue = b.split(colour)
-    bluish = b.smoothstep(0.01, 0.05, blue - b.maximum(red, green))
-    return bluish * (1.0 - b.smoothstep(0.25, 0.45, (red + green + blue) * (1.0 / 3.0)))
+    bluish = b.smoothstep(1.15, 1.45, blue / (b.maximum(red, green) + 0.004))
+    return bluish * (1.0 - b.smoothstep(0.15, 0.3, (red + green + blue) * (1.0 / 3.0)))
 
 
 # where coast_fill looks for land: eight directions at 1.5 and 3 texels
