@@ -240,8 +240,9 @@ def coast_fill(b, image, uv, base, land):
     map's coast disagree by a texel or two, so a strip of land along the
     coasts takes the sea's colour.  Where the ground is land and its colour
     reads as water, the mean of the land-coloured texels around it (within
-    three texels) replaces it; lakes inland keep theirs (`land` is the
-    height map's, which draws no lake)."""
+    three texels) replaces it.  The bundled map's lakes are near-black, not
+    the sea's blue, and keep their colour; a map whose lakes are sea-blue
+    would lose a rim of three texels around them."""
     width, height = image.size
     total, weight = b.const((0.0, 0.0, 0.0)), 0.0
     for du, dv in COAST_TAPS:
