@@ -78,3 +78,47 @@ def test_proxy_seen_from_far_away(radius, distance):
     assert triangles.min() >= 0 and triangles.max() == len(positions) - 1
     r = np.linalg.norm(positions.astype(np.float64), axis=1)
     assert (r <= radius * 1.0001).all()
+
+
+def test_near_patch_follows_the_shown_surface(planet):
+    """Near the eye the proxy copies the preview's own triangles, a few metres
+    under them: in steep relief a tool's point lands on the ground shown, not
+    under the lowest point of a coarse cell.  (The ground shown: the preview's
+    vertices, whose detail ends at their sector's resolution.)"""
+    from planetlod import ground_proxy, surface
+    from planetlod.refresh import SurfaceWork
+    from test_refresh import camera_params, settings as planet_settings
+    params = camera_params(2000.0, pitch_down=0.35)
+    eye = np.array([row[3] for row in params["matrix_world"][:3]])
+    anchor = tuple(eye)
+    work = SurfaceWork(planet, planet_settings(), params, refine=True, for_render=False,
+                       check_size=True, preview=(anchor, RADIUS, None, False, None, None))
+    work.run()
+    preview = work.preview_data
+    assert isinstance(preview, surface.PreviewData) and preview.sectors > 0
+    altitude = 2000.0
+    positions, triangles = ground_proxy.near_patch(preview, eye, anchor, altitude)
+    assert len(triangles) > 0 and positions.dtype == np.float32 and triangles.dtype == np.int32
+    assert triangles.min() >= 0 and triangles.max() < len(positions)
+    points = positions.astype(np.float64) + eye
+    distance = np.linalg.norm(points - eye, axis=1)
+    # the sectors copied reach from under the eye to NEAR_REACH altitudes away
+    assert distance.min() < 2.0 * altitude
+    # each vertex on its preview vertex's radius, NEAR_SINK of its distance under it
+    shown = preview.positions.astype(np.float64) + eye
+    shown_r = np.linalg.norm(shown, axis=1)
+    directions = shown / shown_r[:, None]
+    r = np.linalg.norm(points, axis=1)
+    cosines = (points / r[:, None]) @ directions.T
+    matched = cosines.argmax(axis=1)
+    assert (cosines.max(axis=1) > 1.0 - 1e-12).all()
+    below = shown_r[matched] - r
+    assert (below >= 0.0).all(), below.min()
+    assert (np.abs(below - ground_proxy.NEAR_SINK * distance) < 0.05).all()
+    # with the coarse rings: one mesh, indices in range
+    coarse = ground_proxy.proxy_mesh(planet.surface, RADIUS, eye, anchor)
+    both = ground_proxy.joined(coarse, (positions, triangles))
+    assert len(both[0]) == len(coarse[0]) + len(positions)
+    assert both[1].max() == len(both[0]) - 1 and both[1].dtype == np.int32
+    # a preview drawn whole (the other LOD methods) gives no patch
+    assert len(ground_proxy.near_patch(None, eye, anchor, altitude)[1]) == 0
