@@ -11,23 +11,12 @@ heights sampled around it at twice the density, less a tenth of their
 spread (relief a coarse cell can hide) and less a thousandth of its
 distance from the eye (a few pixels' worth of the preview's own error).
 
-Near the eye a coarse cell hides steep relief (in high mountains its lowest
-point lies a hundred metres and more under the ground shown), so the tools
-would land well below what the user points at.  There `near_patch` adds the
-shown surface's own triangles (the GPU preview's sectors within NEAR_REACH
-altitudes of the eye), sunk by NEAR_SINK of their distance from the eye: the
-preview, drawn from the same float32 positions, passes the depth test over
-them, and a tool's point lands a few metres under the ground shown.
-
 numpy required (it runs where the GPU preview runs)."""
 import math
 
 SEGMENTS = 32        # vertices around each ring
 RELIEF_SINK = 0.1    # of the heights' spread around a vertex
 DISTANCE_SINK = 1e-3  # of the distance from the eye
-NEAR_REACH = 10.0    # of the altitude: the preview's sectors the near patch copies
-NEAR_SINK = 2e-4     # of the distance from the eye, under the preview's own triangles
-NEAR_MAX_TRIANGLES = 300_000  # the nearest sectors up to this many triangles
 
 
 def _basis(up):
@@ -109,54 +98,6 @@ def proxy_mesh(surface, radius, eye, anchor=(0.0, 0.0, 0.0), sea_level=None,
     points *= ((lengths - sink) / lengths)[:, None]
     positions = (points - numpy.asarray(anchor, dtype=numpy.float64)).astype(numpy.float32)
     return positions, _triangles(len(rows) - 2, segments)
-
-
-def near_patch(preview, eye, anchor, altitude, reach=NEAR_REACH,
-               max_triangles=NEAR_MAX_TRIANGLES):
-    """(positions, triangles) of the shown surface near planet-space `eye`: the
-    triangles of `preview` (a surface.PreviewData with positions relative to
-    `anchor`) in its sectors with a vertex within `reach` x `altitude` of the
-    eye (the nearest, up to `max_triangles`), each vertex sunk towards the
-    planet's centre by NEAR_SINK of its distance from the eye; positions
-    float32 relative to `anchor`, triangles int32.  Empty for a preview drawn
-    as one whole patch (the other LOD methods)."""
-    import numpy
-    empty = (numpy.zeros((0, 3), numpy.float32), numpy.zeros((0, 3), numpy.int32))
-    if preview is None or preview.whole or preview.sector_count == 0:
-        return empty
-    per = preview.vertices_per_sector
-    anchor = numpy.asarray(anchor, dtype=numpy.float64)
-    eye = numpy.asarray(eye, dtype=numpy.float64)
-    local = preview.positions[:per * preview.sector_count]
-    sectors = local.reshape(preview.sector_count, per, 3)
-    nearest = numpy.linalg.norm(sectors.astype(numpy.float64) - (eye - anchor),
-                                axis=2).min(axis=1)
-    used = preview.slot_ids[:preview.sector_count] != 0
-    slots = numpy.flatnonzero(used & (nearest < reach * max(altitude, 1.0)))
-    slots = slots[numpy.argsort(nearest[slots], kind="stable")]
-    slots = numpy.sort(slots[:max(max_triangles // max(len(preview.template_triangles), 1), 1)])
-    if len(slots) == 0:
-        return empty
-    points = sectors[slots].reshape(-1, 3).astype(numpy.float64) + anchor
-    lengths = numpy.linalg.norm(points, axis=1)
-    sink = NEAR_SINK * numpy.linalg.norm(points - eye, axis=1)
-    points *= ((lengths - sink) / lengths)[:, None]
-    template = numpy.asarray(preview.template_triangles, dtype=numpy.int64)
-    triangles = (template[None, :, :]
-                 + (numpy.arange(len(slots)) * per)[:, None, None]).reshape(-1, 3)
-    return (points - anchor).astype(numpy.float32), triangles.astype(numpy.int32)
-
-
-def joined(*parts):
-    """One (positions, triangles) of several, their indices offset."""
-    import numpy
-    offset, positions, triangles = 0, [], []
-    for p, t in parts:
-        positions.append(p)
-        triangles.append(t + offset)
-        offset += len(p)
-    return (numpy.concatenate(positions).astype(numpy.float32),
-            numpy.concatenate(triangles).astype(numpy.int32))
 
 
 def _triangles(rings, segments):

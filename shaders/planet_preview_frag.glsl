@@ -20,6 +20,28 @@ vec3 level_colour(float level)
   return mix(vec3(1.0), k, 0.85);
 }
 
+/* The colour map's bilinear sample at `st`, weighted in float32.  A
+ * sampler's own filter weights have 8 bits (steps of 1/256 of a texel: ~20 m
+ * on the ground for an 8k world map), which a map magnified near the ground
+ * shows as faint straight tone bands along parallels and meridians. */
+vec3 map_bilinear(vec2 st)
+{
+  ivec2 size = textureSize(color_map, 0);
+  vec2 p = st * vec2(size) - 0.5;
+  vec2 corner = floor(p);
+  vec2 f = p - corner;
+  ivec2 i = ivec2(corner);
+  int x0 = ((i.x % size.x) + size.x) % size.x;
+  int x1 = (x0 + 1) % size.x;  /* longitude wraps around */
+  int y0 = clamp(i.y, 0, size.y - 1);
+  int y1 = clamp(i.y + 1, 0, size.y - 1);
+  vec3 below = mix(texelFetch(color_map, ivec2(x0, y0), 0).rgb,
+                   texelFetch(color_map, ivec2(x1, y0), 0).rgb, f.x);
+  vec3 above = mix(texelFetch(color_map, ivec2(x0, y1), 0).rgb,
+                   texelFetch(color_map, ivec2(x1, y1), 0).rgb, f.x);
+  return mix(below, above, f.y);
+}
+
 void main()
 {
   vec3 n = normalize(v_point);
@@ -46,10 +68,18 @@ void main()
     float rows = across / slant / length(v_point) * size.y / PLOD_PI;
     float spread = 0.25 * clamp(rows, 0.0, 32.0);
     vec2 tap = vec2(spread / (2.0 * size.y * max(length(n.xy), 0.05)), spread / size.y);
-    albedo = 0.25 * (textureLod(color_map, st + vec2(tap.x, 0.5 * tap.y), 0.0).rgb +
-                     textureLod(color_map, st + vec2(-0.5 * tap.x, tap.y), 0.0).rgb +
-                     textureLod(color_map, st - vec2(tap.x, 0.5 * tap.y), 0.0).rgb +
-                     textureLod(color_map, st - vec2(-0.5 * tap.x, tap.y), 0.0).rgb);
+    if (rows < 1.0) {  /* magnified: the weights in float32 */
+      albedo = 0.25 * (map_bilinear(st + vec2(tap.x, 0.5 * tap.y)) +
+                       map_bilinear(st + vec2(-0.5 * tap.x, tap.y)) +
+                       map_bilinear(st - vec2(tap.x, 0.5 * tap.y)) +
+                       map_bilinear(st - vec2(-0.5 * tap.x, tap.y)));
+    }
+    else {
+      albedo = 0.25 * (textureLod(color_map, st + vec2(tap.x, 0.5 * tap.y), 0.0).rgb +
+                       textureLod(color_map, st + vec2(-0.5 * tap.x, tap.y), 0.0).rgb +
+                       textureLod(color_map, st - vec2(tap.x, 0.5 * tap.y), 0.0).rgb +
+                       textureLod(color_map, st - vec2(-0.5 * tap.x, tap.y), 0.0).rgb);
+    }
   }
   else if (v_sea > 0.5) {  /* ground the core lifted to the sea surface */
     albedo = vec3(0.004, 0.02, 0.06);  /* the render material's deep water */

@@ -8,14 +8,12 @@ solid at or just below the ground so the preview draws over it; hidden from
 renders, not selectable, rebuilt (in a thread) as the view the LOD follows
 moves, and removed before a save, so a file holds no trace of it.
 
-The proxy exists at every altitude while the planet is previewed (from orbit
-the tools put the 3D cursor on the planet too); near the ground (below
-NEAR_GROUND of the radius) the planet object's own viewport geometry (the
-mesh built for renders, drawn as its bounding box) is masked out by a
-viewport-only Mask modifier: its box would cross the sky.  The modifier goes
-before a save as the proxy does.  Near the eye the proxy copies the preview's
-own triangles (planetlod.ground_proxy.near_patch), rebuilt when the preview
-has settled on a new surface."""
+The proxy exists only near the ground (below NEAR_GROUND of the radius),
+where those tools are used and a depth buffer resolves it; there the
+planet object's own viewport geometry (the mesh built
+for renders, drawn as its bounding box) is masked out by a viewport-only
+Mask modifier: its box would cross the sky.  The modifier goes before a save
+as the proxy does."""
 import threading
 
 import bpy
@@ -27,7 +25,10 @@ from .core import planets as planet_settings
 
 PROXY_KEY = "planet_lod_ground_of"  # ID property: the planet a proxy stands under
 REBUILD_FRACTION = 0.05  # of the altitude: the eye's move that rebuilds the proxy
-# of the radius: below this the planet's bounding box is hidden
+# of the radius: below this the planet's bounding box is hidden and the proxy
+# exists.  Farther out a depth buffer's step grows past the proxy's sink (the
+# proxy would show through the preview in dots), and the preview is the planet
+# Home and Frame Selected find.
 NEAR_GROUND = 0.05
 BOX_MASK = "Planet Viewport Box Off"  # the Mask modifier's and its vertex group's name
 
@@ -51,18 +52,16 @@ class ProxyJob(threading.Thread):
     ground).  Not a daemon: the interpreter waits for it at exit instead of
     freeing the planet under it."""
 
-    def __init__(self, planet, radius, eye, anchor, sea_level, key, preview):
+    def __init__(self, planet, radius, eye, anchor, sea_level, key):
         super().__init__(name="planet_lod ground proxy")
         self.args = (planet.surface, radius, eye, anchor, sea_level)
-        self.key, self.eye, self.preview = key, eye, preview
+        self.key, self.eye = key, eye
         self.result = self.error = None
 
     def run(self):
         try:
             surface, radius, eye, anchor, sea_level = self.args
-            coarse = proxy_geometry.proxy_mesh(surface, radius, eye, anchor, sea_level)
-            near = proxy_geometry.near_patch(self.preview, eye, anchor, self.key[2])
-            self.result = proxy_geometry.joined(coarse, near)
+            self.result = proxy_geometry.proxy_mesh(surface, radius, eye, anchor, sea_level)
         except BaseException as exc:  # noqa: BLE001 -- reported on the main thread
             self.error = exc
 
@@ -152,7 +151,13 @@ def update(scene):
         if not _wanted(obj) or st is None or not st.frozen_camera:
             show_box(obj, True)
             continue
-        show_box(obj, _altitude(obj, st) > NEAR_GROUND * obj.planet_lod.radius)
+        near = _altitude(obj, st) <= NEAR_GROUND * obj.planet_lod.radius
+        show_box(obj, not near)
+        if not near:
+            proxy = proxy_of(obj)
+            if proxy is not None:
+                remove(proxy)
+            continue
         job = _jobs.get(obj.name_full)
         if job is not None:
             if job.is_alive():
@@ -189,15 +194,13 @@ def _key_if_stale(obj, st):
             s.sea_level if s.use_sea_level else None)
     proxy = proxy_of(obj)
     built = _built.get(proxy.name_full) if proxy is not None else None
-    # (the near patch follows the preview once it has settled on a new surface)
-    version = st.gpu_version
     if built is not None and built[0] == base:
         old_eye, altitude = built[1], built[2]
         moved = sum((a - b) ** 2 for a, b in zip(eye, old_eye)) ** 0.5
-        if moved < REBUILD_FRACTION * altitude and (built[3] == version or not st.settled()):
+        if moved < REBUILD_FRACTION * altitude:
             return None
     altitude = max(sum(c * c for c in eye) ** 0.5 - s.radius, 1.0)
-    return (base, eye, altitude, version)
+    return (base, eye, altitude)
 
 
 def _start(obj, key):
@@ -206,13 +209,8 @@ def _start(obj, key):
         planet = planet_settings.build_planet(s.as_dict())
     except core.REPORTED_ERRORS:
         return
-    base, eye = key[0], key[1]
-    st = runtime.state(obj)
-    # the preview's positions are relative to the anchor it was drawn for
-    key_now = st.preview_key
-    drawn_here = isinstance(key_now, tuple) and len(key_now) == 6 and key_now[2] == base[1]
-    preview = st.preview if drawn_here else None
-    job = ProxyJob(planet, s.radius, eye, base[1], base[3], key, preview)
+    base, eye, _ = key
+    job = ProxyJob(planet, s.radius, eye, base[1], base[3], key)
     _jobs[obj.name_full] = job
     job.start()
 

@@ -314,9 +314,9 @@ def walk_teleport(planet, space):
     left = (navigation.eye_of(r3d) - target).length
     print(f"Walk teleport: {start:.0f} m to the ground point, {left:.1f} m from it after, "
           f"{eye_height():.1f} m above the ground", flush=True)
-    # (near the eye the viewport ground lies a few metres under the ground
-    # shown; where the teleport ends under the ground the view is taken back
-    # along its ray above it)
+    # (the viewport ground lies up to a few hundred metres under the Alps'
+    # ground: the teleport ends beyond the point, under the ground, and the
+    # view is taken back along its ray above it)
     assert left < 0.05 * start, "Walk's teleport did not stop at the ground"
 
 
