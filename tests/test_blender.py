@@ -238,11 +238,9 @@ def test_packages_for_every_platform(tmp_path):
     assert proc.returncode != 0 and "tagged for windows-x64" in output, output[-3000:]
 
 
-@pytest.mark.parametrize("which", BLENDERS)
-def test_installed_package(which, packages, tmp_path):
-    """Blender 3.4 installs the legacy .zip, 4.2+ the extension .zip; the installed
-    add-on (its own abi3 module, maps and caches) builds a planet."""
-    mode = "legacy" if which == "blender" else "extension"
+def _install_env(tmp_path):
+    """The environment of a Blender that installs a package as a user does:
+    empty user folders under tmp_path, no module from the repository."""
     env = dict(os.environ)
     env.pop("PLANET_LOD_NATIVE", None)
     for var, sub in (("BLENDER_USER_SCRIPTS", "scripts"), ("BLENDER_USER_CONFIG", "config"),
@@ -250,6 +248,15 @@ def test_installed_package(which, packages, tmp_path):
         env[var] = str(tmp_path / sub)
         os.makedirs(env[var])
     env["PYTHONPATH"] = BLENDER_TESTS
+    return env
+
+
+@pytest.mark.parametrize("which", BLENDERS)
+def test_installed_package(which, packages, tmp_path):
+    """Blender 3.4 installs the legacy .zip, 4.2+ the extension .zip; the installed
+    add-on (its own abi3 module, maps and caches) builds a planet."""
+    mode = "legacy" if which == "blender" else "extension"
+    env = _install_env(tmp_path)
     proc, output = run_blender(which, os.path.join(BLENDER_TESTS, "package_check.py"), env,
                                [packages[mode], mode])
     assert proc.returncode == 0 and "PLOD-TEST PASS" in output, output[-6000:]
@@ -320,13 +327,7 @@ def test_load_failure_says_why(which, mode, variant, expected, packages, tmp_pat
     if which not in BLENDERS:
         pytest.skip(f"$PLANET_LOD_BLENDERS leaves out {which}")
     broken = _broken_package(packages[mode], variant, tmp_path)
-    env = dict(os.environ)
-    env.pop("PLANET_LOD_NATIVE", None)
-    for var, sub in (("BLENDER_USER_SCRIPTS", "scripts"), ("BLENDER_USER_CONFIG", "config"),
-                     ("BLENDER_USER_EXTENSIONS", "extensions")):
-        env[var] = str(tmp_path / sub)
-        os.makedirs(env[var])
-    env["PYTHONPATH"] = BLENDER_TESTS
+    env = _install_env(tmp_path)
     proc, output = run_blender(which, os.path.join(BLENDER_TESTS, "load_failure_check.py"), env,
                                [str(broken), mode] + expected)
     assert proc.returncode == 0 and "PLOD-TEST PASS" in output, output[-6000:]

@@ -6,7 +6,6 @@ shows) must contain every EXPECTED text, and Add Planet must fail with it
 as its report."""
 import sys
 
-import addon_utils
 import bpy
 
 import plod_testlib as lib
@@ -14,16 +13,7 @@ import plod_testlib as lib
 
 def main():
     zip_path, mode, *expected = lib.args()
-    if mode == "extension":
-        result = bpy.ops.extensions.package_install_files(
-            filepath=zip_path, repo="user_default", enable_on_install=True)
-        assert result == {'FINISHED'}, result
-        package = "bl_ext.user_default.planet_lod"
-    else:
-        assert bpy.ops.preferences.addon_install(filepath=zip_path) == {'FINISHED'}
-        addon_utils.enable("planet_lod", default_set=True, handle_error=None)
-        package = "planet_lod"
-    assert package in bpy.context.preferences.addons, sorted(bpy.context.preferences.addons.keys())
+    package = lib.install_package(zip_path, mode)
     core = sys.modules[package + ".core"]
     assert core.load_native() is None, core.native_path
     print("native_error:", core.native_error, flush=True)

@@ -8,7 +8,6 @@ legacy (Blender 3.4): Preferences > Add-ons > Install, then enable."""
 import os
 import sys
 
-import addon_utils
 import bpy
 
 import plod_testlib as lib
@@ -17,16 +16,7 @@ import plod_testlib as lib
 def main():
     zip_path, mode = lib.args()
     assert "PLANET_LOD_NATIVE" not in os.environ
-    if mode == "extension":
-        result = bpy.ops.extensions.package_install_files(
-            filepath=zip_path, repo="user_default", enable_on_install=True)
-        assert result == {'FINISHED'}, result
-        package = "bl_ext.user_default.planet_lod"
-    else:
-        assert bpy.ops.preferences.addon_install(filepath=zip_path) == {'FINISHED'}
-        addon_utils.enable("planet_lod", default_set=True, handle_error=None)
-        package = "planet_lod"
-    assert package in bpy.context.preferences.addons, sorted(bpy.context.preferences.addons.keys())
+    package = lib.install_package(zip_path, mode)
     core, compat = sys.modules[package + ".core"], sys.modules[package + ".compat"]
     folder = os.path.dirname(sys.modules[package].__file__)
     assert core.load_native() is not None, core.native_error

@@ -30,6 +30,23 @@ def enable():
     return mod
 
 
+def install_package(zip_path, mode):
+    """Installs the package zip as a user does (mode 'extension': Install from
+    Disk into the user repository, Blender 4.2+; 'legacy': Preferences >
+    Add-ons > Install, then enable); returns the add-on's module name."""
+    if mode == "extension":
+        result = bpy.ops.extensions.package_install_files(
+            filepath=zip_path, repo="user_default", enable_on_install=True)
+        assert result == {'FINISHED'}, result
+        package = "bl_ext.user_default.planet_lod"
+    else:
+        assert bpy.ops.preferences.addon_install(filepath=zip_path) == {'FINISHED'}
+        addon_utils.enable("planet_lod", default_set=True, handle_error=None)
+        package = "planet_lod"
+    assert package in bpy.context.preferences.addons, sorted(bpy.context.preferences.addons.keys())
+    return package
+
+
 def clear_scene():
     for obj in list(bpy.data.objects):
         bpy.data.objects.remove(obj)
