@@ -24,8 +24,9 @@ tests/test_layout.py checks it):
   legend                       the legend of Show Levels
   draw, sky_preview            the GPU preview; the viewport's sky
   props                        the settings
-  operators, map_files,        operators on the planet, on its height files;
-  preset_menus                 the preset menus
+  operators, mesh_jobs,        operators on the planet; Refresh and Apply as
+  map_files, preset_menus      Mesh as interface jobs; on its height files; the
+                               preset menus
   render, flyby_job,           flybys, the flyby as an interface job; recording
   recordpath, ui               a camera path; the panels
 
@@ -66,7 +67,7 @@ if "bpy" in locals():  # script reload (F3 > Reload Scripts)
                   "atmosphere",
                   "terrain_shading", "materials", "cameras", "placement", "framing", "refresh",
                   "handlers", "navigation", "planet_fly", "view_follow", "legend", "draw", "sky_preview",
-                  "props", "operators", "map_files", "preset_menus", "render", "flyby_job", "recordpath", "ui"):
+                  "props", "operators", "mesh_jobs", "map_files", "preset_menus", "render", "flyby_job", "recordpath", "ui"):
         if _name in locals():
             importlib.reload(locals()[_name])
 
@@ -76,16 +77,16 @@ from bpy.props import PointerProperty  # noqa: E402
 from . import (compat, core, prefs, mappaths, nodes, runtime, ground_proxy,  # noqa: E402
                atmosphere, terrain_shading, materials, cameras, placement, framing, refresh,
                handlers, navigation, planet_fly, view_follow, legend, draw, sky_preview, props, operators,
-               map_files, preset_menus, render, flyby_job, recordpath, ui)
+               mesh_jobs, map_files, preset_menus, render, flyby_job, recordpath, ui)
 
 classes = (
     props.PLOD_PG_inset,
     props.PLOD_PG_settings,
     props.PLOD_PG_geo,
     operators.PLOD_OT_planet_add,
-    operators.PLOD_OT_planet_refresh,
+    mesh_jobs.PLOD_OT_planet_refresh,
     map_files.PLOD_OT_write_tiles,
-    operators.PLOD_OT_planet_apply_mesh,
+    mesh_jobs.PLOD_OT_planet_apply_mesh,
     operators.PLOD_OT_planet_apply_preset,
     map_files.PLOD_OT_set_heightmap,
     map_files.PLOD_OT_set_color_map,

@@ -42,6 +42,21 @@ class PLOD_OT_write_tiles(bpy.types.Operator):
         self.report({'INFO'}, f"{obj.name}: tile file written")
         return {'FINISHED'}
 
+    running = False  # a tile file is being written (one at a time)
+
+    def _end(self, context):
+        wm = context.window_manager
+        wm.event_timer_remove(self._timer)
+        wm.progress_end()
+        if context.workspace:
+            context.workspace.status_text_set(None)
+        type(self).running = False
+
+    def cancel(self, context):  # Blender ends the job (a file loaded, the window closed)
+        self._cancel = True
+        self._thread.join()  # (stops at its next progress step)
+        self._end(context)
+
     def execute(self, context):  # scripts and background: blocking
         if report_missing(self):
             return {'CANCELLED'}
@@ -55,7 +70,13 @@ class PLOD_OT_write_tiles(bpy.types.Operator):
     def invoke(self, context, event):
         """In the UI: the writing runs on a worker thread; the status bar shows its
         progress and Esc cancels it."""
+        if bpy.app.background or context.window is None:
+            return self.execute(context)
         if report_missing(self):
+            return {'CANCELLED'}
+        if type(self).running:
+            self.report({'ERROR'}, "Write Tile File: a tile file is being written already "
+                                   "(Esc stops it)")
             return {'CANCELLED'}
         obj, settings = self._settings(context)
         self._name = obj.name_full
@@ -76,13 +97,15 @@ class PLOD_OT_write_tiles(bpy.types.Operator):
         self._timer = wm.event_timer_add(0.1, window=context.window)
         wm.progress_begin(0, 100)
         wm.modal_handler_add(self)
+        type(self).running = True
         return {'RUNNING_MODAL'}
 
     def modal(self, context, event):
-        if event.type == 'ESC':
+        if event.type == 'ESC' and event.value == 'PRESS':
             self._cancel = True
-        if event.type != 'TIMER':
             return {'RUNNING_MODAL'}
+        if event.type != 'TIMER':
+            return {'PASS_THROUGH'}  # the interface stays usable while it writes
         wm = context.window_manager
         wm.progress_update(int(100 * self._fraction))
         if context.workspace:
@@ -90,10 +113,7 @@ class PLOD_OT_write_tiles(bpy.types.Operator):
                 f"Writing the tile file: {100 * self._fraction:.0f} % (Esc to cancel)")
         if self._thread.is_alive():
             return {'RUNNING_MODAL'}
-        wm.event_timer_remove(self._timer)
-        wm.progress_end()
-        if context.workspace:
-            context.workspace.status_text_set(None)
+        self._end(context)
         written, error = self._result or (False, None)
         return self._done(bpy.data.objects.get(self._name), written, error)
 

@@ -1,8 +1,7 @@
-"""The planet's operators: add a planet, refresh it, apply its LOD as a mesh,
-apply a preset.  Each one reports errors (self.report) and returns CANCELLED;
-none lets a traceback reach the user, and none leaves a half-built object
-behind.  (Height map and inset files: map_files.py; preset menus:
-preset_menus.py.)"""
+"""The planet's operators: add a planet, apply a preset.  Each one reports
+errors (self.report) and returns CANCELLED; none lets a traceback reach the
+user, and none leaves a half-built object behind.  (Refresh and Apply as Mesh: mesh_jobs.py; height map and inset
+files: map_files.py; preset menus: preset_menus.py.)"""
 import os
 
 import bpy
@@ -166,75 +165,6 @@ class PLOD_OT_planet_add(bpy.types.Operator):
         if self.frame:
             messages += framing.hide_inside(context.scene, obj, top, undo)
         return messages
-
-
-class PLOD_OT_planet_refresh(bpy.types.Operator):
-    """Refine the active planet for its LOD camera now and rebuild its mesh"""
-    bl_idname = "object.planet_refresh"
-    bl_label = "Refresh Planet LOD"
-    bl_options = {'REGISTER'}
-
-    build_mesh: BoolProperty(name="Build mesh", default=True)
-    for_render: BoolProperty(name="Render camera", default=True,
-                             description="Use the render camera at render resolution")
-
-    @classmethod
-    def poll(cls, context):
-        return active_planet(context) is not None
-
-    def execute(self, context):
-        if report_missing(self):
-            return {'CANCELLED'}
-        obj = active_planet(context)
-        try:
-            stats = refresh.refresh(obj, context.scene, build_mesh=self.build_mesh,
-                                 for_render=self.for_render)
-        except core.REPORTED_ERRORS as exc:
-            runtime.state(obj).error = str(exc)
-            self.report({'ERROR'}, f"{obj.name}: {exc}")
-            return {'CANCELLED'}
-        st = runtime.state(obj)
-        warning = st.render_warning if self.for_render else st.warning
-        if warning:
-            self.report({'WARNING'}, f"{obj.name}: {warning}")
-        self.report({'INFO'}, f"{obj.name}: {stats.get('visible', 0)} sectors, "
-                              f"{stats.get('triangles', 0)} triangles")
-        return {'FINISHED'}
-
-
-
-class PLOD_OT_planet_apply_mesh(bpy.types.Operator):
-    """Copy the planet's current LOD geometry into a plain mesh object"""
-    bl_idname = "object.planet_apply_mesh"
-    bl_label = "Apply as Mesh"
-    bl_options = {'REGISTER', 'UNDO'}
-
-    @classmethod
-    def poll(cls, context):
-        return active_planet(context) is not None
-
-    def execute(self, context):
-        if report_missing(self):
-            return {'CANCELLED'}
-        obj = active_planet(context)
-        wm = context.window_manager
-        wm.progress_begin(0, 2)
-        try:
-            refresh.refresh(obj, context.scene, build_mesh=True, for_render=True)
-            wm.progress_update(1)
-            mesh = obj.data.copy()
-            mesh.name = obj.name + " LOD mesh"
-            copy = bpy.data.objects.new(mesh.name, mesh)
-            copy.matrix_world = obj.matrix_world
-            for collection in obj.users_collection:
-                collection.objects.link(copy)
-        except core.REPORTED_ERRORS as exc:
-            self.report({'ERROR'}, f"{obj.name}: {exc}")
-            return {'CANCELLED'}
-        finally:
-            wm.progress_end()
-        self.report({'INFO'}, f"{copy.name}: {len(mesh.polygons)} triangles")
-        return {'FINISHED'}
 
 
 class PLOD_OT_planet_apply_preset(bpy.types.Operator):

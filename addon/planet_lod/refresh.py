@@ -75,49 +75,91 @@ def refresh(obj, scene, params=None, build_mesh=False, for_render=False):
     """Refines `obj` for its LOD camera; optionally rebuilds its mesh.  Raises
     core.REPORTED_ERRORS on bad input (callers report them)."""
     with LOCK:
-        return _refresh_locked(obj, scene, params, build_mesh, for_render)
+        was_busy, _local.busy = in_refresh(), True
+        try:
+            step = Refresh(obj, scene, params, build_mesh, for_render)
+            step.compute()
+            return step.apply(obj, scene)
+        finally:
+            _local.busy = was_busy
 
 
-def _refresh_locked(obj, scene, params, build_mesh, for_render):
-    st = runtime.state(obj)
-    settings = obj.planet_lod.as_dict()
-    planet = planet_settings.build_planet(settings)
-    if params is None:
-        # the render camera's frustum ends at its clip end: fit that first
-        clip = cameras.apply_camera_clip(scene) if for_render else None
-        params = cameras.with_clip(cameras.lod_camera_params(obj, scene, for_render=for_render),
-                                    clip)
-    if params is None:
-        raise core.PlanetLODError(NO_CAMERA)
-    # the preview draws the surface the render gets (heights with the detail,
-    # morphing, the sea, the core's normals, relative to the anchor), of the
-    # viewport's LOD only: a render's never leaks in
-    preview = obj.planet_lod.gpu_preview and not bpy.app.background and not for_render
-    was_busy, _local.busy = in_refresh(), True
-    st.serial += 1  # a viewport job started before this refresh is out of date
-    try:
-        work = _work_for(obj, st, planet, settings, params, for_render,
-                         check_size=build_mesh or preview, preview=preview)
-        work.run()
-        _apply(st, work)
+class Refresh:
+    """One refresh of a planet in three steps: prepared on the main thread
+    (the planet, the LOD camera, the settings read from Blender), computed in
+    the core (no bpy: the refine, the mesh and its vertex data, so it may run
+    on a worker thread holding LOCK), applied on the main thread (the results
+    into the planet's state and its Blender mesh)."""
+
+    def __init__(self, obj, scene, params=None, build_mesh=False, for_render=False):
+        st = runtime.state(obj)
+        self.settings = settings = obj.planet_lod.as_dict()
+        self.planet = planet = planet_settings.build_planet(settings)
+        if params is None:
+            # the render camera's frustum ends at its clip end: fit that first
+            clip = cameras.apply_camera_clip(scene) if for_render else None
+            params = cameras.with_clip(
+                cameras.lod_camera_params(obj, scene, for_render=for_render), clip)
+        if params is None:
+            raise core.PlanetLODError(NO_CAMERA)
+        self.params, self.build_mesh, self.for_render = params, build_mesh, for_render
+        self.morph = obj.planet_lod.morph
+        s = obj.planet_lod
+        self.surface_args = (runtime.anchor(obj), s.radius,
+                             s.sea_level if s.use_sea_level else None)
+        # the preview draws the surface the render gets (heights with the detail,
+        # morphing, the sea, the core's normals, relative to the anchor), of the
+        # viewport's LOD only: a render's never leaks in
+        preview = s.gpu_preview and not bpy.app.background and not for_render
+        st.serial += 1  # a viewport job started before this refresh is out of date
+        self.serial = st.serial
+        self.work = _work_for(obj, st, planet, settings, params, for_render,
+                              check_size=build_mesh or preview, preview=preview)
+        self.mesh = self.vertex_data = None
+        self.mesh_ms = 0.0
+
+    STEPS = ("refining", "building the mesh", "shading data")
+
+    def compute(self, cancelled=lambda: False, step=lambda index: None):
+        """The core's part (no bpy); returns False when `cancelled()` stopped it
+        between steps; `step(i)` is told of each step started (STEPS)."""
+        step(0)
+        self.work.run()
+        if not self.build_mesh:
+            return True
+        if cancelled():
+            return False
+        step(1)
+        t0 = time.perf_counter()
+        self.mesh = self.planet.mesh(template_level=self.settings["template_level"],
+                                     morph=self.morph)
+        if cancelled():
+            return False
+        step(2)
+        self.vertex_data = surface.vertex_data(self.mesh, *self.surface_args)
+        self.mesh_ms = (time.perf_counter() - t0) * 1000.0
+        return not cancelled()
+
+    def apply(self, obj, scene):
+        """The results into `obj` (main thread); returns the planet's stats."""
+        st = runtime.state(obj)
+        _apply(st, self.work)
         st.pending = False  # refined in full
-        if build_mesh:
+        if self.build_mesh:
             t0 = time.perf_counter()
-            mesh = planet.mesh(template_level=settings["template_level"],
-                               morph=obj.planet_lod.morph)
+            mesh = self.mesh
             st.stats["vertices"] = mesh.vertex_count
             st.stats["triangles"] = mesh.triangle_count
-            write_mesh(obj, mesh)
-            if not for_render:
+            write_mesh(obj, mesh, self.vertex_data)
+            if not self.for_render:
                 st.render_key = None  # the mesh no longer matches the render camera
-            st.stats["mesh_ms"] = round((time.perf_counter() - t0) * 1000.0, 3)
+            ms = self.mesh_ms + (time.perf_counter() - t0) * 1000.0
+            st.stats["mesh_ms"] = round(ms, 3)
             st.mesh_hash = core_refresh.mesh_digest(mesh)
             st.stats["mesh_hash"] = st.mesh_hash
-        _finish(obj, scene, st, params, build_mesh)
+        _finish(obj, scene, st, self.params, self.build_mesh)
         st.dirty = False
         return st.stats
-    finally:
-        _local.busy = was_busy
 
 
 def _work_for(obj, st, planet, settings, params, for_render, check_size, preview,
@@ -241,7 +283,7 @@ def wait_for_jobs():
             st.job = None
 
 
-def write_mesh(obj, mesh):
+def write_mesh(obj, mesh, data=None):
     """Replaces obj's mesh geometry from planetlod buffers via foreach_set.  The
     topology is kept (only coordinates and attributes rewritten) when the vertex
     and triangle counts did not change: emission uses one template, so equal
@@ -264,9 +306,10 @@ def write_mesh(obj, mesh):
         me.vertices.add(nv)
         compat.set_triangle_topology(me, mesh.triangles, nt)
         me.polygons.foreach_set("use_smooth", array("i", [1]) * nt)
-    s = obj.planet_lod
-    sea_level = s.sea_level if s.use_sea_level else None
-    data = surface.vertex_data(mesh, runtime.anchor(obj), s.radius, sea_level)
+    if data is None:
+        s = obj.planet_lod
+        sea_level = s.sea_level if s.use_sea_level else None
+        data = surface.vertex_data(mesh, runtime.anchor(obj), s.radius, sea_level)
     me.vertices.foreach_set("co", data.positions)
     set_attribute(me, surface.NORMAL_ATTRIBUTE, 'FLOAT_VECTOR', 'POINT', "vector", data.normals)
     set_attribute(me, "planet_uv", 'FLOAT2', 'POINT', "vector", mesh.uv)
