@@ -271,6 +271,26 @@ def simulate_click(win, x, y):
     win.event_simulate(type='LEFTMOUSE', value='RELEASE', x=x, y=y)
 
 
+def press_key(win, region, type_):
+    """Generator: presses and releases a key with the mouse over the middle of
+    `region` (events go to the region under the mouse)."""
+    x, y = region.x + region.width // 2, region.y + region.height // 2
+    win.event_simulate(type='MOUSEMOVE', value='NOTHING', x=x, y=y)
+    yield 0.3
+    win.event_simulate(type=type_, value='PRESS', x=x, y=y)
+    yield 0.1
+    win.event_simulate(type=type_, value='RELEASE', x=x, y=y)
+
+
+def shift_right_click(win, x, y):
+    """Generator: Shift-RMB at window pixel (x, y)."""
+    win.event_simulate(type='MOUSEMOVE', value='NOTHING', x=x, y=y)
+    yield 0.3
+    win.event_simulate(type='RIGHTMOUSE', value='PRESS', x=x, y=y, shift=True)
+    yield 0.1
+    win.event_simulate(type='RIGHTMOUSE', value='RELEASE', x=x, y=y, shift=True)
+
+
 def open_sidebar_tab(recorder, panel="PLOD_PT_planet"):
     """Generator: shows the 3D viewport's sidebar and clicks down its tab strip until
     `panel` draws (tabs have no Python API)."""

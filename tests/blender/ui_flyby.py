@@ -24,15 +24,6 @@ class DialogRecorder:
         cls.draw = recorded
 
 
-def key(win, region, type_):
-    x, y = region.x + region.width // 2, region.y + region.height // 2
-    win.event_simulate(type='MOUSEMOVE', value='NOTHING', x=x, y=y)
-    yield 0.3
-    win.event_simulate(type=type_, value='PRESS', x=x, y=y)
-    yield 0.1
-    win.event_simulate(type=type_, value='RELEASE', x=x, y=y)
-
-
 def test():
     ui.lib.enable()
     from planet_lod import flyby_job
@@ -62,7 +53,7 @@ def test():
     yield from ui.wait_until(lambda: dialog.count > 0, timeout=60, what="the flyby dialog")
     yield 0.5
     ui.screenshot("flyby_dialog.png", region='WINDOW')
-    yield from key(win, region, 'RET')
+    yield from ui.press_key(win, region, 'RET')
     yield from ui.wait_until(lambda: job.running is not None, timeout=60,
                              what="the flyby job to start")
     start_ticks = ticks["n"]
@@ -85,7 +76,7 @@ def test():
     running = job.running
     yield from ui.wait_until(lambda: len(running.done) >= 1, timeout=300,
                              what="the first frame of 20")
-    yield from key(win, region, 'ESC')
+    yield from ui.press_key(win, region, 'ESC')
     yield from ui.wait_until(lambda: job.running is None, timeout=300,
                              what="Esc to stop the flyby")
     frames = sorted(f for f in os.listdir(out) if f.startswith("frame_"))

@@ -179,11 +179,7 @@ def cursor_on_ground(planet, space):
     origin = view3d_utils.region_2d_to_origin_3d(region, r3d, (mx, my))
     ray = view3d_utils.region_2d_to_vector_3d(region, r3d, (mx, my)).normalized()
     x, y = region.x + mx, region.y + my
-    win.event_simulate(type='MOUSEMOVE', value='NOTHING', x=x, y=y)
-    yield 0.3
-    win.event_simulate(type='RIGHTMOUSE', value='PRESS', x=x, y=y, shift=True)
-    yield 0.1
-    win.event_simulate(type='RIGHTMOUSE', value='RELEASE', x=x, y=y, shift=True)
+    yield from ui.shift_right_click(win, x, y)
     yield from ui.wait_until(lambda: scene.cursor.location.length > 1.0, timeout=60,
                              what="Shift-RMB to move the 3D cursor")
     yield from ui.redraw(2)

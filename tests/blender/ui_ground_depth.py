@@ -47,11 +47,7 @@ def shift_rmb(planet, space, dx, dy, found):
     before = Vector(origin) + ray * 7.0  # (somewhere the tool will not put it)
     scene.cursor.location = before
     x, y = region.x + mx, region.y + my
-    win.event_simulate(type='MOUSEMOVE', value='NOTHING', x=x, y=y)
-    yield 0.3
-    win.event_simulate(type='RIGHTMOUSE', value='PRESS', x=x, y=y, shift=True)
-    yield 0.1
-    win.event_simulate(type='RIGHTMOUSE', value='RELEASE', x=x, y=y, shift=True)
+    yield from ui.shift_right_click(win, x, y)
     yield from ui.wait_until(lambda: (scene.cursor.location - before).length > 1e-3,
                              timeout=60, what="Shift-RMB to move the 3D cursor")
     cursor = Vector(scene.cursor.location)

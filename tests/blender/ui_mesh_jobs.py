@@ -14,15 +14,6 @@ import bpy
 import plod_uilib as ui
 
 
-def key(win, region, type_):
-    x, y = region.x + region.width // 2, region.y + region.height // 2
-    win.event_simulate(type='MOUSEMOVE', value='NOTHING', x=x, y=y)
-    yield 0.3
-    win.event_simulate(type=type_, value='PRESS', x=x, y=y)
-    yield 0.1
-    win.event_simulate(type=type_, value='RELEASE', x=x, y=y)
-
-
 def mesh_key(mesh):
     co = [0.0] * (3 * len(mesh.vertices))
     mesh.vertices.foreach_get("co", co)
@@ -87,7 +78,7 @@ def test():
     assert mesh_jobs._MeshJobOperator.running is running
 
     # Esc: stopped, nothing built, also after the worker has ended
-    yield from key(win, region, 'ESC')
+    yield from ui.press_key(win, region, 'ESC')
     yield from ui.wait_until(lambda: mesh_jobs._MeshJobOperator.running is None, timeout=120,
                              what="Esc to stop the job")
     release.set()
