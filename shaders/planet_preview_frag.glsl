@@ -13,36 +13,6 @@
  * footprint (from the viewer's distance and slant);
  * an sRGB texture's texels arrive decoded (scene-linear). */
 
-/* How much a colour map texel reads as open water (as terrain_shading.py's
- * _water_coloured): blue well above its red and green, and dark. */
-float water_coloured(vec3 c)
-{
-  float bluish = smoothstep(1.15, 1.45, c.b / (max(c.r, c.g) + 0.004));
-  return bluish * (1.0 - smoothstep(0.15, 0.3, (c.r + c.g + c.b) / 3.0));
-}
-
-/* The render material's coast fill (terrain_shading.py's coast_fill): land
- * whose texel shows the sea's colour takes the mean of the land-coloured
- * texels within three texels. */
-vec3 coast_filled(vec3 albedo, vec2 st, vec2 size, float land)
-{
-  float water = land * water_coloured(albedo);
-  if (water <= 0.0)
-    return albedo;
-  vec3 total = vec3(0.0);
-  float weight = 0.0;
-  for (int k = 0; k < 16; k++) {
-    float angle = float(k % 8) * (PLOD_PI / 4.0);
-    float radius = k < 8 ? 1.5 : 3.0;
-    vec2 at = st + radius * vec2(cos(angle), sin(angle)) / size;
-    vec3 c = texelFetch(color_map, ivec2(mod(floor(at * size), size)), 0).rgb;
-    float landlike = 1.0 - water_coloured(c);
-    total += c * landlike;
-    weight += landlike;
-  }
-  return mix(albedo, total / max(weight, 1e-3), water * smoothstep(0.5, 2.0, weight));
-}
-
 vec3 level_colour(float level)
 {
   float hue = fract(level * 0.137);
@@ -80,10 +50,6 @@ void main()
                      textureLod(color_map, st + vec2(-0.5 * tap.x, tap.y), 0.0).rgb +
                      textureLod(color_map, st - vec2(tap.x, 0.5 * tap.y), 0.0).rgb +
                      textureLod(color_map, st - vec2(-0.5 * tap.x, tap.y), 0.0).rgb);
-    /* (where a pixel spans texels the strip is below the pixel, and taps
-     * of single texels would stand out) */
-    albedo = coast_filled(albedo, st, size,
-                          (1.0 - smoothstep(0.2, 0.8, v_sea)) * (1.0 - smoothstep(0.5, 1.0, rows)));
   }
   else if (v_sea > 0.5) {  /* ground the core lifted to the sea surface */
     albedo = vec3(0.004, 0.02, 0.06);  /* the render material's deep water */

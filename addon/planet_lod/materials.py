@@ -248,7 +248,7 @@ def planet_material(obj):
     atm = atmosphere.params(s)
     key = (mappaths.portable(color_map), s.projection, round(s.radius, 3), round(s.height_scale, 3),
            s.use_sea_level, round(s.sea_level, 3), s.heightmap, repr(atm), s.use_detail,
-           round(s.detail_amplitude, 3), 8)
+           round(s.detail_amplitude, 3), 7)
     if material.get("planet_lod_key") == repr(key):
         return material
     compat.use_node_tree(material)
@@ -257,7 +257,6 @@ def planet_material(obj):
     out = tree.nodes.new("ShaderNodeOutputMaterial")
     out.location = (600, 0)
     b = node_maths.Builder(tree)
-    sea = _sea_mask(b, s) if s.use_sea_level else None
     image = color_image(s)
     if image is not None:
         uv = _attribute(b, "planet_uv")
@@ -267,9 +266,6 @@ def planet_material(obj):
         tex.interpolation = 'Cubic'
         b.links.new(uv.outputs["Vector"], tex.inputs["Vector"])
         base = b.socket(tex.outputs["Color"])
-        if sea is not None:
-            base = terrain_shading.coast_fill(b, image, b.socket(uv.outputs["Vector"]), base,
-                                              1.0 - sea)
     else:  # elevation ramp over the height above the radius / sea level
         height = _attribute(b, "planet_height")
         remap = b.node("ShaderNodeMapRange")
@@ -299,6 +295,7 @@ def planet_material(obj):
     surface = ground.outputs[0]
     if s.use_sea_level:
         water = terrain_shading.water(b, normal)
+        sea = _sea_mask(b, s)
         mix = b.node("ShaderNodeMixShader")
         b.link(sea, mix.inputs["Fac"])
         b.links.new(surface, mix.inputs[1])

@@ -2,7 +2,6 @@
 woods, farmland and shore from per-vertex height, slope, latitude, aspect and
 the core's detail field, textured in planet-anchored coordinates (the planet
 material's colour, addon/planet_lod/materials.py)."""
-import math
 
 
 def attribute(b, name):
@@ -219,41 +218,3 @@ def water(b, normal):
     water.inputs["IOR"].default_value = 1.33
     b.link(normal, water.inputs["Normal"])
     return water
-
-
-def _water_coloured(b, colour):
-    """How much a colour map texel (scene-linear) reads as open water: blue
-    well above its red and green, and dark (land is green, brown, grey or
-    white).  The preview's shader (planet_preview_frag.glsl) reads it alike."""
-    red, green, blue = b.split(colour)
-    bluish = b.smoothstep(1.15, 1.45, blue / (b.maximum(red, green) + 0.004))
-    return bluish * (1.0 - b.smoothstep(0.15, 0.3, (red + green + blue) * (1.0 / 3.0)))
-
-
-# where coast_fill looks for land: eight directions at 1.5 and 3 texels
-COAST_TAPS = tuple((radius * math.cos(k * math.pi / 4.0), radius * math.sin(k * math.pi / 4.0))
-                   for radius in (1.5, 3.0) for k in range(8))
-
-
-def coast_fill(b, image, uv, base, land):
-    """The colour map's texels (10 km on the bundled Earth) and the height
-    map's coast disagree by a texel or two, so a strip of land along the
-    coasts takes the sea's colour.  Where the ground is land and its colour
-    reads as water, the mean of the land-coloured texels around it (within
-    three texels) replaces it.  The bundled map's lakes are near-black, not
-    the sea's blue, and keep their colour; a map whose lakes are sea-blue
-    would lose a rim of three texels around them."""
-    width, height = image.size
-    total, weight = b.const((0.0, 0.0, 0.0)), 0.0
-    for du, dv in COAST_TAPS:
-        tex = b.node("ShaderNodeTexImage")
-        tex.image = image
-        tex.extension = 'REPEAT'
-        tex.interpolation = 'Closest'
-        b.link(uv + (du / width, dv / height, 0.0), tex.inputs["Vector"])
-        colour = b.socket(tex.outputs["Color"])
-        landlike = 1.0 - _water_coloured(b, colour)
-        total, weight = total + colour * landlike, landlike + weight
-    fill = total / b.maximum(weight, 1e-3)
-    amount = land * _water_coloured(b, base) * b.smoothstep(0.5, 2.0, weight)
-    return b.mix(base, fill, amount)
