@@ -271,12 +271,13 @@ def simulate_click(win, x, y):
     win.event_simulate(type='LEFTMOUSE', value='RELEASE', x=x, y=y)
 
 
-def press_key(win, region, type_):
+def press_key(win, region, type_, settle=0.3):
     """Generator: presses and releases a key with the mouse over the middle of
-    `region` (events go to the region under the mouse)."""
+    `region` (events go to the region under the mouse), `settle` seconds
+    after the mouse got there."""
     x, y = region.x + region.width // 2, region.y + region.height // 2
     win.event_simulate(type='MOUSEMOVE', value='NOTHING', x=x, y=y)
-    yield 0.3
+    yield settle
     win.event_simulate(type=type_, value='PRESS', x=x, y=y)
     yield 0.1
     win.event_simulate(type=type_, value='RELEASE', x=x, y=y)

@@ -71,16 +71,6 @@ def pick_from_menu(menu_cls, recorder, index):
     ui.simulate_click(win, x, y - index * step)
 
 
-def press(win, region, key):
-    """Generator: the mouse over the view's centre, `key` pressed and released."""
-    x, y = region.x + region.width // 2, region.y + region.height // 2
-    win.event_simulate(type='MOUSEMOVE', value='NOTHING', x=x, y=y)
-    yield 0.5
-    win.event_simulate(type=key, value='PRESS', x=x, y=y)
-    yield 0.1
-    win.event_simulate(type=key, value='RELEASE', x=x, y=y)
-
-
 def test():
     ui.lib.enable()
     from planet_lod import navigation, preset_menus, view_follow
@@ -148,7 +138,7 @@ def test():
         obj.select_set(False)
     planet.select_set(True)
     bpy.context.view_layer.objects.active = planet
-    yield from press(win, region, 'NUMPAD_PERIOD')
+    yield from ui.press_key(win, region, 'NUMPAD_PERIOD', settle=0.5)
     centre = navigation.planet_centre(planet)
     yield from ui.wait_until(lambda: (Vector(r3d.view_location) - centre).length < 1000.0,
                              timeout=60, what="Frame Selected to frame the planet")
