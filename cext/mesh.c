@@ -1124,6 +1124,7 @@ typedef struct plod__morph_scratch {
  * evaluation; returns its index in that triangle's list. */
 static int32_t plod__note_point(plod__morph_scratch *s, int n, int tri, const int k[3])
 {
+    assert(k[0] >= 0 && k[1] >= 0 && k[2] >= 0 && k[0] + k[1] + k[2] == n);
     size_t at = plod__vertex_index(n, k[2], k[1]);
     if (s->slot[tri][at] < 0) {
         s->slot[tri][at] = (int32_t)s->count[tri];
