@@ -166,16 +166,20 @@ def ground_types(b, s, base, normal, airless):
                      fade(3.0e5))
     farmland = flat * (1.0 - woods)
     # the colour map is ground seen from orbit, woods and their shade
-    # averaged in (Alpine green ~0.02): close up, meadows and crops are
-    # brighter than it (grass ~0.1 in green), woods darker
-    vegetation = textured * land_use * (near * green * 3.5 + 1.0)
+    # averaged in, and dark where green (Alpine green ~0.02): close up,
+    # dark ground is lifted towards a meadow's luminance (~0.07, grass ~0.1
+    # in green), by at most 3.5 times
+    luminance = b.maximum(b.dot(base, (0.3, 0.6, 0.1)), 0.005)
+    lift = b.minimum(b.maximum(b.math("DIVIDE", 0.07, luminance), 1.0), 3.5)
+    lift = (lift - 1.0) * near + 1.0
+    vegetation = textured * land_use * lift
     vegetation = b.mix(vegetation, vegetation * crop, farmland)
     # a canopy: crowns ~8 m across with dark gaps between them (the texture
     # that tells woods from meadows from 2 km), darker stands seen from afar
     crowns, _, gaps = _parcels(b, detail, 1.0 / 8.0)
     canopy = (crowns * 0.35 + 0.75) * (b.smoothstep(0.0, 0.25, gaps) * 0.6 + 0.4)
     canopy = b.mix(b.const(0.8), canopy, fade(4000.0))
-    vegetation = b.mix(vegetation, textured * (0.9, 1.1, 0.8) * canopy, woods)
+    vegetation = b.mix(vegetation, textured * (lift * 0.6) * (0.9, 1.1, 0.8) * canopy, woods)
     # above the tree line: alpine meadow, yellower, thinning out to stone
     alpine = (1.0 - below_trees) * near
     vegetation = b.mix(vegetation, vegetation * (0.95, 0.9, 0.7), alpine * 0.6)
