@@ -167,10 +167,10 @@ def ground_types(b, s, base, normal, airless):
     farmland = flat * (1.0 - woods)
     # the colour map is ground seen from orbit, woods and their shade
     # averaged in, and dark where green (Alpine green ~0.02): close up,
-    # dark ground is lifted towards a meadow's luminance (~0.07, grass ~0.1
-    # in green), by at most 3.5 times
+    # dark ground is lifted towards a meadow's luminance (~0.1: grass
+    # reflects ~0.1 in green), by at most 5 times
     luminance = b.maximum(b.dot(base, (0.3, 0.6, 0.1)), 0.005)
-    lift = b.minimum(b.maximum(b.math("DIVIDE", 0.07, luminance), 1.0), 3.5)
+    lift = b.minimum(b.maximum(b.math("DIVIDE", 0.1, luminance), 1.0), 5.0)
     lift = (lift - 1.0) * near + 1.0
     vegetation = textured * land_use * lift
     vegetation = b.mix(vegetation, vegetation * crop, farmland)
