@@ -9,7 +9,8 @@ import os
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 USER_TOOLS = ("blender_versions.py", "bpy_run.py", "build_extension.py", "build_wheels.py",
-              "descent_hash.py", "flyby.py", "install_addon.py", "make_procedural_maps.py",
+              "descent_hash.py", "fill_coast.py", "flyby.py", "install_addon.py",
+              "make_procedural_maps.py",
               "planetlod_resample.py")
 
 POSIX_MODULES = {"fcntl", "resource", "pwd", "grp", "termios", "tty", "pty", "posix",

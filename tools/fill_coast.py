@@ -13,7 +13,7 @@ fills from the first's.  Texels the surface keeps in the sea keep their
 colour (the viewport preview shows it), and so do lakes that the map paints
 near-black, as the bundled Earth does.
 
-    python3 tools/fill_coast.py ORIGINAL.jpg OUT.jpg [--preset EARTH]
+    python3 -m tools.fill_coast ORIGINAL.jpg OUT.jpg [--preset EARTH]
 
 The height map, sea level, projection and height scale are the preset's (the
 detail field is left out: it keeps the map's coast).  Needs numpy and
@@ -22,16 +22,13 @@ module (tools/build.sh).  Deterministic: the same bytes on every run.
 """
 import argparse
 import os
-import sys
+
+import numpy
+
+import planetlod
+from planetlod import imageio, presets
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, os.path.join(ROOT, "build", "site"))
-sys.path.insert(1, ROOT)
-
-import numpy  # noqa: E402
-
-import planetlod  # noqa: E402
-from planetlod import imageio, presets  # noqa: E402
 
 REACH = 3          # texels around a coast texel whose land colours fill it
 SUBSAMPLES = 4     # per texel side: the land fraction's resolution

@@ -126,15 +126,12 @@ class _MeshJobOperator:
         return self._apply(context, obj, job.step)
 
     def _apply(self, context, obj, step):
-        with refresh.LOCK:
-            was_busy, refresh._local.busy = refresh.in_refresh(), True
+        with refresh.refreshing():
             try:
                 stats = step.apply(obj, context.scene)
                 return self.finish(context, obj, stats)
             except core.REPORTED_ERRORS as exc:
                 return self._failed(obj, exc)
-            finally:
-                refresh._local.busy = was_busy
 
     def cancel(self, context):  # Blender ends the job (a file loaded, the window closed)
         if _MeshJobOperator.running is self:

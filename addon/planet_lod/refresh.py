@@ -27,6 +27,7 @@ calls the frame_change handlers from the render job's thread.  So:
     job started (an operator, a render) makes its result stale: dropped, the
     planet refreshes again.
 """
+import contextlib
 import threading
 import time
 from array import array
@@ -71,17 +72,25 @@ INSIDE_RENDER = ("the render camera is inside the planet (below the terrain): mo
                  "to render the planet")
 
 
-def refresh(obj, scene, params=None, build_mesh=False, for_render=False):
-    """Refines `obj` for its LOD camera; optionally rebuilds its mesh.  Raises
-    core.REPORTED_ERRORS on bad input (callers report them)."""
+@contextlib.contextmanager
+def refreshing():
+    """Holds LOCK with this thread marked as inside a refresh (its own writes
+    to Blender then fire no refresh of their own)."""
     with LOCK:
         was_busy, _local.busy = in_refresh(), True
         try:
-            step = Refresh(obj, scene, params, build_mesh, for_render)
-            step.compute()
-            return step.apply(obj, scene)
+            yield
         finally:
             _local.busy = was_busy
+
+
+def refresh(obj, scene, params=None, build_mesh=False, for_render=False):
+    """Refines `obj` for its LOD camera; optionally rebuilds its mesh.  Raises
+    core.REPORTED_ERRORS on bad input (callers report them)."""
+    with refreshing():
+        step = Refresh(obj, scene, params, build_mesh, for_render)
+        step.compute()
+        return step.apply(obj, scene)
 
 
 class Refresh:
