@@ -80,6 +80,12 @@ def ground_types(b, s, base, normal, airless):
     detail = b.socket(coords.outputs["Object"]) + b.input_vector("plod_detail_offset")
     camera_data = b.node("ShaderNodeCameraData")
     distance = b.socket(camera_data.outputs["View Distance"], vector=False)
+    fades = {}
+
+    def fade(reach):  # 1 within a tenth of `reach`, 0 beyond it (one set of nodes each)
+        if reach not in fades:
+            fades[reach] = 1.0 - b.smoothstep(0.1 * reach, reach, distance)
+        return fades[reach]
     # five octaves of ground texture, each faded in where the colour map's
     # 10 km texels are magnified enough for it to show (about 6 cm, 0.8 m,
     # 11 m, 250 m and 3.3 km features, seen within 25 m, 0.2, 3, 30 and 200 km)
@@ -92,9 +98,8 @@ def ground_types(b, s, base, normal, airless):
     for noise, amount, reach in ((grit, 1.6, 25.0), (fine, 1.2, 200.0), (mid, 1.4, 3000.0),
                                  (coarse, 1.6, 3.0e4),
                                  (broad, 1.4, 2.0e5)):
-        grain = (noise - 0.5) * ((1.0 - b.smoothstep(0.1 * reach, reach, distance)) * amount) \
-            + grain
-    near = 1.0 - b.smoothstep(3000.0, 3.0e4, distance)
+        grain = (noise - 0.5) * (fade(reach) * amount) + grain
+    near = fade(3.0e4)
     regional = 1.0 - b.smoothstep(6.0e4, 3.0e5, distance)
     # the detail field in units of its first octave's amplitude: crests
     # (up to ~0.8) lit and bare, hollows (below 0) darker
@@ -102,29 +107,30 @@ def ground_types(b, s, base, normal, airless):
     ridge = field * (1.0 / amplitude)
     crest = b.smoothstep(0.05, 0.6, ridge) * regional
     hollow = (1.0 - b.smoothstep(-0.3, 0.1, ridge)) * regional
-    bump = fine * (1.0 - b.smoothstep(20.0, 200.0, distance)) + \
-        grit * (0.3 - b.smoothstep(2.5, 25.0, distance) * 0.3)  # relief for the Bump node
-    rock = (0.30, 0.28, 0.26)
+    bump = fine * fade(200.0) + grit * (fade(25.0) * 0.3)  # relief for the Bump node
+    rock = (0.30, 0.28, 0.26)  # regolith on airless bodies
     textured = base * grain * (crest * 0.3 - hollow * 0.25 + 1.0)
     if airless:  # fresh ejecta on crests, older darker regolith in hollows
         ground = b.mix(textured, b.const(rock) * grain,
                        b.smoothstep(30.0, 45.0, slope) * near * 0.5)
         return ground, bump
-    def fade(reach):
-        return 1.0 - b.smoothstep(0.1 * reach, reach, distance)
     # the colour map's own green against its browns: farmland and woods follow
     # the region's climate (green crops and woods where the map is green)
     base_r, base_g, _ = b.split(base)
     green = b.smoothstep(-0.02, 0.03, base_g - base_r)
-    # the snow line (5,200 m at the equator, falling towards the poles, lower
-    # on poleward faces, which the sun barely reaches) and the tree line
+    # the snow line (5,200 m at the equator, highest in the dry subtropics,
+    # ~5,600 m at 20-30 degrees: the Himalaya, the Andes' Puna; falling to
+    # ~3,000 m in the Alps and towards the poles; R. F. Flint, "Glacial and
+    # Quaternary Geology", Wiley, 1971), lower on poleward faces, which the
+    # sun barely reaches, and the tree line
     # ~900 m below it (C. Körner, "Alpine Treelines", Springer, 2012: a
     # growing-season isotherm, 3,500-4,000 m in the tropics, ~2,000 m in
     # the Alps)
     lat_abs = b.math("ABSOLUTE", latitude)
     poleward = _poleward_facing(b, normal, latitude)
-    snow_line = 5200.0 - b.power(lat_abs * (1.0 / 90.0), 1.4) * 5400.0 + (mid - 0.5) * 400.0 \
-        - poleward * 700.0
+    subtropics = b.maximum(1.0 - b.power((lat_abs - 27.0) * (1.0 / 13.0), 2.0), 0.0)
+    snow_line = 5200.0 - b.power(lat_abs * (1.0 / 90.0), 1.4) * 5400.0 + subtropics * 1500.0 \
+        + (mid - 0.5) * 400.0 - poleward * 700.0
     tree_line = snow_line - 900.0 + (coarse - 0.5) * 300.0
     below_trees = 1.0 - b.smoothstep(-150.0, 150.0, height - tree_line)
     # woods: soft-edged stands, gathered in hollows and on hillsides, below
@@ -159,34 +165,51 @@ def ground_types(b, s, base, normal, airless):
     land_use = b.mix(b.const((1.0, 1.0, 1.0)), _tint(b, REGION_TINTS, region + aridity),
                      fade(3.0e5))
     farmland = flat * (1.0 - woods)
-    vegetation = textured * land_use
+    # the colour map is ground seen from orbit, woods and their shade
+    # averaged in, and dark where green (Alpine green ~0.02): close up,
+    # dark ground is lifted towards a meadow's luminance (~0.1: grass
+    # reflects ~0.1 in green), by at most 5 times
+    luminance = b.maximum(b.dot(base, (0.3, 0.6, 0.1)), 0.005)
+    lift = b.minimum(b.maximum(b.math("DIVIDE", 0.1, luminance), 1.0), 5.0)
+    lift = (lift - 1.0) * near + 1.0
+    vegetation = textured * land_use * lift
     vegetation = b.mix(vegetation, vegetation * crop, farmland)
     # a canopy: crowns ~8 m across with dark gaps between them (the texture
     # that tells woods from meadows from 2 km), darker stands seen from afar
     crowns, _, gaps = _parcels(b, detail, 1.0 / 8.0)
     canopy = (crowns * 0.35 + 0.75) * (b.smoothstep(0.0, 0.25, gaps) * 0.6 + 0.4)
     canopy = b.mix(b.const(0.8), canopy, fade(4000.0))
-    vegetation = b.mix(vegetation, textured * (0.26, 0.36, 0.22) * canopy, woods)
-    # above the tree line: alpine meadow thinning out to stone
+    vegetation = b.mix(vegetation, textured * (lift * 0.6) * (0.9, 1.1, 0.8) * canopy, woods)
+    # above the tree line: alpine meadow, yellower, thinning out to stone
     alpine = (1.0 - below_trees) * near
-    vegetation = b.mix(vegetation, textured * (0.85, 0.9, 0.7) * (fine * 0.3 + 0.85), alpine * 0.6)
+    vegetation = b.mix(vegetation, vegetation * (0.95, 0.9, 0.7), alpine * 0.6)
     steep = b.smoothstep(28.0, 42.0, slope)
     bare = b.maximum(steep, b.smoothstep(0.4, 0.8, ridge) * regional * 0.7)
-    rock_colour = b.const(rock) * (grain * 0.8 + 0.2) * (crest * 0.3 + 1.0)
-    # scree: pale debris on the moderate slopes under rock walls, high up
-    scree = b.smoothstep(18.0, 26.0, slope) * (1.0 - steep) * \
-        b.smoothstep(-300.0, 100.0, height - tree_line) * near
-    scree_colour = b.const((0.50, 0.48, 0.44)) * (grit * 0.3 + 0.85) * (fine * 0.3 + 0.85)
-    # snow: above the snow line, slipping off slopes steeper than ~40 degrees
-    # (a steep face shows rock, a ridge above it snow)
+    # rock: grey-brown stone in blocks (the canopy's cells) with dark joints
+    # between them, banded by strata ~15 m thick, warped; the blocks and
+    # bands show within a few kilometres (finer than a pixel beyond)
+    strata = b.math("SINE", height * 0.42 + mid * 9.0)
+    blocks = (crowns * 0.4 + 0.8) * (b.smoothstep(0.0, 0.06, gaps) * 0.45 + 0.55) * \
+        (strata * 0.15 + 1.0)
+    rock_colour = b.const((0.34, 0.30, 0.25)) * (grain * 0.6 + 0.4) * (crest * 0.3 + 1.0) * \
+        ((blocks - 1.0) * fade(4000.0) + 1.0)
+    # scree: pale debris on the moderate slopes under rock walls, high up,
+    # and the moraine and rubble that cover the ground well above the trees
+    above_trees = height - tree_line
+    scree = b.maximum(b.smoothstep(18.0, 26.0, slope) * b.smoothstep(-300.0, 100.0, above_trees),
+                      b.smoothstep(300.0, 800.0, above_trees)) * (1.0 - steep) * near
+    scree_colour = b.const((0.50, 0.47, 0.42)) * (grain * 0.35 + 0.65)
+    # snow: above the snow line, gone from slopes steeper than ~35 degrees
+    # (a steep face shows rock, a ridge above it snow) and thinner on the
+    # detail field's crests, which the wind scours
     snow = b.smoothstep(-150.0, 150.0, height - snow_line) * \
-        (1.0 - b.smoothstep(35.0, 50.0, slope) * 0.85)
+        (1.0 - b.smoothstep(24.0, 38.0, slope)) * (1.0 - crest * 0.5)
     shore = (1.0 - b.smoothstep(1.0, 4.0 + coarse * 4.0, height)) * (1.0 - steep)
-    sand = b.const((0.76, 0.70, 0.52)) * (fine * 0.25 + 0.85)
+    sand = b.const((0.76, 0.70, 0.52)) * (grain * 0.25 + 0.75)
     ground = b.mix(vegetation, scree_colour, scree)
     ground = b.mix(ground, rock_colour, bare)
     ground = b.mix(ground, sand, shore)
-    ground = b.mix(ground, b.const((0.93, 0.95, 0.98)) * (fine * 0.1 + 0.9), snow)
+    ground = b.mix(ground, b.const((0.93, 0.95, 0.98)) * (grain * 0.1 + 0.9), snow)
     # the colour map's own colour from afar; the ground types close up and,
     # within the detail field's reach, on its crests and in its hollows
     return b.mix(textured, ground, b.maximum(near * 0.85, regional * 0.8) + 0.15 * steep), bump
