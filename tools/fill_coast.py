@@ -84,20 +84,12 @@ def land_fraction(planet, sea_level, rows, cols, width, height):
     lon, lat = numpy.broadcast_arrays(lon, lat)
     dirs = numpy.stack([numpy.cos(lat) * numpy.cos(lon), numpy.cos(lat) * numpy.sin(lon),
                         numpy.sin(lat)], axis=-1).reshape(-1, 3)
-    fractions = numpy.empty(len(rows))
-    chunk = 1 << 18
     heights = numpy.empty(len(dirs))
+    chunk = 1 << 18
     for first in range(0, len(dirs), chunk):
-        part = numpy.ascontiguousarray(dirs[first:first + chunk]).ravel()
-        h, _ = planet.surface(array_of(part))
+        h, _ = planet.surface(numpy.ascontiguousarray(dirs[first:first + chunk]))
         heights[first:first + chunk] = numpy.frombuffer(h, dtype=numpy.float64)
-    fractions[:] = (heights.reshape(len(rows), k * k) > sea_level + LAND_MARGIN).mean(axis=1)
-    return fractions
-
-
-def array_of(values):
-    from array import array
-    return array("d", values.tobytes())
+    return (heights.reshape(len(rows), k * k) > sea_level + LAND_MARGIN).mean(axis=1)
 
 
 class LandFractions:
