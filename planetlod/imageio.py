@@ -296,11 +296,12 @@ def _writer_holds(ext, dtype):
     return True
 
 
-def write(path, pixels, width, height, channels, dtype):
+def write(path, pixels, width, height, channels, dtype, attributes=()):
     """Writes width x height texels of `channels` interleaved samples
     (`pixels`: a buffer of dtype 'u8', 'u16' or 'f32', rows top to bottom)
-    in the format the extension chooses.  A partly written file is
-    removed."""
+    in the format the extension chooses; `attributes`: (name, value) pairs
+    for the encoder (OpenImageIO's, e.g. ("compression", "jpeg:95")).  A
+    partly written file is removed."""
     FileError, _, InvalidArgument = _errors()
     path = os.fsdecode(path)
     ext = os.path.splitext(path)[1][1:].lower()
@@ -316,6 +317,8 @@ def write(path, pixels, width, height, channels, dtype):
     array = np.frombuffer(pixels, dtype=_SAMPLE_TYPES[dtype][0])
     array = array.reshape(height, width, channels)
     spec = oiio.ImageSpec(width, height, channels, _SAMPLE_TYPES[dtype][1])
+    for name, value in attributes:
+        spec.attribute(name, value)
     if not output.open(path, spec):
         raise FileError(f"cannot write '{path}'{_why(output.geterror())}")
     try:

@@ -174,21 +174,15 @@ def main(argv=None):
     parser.add_argument("out")
     parser.add_argument("--preset", default="EARTH")
     args = parser.parse_args(argv)
-    oiio = imageio.openimageio()
-    source = oiio.ImageBuf(args.original)
-    pixels = source.get_pixels(oiio.UINT8)
-    if pixels is None or source.has_error:
-        raise SystemExit(f"fill_coast: cannot read {args.original}: {source.geterror()}")
+    width, height, channels, dtype, pixels = imageio.read(args.original)
+    if dtype != "u8" or channels < 3:
+        raise SystemExit(f"fill_coast: {args.original} is not an 8-bit colour image")
     planet, sea_level = preset_planet(args.preset)
-    filled, changed = fill(numpy.asarray(pixels), planet, sea_level)
-    spec = oiio.ImageSpec(filled.shape[1], filled.shape[0], filled.shape[2], oiio.UINT8)
-    spec.attribute("compression", "jpeg:95")
-    spec.attribute("jpeg:subsampling", "4:4:4")  # full-resolution colour: the coast is a texel wide
-    out = oiio.ImageOutput.create(args.out)
-    if out is None or not out.open(args.out, spec) or not out.write_image(filled) or \
-            not out.close():
-        raise SystemExit(f"fill_coast: cannot write {args.out}: {oiio.geterror()}")
-    print(f"{args.out}: {changed} coast texels of {filled.shape[1]}x{filled.shape[0]} filled")
+    filled, changed = fill(pixels, planet, sea_level)
+    # full-resolution colour (no chroma subsampling): the coast is a texel wide
+    imageio.write(args.out, numpy.ascontiguousarray(filled), width, height, channels, "u8",
+                  attributes=(("compression", "jpeg:95"), ("jpeg:subsampling", "4:4:4")))
+    print(f"{args.out}: {changed} coast texels of {width}x{height} filled")
 
 
 if __name__ == "__main__":
