@@ -22,8 +22,9 @@
 # Tests that only drive other processes (Blender, Wine, the OpenJD runtime,
 # the benchmark and soak scripts, the SIMD-path rebuilds) load no sanitized
 # code and are left out unless named.
-# SANITIZE_REUSE_BUILD=1: the checkout's module is already built (the test
-# command runs this beside the Blender tests, which must not see it rebuilt).
+# SANITIZE_REUSE_BUILD=1: the checkout's module is already built and is not
+# rebuilt (the test command runs this beside the UI tests, which must not see
+# it replaced).
 # Output is kept in build/sanitize/sanitize.log (pytest runs with
 # --capture=sys so reports written to fd 2 by a dying test are not lost);
 # any sanitizer report, or a pytest failure, fails the script.
@@ -37,7 +38,9 @@ LOG=$BUILD/sanitize.log
 bash tools/install_deps.sh sanitize
 # The uninstrumented in-place build too: tests that spawn python/blender
 # subprocesses import that one.
-bash tools/build.sh
+if [ "${SANITIZE_REUSE_BUILD:-}" != 1 ]; then
+    bash tools/build.sh
+fi
 
 echo "sanitize: building ASan+UBSan extension into $BUILD/lib"
 PLANETLOD_SANITIZE=1 "$PYTHON" setup.py -q build_ext --force \
