@@ -1,7 +1,8 @@
 /* Planet LOD preview, fragment stage: the ground's colour from the
  * equirectangular colour map (or an elevation ramp, or the sector level),
  * lit as the render is by the scene's sun (Lambert on the core's normal; a
- * Blender sun of strength 1 lights a white surface facing it to 1), seen
+ * Blender sun of strength 1 lights a white surface facing it to 1 / pi, as
+ * Cycles' and EEVEE's diffuse BSDFs do), seen
  * through the haze and shown through the scene's exposure and view
  * transform; written for a framebuffer that encodes to sRGB itself where
  * Blender says so (srgbTarget, as its own shaders do).
@@ -70,12 +71,13 @@ void main()
   }
   float cosine = max(dot(normalize(v_normal), normalize(sun.xyz)), 0.0);
   /* a little light keeps the night side readable */
-  vec3 light = vec3(sun.w * cosine + 0.02);
+  vec3 light = vec3(sun.w * cosine / PLOD_PI + 0.02);
 #ifdef PLOD_ATMOSPHERE
   /* the day sky's light (bluish, about a tenth of the sun's on open ground)
    * on the faces the sun misses, as the render's world lights them */
   float daylight = smoothstep(-0.05, 0.15, dot(n, normalize(sun.xyz)));
-  light += sun.w * daylight * (0.5 + 0.5 * dot(normalize(v_normal), n)) * vec3(0.06, 0.08, 0.11);
+  light += sun.w / PLOD_PI * daylight * (0.5 + 0.5 * dot(normalize(v_normal), n)) *
+           vec3(0.06, 0.08, 0.11);
 #endif
   vec3 radiance = albedo * light;
 #ifdef PLOD_ATMOSPHERE
