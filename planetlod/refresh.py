@@ -105,6 +105,8 @@ class SurfaceWork:
         # bench_viewport_detail.py)
         origin, radius, sea_level, morph, old_key, old_data = self.preview
         level = settings["template_level"]
+        detail = planet.detail
+        amplitude = detail["amplitude"] if detail.get("enabled") else None
         if planets.lod_method(settings) != "hrtmr":
             # the other methods' patches are not copies of one template and
             # keep no cache: their whole mesh, drawn as one patch, under a key
@@ -113,13 +115,14 @@ class SurfaceWork:
                                 preview_key(planet, level, origin, radius, sea_level, morph))
             visible = planet.mesh(template_level=level, morph=morph)
             self.preview_data = surface.preview_data(visible, origin, radius, sea_level,
-                                                     whole=True)
+                                                     whole=True, detail_amplitude=amplitude)
             return
         ids = numpy.frombuffer(planet.sector_ids(visible_only=True), numpy.uint64)
         self.preview_key = preview_key(planet, level, origin, radius, sea_level, morph)
         if morph:  # the morph moves every vertex with the eye
             visible = planet.mesh(template_level=level, morph=True)
-            self.preview_data = surface.preview_data(visible, origin, radius, sea_level)
+            self.preview_data = surface.preview_data(visible, origin, radius, sea_level,
+                                                     detail_amplitude=amplitude)
         elif (self.preview_key == old_key and old_data is not None and
               old_data.serial == planet.mesh_cache_info["emissions"]):
             # the planet's last mesh was this preview's: only what changed
@@ -129,13 +132,14 @@ class SurfaceWork:
             serial = planet.mesh_cache_info["emissions"]
             if changed.sector_count or len(ids) != old_data.sectors:
                 self.preview_data = surface.preview_update(old_data, changed, ids, origin,
-                                                           radius, sea_level)
+                                                           radius, sea_level, amplitude)
                 self.preview_data.serial = serial
             else:  # (applied on the main thread: the viewport may be drawing it)
                 self.preview_serial = serial
         else:
             visible = planet.mesh(template_level=level)
-            self.preview_data = surface.preview_data(visible, origin, radius, sea_level)
+            self.preview_data = surface.preview_data(visible, origin, radius, sea_level,
+                                                     detail_amplitude=amplitude)
             self.preview_data.serial = planet.mesh_cache_info["emissions"]
 
 

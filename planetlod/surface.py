@@ -108,8 +108,11 @@ class PreviewData:
     Blender mesh gets (positions relative to the anchor with the sea lifted,
     the core's normals), as one float32 array of two RGBA texels per vertex
     for a data texture `row_texels` wide (padded to whole rows):
-    (x, y, z, height above sea level) and (normal x, y, z, 2 * sector level +
-    sea flag).  Every sector is one copy of the template:
+    (x, y, z, height above sea level) and (normal x, y, z, 4 * sector level +
+    2 * sea flag + 1 + crest), crest the detail field's height in units of
+    its amplitude (the render material's `planet_detail` / amplitude: its
+    ridges and hollows), clamped to -1..0.98, 0 on the sea and without
+    detail.  Every sector is one copy of the template:
     `template_triangles` index its `vertices_per_sector` vertices.
 
     The sectors sit in `sector_count` slots, `slot_ids` naming each slot's
@@ -154,22 +157,27 @@ class PreviewData:
 
     @property
     def sea(self):
-        return numpy.mod(self.texels[1:2 * self.vertex_count:2, 3], 2.0)
+        return numpy.floor_divide(numpy.mod(self.texels[1:2 * self.vertex_count:2, 3], 4.0), 2.0)
 
     @property
     def levels(self):
-        return numpy.floor_divide(self.texels[1:2 * self.vertex_count:2, 3], 2.0)
+        return numpy.floor_divide(self.texels[1:2 * self.vertex_count:2, 3], 4.0)
+
+    @property
+    def crest(self):
+        return numpy.mod(self.texels[1:2 * self.vertex_count:2, 3], 2.0) - 1.0
 
 
 PREVIEW_ROW_TEXELS = 4096  # even: a vertex's two texels share a row
 
 
 def preview_data(mesh, anchor, radius, sea_level=None, row_texels=PREVIEW_ROW_TEXELS,
-                 whole=False):
+                 whole=False, detail_amplitude=None):
     """PreviewData of `mesh` (numpy required: the GPU preview runs in Blender).
     whole: the mesh is not copies of one template (the LOD methods other than
     HRTMR): it is drawn as a single patch, each vertex with the finest level of
-    its triangles.
+    its triangles.  detail_amplitude: the planet's detail amplitude (metres),
+    the unit of the crests (None or 0: no crests).
     Float32 where that is exact enough for a picture (heights for colours,
     to a few metres), float64 where vertex_data uses it for a decision: a
     vertex near or below the sea is lifted exactly as the render mesh's is."""
@@ -202,6 +210,11 @@ def preview_data(mesh, anchor, radius, sea_level=None, row_texels=PREVIEW_ROW_TE
             sea[lifted] = 1.0
         height -= f32(sea_level)
         height[sea > 0.0] = 0.0
+    # sea flag and crest code in one float: 2 * sea + 1 + crest
+    code = sea * f32(2.0) + f32(1.0)
+    if detail_amplitude:
+        crest = numpy.frombuffer(mesh.detail, dtype=f32) * f32(1.0 / detail_amplitude)
+        code += numpy.where(sea > 0.0, f32(0.0), numpy.clip(crest, -1.0, 0.98))
     if whole:
         triangles = numpy.frombuffer(mesh.triangles, dtype=numpy.int32).reshape(-1, 3)
         levels = numpy.zeros(n, dtype=numpy.int32)
@@ -209,7 +222,7 @@ def preview_data(mesh, anchor, radius, sea_level=None, row_texels=PREVIEW_ROW_TE
         for corner in range(3):
             numpy.maximum.at(levels, triangles[:, corner], face_levels)
         vertex[:, 0, 3] = height
-        vertex[:, 1, 3] = levels.astype(f32) * 2.0 + sea
+        vertex[:, 1, 3] = levels.astype(f32) * 4.0 + code
         return PreviewData(texels, row_texels, n, 1, triangles.copy(),
                            numpy.ones(1, dtype=numpy.uint64), whole=True)
     sectors = mesh.sector_count
@@ -218,14 +231,15 @@ def preview_data(mesh, anchor, radius, sea_level=None, row_texels=PREVIEW_ROW_TE
     template = numpy.frombuffer(mesh.triangles, dtype=numpy.int32)[:3 * tris_per_sector]
     levels = numpy.frombuffer(mesh.sector_level, dtype=numpy.int32)[::tris_per_sector]
     vertex[:, 0, 3] = height
-    vertex[:, 1, 3] = numpy.repeat(levels.astype(f32) * 2.0, n // sectors) + sea
+    vertex[:, 1, 3] = numpy.repeat(levels.astype(f32) * 4.0, n // sectors) + code
     ids = getattr(mesh, "sector_ids", None)
     ids = (numpy.frombuffer(ids, dtype=numpy.uint64).copy() if ids is not None
            else numpy.zeros(sectors, dtype=numpy.uint64))
     return PreviewData(texels, row_texels, n, sectors, template.reshape(-1, 3).copy(), ids)
 
 
-def preview_update(previous, mesh, visible_ids, anchor, radius, sea_level=None):
+def preview_update(previous, mesh, visible_ids, anchor, radius, sea_level=None,
+                   detail_amplitude=None):
     """The PreviewData of the planet's visible sectors `visible_ids` (numpy
     uint64) from `previous` and `mesh`, a planet.mesh(changed_only=True)
     emitted after the mesh `previous` was made from, with the same anchor,
@@ -234,7 +248,8 @@ def preview_update(previous, mesh, visible_ids, anchor, radius, sea_level=None):
     free slots), the rest is kept.  `previous` is not changed (the viewport
     may be drawing it).  When fewer than half the slots would stay in use,
     the kept sectors and the emitted ones are packed into new slots."""
-    fresh = preview_data(mesh, anchor, radius, sea_level, previous.row_texels)
+    fresh = preview_data(mesh, anchor, radius, sea_level, previous.row_texels,
+                         detail_amplitude=detail_amplitude)
     if previous.sector_count == 0:
         return fresh
     vps = previous.vertices_per_sector

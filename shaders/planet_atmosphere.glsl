@@ -72,7 +72,16 @@ void aerial_perspective(vec3 point, out vec3 inscatter, out float haze)
 {
   vec3 cam = camera.xyz;
   vec3 view = point - cam;
-  vec3 d = view / max(length(view), 1e-3);
+  float distance = max(length(view), 1e-3);
+  vec3 d = view / distance;
+  /* A point past the view ray's closest approach, where that approach lies
+   * inside the sphere, is one the sphere hides (the mesh's chords along the
+   * limb sag below it): it takes the haze of the approach, as the sky does
+   * for the rays between the chords and the sphere. */
+  float approach = -dot(cam, d);
+  if (approach > 0.0 && approach < distance && length(cam + d * approach) < ATM_RADIUS) {
+    point = cam + d * approach;
+  }
   float depth_r = segment_depth(cam, point, d, ATM_RAYLEIGH_HEIGHT);
   float depth_m = segment_depth(cam, point, d, ATM_MIE_HEIGHT);
   float sun_r, sun_m;

@@ -1,7 +1,8 @@
 /* Planet LOD preview, fragment stage: the ground's colour from the
  * equirectangular colour map (or an elevation ramp, or the sector level),
  * lit as the render is by the scene's sun (Lambert on the core's normal; a
- * Blender sun of strength 1 lights a white surface facing it to 1), seen
+ * Blender sun of strength 1 lights a white surface facing it to 1 / pi, as
+ * Cycles' and EEVEE's diffuse BSDFs do), seen
  * through the haze and shown through the scene's exposure and view
  * transform; written for a framebuffer that encodes to sRGB itself where
  * Blender says so (srgbTarget, as its own shaders do).
@@ -11,7 +12,9 @@
  * function), per pixel: a flat sea's triangles span kilometres of haze.
  * The colour map is read at full resolution, averaged over the pixel's
  * footprint (from the viewer's distance and slant);
- * an sRGB texture's texels arrive decoded (scene-linear). */
+ * an sRGB texture's texels arrive decoded (scene-linear).  On planets with
+ * an atmosphere the land gets the render's ground types
+ * (planet_ground_types.glsl). */
 
 vec3 level_colour(float level)
 {
@@ -50,6 +53,12 @@ void main()
                      textureLod(color_map, st + vec2(-0.5 * tap.x, tap.y), 0.0).rgb +
                      textureLod(color_map, st - vec2(tap.x, 0.5 * tap.y), 0.0).rgb +
                      textureLod(color_map, st - vec2(-0.5 * tap.x, tap.y), 0.0).rgb);
+#ifdef PLOD_ATMOSPHERE
+    if (v_sea < 0.5) {
+      albedo = ground_types(albedo, v_point, n, normalize(v_normal), v_height, v_crest,
+                            length(to_eye));
+    }
+#endif
   }
   else if (v_sea > 0.5) {  /* ground the core lifted to the sea surface */
     albedo = vec3(0.004, 0.02, 0.06);  /* the render material's deep water */
@@ -61,8 +70,16 @@ void main()
                         mix(vec3(0.55, 0.42, 0.3), vec3(0.92, 0.9, 0.88), (t - 0.45) / 0.55);
   }
   float cosine = max(dot(normalize(v_normal), normalize(sun.xyz)), 0.0);
-  /* a little sky light keeps the night side readable */
-  vec3 radiance = albedo * (sun.w * cosine + 0.02);
+  /* a little light keeps the night side readable */
+  vec3 light = vec3(sun.w * cosine / PLOD_PI + 0.02);
+#ifdef PLOD_ATMOSPHERE
+  /* the day sky's light (bluish, about a tenth of the sun's on open ground)
+   * on the faces the sun misses, as the render's world lights them */
+  float daylight = smoothstep(-0.05, 0.15, dot(n, normalize(sun.xyz)));
+  light += sun.w / PLOD_PI * daylight * (0.5 + 0.5 * dot(normalize(v_normal), n)) *
+           vec3(0.06, 0.08, 0.11);
+#endif
+  vec3 radiance = albedo * light;
 #ifdef PLOD_ATMOSPHERE
   vec3 inscatter;
   float transmit;

@@ -2,8 +2,9 @@
  * viewport's LOD, the vertices the planet's render mesh gets (heights with
  * the detail, morphing, the sea lifted), relative to the planet's anchor, with
  * the core's normals (planet space).  `surface` holds two texels per vertex:
- * (position, height above sea level) and (normal, 2 * sector level + sea),
- * zero past the preview's vertices. */
+ * (position, height above sea level) and (normal, 4 * sector level + 2 * sea
+ * + 1 + crest: the detail field in units of its amplitude), zero past the
+ * preview's vertices (planetlod/surface.py). */
 
 void main()
 {
@@ -15,7 +16,7 @@ void main()
   if (texel >= size.x * size.y) {
     gl_Position = vec4(0.0, 0.0, 2.0, 1.0);
     v_point = v_normal = vec3(0.0, 0.0, 1.0);
-    v_height = v_sea = v_level = 0.0;
+    v_height = v_sea = v_level = v_crest = 0.0;
     return;
   }
   ivec2 at = ivec2(texel % width, texel / width);
@@ -26,7 +27,8 @@ void main()
   v_point = point.xyz + anchor.xyz;
   v_normal = normal.xyz;
   v_height = point.w;
-  v_sea = mod(normal.w, 2.0);
-  v_level = floor(normal.w * 0.5);
+  v_sea = floor(mod(normal.w, 4.0) * 0.5);
+  v_level = floor(normal.w * 0.25);
+  v_crest = mod(normal.w, 2.0) - 1.0;
   gl_Position = ModelViewProjectionMatrix * vec4(point.xyz, 1.0);
 }

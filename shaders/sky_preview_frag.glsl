@@ -23,6 +23,16 @@ void main()
   /* the sun's disk, three times its size, as the world draws it */
   float disk = smoothstep(cos(radians(0.8)), cos(radians(0.7)), cos_sun);
   radiance = inscatter * ATM_SKY_GAIN + transmittance * (disk * sun.w * 40.0);
+  if (r > ATM_RADIUS && mu < 0.0 && r0 < ATM_RADIUS) {
+    /* a ray that meets the sphere but no triangle: the sliver between the
+     * sphere and the mesh's chords along the limb.  It shows what the
+     * planet's shader shows at the limb, the haze up to the ray's closest
+     * approach, not the scatter of a ray through the planet */
+    vec3 haze_light;
+    float haze;
+    aerial_perspective(cam - d * (r * mu), haze_light, haze);
+    radiance = haze_light;
+  }
 #endif
   vec3 shown = view_transformed(radiance * camera.w);
   FragColor = vec4(srgbTarget ? srgb_to_linear(shown) : shown, 1.0);

@@ -32,6 +32,35 @@ def coast_mesh(planetlod, sea_level):
     return planet.mesh(template_level=3, visible_only=False), radius, eye
 
 
+def test_preview_crests_are_the_render_mesh_detail(planetlod, surface):
+    """The crest code the viewport's ground types read is the render mesh's
+    detail field in units of its amplitude (clamped), 0 on the sea; sea flags
+    and levels beside it unchanged."""
+    refiner_available(planetlod)
+    radius, amplitude = 6371000.0, 300.0
+    planet = planetlod.Planet(radius, heightmap=data_path("earth-topology.png"),
+                              height_scale=8848.0, sea_level=0.0,
+                              detail=dict(amplitude=amplitude, smallest=1.0))
+    lat, lon = math.radians(44.4), math.radians(8.9)
+    up = np.array([math.cos(lat) * math.cos(lon), math.cos(lat) * math.sin(lon), math.sin(lat)])
+    eye = up * (radius + 3000.0)
+    north = np.array([0.0, 0.0, 1.0]) - up * up[2]
+    planet.refine(planetlod.Camera(look_at(eye, eye + 1e4 * north - 2e3 * up),
+                                   clip_start=1.0, clip_end=1e8), max_level=30)
+    mesh = planet.mesh(template_level=3, visible_only=False)
+    preview = surface.preview_data(mesh, tuple(eye), radius, 0.0, detail_amplitude=amplitude)
+    render = surface.vertex_data(mesh, tuple(eye), radius, 0.0)
+    expected = np.clip(render.attributes["planet_detail"] / amplitude, -1.0, 0.98)
+    assert np.abs(preview.crest - expected).max() < 1e-4
+    assert np.array_equal(preview.sea, render.attributes["planet_sea"])
+    assert preview.sea.any() and np.all(preview.crest[preview.sea > 0] == 0.0)
+    assert (preview.crest > 0.05).any() and (preview.crest < -0.05).any()
+    tris_per_sector = mesh.triangle_count // mesh.sector_count
+    levels = np.frombuffer(mesh.sector_level, np.int32)[::tris_per_sector]
+    assert np.array_equal(preview.levels, np.repeat(levels, preview.vertices_per_sector))
+    assert np.all(surface.preview_data(mesh, tuple(eye), radius, 0.0).crest == 0.0)
+
+
 @pytest.mark.parametrize("sea_level", [None, 0.0, 40.0])
 def test_preview_data_is_the_render_mesh_surface(planetlod, surface, sea_level):
     refiner_available(planetlod)

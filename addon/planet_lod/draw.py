@@ -72,9 +72,10 @@ PREFIX = ("#define PLOD_PI 3.14159265358979\n"
 
 
 def shader_sources(defines="", vertex="planet_preview_vert.glsl",
-                   fragment="planet_preview_frag.glsl"):
+                   fragment="planet_preview_frag.glsl", libraries=("planet_ground_types.glsl",)):
     """(vertex, fragment) GLSL; every fragment stage gets the display and
-    atmosphere functions the planet's and the sky's previews share."""
+    atmosphere functions the planet's and the sky's previews share, then the
+    `libraries` it needs (the planet's: its ground types)."""
     folder = next((d for d in core.resource_dirs("shaders") if os.path.isdir(d)), None)
     if folder is None:
         raise FileNotFoundError("shaders/ folder not found")
@@ -83,6 +84,7 @@ def shader_sources(defines="", vertex="planet_preview_vert.glsl",
         with open(os.path.join(folder, name)) as f:
             return f.read()
     shared = read("planet_display.glsl") + read("planet_atmosphere.glsl")
+    shared += "".join(read(name) for name in libraries)
     return PREFIX + defines + read(vertex), PREFIX + defines + shared + read(fragment)
 
 
@@ -117,6 +119,7 @@ def preview_shader(atm=None):
         iface.smooth('VEC3', "v_normal")
         iface.smooth('FLOAT', "v_height")
         iface.smooth('FLOAT', "v_sea")
+        iface.smooth('FLOAT', "v_crest")
         iface.smooth('FLOAT', "v_level")  # one value per sector (one interpolation kind: Vulkan)
         info.vertex_out(iface)
         info.fragment_out(0, 'VEC4', "FragColor")

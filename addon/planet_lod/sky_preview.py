@@ -30,7 +30,7 @@ def sky_shader(atm):
         return _shaders.get(key)
     try:
         vert, frag = draw.shader_sources(draw.shader_defines(atm), "sky_preview_vert.glsl",
-                                         "sky_preview_frag.glsl")
+                                         "sky_preview_frag.glsl", libraries=())
         info = gpu.types.GPUShaderCreateInfo()
         info.push_constant('MAT3', "rays")    # NDC (x, y, 1) -> planet-space view ray
         info.push_constant('VEC4', "camera")  # the viewer (planet space), exposure
