@@ -360,6 +360,13 @@ def check_mesh_size(stats, template_level):
             f"{MAX_MESH_TRIANGLES:,}: lower the template density or the sector budget")
 
 
+def detail_amplitude(planet):
+    """The planet's detail amplitude in metres (the unit of the preview's
+    crests), None without detail."""
+    detail = planet.detail
+    return detail["amplitude"] if detail.get("enabled") else None
+
+
 def camera_inside(planet, matrix_world):
     """True when the camera (planet-space row-major matrix) is below the terrain."""
     location = [row[3] for row in matrix_world[:3]]

@@ -105,8 +105,7 @@ class SurfaceWork:
         # bench_viewport_detail.py)
         origin, radius, sea_level, morph, old_key, old_data = self.preview
         level = settings["template_level"]
-        detail = planet.detail
-        amplitude = detail["amplitude"] if detail.get("enabled") else None
+        amplitude = planets.detail_amplitude(planet)
         if planets.lod_method(settings) != "hrtmr":
             # the other methods' patches are not copies of one template and
             # keep no cache: their whole mesh, drawn as one patch, under a key

@@ -223,7 +223,8 @@ def test_the_addon_work_draws_a_method(planetlod, method):
         assert data.whole  # drawn once, with its own triangles (no template copies)
         assert len(data.template_triangles) == mesh.triangle_count
         assert data.levels.max() == np.frombuffer(mesh.sector_level, np.int32).max()
-    whole = surface.preview_data(mesh, anchor, EARTH, whole=True)
+    whole = surface.preview_data(mesh, anchor, EARTH, whole=True,
+                                 detail_amplitude=planets.detail_amplitude(planet))
     assert np.array_equal(whole.texels, data.texels)
     # the add-on's legend text and menu come from the same table
     assert {key for key, _, _ in planets.LOD_METHOD_ITEMS} == set(planets.LEVEL_MEANING)
