@@ -1299,103 +1299,171 @@ static double plod__score(const plod_bound_view *v, const plod_bound *b)
     return plod_bound_score(v, b, plod_bound_distance(v, b));
 }
 
-/* The score of the diamond that child `c` of a diamond splits in: the
- * larger of c's and its partner's across c's hypotenuse.  c is the leaf
- * `leaf` at the children's level `level`, or, when that leaf is one level
- * deeper, the node it is a child of (c split already). */
-static double plod__child_diamond_score(const plod_lodtree *t, const plod_bound_view *v,
-                                        int32_t leaf, int level)
+/* The split morph's factors of every diamond (plod_refine.h), per node
+ * (both parents of a diamond get the same bits: every step is symmetric in
+ * the two).  Scratch of one call. */
+typedef struct plod__morph_factors {
+    double *node_score;  /* each internal node's split score */
+    double *child_score; /* the largest score of the diamonds its children
+                            split in */
+    double *one_level;   /* f of the node's diamond */
+    double *least_child; /* the least f over its split children's diamonds */
+    uint8_t *child_split;
+} plod__morph_factors;
+
+static double plod__max(double a, double b)
 {
-    if (t->leaves[leaf].level != level) {
-        int32_t c = t->leaf_parent[leaf];
-        double s = plod__score(v, &t->nodes[c].bound);
-        int32_t partner = t->node_partner[c];
-        if (partner >= 0) {
-            double sp = plod__score(v, &t->nodes[partner].bound);
-            s = sp > s ? sp : s;
-        }
-        return s;
-    }
-    double s = plod__score(v, &t->geom[leaf].self);
-    int32_t p = t->neighbours[leaf][2];
-    if (p >= 0 && t->leaves[p].level == level) {
-        double sp = plod__score(v, &t->geom[p].self);
-        s = sp > s ? sp : s;
-    }
+    return b > a ? b : a;
+}
+
+static double plod__min(double a, double b)
+{
+    return b < a ? b : a;
+}
+
+/* The score of the diamond leaf i splits in: its own and its partner's
+ * across the hypotenuse when that is a leaf of its level. */
+static double plod__leaf_diamond_score(const plod_lodtree *t, const plod_bound_view *v,
+                                       size_t i)
+{
+    double s = plod__score(v, &t->geom[i].self);
+    int32_t p = t->neighbours[i][2];
+    if (p >= 0 && t->leaves[p].level == t->leaves[i].level)
+        s = plod__max(s, plod__score(v, &t->geom[p].self));
     return s;
 }
 
+/* The diamond of node k: s_D, s_C and whether a child diamond is split,
+ * over k and its partner. */
+static double plod__one_level(const plod_lodtree *t, const plod__morph_factors *mf, int32_t k)
+{
+    int32_t q = t->node_partner[k];
+    double s_d = mf->node_score[k], s_c = mf->child_score[k];
+    int split = mf->child_split[k];
+    if (q >= 0) {
+        s_d = plod__max(s_d, mf->node_score[q]);
+        s_c = plod__max(s_c, mf->child_score[q]);
+        split |= mf->child_split[q];
+    }
+    /* a split child diamond decides first: its children start as the
+     * child's own surface (and the two-level composition relies on f = 0
+     * there) */
+    if (split || !(s_c < 1.0))
+        return 0.0;
+    if (!(s_d > 1.0))
+        return 1.0; /* at the split, or a forced one */
+    double f = (1.0 - s_c) / (s_d - s_c);
+    return f < 0.0 ? 0.0 : (f > 1.0 ? 1.0 : f);
+}
+
+/* m of node k's diamond. */
+static double plod__factor(const plod_lodtree *t, const plod__morph_factors *mf, int32_t k)
+{
+    int32_t q = t->node_partner[k];
+    double least = mf->least_child[k];
+    if (q >= 0)
+        least = plod__min(least, mf->least_child[q]);
+    return 0.5 * mf->one_level[k] + 0.5 * least;
+}
+
+static plod_status plod__morph_factors_compute(const plod_lodtree *t, const plod_bound_view *v,
+                                               plod__morph_factors *mf)
+{
+    size_t nodes = t->node_top ? t->node_top : 1;
+    mf->node_score = malloc(nodes * sizeof *mf->node_score);
+    mf->child_score = malloc(nodes * sizeof *mf->child_score);
+    mf->one_level = malloc(nodes * sizeof *mf->one_level);
+    mf->least_child = malloc(nodes * sizeof *mf->least_child);
+    mf->child_split = calloc(nodes, sizeof *mf->child_split);
+    if (!mf->node_score || !mf->child_score || !mf->one_level || !mf->least_child ||
+        !mf->child_split)
+        return PLOD_ERR_NO_MEMORY;
+    for (size_t k = 0; k < t->node_top; k++) {
+        mf->node_score[k] = t->nodes[k].id ? plod__score(v, &t->nodes[k].bound) : 0.0;
+        mf->child_score[k] = 0.0;
+        mf->least_child[k] = 1.0;
+    }
+    /* children's diamond scores into their parents: leaves, then nodes */
+    for (size_t i = 0; i < t->count; i++) {
+        int32_t parent = t->leaf_parent[i];
+        if (parent >= 0)
+            mf->child_score[parent] = plod__max(mf->child_score[parent],
+                                                plod__leaf_diamond_score(t, v, i));
+    }
+    for (size_t k = 0; k < t->node_top; k++) {
+        int32_t parent = t->node_parent[k];
+        if (!t->nodes[k].id || parent < 0)
+            continue;
+        double s = mf->node_score[k];
+        int32_t q = t->node_partner[k];
+        if (q >= 0)
+            s = plod__max(s, mf->node_score[q]);
+        mf->child_score[parent] = plod__max(mf->child_score[parent], s);
+        mf->child_split[parent] = 1;
+    }
+    for (size_t k = 0; k < t->node_top; k++)
+        mf->one_level[k] = t->nodes[k].id ? plod__one_level(t, mf, (int32_t)k) : 0.0;
+    for (size_t k = 0; k < t->node_top; k++) {
+        int32_t parent = t->node_parent[k];
+        if (t->nodes[k].id && parent >= 0)
+            mf->least_child[parent] = plod__min(mf->least_child[parent], mf->one_level[k]);
+    }
+    return PLOD_OK;
+}
+
+static void plod__morph_factors_free(plod__morph_factors *mf)
+{
+    free(mf->node_score);
+    free(mf->child_score);
+    free(mf->one_level);
+    free(mf->least_child);
+    free(mf->child_split);
+}
+
+/* The parent of a sector (its bisection's inverse): child 0 is (p1, m, p0),
+ * child 1 is (p2, m, p1).  Returns which child s is. */
+static int plod__parent_sector(const plod_sector *s, plod_sector *p)
+{
+    int bit = (int)(s->id & 1u);
+    *p = *s;
+    if (bit == 0) {
+        p->cu[0] = s->cu[2], p->cv[0] = s->cv[2];
+        p->cu[1] = s->cu[0], p->cv[1] = s->cv[0];
+        p->cu[2] = 2 * s->cu[1] - s->cu[2], p->cv[2] = 2 * s->cv[1] - s->cv[2];
+    } else {
+        p->cu[0] = 2 * s->cu[1] - s->cu[0], p->cv[0] = 2 * s->cv[1] - s->cv[0];
+        p->cu[1] = s->cu[2], p->cv[1] = s->cv[2];
+        p->cu[2] = s->cu[0], p->cv[2] = s->cv[0];
+    }
+    p->id = plod_lodtree_parent_id(s->id);
+    p->level = (uint8_t)(s->level - 1);
+    return bit;
+}
+
 /* The split morph of leaf i (plod_refine.h). */
-static void plod__split_morph(const plod_lodtree *t, const plod_bound_view *v, size_t i,
+static void plod__split_morph(const plod_lodtree *t, const plod__morph_factors *mf, size_t i,
                               plod_split_morph *out)
 {
-    const plod_sector *leaf = &t->leaves[i];
     int32_t parent = t->leaf_parent[i];
     memset(out, 0, sizeof *out);
     if (parent < 0) {
         out->factor = -1.0;
         return;
     }
-    /* the parent: child 0 is (p1, m, p0), child 1 is (p2, m, p1) */
-    int bit = (int)(leaf->id & 1u);
-    plod_sector p = *leaf;
-    if (bit == 0) {
-        p.cu[0] = leaf->cu[2], p.cv[0] = leaf->cv[2];
-        p.cu[1] = leaf->cu[0], p.cv[1] = leaf->cv[0];
-        p.cu[2] = 2 * leaf->cu[1] - leaf->cu[2], p.cv[2] = 2 * leaf->cv[1] - leaf->cv[2];
-    } else {
-        p.cu[0] = 2 * leaf->cu[1] - leaf->cu[0], p.cv[0] = 2 * leaf->cv[1] - leaf->cv[0];
-        p.cu[1] = leaf->cu[2], p.cv[1] = leaf->cv[2];
-        p.cu[2] = leaf->cu[0], p.cv[2] = leaf->cv[0];
-    }
+    plod_sector p, g;
     double corners[3][3];
+    out->child = plod__parent_sector(&t->leaves[i], &p);
     plod_sector_corners(t->planet, &p, corners);
-    memcpy(out->third_corner, corners[bit ? 0 : 2], sizeof out->third_corner);
-    out->child = bit;
-
-    double s_d = plod__score(v, &t->nodes[parent].bound);
-    int32_t partner = t->node_partner[parent];
-    if (partner >= 0) {
-        double s = plod__score(v, &t->nodes[partner].bound);
-        s_d = s > s_d ? s : s_d;
-    }
-    /* the diamond's four children around the midpoint m: across edges 0
-     * and 1 of this leaf (edge 0 of each child is edge 1 of the next one
-     * around m), and the one opposite, across edge 0 of the next or edge 1
-     * of the previous (one of them is a leaf of this level whenever this
-     * leaf shares an edge through m with another leaf of the diamond) */
-    int level = leaf->level;
-    int32_t next = t->neighbours[i][0], prev = t->neighbours[i][1], opposite = -1;
-    if (next >= 0 && t->leaves[next].level == level) {
-        out->edges |= 1u;
-        opposite = t->neighbours[next][0];
-    }
-    if (prev >= 0 && t->leaves[prev].level == level) {
-        out->edges |= 2u;
-        if (opposite < 0)
-            opposite = t->neighbours[prev][1];
-    }
-    int32_t ring[4] = {(int32_t)i, next, prev, opposite};
-    double s_c = 0.0;
-    for (int k = 0; k < 4; k++) {
-        if (ring[k] < 0)
-            continue; /* (a leaf whose edges through m both meet split children) */
-        double s = plod__child_diamond_score(t, v, ring[k], level);
-        s_c = s > s_c ? s : s_c;
-    }
-    /* a child's diamond split decides first: its children start as the
-     * child's own surface, so the child shows it (m = 0) even where the
-     * diamond itself is split only because that split forced it; else the
-     * factor would fall from 1 to 0 in one frame, without a split, as the
-     * diamond's own score passed 1 */
-    double m;
-    if (!(s_c < 1.0))
-        m = 0.0;
-    else if (!(s_d > 1.0))
-        m = 1.0; /* at the split, or a forced one */
-    else
-        m = (1.0 - s_c) / (s_d - s_c);
-    out->factor = m < 0.0 ? 0.0 : (m > 1.0 ? 1.0 : m);
+    memcpy(out->third_corner, corners[out->child ? 0 : 2], sizeof out->third_corner);
+    out->factor = plod__factor(t, mf, parent);
+    int32_t grandparent = t->node_parent[parent];
+    if (grandparent < 0)
+        return;
+    out->parent_child = plod__parent_sector(&p, &g);
+    plod_sector_corners(t->planet, &g, corners);
+    memcpy(out->parent_third_corner, corners[out->parent_child ? 0 : 2],
+           sizeof out->parent_third_corner);
+    out->parent_factor = plod__factor(t, mf, grandparent);
 }
 
 plod_status plod_refiner_split_morphs(const plod_refiner *r, const plod_camera *camera,
@@ -1411,17 +1479,20 @@ plod_status plod_refiner_split_morphs(const plod_refiner *r, const plod_camera *
                            camera->position[2] * camera->position[2]);
     if (!isfinite(eye_dist) || !(eye_dist > 1e-6 * t->planet->radius))
         return PLOD_ERR_BAD_COORD;
+    for (size_t k = 0; k < count; k++)
+        if ((leaves ? leaves[k] : k) >= t->count)
+            return PLOD_ERR_BAD_PARAM;
     plod_bound_view view;
     plod_bound_view_init(&view, t->planet, t->setup.occluder, camera, params, eye_dist);
     /* the last update's coarsening step (0 without a budget) */
     plod__view_threshold(&view, params, params->budget ? r->coarsen_step : 0);
-    for (size_t k = 0; k < count; k++) {
-        size_t i = leaves ? leaves[k] : k;
-        if (i >= t->count)
-            return PLOD_ERR_BAD_PARAM;
-        plod__split_morph(t, &view, i, &out[k]);
-    }
-    return PLOD_OK;
+    plod__morph_factors mf;
+    plod_status st = plod__morph_factors_compute(t, &view, &mf);
+    if (st == PLOD_OK)
+        for (size_t k = 0; k < count; k++)
+            plod__split_morph(t, &mf, leaves ? leaves[k] : k, &out[k]);
+    plod__morph_factors_free(&mf);
+    return st;
 }
 
 size_t plod_refiner_memory_bytes(const plod_refiner *r)

@@ -139,36 +139,46 @@ void plod_mesh_origin(const plod_surface_source *surface, double radius,
         origin[c] = dir[c] * r;
 }
 
-/* Vertex v moved the fraction m of the way to the middle of the edge from
- * vertex a to the point b (position, and normal and detail where given): the
- * coarser grid's interpolation there.  The shading follows the geometry, so
- * a split does not flash the normals.  b may lie outside the arrays (a
- * sibling sector's vertex). */
-static void plod__blend_to_edge(float *pos, float *nrm, float *det, size_t v, size_t a,
-                                const float *b_pos, const float *b_nrm, const float *b_det,
-                                double m)
+/* A vertex (position, and normal and detail where given) moved the
+ * fraction m of the way to the middle of the edge from a to b: the coarser
+ * grid's interpolation there.  The shading follows the geometry, so a split
+ * does not flash the normals.  Symmetric in a and b, bit for bit. */
+static void plod__blend_toward(float *v_pos, float *v_nrm, float *v_det, const float *a_pos,
+                               const float *a_nrm, const float *a_det, const float *b_pos,
+                               const float *b_nrm, const float *b_det, double m)
 {
     for (int c = 0; c < 3; c++) {
-        double p = (double)pos[3 * v + c];
-        double target = 0.5 * ((double)pos[3 * a + c] + (double)b_pos[c]);
-        pos[3 * v + c] = (float)(p + m * (target - p));
+        double p = (double)v_pos[c];
+        double target = 0.5 * ((double)a_pos[c] + (double)b_pos[c]);
+        v_pos[c] = (float)(p + m * (target - p));
     }
-    if (nrm) {
+    if (v_nrm) {
         double nv[3], len2 = 0.0;
         for (int c = 0; c < 3; c++) {
-            double target = 0.5 * ((double)nrm[3 * a + c] + (double)b_nrm[c]);
-            nv[c] = (double)nrm[3 * v + c] + m * (target - (double)nrm[3 * v + c]);
+            double target = 0.5 * ((double)a_nrm[c] + (double)b_nrm[c]);
+            nv[c] = (double)v_nrm[c] + m * (target - (double)v_nrm[c]);
             len2 += nv[c] * nv[c];
         }
         double len = sqrt(len2);
         if (len > 0.0)
             for (int c = 0; c < 3; c++)
-                nrm[3 * v + c] = (float)(nv[c] / len);
+                v_nrm[c] = (float)(nv[c] / len);
     }
-    if (det) {
-        double target = 0.5 * ((double)det[a] + (double)*b_det);
-        det[v] = (float)((double)det[v] + m * (target - (double)det[v]));
+    if (v_det) {
+        double target = 0.5 * ((double)*a_det + (double)*b_det);
+        *v_det = (float)((double)*v_det + m * (target - (double)*v_det));
     }
+}
+
+/* Vertex v of the arrays moved toward the middle of the edge from vertex a
+ * to the point b (which may lie outside the arrays). */
+static void plod__blend_to_edge(float *pos, float *nrm, float *det, size_t v, size_t a,
+                                const float *b_pos, const float *b_nrm, const float *b_det,
+                                double m)
+{
+    plod__blend_toward(pos + 3 * v, nrm ? nrm + 3 * v : NULL, det ? det + v : NULL,
+                       pos + 3 * a, nrm ? nrm + 3 * a : NULL, det ? det + a : NULL, b_pos,
+                       b_nrm, b_det, m);
 }
 
 /* The morph ramp with log2(scale) precomputed: level = rate * (log2(scale)
@@ -1019,60 +1029,256 @@ static void plod__sample_vertices(const plod__emitter *e, const double corners[3
                       params->origin, 0.0, &row_out);
 }
 
-/* The split morph of a sector (plod_mesh_sector.split): each vertex off
- * the parent's grid moves by split_morph toward the middle of the parent's
- * edge through it.  Child 0 (p1, m, p0) keeps the weight on its corner 0
- * (p1) along that edge, child 1 (p2, m, p1) the one on its corner 2; the
- * edge's ends are the vertices with corner 1's weight -+1.  On the
- * bisecting edge (child 0: weight 0 on corner 2; child 1: on corner 0) one
- * end is the sibling's vertex, evaluated here from the sibling's corners. */
+/* ---- the split morph (plod_mesh_sector.split) ------------------------------------
+ * Weights: a sector's vertex k = (k0, k1, k2) on its corners.  Its parent
+ * P = (p0, p1, p2) has child 0 = (p1, m, p0) and child 1 = (p2, m, p1), m
+ * the middle of p0 p2; a child's vertex with k1 even is P's vertex
+ * plod__to_parent.  A vertex with k1 odd lies off P's grid and blends
+ * toward the middle of P's edge through it that keeps the weight on P's
+ * right-angle corner p1 (child 0: k0; child 1: k2).  The same one level up
+ * for P's vertices in the grandparent G, with P's sibling Q across P's
+ * edge through G's midpoint. */
+
+static void plod__to_parent(int child, const int k[3], int out[3])
+{
+    if (!child) {
+        out[0] = k[2] + k[1] / 2, out[1] = k[0], out[2] = k[1] / 2;
+    } else {
+        out[0] = k[1] / 2, out[1] = k[2], out[2] = k[0] + k[1] / 2;
+    }
+}
+
+/* The two ends of the parent's edge through a vertex k (k1 odd) of a
+ * `child`, in the child's weights; they may leave the child (a negative
+ * weight: in the sibling, plod__to_sibling). */
+static void plod__edge_ends(int child, const int k[3], int ends[2][3])
+{
+    for (int s = 0; s < 2; s++) {
+        int d = s ? 1 : -1;
+        ends[s][1] = k[1] + d;
+        if (!child) { /* k0 kept */
+            ends[s][0] = k[0];
+            ends[s][2] = k[2] - d;
+        } else {      /* k2 kept */
+            ends[s][2] = k[2];
+            ends[s][0] = k[0] - d;
+        }
+    }
+}
+
+/* A point of the parent's plane past a child's edge through the midpoint
+ * (child 0: k2 < 0; child 1: k0 < 0) in the sibling's weights. */
+static void plod__to_sibling(int child, const int k[3], int out[3])
+{
+    if (!child) { /* sibling child 1 = (p2, m, p1) */
+        out[0] = -k[2], out[1] = k[1] + 2 * k[2], out[2] = k[0];
+    } else {      /* sibling child 0 = (p1, m, p0) */
+        out[0] = k[2], out[1] = k[1] + 2 * k[0], out[2] = -k[0];
+    }
+}
+
+/* The parent's corners from a child's and the parent's corner it lacks,
+ * and the sibling's. */
+static void plod__family_corners(const double corners[3][3], const double third[3], int child,
+                                 double parent[3][3], double sibling[3][3])
+{
+    for (int c = 0; c < 3; c++) {
+        parent[0][c] = child ? third[c] : corners[2][c];
+        parent[1][c] = corners[child ? 2 : 0][c];
+        parent[2][c] = child ? corners[0][c] : third[c];
+        sibling[0][c] = child ? corners[2][c] : third[c];
+        sibling[1][c] = corners[1][c];
+        sibling[2][c] = child ? third[c] : corners[0][c];
+    }
+}
+
+/* Vertices evaluated from a triangle's corners (as its sector evaluates
+ * them), in batches the sampler takes. */
+static void plod__sample_many(const plod__emitter *e, const double corners[3][3], size_t count,
+                              const int (*k)[3], float *pos, float *nrm, float *det)
+{
+    enum { MAX = 1 << (PLOD_MAX_TEMPLATE_LEVEL - 1) };
+    for (size_t first = 0; first < count; first += MAX) {
+        size_t part = count - first < MAX ? count - first : MAX;
+        plod__sample_vertices(e, corners, part, k + first, pos + 3 * first,
+                              nrm ? nrm + 3 * first : NULL, det ? det + first : NULL);
+    }
+}
+
+/* A vertex's outputs: where they are, or NULL. */
+typedef struct plod__vertex_ref {
+    float *pos, *nrm, *det;
+} plod__vertex_ref;
+
+/* The split morph's scratch for one sector: the grid points it evaluates
+ * outside its own vertices, each once. */
+typedef struct plod__morph_scratch {
+    size_t grid;         /* vertices of one template grid */
+    int32_t *slot[2];    /* per grid index of P (0) and Q (1): its point, or -1 */
+    int (*k[2])[3];      /* the points to evaluate, per triangle */
+    size_t count[2];
+    float *pos[2], *nrm[2], *det[2];
+} plod__morph_scratch;
+
+/* The point of triangle `tri` (0: P, 1: Q) at weights k, noted for
+ * evaluation; returns its index in that triangle's list. */
+static int32_t plod__note_point(plod__morph_scratch *s, int n, int tri, const int k[3])
+{
+    assert(k[0] >= 0 && k[1] >= 0 && k[2] >= 0 && k[0] + k[1] + k[2] == n);
+    size_t at = plod__vertex_index(n, k[2], k[1]);
+    if (s->slot[tri][at] < 0) {
+        s->slot[tri][at] = (int32_t)s->count[tri];
+        memcpy(s->k[tri][s->count[tri]++], k, sizeof(int[3]));
+    }
+    return s->slot[tri][at];
+}
+
+static plod__vertex_ref plod__point_ref(const plod__morph_scratch *s, int tri, int32_t at)
+{
+    plod__vertex_ref r = {s->pos[tri] + 3 * at, s->nrm[tri] ? s->nrm[tri] + 3 * at : NULL,
+                          s->det[tri] ? s->det[tri] + at : NULL};
+    return r;
+}
+
+/* The split morph of a sector (plod_mesh_sector.split).  First the parent's
+ * grid points off the grandparent's (the sector's own with k1 even, and the
+ * sibling's vertices its own edge ends reach) blend by parent_morph toward
+ * the middle of the grandparent's edge through them, whose ends are
+ * evaluated from P's or Q's corners; then the vertices off the parent's
+ * grid blend by split_morph toward the middle of the parent's edge through
+ * them, between those blended ends. */
 static void plod__split_morph_sector(const plod__emitter *e, const plod_mesh_sector *sector,
                                      size_t vbase)
 {
     enum { MAX = 1 << (PLOD_MAX_TEMPLATE_LEVEL - 1) };
-    double m = sector->split_morph;
-    if (!(m > 0.0))
+    double m = sector->split_morph, m_parent = sector->parent_morph;
+    m = m > 1.0 ? 1.0 : m;
+    m_parent = m_parent > 1.0 ? 1.0 : m_parent;
+    if (!(m > 0.0) && !(m_parent > 0.0))
         return; /* morph output already 0 */
-    if (m > 1.0)
-        m = 1.0;
     const plod_mesh_buffers *out = e->out;
     float *pos = out->positions + 3 * vbase;
     float *nrm = out->normals ? out->normals + 3 * vbase : NULL;
     float *det = out->detail ? out->detail + vbase : NULL;
     float *morph_out = out->morph ? out->morph + vbase : NULL;
-    int n = e->n, child = sector->split_child != 0;
-    /* the sibling: child 1 = (p2, m, p1) = (third, c1, c0); child 0 =
-     * (p1, m, p0) = (c2, c1, third) */
-    double sibling[3][3];
-    for (int c = 0; c < 3; c++) {
-        sibling[0][c] = child ? sector->corners[2][c] : sector->third_corner[c];
-        sibling[1][c] = sector->corners[1][c];
-        sibling[2][c] = child ? sector->third_corner[c] : sector->corners[0][c];
-    }
+    int n = e->n, child = sector->split_child != 0, parent_child = sector->parent_child != 0;
+    const double (*corners)[3] = (const double (*)[3])sector->corners;
+    double parent[3][3], sibling[3][3], grandparent[3][3], parent_sibling[3][3];
+    plod__family_corners(corners, sector->third_corner, child, parent, sibling);
+
+    /* the sibling's vertices at the far ends of the edges through the
+     * vertices on the bisecting edge (child 0: k2 = 0; child 1: k0 = 0) */
     int outside_k[MAX][3];
     size_t outside = 0;
-    for (int k1 = 1; k1 < n; k1 += 2, outside++) {
-        int other = n - k1; /* the bisecting-edge vertex's other weight */
-        int *k = outside_k[outside];
-        if (!child) { /* own (other, k1, 0): the sibling's (1, k1 - 1, other) */
-            k[0] = 1, k[1] = k1 - 1, k[2] = other;
-        } else {      /* own (0, k1, other): the sibling's (other, k1 - 1, 1) */
-            k[0] = other, k[1] = k1 - 1, k[2] = 1;
+    if (m > 0.0)
+        for (int k1 = 1; k1 < n; k1 += 2, outside++) {
+            int own[3] = {child ? 0 : n - k1, k1, child ? n - k1 : 0}, ends[2][3];
+            plod__edge_ends(child, own, ends);
+            plod__to_sibling(child, ends[1], outside_k[outside]);
         }
-    }
     float outside_pos[3 * MAX], outside_nrm[3 * MAX], outside_det[MAX];
-    plod__sample_vertices(e, (const double (*)[3])sibling, outside,
-                          (const int (*)[3])outside_k, outside_pos,
-                          nrm ? outside_nrm : NULL, det ? outside_det : NULL);
+    if (outside)
+        plod__sample_vertices(e, (const double (*)[3])sibling, outside,
+                              (const int (*)[3])outside_k, outside_pos,
+                              nrm ? outside_nrm : NULL, det ? outside_det : NULL);
+
+    if (m_parent > 0.0) {
+        /* Q, the parent's sibling, from the parent's corners and G's corner
+         * the parent lacks */
+        plod__family_corners((const double (*)[3])parent, sector->parent_third_corner,
+                             parent_child, grandparent, parent_sibling);
+        plod__morph_scratch s;
+        memset(&s, 0, sizeof s);
+        s.grid = e->vertices_per_sector;
+        size_t targets_max = s.grid + MAX;
+        int ok = 1;
+        int32_t (*target_ends)[2][2] = malloc(targets_max * sizeof *target_ends);
+        plod__vertex_ref *target = malloc(targets_max * sizeof *target);
+        ok = target_ends && target;
+        for (int tri = 0; tri < 2 && ok; tri++) {
+            s.slot[tri] = malloc(s.grid * sizeof *s.slot[tri]);
+            s.k[tri] = malloc(s.grid * sizeof *s.k[tri]);
+            s.pos[tri] = malloc(3 * s.grid * sizeof(float));
+            s.nrm[tri] = nrm ? malloc(3 * s.grid * sizeof(float)) : NULL;
+            s.det[tri] = det ? malloc(s.grid * sizeof(float)) : NULL;
+            ok = s.slot[tri] && s.k[tri] && s.pos[tri] && (!nrm || s.nrm[tri]) &&
+                 (!det || s.det[tri]);
+            if (ok)
+                for (size_t g = 0; g < s.grid; g++)
+                    s.slot[tri][g] = -1;
+        }
+        size_t targets = 0;
+        /* the parent's grid points to blend: this sector's vertices with k1
+         * even and the outside ones (all on the parent's grid); those with
+         * an odd weight on the parent's corner 1 lie off G's grid */
+        for (size_t v = 0, i = 0, j = 0; ok && v < s.grid + outside; v++) {
+            int k[3], pk[3];
+            plod__vertex_ref ref;
+            if (v < s.grid) { /* vertex v of this sector: row i, column j */
+                if (v > 0 && ++j > (size_t)n - i)
+                    i++, j = 0;
+                if (j & 1)
+                    continue;
+                k[0] = n - (int)i - (int)j, k[1] = (int)j, k[2] = (int)i;
+                plod__to_parent(child, k, pk);
+                ref.pos = pos + 3 * v, ref.nrm = nrm ? nrm + 3 * v : NULL;
+                ref.det = det ? det + v : NULL;
+            } else {
+                size_t o = v - s.grid;
+                memcpy(k, outside_k[o], sizeof k);
+                plod__to_parent(!child, k, pk);
+                ref.pos = outside_pos + 3 * o, ref.nrm = nrm ? outside_nrm + 3 * o : NULL;
+                ref.det = det ? outside_det + o : NULL;
+            }
+            if (!(pk[1] & 1))
+                continue; /* on G's grid */
+            int ends[2][3];
+            plod__edge_ends(parent_child, pk, ends);
+            for (int a = 0; a < 2; a++) {
+                int past = parent_child ? ends[a][0] < 0 : ends[a][2] < 0;
+                int q[3];
+                if (past)
+                    plod__to_sibling(parent_child, ends[a], q);
+                target_ends[targets][a][0] = past;
+                target_ends[targets][a][1] = plod__note_point(&s, n, past, past ? q : ends[a]);
+            }
+            target[targets++] = ref;
+            if (v < s.grid && morph_out)
+                morph_out[v] = (float)m_parent;
+        }
+        if (ok) {
+            plod__sample_many(e, (const double (*)[3])parent, s.count[0],
+                              (const int (*)[3])s.k[0], s.pos[0], s.nrm[0], s.det[0]);
+            plod__sample_many(e, (const double (*)[3])parent_sibling, s.count[1],
+                              (const int (*)[3])s.k[1], s.pos[1], s.nrm[1], s.det[1]);
+            for (size_t t = 0; t < targets; t++) {
+                plod__vertex_ref a = plod__point_ref(&s, target_ends[t][0][0],
+                                                     target_ends[t][0][1]);
+                plod__vertex_ref b = plod__point_ref(&s, target_ends[t][1][0],
+                                                     target_ends[t][1][1]);
+                plod__blend_toward(target[t].pos, target[t].nrm, target[t].det, a.pos, a.nrm,
+                                   a.det, b.pos, b.nrm, b.det, m_parent);
+            }
+        }
+        for (int tri = 0; tri < 2; tri++) {
+            free(s.slot[tri]);
+            free(s.k[tri]);
+            free(s.pos[tri]);
+            free(s.nrm[tri]);
+            free(s.det[tri]);
+        }
+        free(target_ends);
+        free(target);
+    }
+
+    if (!(m > 0.0))
+        return;
     size_t v = 0;
     for (int i = 0; i <= n; i++)
         for (int j = 0; j <= n - i; j++, v++) {
             if (!(j & 1))
                 continue; /* on the parent's grid */
             int k0 = n - i - j;
-            if ((i == 0 && !(sector->split_edges & 1u)) ||
-                (k0 == 0 && !(sector->split_edges & 2u)))
-                continue; /* an edge a finer sector meets unmorphed */
             /* the edge's ends: a inside, b inside or the sibling's */
             size_t a, b = 0;
             const float *bp, *bn = NULL, *bd = NULL;

@@ -205,37 +205,46 @@ size_t plod_refiner_memory_bytes(const plod_refiner *refiner);
 
 /* ---- split morph (F. Strugar, "Continuous Distance-Dependent Level of
  * Detail for Rendering Heightmaps", 2009, carried to longest-edge
- * bisection) ------------------------------------------------------------------
+ * bisection and composed over two levels) -------------------------------------
  * A diamond D (two parents split together) gives its four children one
- * factor, so that the children's vertices off the parents' grid can blend
- * toward the parents' surface: s_D = the larger of the refiner's split
- * scores (plod_bound_score at the bound's distance) of D's two parents,
- * s_C = the largest score over D's four children and their partners
- * across the children's hypotenuses (the diamonds they split in);
- * factor = 1 where s_D <= 1 (D splits or merges right there, or D is a
- * forced split: the children look exactly like their parents), 0 where
- * s_C >= 1 (a child's diamond splits), else (1 - s_C) / (s_D - s_C):
- * continuous in the camera between the two (a child split already counts
- * with its node's score).  A leaf's edges through the midpoint morph only
- * where a leaf of its level lies across (a split child's children meet
- * them unmorphed).  A function of the tree, the camera and the parameters
- * alone. */
+ * factor m_D: 1 where the children look exactly like their parents, 0
+ * where they are their own surface.  Its one-level part f_D: s_D the larger
+ * of the refiner's split scores (plod_bound_score at the bound's distance)
+ * of D's two parents, s_C the largest over D's four children and their
+ * partners across the children's hypotenuses (the diamonds they split in);
+ * f_D = 0 where one of those diamonds is split or s_C >= 1, 1 where
+ * s_D <= 1 (D splits or merges right there, or D is a forced split), else
+ * (1 - s_C) / (s_D - s_C).  Then m_D = (f_D + phi_D) / 2, phi_D the least
+ * f over D's split child diamonds (1 without any): m_D falls from 1 at D's
+ * split to 1/2 as a child diamond splits and to 0 as a grandchild diamond
+ * does, continuous in the camera between (a forced split can still step
+ * it).  So a leaf's vertices blend in two levels, the parent's grid toward
+ * the grandparent's by the grandparent diamond's factor, then the leaf's
+ * own toward that (plod_mesh_sector), and every diamond three levels above
+ * a leaf has m = 0: each vertex's position is a function of its own birth
+ * diamonds, the same from every sector that holds it.  A function of the
+ * tree, the camera and the parameters alone. */
 typedef struct plod_split_morph {
-    double factor;          /* in [0, 1]; -1 for a base sector (no parent) */
+    double factor;          /* m of the parent's diamond in [0, 1]; -1 for a
+                               base sector (no parent) */
     double third_corner[3]; /* unit direction of the parent's corner the leaf
                                lacks (plod_sector_corners of the parent) */
     int child;              /* which child of its parent: 0 = corners (parent
                                corner 1, midpoint, parent corner 0), 1 =
                                (parent corner 2, midpoint, parent corner 1) */
-    unsigned edges;         /* bit e (0, 1): the vertices on the leaf's edge e
-                               (corners e, e + 1) morph */
+    double parent_factor;   /* m of the grandparent's diamond; 0 where the
+                               parent is a base sector */
+    double parent_third_corner[3]; /* the grandparent's corner the parent
+                                      lacks */
+    int parent_child;       /* which child of the grandparent the parent is */
 } plod_split_morph;
 
 /* The split morph of `count` leaves (indices into plod_refiner_sectors, or
  * 0..count-1 when `leaves` is NULL) for `camera` and `params` (those of the
- * last update: the tree is theirs) into out[0..count-1].  PLOD_ERR_NULL,
- * PLOD_ERR_BAD_COORD for a camera at the planet's centre or not finite,
- * PLOD_ERR_BAD_PARAM for an index out of range. */
+ * last update: the tree is theirs) into out[0..count-1].  Scores every
+ * node and leaf once.  PLOD_ERR_NULL, PLOD_ERR_BAD_COORD for a camera at
+ * the planet's centre or not finite, PLOD_ERR_BAD_PARAM for an index out of
+ * range, PLOD_ERR_NO_MEMORY. */
 plod_status plod_refiner_split_morphs(const plod_refiner *refiner, const plod_camera *camera,
                                       const plod_refine_params *params,
                                       const uint32_t *leaves, size_t count,

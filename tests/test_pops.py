@@ -169,7 +169,7 @@ def test_split_morph_is_watertight_and_a_function_of_the_camera(earth):
     earth.refine(bench_pops.camera(earth, *poses[164]), **kwargs)
     first = earth.mesh(template_level=2, morph=True, threads=2, cache=False)
     morph = np.frombuffer(first.morph, np.float32)
-    assert np.any((morph > 0.0) & (morph < 1.0)) and np.any(morph == 1.0)
+    assert np.any((morph > 0.0) & (morph < 0.5)) and np.any(morph > 0.5)
     assert welded_open_edges(first) == 0
     earth.refine(bench_pops.camera(earth, *poses[0]), **kwargs)
     earth.refine(bench_pops.camera(earth, *poses[164]), **kwargs)
