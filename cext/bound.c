@@ -300,6 +300,12 @@ void plod_bound_build(const plod_bound_setup *setup, const plod_sector *s,
         hmin += dmin;
         hmax += dmax;
     }
+    /* Ground below the sea is drawn at the sea's surface (the sea flag of
+     * plod_sector, the lifted mesh of the add-on and the preview): a
+     * sector under the sea reaches up to it, so that culling, the horizon
+     * and the distance see the water, not only the sea floor. */
+    if (planet->has_sea_level && hmax < planet->sea_level)
+        hmax = planet->sea_level;
     float fmin_ = (float)hmin, fmax_ = (float)hmax;
     if ((double)fmin_ > hmin)
         fmin_ = nextafterf(fmin_, -INFINITY);

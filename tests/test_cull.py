@@ -188,3 +188,74 @@ def test_horizon_culls_far_side(planetlod):
     # and the sector under the camera is not
     near = np.all(tris[:, :, 0] > 1 - 1e-5, axis=1)  # within ~28 km; horizon ~113 km
     assert near.any() and not np.any(flags[near] & 2)
+
+
+def ray_hits(origin, rays, vertices, triangles):
+    """Distance along each ray (from `origin`) to the nearest triangle it
+    meets, inf where it meets none (Moller-Trumbore, numpy)."""
+    a, b, c = (vertices[triangles[:, k]] for k in range(3))
+    e1, e2 = b - a, c - a
+    out = np.full(len(rays), np.inf)
+    for i, d in enumerate(rays):
+        p = np.cross(d, e2)
+        det = np.einsum("ij,ij->i", e1, p)
+        ok = np.abs(det) > 1e-12
+        inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+        s = origin - a
+        u = np.einsum("ij,ij->i", s, p) * inv
+        q = np.cross(s, e1)
+        v = (q @ d) * inv
+        t = np.einsum("ij,ij->i", e2, q) * inv
+        hit = ok & (u >= -1e-9) & (v >= -1e-9) & (u + v <= 1.0 + 1e-9) & (t > 0.0)
+        if hit.any():
+            out[i] = t[hit].min()
+    return out
+
+
+def test_the_sea_under_a_low_camera_is_drawn(planetlod):
+    """Ground below the sea is drawn at the sea's surface.  2 m above the sea
+    off a coast (the Earth preset: its detail field puts the sea floor ~250
+    m down there), every ray of the view that meets the water within 200 m
+    meets the lifted mesh: the sectors under the camera are culled and
+    refined as the water they show, not as the sea floor far below the
+    view."""
+    from planetlod import presets, surface
+    settings = presets.planet_settings("EARTH", data_path)
+    radius = float(settings["radius"])
+    planet = planetlod.Planet(radius, heightmap=settings["heightmap"],
+                              projection=settings["projection"].lower(),
+                              height_scale=float(settings["height_scale"]), sea_level=0.0,
+                              detail=presets.detail_kwargs(settings))
+    lat, lon = math.radians(36.25), math.radians(-121.75)
+    up = np.array([math.cos(lat) * math.cos(lon), math.cos(lat) * math.sin(lon), math.sin(lat)])
+    east = np.array([-math.sin(lon), math.cos(lon), 0.0])
+    ahead = np.cross(up, east) * math.cos(math.radians(200.0)) + east * math.sin(
+        math.radians(200.0))
+    eye = up * (radius + 2.0)
+    matrix = look_at(eye, eye + 100.0 * ahead - 9.0 * up, up=up)
+    desc = dict(matrix_world=matrix, lens=35.0, sensor_width=36.0, sensor_height=24.0,
+                clip_start=0.7, clip_end=1e8, resolution_x=240, resolution_y=135)
+    planet.refine(planetlod.Camera(**desc), max_level=48, budget=40000)
+    mesh = planet.mesh(template_level=4)
+    data = surface.vertex_data(mesh, tuple(eye), radius, 0.0)
+    vertices = np.asarray(data.positions, np.float64).reshape(-1, 3)
+    triangles = np.frombuffer(mesh.triangles, np.int32).reshape(-1, 3)
+    near = np.linalg.norm(vertices, axis=1) < 300.0
+    triangles = triangles[near[triangles].all(axis=1)]
+    m = np.array(matrix, float)
+    rot = m[:3, :3] / np.linalg.norm(m[:3, :3], axis=0)
+    left, right, bottom, top = window(desc)
+    xs, ys = np.meshgrid(np.linspace(left, right, 9), np.linspace(bottom, top, 9))
+    rays = np.stack([xs.ravel(), ys.ravel(), -np.ones(xs.size)], axis=1) @ rot.T
+    rays /= np.linalg.norm(rays, axis=1)[:, None]
+    # where each ray meets the sphere of the sea's radius (eye-relative)
+    b = rays @ eye
+    disc = b * b - (eye @ eye - radius * radius)
+    water = np.where((disc > 0.0) & (b < 0.0), -b - np.sqrt(np.maximum(disc, 0.0)), np.inf)
+    close = water < 200.0
+    assert close.sum() >= 20 and water.min() < 8.0
+    hits = ray_hits(np.zeros(3), rays[close], vertices, triangles)
+    missed = ~np.isfinite(hits)
+    assert not missed.any(), (f"{missed.sum()} of {close.sum()} rays meet the water "
+                              f"{np.round(water[close][missed], 1)} m away but no triangle")
+    assert np.abs(hits - water[close]).max() < 0.05
