@@ -300,12 +300,6 @@ void plod_bound_build(const plod_bound_setup *setup, const plod_sector *s,
         hmin += dmin;
         hmax += dmax;
     }
-    /* Ground below the sea is drawn at the sea's surface (the sea flag of
-     * plod_sector, the lifted mesh of the add-on and the preview): a
-     * sector under the sea reaches up to it, so that culling, the horizon
-     * and the distance see the water, not only the sea floor. */
-    if (planet->has_sea_level && hmax < planet->sea_level)
-        hmax = planet->sea_level;
     float fmin_ = (float)hmin, fmax_ = (float)hmax;
     if ((double)fmin_ > hmin)
         fmin_ = nextafterf(fmin_, -INFINITY);
@@ -315,6 +309,13 @@ void plod_bound_build(const plod_bound_setup *setup, const plod_sector *s,
     b->hmax = fmax_;
     b->r_min = planet->radius + fmin_;
     b->r_max = planet->radius + fmax_;
+    /* Ground below the sea is drawn at the sea's surface (the lifted mesh
+     * of the add-on and the preview): the shell of a sector under the sea
+     * reaches up to it, so that culling, the horizon and the distance see
+     * the water, not only the sea floor.  hmin / hmax stay the ground's
+     * (the sector's heights, its sea flag). */
+    if (planet->has_sea_level && b->r_max < planet->radius + planet->sea_level)
+        b->r_max = planet->radius + planet->sea_level;
     b->sag0 = b->size * b->size / (8.0 * b->r_min);
     b->relief0 = relief_range * (texels < 1.0 ? texels : 1.0) + inset_relief;
     b->twist0 = !insets && plod__inside_one_cell(setup, u0, v0, u1, v1)

@@ -34,8 +34,7 @@ typedef struct plod_sector {
     uint64_t id;          /* base index (4 bits) << 56 | bisection path */
     int32_t cu[3], cv[3]; /* corner face coordinates, fixed point */
     float height_min;     /* metres, over the sector (conservative) */
-    float height_max;     /* at least the sea level where the planet has one:
-                             ground below it is drawn at its surface */
+    float height_max;
     uint32_t birth;       /* refine frame in which it was created */
     uint16_t flags;       /* PLOD_SECTOR_* */
     uint8_t face;
