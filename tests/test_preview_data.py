@@ -18,11 +18,11 @@ def surface():
     return module
 
 
-def coast_mesh(planetlod, sea_level):
+def coast_mesh(planetlod, sea_level, detail=None):
     """A refined Earth mesh 3 km above a coast (Genoa), every leaf sector."""
     radius = 6371000.0
     planet = planetlod.Planet(radius, heightmap=data_path("earth-topology.png"),
-                              height_scale=8848.0, sea_level=sea_level)
+                              height_scale=8848.0, sea_level=sea_level, detail=detail)
     lat, lon = math.radians(44.4), math.radians(8.9)
     up = np.array([math.cos(lat) * math.cos(lon), math.cos(lat) * math.sin(lon), math.sin(lat)])
     eye = up * (radius + 3000.0)
@@ -37,17 +37,8 @@ def test_preview_crests_are_the_render_mesh_detail(planetlod, surface):
     detail field in units of its amplitude (clamped), 0 on the sea; sea flags
     and levels beside it unchanged."""
     refiner_available(planetlod)
-    radius, amplitude = 6371000.0, 300.0
-    planet = planetlod.Planet(radius, heightmap=data_path("earth-topology.png"),
-                              height_scale=8848.0, sea_level=0.0,
-                              detail=dict(amplitude=amplitude, smallest=1.0))
-    lat, lon = math.radians(44.4), math.radians(8.9)
-    up = np.array([math.cos(lat) * math.cos(lon), math.cos(lat) * math.sin(lon), math.sin(lat)])
-    eye = up * (radius + 3000.0)
-    north = np.array([0.0, 0.0, 1.0]) - up * up[2]
-    planet.refine(planetlod.Camera(look_at(eye, eye + 1e4 * north - 2e3 * up),
-                                   clip_start=1.0, clip_end=1e8), max_level=30)
-    mesh = planet.mesh(template_level=3, visible_only=False)
+    amplitude = 300.0
+    mesh, radius, eye = coast_mesh(planetlod, 0.0, detail=dict(amplitude=amplitude, smallest=1.0))
     preview = surface.preview_data(mesh, tuple(eye), radius, 0.0, detail_amplitude=amplitude)
     render = surface.vertex_data(mesh, tuple(eye), radius, 0.0)
     expected = np.clip(render.attributes["planet_detail"] / amplitude, -1.0, 0.98)
