@@ -26,11 +26,11 @@ import plod_uilib as ui
 
 # Largest difference per display channel (0..1) between the viewport's and a
 # render's mean ground colour in camera view.  Both show the same colour map
-# under the same sun and haze through the same view transform; the render
-# adds what the preview leaves out: the sky's and the bounced light, and the
-# ground's small-scale tints (snow, rock, fields, which average to the map's
-# colour).  On the Alps' snow with the sun 50 degrees high they differ by
-# 0.07 (the render a little bluer and darker); Cycles' noise at 4 samples,
+# and ground types under the same sun (Lambert: strength x cos / pi) and haze
+# through the same view transform; the render adds what the preview leaves
+# out: bounced light, shadows and the ground's small-scale tints (fields,
+# canopy, rock blocks).  On the Alps' snow with the sun 50 degrees high they
+# differ by about 0.03 (the render a little brighter); Cycles' noise at 4 samples,
 # averaged over the band's ~250 pixels, stays under 0.01.
 GROUND_TOLERANCE = 0.1
 
