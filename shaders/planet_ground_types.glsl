@@ -50,10 +50,14 @@ vec3 ground_types(vec3 base, vec3 point, vec3 up, vec3 normal, float height, flo
   /* the slope's tilt towards the nearer pole */
   vec3 north = vec3(0.0, 0.0, 1.0) - up * up.z;
   float poleward = dot(normal, north) / max(length(north), 1e-4) * (latitude < 0.0 ? -1.0 : 1.0);
-  float subtropics = max(1.0 - pow((lat_abs - 27.0) * (1.0 / 13.0), 2.0), 0.0);
-  float snow_line = 5200.0 - pow(lat_abs * (1.0 / 90.0), 1.4) * 5400.0 + subtropics * 1500.0 +
-                    (mid - 0.5) * 400.0 - poleward * 700.0;
-  float tree_line = snow_line - 900.0 + (coarse - 0.5) * 300.0;
+  /* the render's lines (terrain_shading.SNOW_LINES, #defines from draw.py) */
+  float subtropics = max(1.0 - pow((lat_abs - PLOD_SUBTROPICS_LATITUDE) *
+                                   (1.0 / PLOD_SUBTROPICS_HALF_WIDTH), 2.0), 0.0);
+  float snow_line = PLOD_SNOW_LINE_EQUATOR -
+                    pow(lat_abs * (1.0 / 90.0), PLOD_SNOW_LINE_DROP_POWER) * PLOD_SNOW_LINE_POLAR_DROP +
+                    subtropics * PLOD_SNOW_LINE_SUBTROPICS + (mid - 0.5) * 400.0 -
+                    poleward * PLOD_SNOW_LINE_POLEWARD;
+  float tree_line = snow_line - PLOD_TREE_LINE_BELOW_SNOW + (coarse - 0.5) * 300.0;
   float above_trees = height - tree_line;
   /* the map's dark greens (woods and their shade averaged in) lifted
    * towards a meadow's luminance close up, by at most 5 times */

@@ -26,7 +26,7 @@ import numpy as np
 from gpu_extras.batch import batch_for_shader
 from mathutils import Matrix, Vector
 
-from . import atmosphere, compat, core, mappaths, materials, runtime
+from . import atmosphere, compat, core, mappaths, materials, runtime, terrain_shading
 
 # The ground's colour: the render material's elevation ramp (and water on
 # the sea), the colour map, or the sector levels' colours.
@@ -68,7 +68,7 @@ def shader_defines(atm):
 
 PREFIX = ("#define PLOD_PI 3.14159265358979\n"
           f"#define SHADING_RAMP {SHADING_RAMP}\n#define SHADING_COLOR_MAP {SHADING_COLOR_MAP}\n"
-          f"#define SHADING_LEVELS {SHADING_LEVELS}\n")
+          f"#define SHADING_LEVELS {SHADING_LEVELS}\n" + terrain_shading.glsl_defines())
 
 
 def shader_sources(defines="", vertex="planet_preview_vert.glsl",

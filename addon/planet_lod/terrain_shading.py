@@ -4,6 +4,24 @@ the core's detail field, textured in planet-anchored coordinates (the planet
 material's colour, addon/planet_lod/materials.py)."""
 
 
+# The snow line and the tree line (metres; see ground_types), shared with the
+# viewport's ground types (shaders/planet_ground_types.glsl) as #defines.
+SNOW_LINES = dict(
+    SNOW_LINE_EQUATOR=5200.0,
+    SNOW_LINE_POLAR_DROP=5400.0,    # lower towards the poles by (|latitude| / 90)^1.4 of it
+    SNOW_LINE_DROP_POWER=1.4,
+    SNOW_LINE_SUBTROPICS=1500.0,    # higher in the dry subtropics, most at 27 degrees
+    SUBTROPICS_LATITUDE=27.0,
+    SUBTROPICS_HALF_WIDTH=13.0,
+    SNOW_LINE_POLEWARD=700.0,       # lower on faces turned to the pole
+    TREE_LINE_BELOW_SNOW=900.0)
+
+
+def glsl_defines():
+    """SNOW_LINES as GLSL #defines (PLOD_ + name)."""
+    return "".join(f"#define PLOD_{name} {value!r}\n" for name, value in SNOW_LINES.items())
+
+
 def attribute(b, name):
     node = b.node("ShaderNodeAttribute")
     node.attribute_type = 'GEOMETRY'
@@ -128,10 +146,14 @@ def ground_types(b, s, base, normal, airless):
     # the Alps)
     lat_abs = b.math("ABSOLUTE", latitude)
     poleward = _poleward_facing(b, normal, latitude)
-    subtropics = b.maximum(1.0 - b.power((lat_abs - 27.0) * (1.0 / 13.0), 2.0), 0.0)
-    snow_line = 5200.0 - b.power(lat_abs * (1.0 / 90.0), 1.4) * 5400.0 + subtropics * 1500.0 \
-        + (mid - 0.5) * 400.0 - poleward * 700.0
-    tree_line = snow_line - 900.0 + (coarse - 0.5) * 300.0
+    k = SNOW_LINES
+    subtropics = b.maximum(1.0 - b.power((lat_abs - k["SUBTROPICS_LATITUDE"]) * (
+        1.0 / k["SUBTROPICS_HALF_WIDTH"]), 2.0), 0.0)
+    snow_line = k["SNOW_LINE_EQUATOR"] - b.power(
+        lat_abs * (1.0 / 90.0), k["SNOW_LINE_DROP_POWER"]) * k["SNOW_LINE_POLAR_DROP"] + \
+        subtropics * k["SNOW_LINE_SUBTROPICS"] + (mid - 0.5) * 400.0 - \
+        poleward * k["SNOW_LINE_POLEWARD"]
+    tree_line = snow_line - k["TREE_LINE_BELOW_SNOW"] + (coarse - 0.5) * 300.0
     below_trees = 1.0 - b.smoothstep(-150.0, 150.0, height - tree_line)
     # woods: soft-edged stands, gathered in hollows and on hillsides, below
     # the tree line
