@@ -17,8 +17,8 @@ float ground_hash(vec3 cell)
 }
 
 /* value noise in 0..1, cells one unit across (planet-space metres / scale:
- * float32 keeps a few millimetres of a cell at the Earth's radius for cells
- * of ~300 m) */
+ * at the Earth's radius float32 resolves about a five-hundredth of a cell
+ * for cells of ~300 m) */
 float ground_noise(vec3 x)
 {
   vec3 i = floor(x);
