@@ -1300,15 +1300,11 @@ static double plod__score(const plod_bound_view *v, const plod_bound *b)
 }
 
 /* The split morph's factors of every diamond (plod_refine.h), per node
- * (both parents of a diamond get the same bits: every step is symmetric in
- * the two).  Scratch of one call. */
+ * (both parents of a diamond get the same value).  Scratch of one call. */
 typedef struct plod__morph_factors {
-    double *node_score;  /* each internal node's split score */
-    double *child_score; /* the largest score of the diamonds its children
-                            split in */
-    double *one_level;   /* f of the node's diamond */
-    double *least_child; /* the least f over its split children's diamonds */
-    uint8_t *child_split;
+    double *reach;  /* the node's own capped score, then the diamond's reach */
+    double *factor; /* m of the node's diamond */
+    int32_t *by_level; /* the live nodes, deepest level first */
 } plod__morph_factors;
 
 static double plod__max(double a, double b)
@@ -1321,103 +1317,64 @@ static double plod__min(double a, double b)
     return b < a ? b : a;
 }
 
-/* The score of the diamond leaf i splits in: its own and its partner's
- * across the hypotenuse when that is a leaf of its level. */
-static double plod__leaf_diamond_score(const plod_lodtree *t, const plod_bound_view *v,
-                                       size_t i)
-{
-    double s = plod__score(v, &t->geom[i].self);
-    int32_t p = t->neighbours[i][2];
-    if (p >= 0 && t->leaves[p].level == t->leaves[i].level)
-        s = plod__max(s, plod__score(v, &t->geom[p].self));
-    return s;
-}
-
-/* The diamond of node k: s_D, s_C and whether a child diamond is split,
- * over k and its partner. */
-static double plod__one_level(const plod_lodtree *t, const plod__morph_factors *mf, int32_t k)
-{
-    int32_t q = t->node_partner[k];
-    double s_d = mf->node_score[k], s_c = mf->child_score[k];
-    int split = mf->child_split[k];
-    if (q >= 0) {
-        s_d = plod__max(s_d, mf->node_score[q]);
-        s_c = plod__max(s_c, mf->child_score[q]);
-        split |= mf->child_split[q];
-    }
-    /* a split child diamond decides first: its children start as the
-     * child's own surface (and the two-level composition relies on f = 0
-     * there) */
-    if (split || !(s_c < 1.0))
-        return 0.0;
-    if (!(s_d > 1.0))
-        return 1.0; /* at the split, or a forced one */
-    double f = (1.0 - s_c) / (s_d - s_c);
-    return f < 0.0 ? 0.0 : (f > 1.0 ? 1.0 : f);
-}
-
-/* m of node k's diamond. */
-static double plod__factor(const plod_lodtree *t, const plod__morph_factors *mf, int32_t k)
-{
-    int32_t q = t->node_partner[k];
-    double least = mf->least_child[k];
-    if (q >= 0)
-        least = plod__min(least, mf->least_child[q]);
-    return 0.5 * mf->one_level[k] + 0.5 * least;
-}
-
 static plod_status plod__morph_factors_compute(const plod_lodtree *t, const plod_bound_view *v,
                                                plod__morph_factors *mf)
 {
     size_t nodes = t->node_top ? t->node_top : 1;
-    mf->node_score = malloc(nodes * sizeof *mf->node_score);
-    mf->child_score = malloc(nodes * sizeof *mf->child_score);
-    mf->one_level = malloc(nodes * sizeof *mf->one_level);
-    mf->least_child = malloc(nodes * sizeof *mf->least_child);
-    mf->child_split = calloc(nodes, sizeof *mf->child_split);
-    if (!mf->node_score || !mf->child_score || !mf->one_level || !mf->least_child ||
-        !mf->child_split)
+    mf->reach = malloc(nodes * sizeof *mf->reach);
+    mf->factor = malloc(nodes * sizeof *mf->factor);
+    mf->by_level = malloc(nodes * sizeof *mf->by_level);
+    if (!mf->reach || !mf->factor || !mf->by_level)
         return PLOD_ERR_NO_MEMORY;
+    /* the scores P* acts on: capped by the ancestors' (nodes come parents
+     * first), and the nodes counted by level */
+    size_t per_level[PLOD_MAX_LEVEL + 2] = {0};
     for (size_t k = 0; k < t->node_top; k++) {
-        mf->node_score[k] = t->nodes[k].id ? plod__score(v, &t->nodes[k].bound) : 0.0;
-        mf->child_score[k] = 0.0;
-        mf->least_child[k] = 1.0;
-    }
-    /* children's diamond scores into their parents: leaves, then nodes */
-    for (size_t i = 0; i < t->count; i++) {
-        int32_t parent = t->leaf_parent[i];
-        if (parent >= 0)
-            mf->child_score[parent] = plod__max(mf->child_score[parent],
-                                                plod__leaf_diamond_score(t, v, i));
-    }
-    for (size_t k = 0; k < t->node_top; k++) {
-        int32_t parent = t->node_parent[k];
-        if (!t->nodes[k].id || parent < 0)
+        mf->factor[k] = 0.0;
+        if (!t->nodes[k].id) {
+            mf->reach[k] = 0.0;
             continue;
-        double s = mf->node_score[k];
-        int32_t q = t->node_partner[k];
-        if (q >= 0)
-            s = plod__max(s, mf->node_score[q]);
-        mf->child_score[parent] = plod__max(mf->child_score[parent], s);
-        mf->child_split[parent] = 1;
-    }
-    for (size_t k = 0; k < t->node_top; k++)
-        mf->one_level[k] = t->nodes[k].id ? plod__one_level(t, mf, (int32_t)k) : 0.0;
-    for (size_t k = 0; k < t->node_top; k++) {
+        }
+        double s = plod__score(v, &t->nodes[k].bound);
         int32_t parent = t->node_parent[k];
-        if (t->nodes[k].id && parent >= 0)
-            mf->least_child[parent] = plod__min(mf->least_child[parent], mf->one_level[k]);
+        mf->reach[k] = parent >= 0 ? plod__min(s, mf->reach[parent]) : s;
+        per_level[PLOD_MAX_LEVEL - plod_lodtree_id_level(t->nodes[k].id) + 1]++;
+    }
+    for (size_t l = 1; l <= PLOD_MAX_LEVEL + 1; l++)
+        per_level[l] += per_level[l - 1];
+    for (size_t k = 0; k < t->node_top; k++)
+        if (t->nodes[k].id)
+            mf->by_level[per_level[PLOD_MAX_LEVEL - plod_lodtree_id_level(t->nodes[k].id)]++] =
+                (int32_t)k;
+    size_t live = per_level[PLOD_MAX_LEVEL];
+    /* reaches bottom-up, a level at a time: a node's is complete once every
+     * diamond below it is, and its partner's too */
+    double log_range = log(PLOD_SPLIT_MORPH_RANGE);
+    for (size_t first = 0; first < live;) {
+        int level = plod_lodtree_id_level(t->nodes[mf->by_level[first]].id);
+        size_t last = first;
+        while (last < live && plod_lodtree_id_level(t->nodes[mf->by_level[last]].id) == level)
+            last++;
+        for (size_t at = first; at < last; at++) {
+            int32_t k = mf->by_level[at], q = t->node_partner[k];
+            double e = q >= 0 ? plod__max(mf->reach[k], mf->reach[q]) : mf->reach[k];
+            double m = e > 1.0 ? 1.0 - log(e) / log_range : 1.0;
+            mf->factor[k] = m < 0.0 ? 0.0 : (m > 1.0 ? 1.0 : m);
+            /* the parent is split for this diamond: it reaches as far */
+            int32_t parent = t->node_parent[k];
+            if (parent >= 0)
+                mf->reach[parent] = plod__max(mf->reach[parent], e);
+        }
+        first = last;
     }
     return PLOD_OK;
 }
 
 static void plod__morph_factors_free(plod__morph_factors *mf)
 {
-    free(mf->node_score);
-    free(mf->child_score);
-    free(mf->one_level);
-    free(mf->least_child);
-    free(mf->child_split);
+    free(mf->reach);
+    free(mf->factor);
+    free(mf->by_level);
 }
 
 /* The parent of a sector (its bisection's inverse): child 0 is (p1, m, p0),
@@ -1440,30 +1397,31 @@ static int plod__parent_sector(const plod_sector *s, plod_sector *p)
     return bit;
 }
 
-/* The split morph of leaf i (plod_refine.h). */
+/* The split morph of leaf i (plod_refine.h): its ancestors' factors up to
+ * the last above 0, then their corners. */
 static void plod__split_morph(const plod_lodtree *t, const plod__morph_factors *mf, size_t i,
                               plod_split_morph *out)
 {
-    int32_t parent = t->leaf_parent[i];
-    memset(out, 0, sizeof *out);
-    if (parent < 0) {
-        out->factor = -1.0;
-        return;
+    out->stages = 0;
+    int stages = 0;
+    int32_t node = t->leaf_parent[i];
+    for (int j = 0; j < PLOD_SPLIT_MORPH_STAGES && node >= 0; j++) {
+        out->stage[j].factor = mf->factor[node];
+        if (mf->factor[node] > 0.0)
+            stages = j + 1;
+        node = t->node_parent[node];
     }
-    plod_sector p, g;
+    plod_sector below = t->leaves[i], above;
     double corners[3][3];
-    out->child = plod__parent_sector(&t->leaves[i], &p);
-    plod_sector_corners(t->planet, &p, corners);
-    memcpy(out->third_corner, corners[out->child ? 0 : 2], sizeof out->third_corner);
-    out->factor = plod__factor(t, mf, parent);
-    int32_t grandparent = t->node_parent[parent];
-    if (grandparent < 0)
-        return;
-    out->parent_child = plod__parent_sector(&p, &g);
-    plod_sector_corners(t->planet, &g, corners);
-    memcpy(out->parent_third_corner, corners[out->parent_child ? 0 : 2],
-           sizeof out->parent_third_corner);
-    out->parent_factor = plod__factor(t, mf, grandparent);
+    for (int j = 0; j < stages; j++) {
+        int child = plod__parent_sector(&below, &above);
+        plod_sector_corners(t->planet, &above, corners);
+        out->stage[j].child = child;
+        memcpy(out->stage[j].third_corner, corners[child ? 0 : 2],
+               sizeof out->stage[j].third_corner);
+        below = above;
+    }
+    out->stages = stages;
 }
 
 plod_status plod_refiner_split_morphs(const plod_refiner *r, const plod_camera *camera,

@@ -139,19 +139,14 @@ void plod_mesh_origin(const plod_surface_source *surface, double radius,
         origin[c] = dir[c] * r;
 }
 
-/* A vertex (position, and normal and detail where given) moved the
- * fraction m of the way to the middle of the edge from a to b: the coarser
- * grid's interpolation there.  The shading follows the geometry, so a split
- * does not flash the normals.  Symmetric in a and b, bit for bit. */
-static void plod__blend_toward(float *v_pos, float *v_nrm, float *v_det, const float *a_pos,
-                               const float *a_nrm, const float *a_det, const float *b_pos,
-                               const float *b_nrm, const float *b_det, double m)
+/* A vertex's normal and detail (where given) moved the fraction m of the
+ * way to the middle of the edge from a to b.  The shading follows the
+ * geometry, so a split does not flash the normals.  Symmetric in a and b,
+ * bit for bit. */
+static void plod__blend_shading(float *v_nrm, float *v_det, const float *a_nrm,
+                                const float *a_det, const float *b_nrm, const float *b_det,
+                                double m)
 {
-    for (int c = 0; c < 3; c++) {
-        double p = (double)v_pos[c];
-        double target = 0.5 * ((double)a_pos[c] + (double)b_pos[c]);
-        v_pos[c] = (float)(p + m * (target - p));
-    }
     if (v_nrm) {
         double nv[3], len2 = 0.0;
         for (int c = 0; c < 3; c++) {
@@ -168,6 +163,21 @@ static void plod__blend_toward(float *v_pos, float *v_nrm, float *v_det, const f
         double target = 0.5 * ((double)*a_det + (double)*b_det);
         *v_det = (float)((double)*v_det + m * (target - (double)*v_det));
     }
+}
+
+/* A vertex (position, and normal and detail where given) moved the
+ * fraction m of the way to the middle of the edge from a to b: the coarser
+ * grid's interpolation there.  Symmetric in a and b, bit for bit. */
+static void plod__blend_toward(float *v_pos, float *v_nrm, float *v_det, const float *a_pos,
+                               const float *a_nrm, const float *a_det, const float *b_pos,
+                               const float *b_nrm, const float *b_det, double m)
+{
+    for (int c = 0; c < 3; c++) {
+        double p = (double)v_pos[c];
+        double target = 0.5 * ((double)a_pos[c] + (double)b_pos[c]);
+        v_pos[c] = (float)(p + m * (target - p));
+    }
+    plod__blend_shading(v_nrm, v_det, a_nrm, a_det, b_nrm, b_det, m);
 }
 
 /* Vertex v of the arrays moved toward the middle of the edge from vertex a
@@ -1092,221 +1102,382 @@ static void plod__family_corners(const double corners[3][3], const double third[
     }
 }
 
-/* Vertices evaluated from a triangle's corners (as its sector evaluates
- * them), in batches the sampler takes. */
-static void plod__sample_many(const plod__emitter *e, const double corners[3][3], size_t count,
-                              const int (*k)[3], float *pos, float *nrm, float *det)
-{
-    enum { MAX = 1 << (PLOD_MAX_TEMPLATE_LEVEL - 1) };
-    for (size_t first = 0; first < count; first += MAX) {
-        size_t part = count - first < MAX ? count - first : MAX;
-        plod__sample_vertices(e, corners, part, k + first, pos + 3 * first,
-                              nrm ? nrm + 3 * first : NULL, det ? det + first : NULL);
-    }
-}
-
 /* A vertex's outputs: where they are, or NULL. */
 typedef struct plod__vertex_ref {
     float *pos, *nrm, *det;
 } plod__vertex_ref;
 
-/* The split morph's scratch for one sector: the grid points it evaluates
- * outside its own vertices, each once. */
-typedef struct plod__morph_scratch {
-    size_t grid;         /* vertices of one template grid */
-    int32_t *slot[2];    /* per grid index of P (0) and Q (1): its point, or -1 */
-    int (*k[2])[3];      /* the points to evaluate, per triangle */
-    size_t count[2];
-    float *pos[2], *nrm[2], *det[2];
-} plod__morph_scratch;
+/* The split morph's scratch for one sector: the points it blends or
+ * blends toward, each once per stage.  Stage j's points are evaluated from
+ * the corners of the sector's ancestor j levels up (tri 0) or of that
+ * ancestor's sibling (tri 1), in their weights; stage 0's first `grid`
+ * points are the sector's own vertices.  A point born at stage s (an odd
+ * weight on corner 1 of the ancestor s levels up) has an arrival there:
+ * the two ends of that ancestor's edge through it, stage s points. */
+typedef struct plod__chain_point {
+    int k[3];
+    int tri;
+    int birth;       /* its arrival's stage, or -1: not blended */
+    int32_t arrival;
+} plod__chain_point;
 
-/* The point of triangle `tri` (0: P, 1: Q) at weights k, noted for
- * evaluation; returns its index in that triangle's list. */
-static int32_t plod__note_point(plod__morph_scratch *s, int n, int tri, const int k[3])
+typedef struct plod__chain_arrival {
+    int k[3];        /* in the stage's ancestor's weights */
+    int stage;
+    int32_t end[2];  /* points */
+} plod__chain_arrival;
+
+typedef struct plod__chain {
+    const plod_split_morph *morph;
+    int n, stages;
+    size_t grid;
+    uint32_t *keys; /* (stage, kind, grid index) + 1; 0: empty */
+    int32_t *values;
+    size_t capacity, used;
+    plod__chain_point *points;
+    size_t point_count, point_capacity;
+    plod__chain_arrival *arrivals;
+    size_t arrival_count, arrival_capacity;
+    float *pos, *nrm, *det; /* per point past the sector's own */
+    int with_nrm, with_det;
+    float *own_pos, *own_nrm, *own_det; /* the sector's arrays */
+    const double *origin;
+} plod__chain;
+
+static int plod__chain_rehash(plod__chain *c, size_t capacity)
 {
-    assert(k[0] >= 0 && k[1] >= 0 && k[2] >= 0 && k[0] + k[1] + k[2] == n);
-    size_t at = plod__vertex_index(n, k[2], k[1]);
-    if (s->slot[tri][at] < 0) {
-        s->slot[tri][at] = (int32_t)s->count[tri];
-        memcpy(s->k[tri][s->count[tri]++], k, sizeof(int[3]));
+    uint32_t *keys = calloc(capacity, sizeof *keys);
+    int32_t *values = malloc(capacity * sizeof *values);
+    if (!keys || !values) {
+        free(keys);
+        free(values);
+        return 0;
     }
-    return s->slot[tri][at];
+    for (size_t i = 0; i < c->capacity; i++) {
+        if (!c->keys[i])
+            continue;
+        size_t at = (c->keys[i] * 2654435761u) & (capacity - 1);
+        while (keys[at])
+            at = (at + 1) & (capacity - 1);
+        keys[at] = c->keys[i];
+        values[at] = c->values[i];
+    }
+    free(c->keys);
+    free(c->values);
+    c->keys = keys;
+    c->values = values;
+    c->capacity = capacity;
+    return 1;
 }
 
-static plod__vertex_ref plod__point_ref(const plod__morph_scratch *s, int tri, int32_t at)
+/* The slot of key (stage, kind 0/1: a point of tri 0/1, 2: an arrival, k);
+ * *found whether it holds a value.  NULL: no memory. */
+static int32_t *plod__chain_slot(plod__chain *c, int stage, int kind, const int k[3],
+                                 int *found)
 {
-    plod__vertex_ref r = {s->pos[tri] + 3 * at, s->nrm[tri] ? s->nrm[tri] + 3 * at : NULL,
-                          s->det[tri] ? s->det[tri] + at : NULL};
+    if (2 * (c->used + 1) > c->capacity && !plod__chain_rehash(c, 2 * c->capacity))
+        return NULL;
+    uint32_t key = (uint32_t)(((size_t)stage * 3 + (size_t)kind) * c->grid +
+                              plod__vertex_index(c->n, k[2], k[1])) + 1u;
+    size_t at = (key * 2654435761u) & (c->capacity - 1);
+    while (c->keys[at] && c->keys[at] != key)
+        at = (at + 1) & (c->capacity - 1);
+    *found = c->keys[at] != 0;
+    if (!*found) {
+        c->keys[at] = key;
+        c->used++;
+    }
+    return &c->values[at];
+}
+
+static int plod__chain_grow(void **array, size_t *capacity, size_t need, size_t size)
+{
+    if (need <= *capacity)
+        return 1;
+    size_t grown = *capacity ? 2 * *capacity : 64;
+    while (grown < need)
+        grown *= 2;
+    void *p = realloc(*array, grown * size);
+    if (!p)
+        return 0;
+    *array = p;
+    *capacity = grown;
+    return 1;
+}
+
+/* Where a point of stage b (tri, weights k) is born: the stage whose
+ * ancestor has it off its parent's grid, with its weights there in x; -1
+ * past the stages or where that stage's factor is 0 (it keeps its own
+ * position). */
+static int plod__chain_birth(const plod__chain *c, int b, int tri, const int k[3], int x[3])
+{
+    const plod_split_morph_stage *st = c->morph->stage;
+    if (k[1] & 1) {
+        assert(!tri);
+        memcpy(x, k, sizeof(int[3]));
+        return st[b].factor > 0.0 ? b : -1;
+    }
+    int up[3];
+    plod__to_parent(tri ? !st[b].child : st[b].child, k, up);
+    for (int s = b + 1; s < c->stages; s++) {
+        if (up[1] & 1) {
+            memcpy(x, up, sizeof(int[3]));
+            return st[s].factor > 0.0 ? s : -1;
+        }
+        int next[3];
+        plod__to_parent(st[s].child, up, next);
+        memcpy(up, next, sizeof up);
+    }
+    return -1;
+}
+
+/* Notes point p's birth and its arrival (new ones are listed). */
+static int plod__chain_born(plod__chain *c, int b, int32_t p)
+{
+    plod__chain_point *pt = &c->points[p];
+    int x[3];
+    pt->birth = plod__chain_birth(c, b, pt->tri, pt->k, x);
+    pt->arrival = -1;
+    if (pt->birth < 0)
+        return 1;
+    int found;
+    int32_t *slot = plod__chain_slot(c, pt->birth, 2, x, &found);
+    if (!slot)
+        return 0;
+    if (!found) {
+        if (!plod__chain_grow((void **)&c->arrivals, &c->arrival_capacity,
+                              c->arrival_count + 1, sizeof *c->arrivals))
+            return 0;
+        plod__chain_arrival *a = &c->arrivals[c->arrival_count];
+        memcpy(a->k, x, sizeof a->k);
+        a->stage = pt->birth;
+        a->end[0] = a->end[1] = -1;
+        *slot = (int32_t)c->arrival_count++;
+    }
+    c->points[p].arrival = *slot;
+    return 1;
+}
+
+/* The point of stage b at (tri, k), listed if new; -1: no memory. */
+static int32_t plod__chain_point_at(plod__chain *c, int b, int tri, const int k[3])
+{
+    assert(k[0] >= 0 && k[1] >= 0 && k[2] >= 0 && k[0] + k[1] + k[2] == c->n);
+    int found;
+    int32_t *slot = plod__chain_slot(c, b, tri, k, &found);
+    if (!slot)
+        return -1;
+    if (found)
+        return *slot;
+    if (!plod__chain_grow((void **)&c->points, &c->point_capacity, c->point_count + 1,
+                          sizeof *c->points))
+        return -1;
+    int32_t p = (int32_t)c->point_count++;
+    *slot = p;
+    memcpy(c->points[p].k, k, sizeof(int[3]));
+    c->points[p].tri = tri;
+    if (!plod__chain_born(c, b, p))
+        return -1;
+    return p;
+}
+
+static plod__vertex_ref plod__chain_ref(const plod__chain *c, int32_t p)
+{
+    plod__vertex_ref r;
+    if ((size_t)p < c->grid) {
+        r.pos = c->own_pos + 3 * (size_t)p;
+        r.nrm = c->own_nrm ? c->own_nrm + 3 * (size_t)p : NULL;
+        r.det = c->own_det ? c->own_det + p : NULL;
+    } else {
+        size_t q = (size_t)p - c->grid;
+        r.pos = c->pos + 3 * q;
+        r.nrm = c->with_nrm ? c->nrm + 3 * q : NULL;
+        r.det = c->with_det ? c->det + q : NULL;
+    }
     return r;
 }
 
-/* The split morph of a sector (plod_mesh_sector.split).  First the parent's
- * grid points off the grandparent's (the sector's own with k1 even, and the
- * sibling's vertices its own edge ends reach) blend by parent_morph toward
- * the middle of the grandparent's edge through them, whose ends are
- * evaluated from P's or Q's corners; then the vertices off the parent's
- * grid blend by split_morph toward the middle of the parent's edge through
- * them, between those blended ends. */
-static void plod__split_morph_sector(const plod__emitter *e, const plod_mesh_sector *sector,
-                                     size_t vbase)
+/* Point p blended by its birth stage's factor toward its arrival's edge
+ * middle, along its own direction: its height moves, not where it stands.
+ * The grids of a sector's ancestors (their corners' bit rule) do not nest
+ * on the sphere, so an ancestor's edge middle lies beside the vertex, by
+ * more the larger the ancestor; blending the whole position would slide the
+ * vertex sideways by that gap as the factor changes. */
+static void plod__chain_blend(const plod__chain *c, int32_t p)
+{
+    const plod__chain_point *pt = &c->points[p];
+    const plod__chain_arrival *a = &c->arrivals[pt->arrival];
+    plod__vertex_ref v = plod__chain_ref(c, p), e0 = plod__chain_ref(c, a->end[0]),
+                     e1 = plod__chain_ref(c, a->end[1]);
+    double m = c->morph->stage[pt->birth].factor;
+    m = m > 1.0 ? 1.0 : m;
+    /* planet-centred, in double: the edge middle's distance along the
+     * vertex's ray (its projection) */
+    double at[3], r2 = 0.0, along = 0.0;
+    for (int k = 0; k < 3; k++) {
+        at[k] = (double)v.pos[k] + c->origin[k];
+        r2 += at[k] * at[k];
+    }
+    double r = sqrt(r2);
+    for (int k = 0; k < 3; k++)
+        along += (0.5 * ((double)e0.pos[k] + (double)e1.pos[k]) + c->origin[k]) * at[k];
+    along /= r;
+    double scale = (r + m * (along - r)) / r;
+    for (int k = 0; k < 3; k++)
+        v.pos[k] = (float)(at[k] * scale - c->origin[k]);
+    plod__blend_shading(v.nrm, v.det, e0.nrm, e0.det, e1.nrm, e1.det, m);
+}
+
+static void plod__chain_free(plod__chain *c)
+{
+    free(c->keys);
+    free(c->values);
+    free(c->points);
+    free(c->arrivals);
+    free(c->pos);
+    free(c->nrm);
+    free(c->det);
+}
+
+/* Evaluates the points [first, last) past the sector's own, from the
+ * corners of the stage's ancestor (tri 0) and of its sibling (tri 1), in
+ * batches the sampler takes. */
+static void plod__chain_evaluate(const plod__emitter *e, plod__chain *c,
+                                 const double ancestor[3][3], const double sibling[3][3],
+                                 size_t first, size_t last)
 {
     enum { MAX = 1 << (PLOD_MAX_TEMPLATE_LEVEL - 1) };
-    double m = sector->split_morph, m_parent = sector->parent_morph;
-    m = m > 1.0 ? 1.0 : m;
-    m_parent = m_parent > 1.0 ? 1.0 : m_parent;
-    if (!(m > 0.0) && !(m_parent > 0.0))
-        return; /* morph output already 0 */
+    int k[MAX][3];
+    int32_t which[MAX];
+    float pos[3 * MAX], nrm[3 * MAX], det[MAX];
+    if (first < c->grid)
+        first = c->grid;
+    for (int tri = 0; tri < 2; tri++)
+        for (size_t p = first; p < last;) {
+            size_t count = 0;
+            for (; p < last && count < MAX; p++)
+                if (c->points[p].tri == tri) {
+                    memcpy(k[count], c->points[p].k, sizeof k[count]);
+                    which[count++] = (int32_t)p;
+                }
+            if (!count)
+                continue;
+            plod__sample_vertices(e, tri ? sibling : ancestor, count, (const int (*)[3])k, pos,
+                                  c->with_nrm ? nrm : NULL, c->with_det ? det : NULL);
+            for (size_t i = 0; i < count; i++) {
+                plod__vertex_ref r = plod__chain_ref(c, which[i]);
+                memcpy(r.pos, pos + 3 * i, 3 * sizeof(float));
+                if (r.nrm)
+                    memcpy(r.nrm, nrm + 3 * i, 3 * sizeof(float));
+                if (r.det)
+                    *r.det = det[i];
+            }
+        }
+}
+
+/* The split morph of a sector (plod_mesh_sector.split): the points of every
+ * stage found from the sector's vertices up (each arrival's edge ends, then
+ * theirs), then evaluated and blended from the top stage down, so each
+ * edge's ends have their final positions before a point blends toward
+ * them; the sector's own vertices last. */
+static plod_status plod__split_morph_sector(const plod__emitter *e,
+                                            const plod_mesh_sector *sector, size_t vbase)
+{
+    const plod_split_morph *morph = sector->split;
+    int stages = morph->stages < PLOD_SPLIT_MORPH_STAGES ? morph->stages
+                                                         : PLOD_SPLIT_MORPH_STAGES;
+    if (stages <= 0)
+        return PLOD_OK; /* morph output already 0 */
     const plod_mesh_buffers *out = e->out;
-    float *pos = out->positions + 3 * vbase;
-    float *nrm = out->normals ? out->normals + 3 * vbase : NULL;
-    float *det = out->detail ? out->detail + vbase : NULL;
+    int n = e->n;
+    plod__chain c;
+    memset(&c, 0, sizeof c);
+    c.morph = morph;
+    c.origin = e->params->origin;
+    c.n = n;
+    c.stages = stages;
+    c.grid = e->vertices_per_sector;
+    c.own_pos = out->positions + 3 * vbase;
+    c.own_nrm = out->normals ? out->normals + 3 * vbase : NULL;
+    c.own_det = out->detail ? out->detail + vbase : NULL;
+    c.with_nrm = c.own_nrm != NULL;
+    c.with_det = c.own_det != NULL;
     float *morph_out = out->morph ? out->morph + vbase : NULL;
-    int n = e->n, child = sector->split_child != 0, parent_child = sector->parent_child != 0;
-    const double (*corners)[3] = (const double (*)[3])sector->corners;
-    double parent[3][3], sibling[3][3], grandparent[3][3], parent_sibling[3][3];
-    plod__family_corners(corners, sector->third_corner, child, parent, sibling);
+    plod_status status = PLOD_ERR_NO_MEMORY;
+    size_t first[PLOD_SPLIT_MORPH_STAGES + 1];
+    size_t capacity = 64;
+    while (capacity < 8 * c.grid)
+        capacity *= 2;
+    c.keys = calloc(capacity, sizeof *c.keys);
+    c.values = malloc(capacity * sizeof *c.values);
+    if (!c.keys || !c.values)
+        goto done;
+    c.capacity = capacity;
 
-    /* the sibling's vertices at the far ends of the edges through the
-     * vertices on the bisecting edge (child 0: k2 = 0; child 1: k0 = 0) */
-    int outside_k[MAX][3];
-    size_t outside = 0;
-    if (m > 0.0)
-        for (int k1 = 1; k1 < n; k1 += 2, outside++) {
-            int own[3] = {child ? 0 : n - k1, k1, child ? n - k1 : 0}, ends[2][3];
-            plod__edge_ends(child, own, ends);
-            plod__to_sibling(child, ends[1], outside_k[outside]);
+    /* the sector's own vertices: stage 0's first points */
+    for (int i = 0; i <= n; i++)
+        for (int j = 0; j <= n - i; j++) {
+            int k[3] = {n - i - j, j, i};
+            if (plod__chain_point_at(&c, 0, 0, k) < 0)
+                goto done;
         }
-    float outside_pos[3 * MAX], outside_nrm[3 * MAX], outside_det[MAX];
-    if (outside)
-        plod__sample_vertices(e, (const double (*)[3])sibling, outside,
-                              (const int (*)[3])outside_k, outside_pos,
-                              nrm ? outside_nrm : NULL, det ? outside_det : NULL);
-
-    if (m_parent > 0.0) {
-        /* Q, the parent's sibling, from the parent's corners and G's corner
-         * the parent lacks */
-        plod__family_corners((const double (*)[3])parent, sector->parent_third_corner,
-                             parent_child, grandparent, parent_sibling);
-        plod__morph_scratch s;
-        memset(&s, 0, sizeof s);
-        s.grid = e->vertices_per_sector;
-        size_t targets_max = s.grid + MAX;
-        int ok = 1;
-        int32_t (*target_ends)[2][2] = malloc(targets_max * sizeof *target_ends);
-        plod__vertex_ref *target = malloc(targets_max * sizeof *target);
-        ok = target_ends && target;
-        for (int tri = 0; tri < 2 && ok; tri++) {
-            s.slot[tri] = malloc(s.grid * sizeof *s.slot[tri]);
-            s.k[tri] = malloc(s.grid * sizeof *s.k[tri]);
-            s.pos[tri] = malloc(3 * s.grid * sizeof(float));
-            s.nrm[tri] = nrm ? malloc(3 * s.grid * sizeof(float)) : NULL;
-            s.det[tri] = det ? malloc(s.grid * sizeof(float)) : NULL;
-            ok = s.slot[tri] && s.k[tri] && s.pos[tri] && (!nrm || s.nrm[tri]) &&
-                 (!det || s.det[tri]);
-            if (ok)
-                for (size_t g = 0; g < s.grid; g++)
-                    s.slot[tri][g] = -1;
-        }
-        size_t targets = 0;
-        /* the parent's grid points to blend: this sector's vertices with k1
-         * even and the outside ones (all on the parent's grid); those with
-         * an odd weight on the parent's corner 1 lie off G's grid */
-        for (size_t v = 0, i = 0, j = 0; ok && v < s.grid + outside; v++) {
-            int k[3], pk[3];
-            plod__vertex_ref ref;
-            if (v < s.grid) { /* vertex v of this sector: row i, column j */
-                if (v > 0 && ++j > (size_t)n - i)
-                    i++, j = 0;
-                if (j & 1)
-                    continue;
-                k[0] = n - (int)i - (int)j, k[1] = (int)j, k[2] = (int)i;
-                plod__to_parent(child, k, pk);
-                ref.pos = pos + 3 * v, ref.nrm = nrm ? nrm + 3 * v : NULL;
-                ref.det = det ? det + v : NULL;
-            } else {
-                size_t o = v - s.grid;
-                memcpy(k, outside_k[o], sizeof k);
-                plod__to_parent(!child, k, pk);
-                ref.pos = outside_pos + 3 * o, ref.nrm = nrm ? outside_nrm + 3 * o : NULL;
-                ref.det = det ? outside_det + o : NULL;
-            }
-            if (!(pk[1] & 1))
-                continue; /* on G's grid */
+    /* each stage's arrivals add their ends to it; an end's own arrival is
+     * further up */
+    for (int b = 0; b < stages; b++) {
+        first[b] = b ? c.point_count : 0;
+        int child = morph->stage[b].child;
+        for (size_t a = 0; a < c.arrival_count; a++) {
+            if (c.arrivals[a].stage != b)
+                continue;
             int ends[2][3];
-            plod__edge_ends(parent_child, pk, ends);
-            for (int a = 0; a < 2; a++) {
-                int past = parent_child ? ends[a][0] < 0 : ends[a][2] < 0;
-                int q[3];
+            plod__edge_ends(child, c.arrivals[a].k, ends);
+            for (int s = 0; s < 2; s++) {
+                int past = child ? ends[s][0] < 0 : ends[s][2] < 0, q[3];
                 if (past)
-                    plod__to_sibling(parent_child, ends[a], q);
-                target_ends[targets][a][0] = past;
-                target_ends[targets][a][1] = plod__note_point(&s, n, past, past ? q : ends[a]);
-            }
-            target[targets++] = ref;
-            if (v < s.grid && morph_out)
-                morph_out[v] = (float)m_parent;
-        }
-        if (ok) {
-            plod__sample_many(e, (const double (*)[3])parent, s.count[0],
-                              (const int (*)[3])s.k[0], s.pos[0], s.nrm[0], s.det[0]);
-            plod__sample_many(e, (const double (*)[3])parent_sibling, s.count[1],
-                              (const int (*)[3])s.k[1], s.pos[1], s.nrm[1], s.det[1]);
-            for (size_t t = 0; t < targets; t++) {
-                plod__vertex_ref a = plod__point_ref(&s, target_ends[t][0][0],
-                                                     target_ends[t][0][1]);
-                plod__vertex_ref b = plod__point_ref(&s, target_ends[t][1][0],
-                                                     target_ends[t][1][1]);
-                plod__blend_toward(target[t].pos, target[t].nrm, target[t].det, a.pos, a.nrm,
-                                   a.det, b.pos, b.nrm, b.det, m_parent);
+                    plod__to_sibling(child, ends[s], q);
+                int32_t p = plod__chain_point_at(&c, b, past, past ? q : ends[s]);
+                if (p < 0)
+                    goto done;
+                c.arrivals[a].end[s] = p;
             }
         }
-        for (int tri = 0; tri < 2; tri++) {
-            free(s.slot[tri]);
-            free(s.k[tri]);
-            free(s.pos[tri]);
-            free(s.nrm[tri]);
-            free(s.det[tri]);
-        }
-        free(target_ends);
-        free(target);
+    }
+    first[stages] = c.point_count;
+    size_t extra = c.point_count - c.grid;
+    if (extra) {
+        c.pos = malloc(3 * extra * sizeof *c.pos);
+        c.nrm = c.with_nrm ? malloc(3 * extra * sizeof *c.nrm) : NULL;
+        c.det = c.with_det ? malloc(extra * sizeof *c.det) : NULL;
+        if (!c.pos || (c.with_nrm && !c.nrm) || (c.with_det && !c.det))
+            goto done;
     }
 
-    if (!(m > 0.0))
-        return;
-    size_t v = 0;
-    for (int i = 0; i <= n; i++)
-        for (int j = 0; j <= n - i; j++, v++) {
-            if (!(j & 1))
-                continue; /* on the parent's grid */
-            int k0 = n - i - j;
-            /* the edge's ends: a inside, b inside or the sibling's */
-            size_t a, b = 0;
-            const float *bp, *bn = NULL, *bd = NULL;
-            if (!child) {
-                a = plod__vertex_index(n, i + 1, j - 1);
-                if (i > 0)
-                    b = plod__vertex_index(n, i - 1, j + 1);
-            } else {
-                a = plod__vertex_index(n, i, j - 1);
-                if (k0 > 0)
-                    b = plod__vertex_index(n, i, j + 1);
-            }
-            if ((!child && i == 0) || (child && k0 == 0)) {
-                size_t o = (size_t)(j - 1) / 2;
-                bp = outside_pos + 3 * o;
-                bn = outside_nrm + 3 * o;
-                bd = outside_det + o;
-            } else {
-                bp = pos + 3 * b;
-                if (nrm)
-                    bn = nrm + 3 * b;
-                if (det)
-                    bd = det + b;
-            }
-            if (morph_out)
-                morph_out[v] = (float)m;
-            plod__blend_to_edge(pos, nrm, det, v, a, bp, bn, bd, m);
-        }
+    /* the ancestors' and their siblings' corners */
+    double ancestor[PLOD_SPLIT_MORPH_STAGES + 1][3][3], sibling[PLOD_SPLIT_MORPH_STAGES][3][3];
+    memcpy(ancestor[0], sector->corners, sizeof ancestor[0]);
+    for (int b = 0; b < stages; b++)
+        plod__family_corners((const double (*)[3])ancestor[b], morph->stage[b].third_corner,
+                             morph->stage[b].child, ancestor[b + 1], sibling[b]);
+
+    for (int b = stages - 1; b >= 0; b--) {
+        size_t last = b + 1 < stages ? first[b + 1] : first[stages];
+        plod__chain_evaluate(e, &c, (const double (*)[3])ancestor[b],
+                             (const double (*)[3])sibling[b], first[b], last);
+        for (size_t p = first[b]; p < last; p++)
+            if (c.points[p].birth > b)
+                plod__chain_blend(&c, (int32_t)p);
+    }
+    /* the sector's vertices born at stage 0, toward their blended ends */
+    for (size_t p = 0; p < c.grid; p++) {
+        int birth = c.points[p].birth;
+        if (birth == 0)
+            plod__chain_blend(&c, (int32_t)p);
+        if (morph_out && birth >= 0)
+            morph_out[p] = (float)morph->stage[birth].factor;
+    }
+    status = PLOD_OK;
+done:
+    plod__chain_free(&c);
+    return status;
 }
 
 /* A cached sector's corner normals for this emission's eye (they depend
@@ -1462,9 +1633,8 @@ static plod_status plod__emit_sector(const plod__emitter *e, const plod_mesh_sec
             out->face[tbase + t] = sector->face;
     if (params->morph && n > 1 && out->positions) {
         if (sector->split)
-            plod__split_morph_sector(e, sector, vbase);
-        else
-            plod__morph_sector(e, vbase);
+            return plod__split_morph_sector(e, sector, vbase);
+        plod__morph_sector(e, vbase);
     }
     return PLOD_OK;
 }
@@ -1496,7 +1666,7 @@ static void plod__run_chunk(plod__chunk *chunk)
     chunk->status = PLOD_OK;
     for (size_t s = chunk->begin; s < chunk->end; s++) {
         sector.key = 0;
-        sector.split = 0;
+        sector.split = NULL;
         if (!chunk->source(chunk->context, s, &sector))
             continue;
         plod__slot_cache *sc = NULL;
@@ -1663,7 +1833,7 @@ static void plod__find_unchanged(void *context, size_t begin, size_t end)
     for (size_t s = begin; s < end; s++) {
         u->entry[s] = -1;
         sector.key = 0;
-        sector.split = 0;
+        sector.split = NULL;
         if (!u->source(u->context, s, &sector) || !sector.key)
             continue;
         int32_t hit = plod__cache_find(u->cache, sector.key);
@@ -1696,7 +1866,7 @@ static void plod__weigh(void *context, size_t begin, size_t end)
     plod_mesh_sector sector;
     for (size_t s = begin; s < end; s++) {
         sector.key = 0;
-        sector.split = 0;
+        sector.split = NULL;
         if (!w->source(w->context, s, &sector))
             w->weight[s] = 0;
         else if (sector.key && plod__cache_find(w->cache, sector.key) >= 0)

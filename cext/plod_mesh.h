@@ -48,6 +48,8 @@ plod_status plod_template_barycentrics(float *out, int template_level);
 plod_status plod_template_triangles(int32_t *out, int template_level);
 
 /* ---- sectors as the emitter sees them ----------------------------------- */
+struct plod_split_morph; /* plod_refine.h */
+
 typedef struct plod_mesh_sector {
     double corners[3][3]; /* unit directions, CCW seen from outside */
     int level;            /* written to the sector_level attribute */
@@ -56,30 +58,19 @@ typedef struct plod_mesh_sector {
                              sector id); 0 = never cached.  plod_mesh_emit
                              sets it to 0 before each source call;
                              plod_mesh_instances neither sets nor reads it. */
-    /* Split morph (plod_split_morph in plod_refine.h), in two levels: with
-     * `split` set the sector is a child of a longest-edge bisection, and
-     * with params.morph, first its vertices on the parent's grid but off
-     * the grandparent's blend by parent_morph toward the middle of the
-     * grandparent's edge through them, then its vertices off the parent's
-     * grid (odd weight on corner 1, the parent's hypotenuse midpoint) blend
-     * by split_morph toward the middle of the parent's edge through them,
-     * as the first step left its ends.  An edge whose far end lies outside
-     * the sector ends in a vertex evaluated from the corners of the
-     * triangle that holds it (the sibling, or the parent's sibling), as
-     * that triangle's sector evaluates it, so every sector holding a vertex
-     * computes the same bits.  Sectors whose factors are 0 do not move.
-     * split 0: the distance geomorph below (params.morph_*).
-     * plod_mesh_emit sets split to 0 before each source call. */
-    int split;            /* 1: the fields below set */
-    int split_child;      /* 0: corners (parent 1, midpoint, parent 0);
-                             1: (parent 2, midpoint, parent 1) */
-    double split_morph;   /* [0, 1]: 1 = the parent's surface */
-    double third_corner[3]; /* the parent's corner this sector lacks */
-    int parent_child;     /* which child of the grandparent the parent is */
-    double parent_morph;  /* [0, 1]: 1 = the grandparent's surface on the
-                             parent's grid; 0 without a grandparent */
-    double parent_third_corner[3]; /* the grandparent's corner the parent
-                                      lacks */
+    /* Split morph (plod_split_morph in plod_refine.h): with `split` set and
+     * params.morph, each vertex born on the grid of the sector's ancestor j
+     * levels up (j = 0: the parent; born there: off the grid one level
+     * further up) blends by stage j's factor toward the middle of that
+     * ancestor's edge through it, whose ends blend the same way first, as
+     * far up as the stages reach.  An edge's ends are evaluated from the
+     * corners of the triangle of the ancestor's level that holds them (the
+     * ancestor or its sibling), as that triangle's sector evaluates them,
+     * so every sector holding a vertex computes the same bits.  Sectors
+     * whose factors are all 0 do not move.  NULL: the distance geomorph
+     * below (params.morph_*).  plod_mesh_emit sets it to NULL before each
+     * source call. */
+    const struct plod_split_morph *split;
 } plod_mesh_sector;
 
 /* Returns 1 if sector `index` (0..count-1) is emitted and then fills

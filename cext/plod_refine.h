@@ -205,38 +205,37 @@ size_t plod_refiner_memory_bytes(const plod_refiner *refiner);
 
 /* ---- split morph (F. Strugar, "Continuous Distance-Dependent Level of
  * Detail for Rendering Heightmaps", 2009, carried to longest-edge
- * bisection and composed over two levels) -------------------------------------
+ * bisection and composed over every level still morphing) ---------------
  * A diamond D (two parents split together) gives its four children one
  * factor m_D: 1 where the children look exactly like their parents, 0
- * where they are their own surface.  Its one-level part f_D: s_D the larger
- * of the refiner's split scores (plod_bound_score at the bound's distance)
- * of D's two parents, s_C the largest over D's four children and their
- * partners across the children's hypotenuses (the diamonds they split in);
- * f_D = 0 where one of those diamonds is split or s_C >= 1, 1 where
- * s_D <= 1 (D splits or merges right there, or D is a forced split), else
- * (1 - s_C) / (s_D - s_C).  Then m_D = (f_D + phi_D) / 2, phi_D the least
- * f over D's split child diamonds (1 without any): m_D falls from 1 at D's
- * split to 1/2 as a child diamond splits and to 0 as a grandchild diamond
- * does, continuous in the camera between (a forced split can still step
- * it).  So a leaf's vertices blend in two levels, the parent's grid toward
- * the grandparent's by the grandparent diamond's factor, then the leaf's
- * own toward that (plod_mesh_sector), and every diamond three levels above
- * a leaf has m = 0: each vertex's position is a function of its own birth
- * diamonds, the same from every sector that holds it.  A function of the
- * tree, the camera and the parameters alone. */
+ * where they are their own surface.  m_D follows D's reach e_D, the larger
+ * of D's split score and the reach of every split diamond below that needs
+ * D split (a forced split takes its forcer's): e_D crosses 1 exactly where
+ * D splits or merges, and m_D = 1 - log(e_D) / log(PLOD_SPLIT_MORPH_RANGE),
+ * clamped to [0, 1].  A split's scores are those of the refinement's P*
+ * (plod_bound_score at the bound's distance, capped by the ancestors').  So
+ * each diamond morphs over the same ratio of distance whatever its children
+ * do, and where the scores fall slowly with the level, many levels morph at
+ * once: a leaf's vertex born on the grid of its ancestor j levels up blends
+ * by that ancestor's factor toward the middle of the ancestor's edge
+ * through it, whose ends blend in turn (plod_mesh_sector.split).  A
+ * function of the tree, the camera and the parameters alone. */
+#define PLOD_SPLIT_MORPH_RANGE 1.5
+#define PLOD_SPLIT_MORPH_STAGES 24 /* ancestors a leaf blends through */
+
+typedef struct plod_split_morph_stage {
+    double factor;          /* m of this ancestor's diamond in [0, 1] */
+    double third_corner[3]; /* unit direction of the ancestor's corner the
+                               one below it lacks (plod_sector_corners) */
+    int child;              /* which child of this ancestor the one below it
+                               is: 0 = corners (corner 1, midpoint, corner
+                               0), 1 = (corner 2, midpoint, corner 1) */
+} plod_split_morph_stage;
+
 typedef struct plod_split_morph {
-    double factor;          /* m of the parent's diamond in [0, 1]; -1 for a
-                               base sector (no parent) */
-    double third_corner[3]; /* unit direction of the parent's corner the leaf
-                               lacks (plod_sector_corners of the parent) */
-    int child;              /* which child of its parent: 0 = corners (parent
-                               corner 1, midpoint, parent corner 0), 1 =
-                               (parent corner 2, midpoint, parent corner 1) */
-    double parent_factor;   /* m of the grandparent's diamond; 0 where the
-                               parent is a base sector */
-    double parent_third_corner[3]; /* the grandparent's corner the parent
-                                      lacks */
-    int parent_child;       /* which child of the grandparent the parent is */
+    int stages; /* ancestors listed, parent first: up to the last whose
+                   factor is above 0 (0 for a base sector or where none is) */
+    plod_split_morph_stage stage[PLOD_SPLIT_MORPH_STAGES];
 } plod_split_morph;
 
 /* The split morph of `count` leaves (indices into plod_refiner_sectors, or

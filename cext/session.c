@@ -367,17 +367,7 @@ static int plod__leaf_sector(const void *context, size_t index, plod_mesh_sector
         out->level = s->level;
         out->face = s->face;
         out->key = s->id;
-        if (src->split) {
-            const plod_split_morph *m = &src->split[index];
-            out->split = 1;
-            out->split_child = m->child;
-            out->split_morph = m->factor > 0.0 ? m->factor : 0.0; /* base: -1 */
-            memcpy(out->third_corner, m->third_corner, sizeof out->third_corner);
-            out->parent_child = m->parent_child;
-            out->parent_morph = m->parent_factor;
-            memcpy(out->parent_third_corner, m->parent_third_corner,
-                   sizeof out->parent_third_corner);
-        }
+        out->split = src->split ? &src->split[index] : NULL;
     }
     return 1;
 }

@@ -129,7 +129,7 @@ static void set_push(sector_set *set, const double a[3], const double b[3],
     s->level = level;
     s->face = face;
     s->key = 0;
-    s->split = 0; /* no split morph: the distance geomorph */
+    s->split = NULL; /* no split morph: the distance geomorph */
 }
 
 static void normalise(double v[3])
