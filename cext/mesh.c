@@ -1045,9 +1045,9 @@ static void plod__sample_vertices(const plod__emitter *e, const double corners[3
  * the middle of p0 p2; a child's vertex with k1 even is P's vertex
  * plod__to_parent.  A vertex with k1 odd lies off P's grid and blends
  * toward the middle of P's edge through it that keeps the weight on P's
- * right-angle corner p1 (child 0: k0; child 1: k2).  The same one level up
- * for P's vertices in the grandparent G, with P's sibling Q across P's
- * edge through G's midpoint. */
+ * right-angle corner p1 (child 0: k0; child 1: k2); that edge's far end may
+ * lie in the sibling (plod__to_sibling).  The same a level further up for
+ * every ancestor in the chain, each vertex with its weights in each. */
 
 static void plod__to_parent(int child, const int k[3], int out[3])
 {

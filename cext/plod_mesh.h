@@ -59,11 +59,15 @@ typedef struct plod_mesh_sector {
                              sets it to 0 before each source call;
                              plod_mesh_instances neither sets nor reads it. */
     /* Split morph (plod_split_morph in plod_refine.h): with `split` set and
-     * params.morph, each vertex born on the grid of the sector's ancestor j
-     * levels up (j = 0: the parent; born there: off the grid one level
-     * further up) blends by stage j's factor toward the middle of that
-     * ancestor's edge through it, whose ends blend the same way first, as
-     * far up as the stages reach.  An edge's ends are evaluated from the
+     * params.morph, each vertex on the grid of the sector's ancestor j
+     * levels up but off the grid of the one above it (j = 0: the sector's
+     * own vertices off its parent's grid) blends by stage j's factor toward
+     * the middle of that next ancestor's edge through it, whose ends blend
+     * the same way first, as far up as the stages reach.  It moves along
+     * its own direction (to the edge middle's projection on its ray): the
+     * ancestors' grids do not nest on the sphere, and a whole-position
+     * blend would slide it sideways by the gap.  Normals and detail blend
+     * toward the edge middle's.  An edge's ends are evaluated from the
      * corners of the triangle of the ancestor's level that holds them (the
      * ancestor or its sibling), as that triangle's sector evaluates them,
      * so every sector holding a vertex computes the same bits.  Sectors

@@ -152,7 +152,7 @@ def test_descending_fast_over_mountains_has_no_pops(earth):
     # a level, so several levels split within a frame; each diamond still
     # morphs over its own range of distance, composed over every level in
     # flight (a morph over two levels showed 0.42 and 0.33 px here)
-    poses = bench_pops.path_cameras(earth, "descent", 41)
+    poses = bench_pops.path_cameras(earth, "descent")[:41]
     rows = bench_pops.fly(earth, poses, morph=True, measured={20, 40})
     assert [r["frame"] for r in rows] == [20, 40]
     worst = bench_pops.summary(rows)
