@@ -1297,11 +1297,16 @@ static plod__vertex_ref plod__chain_ref(const plod__chain *c, int32_t p)
 }
 
 /* Point p blended by its birth stage's factor toward its arrival's edge
- * middle, along its own direction: its height moves, not where it stands.
- * The grids of a sector's ancestors (their corners' bit rule) do not nest
- * on the sphere, so an ancestor's edge middle lies beside the vertex, by
- * more the larger the ancestor; blending the whole position would slide the
- * vertex sideways by that gap as the factor changes. */
+ * middle, along its own direction and in height: its distance from the
+ * centre moves toward the mean of the edge ends'.  Not where it stands: the
+ * grids of a sector's ancestors (their corners' bit rule) do not nest on
+ * the sphere, so an ancestor's edge middle lies beside the vertex, the
+ * more the larger the ancestor, and a whole-position blend slides the
+ * vertex sideways by that gap as the factor changes.  Not to the chord:
+ * an ancestor's long edges sag kilometres below the ground (an edge of
+ * 700 km by 10 km), which would read as valleys and, below sea level, as
+ * sea; at the sector's own split the chord and the mean differ by its own
+ * cells' sag, a fraction of a pixel. */
 static void plod__chain_blend(const plod__chain *c, int32_t p)
 {
     const plod__chain_point *pt = &c->points[p];
@@ -1310,18 +1315,17 @@ static void plod__chain_blend(const plod__chain *c, int32_t p)
                      e1 = plod__chain_ref(c, a->end[1]);
     double m = c->morph->stage[pt->birth].factor;
     m = m > 1.0 ? 1.0 : m;
-    /* planet-centred, in double: the edge middle's distance along the
-     * vertex's ray (its projection) */
-    double at[3], r2 = 0.0, along = 0.0;
+    /* planet-centred, in double */
+    double at[3], r2 = 0.0, r2a = 0.0, r2b = 0.0;
     for (int k = 0; k < 3; k++) {
         at[k] = (double)v.pos[k] + c->origin[k];
+        double pa = (double)e0.pos[k] + c->origin[k], pb = (double)e1.pos[k] + c->origin[k];
         r2 += at[k] * at[k];
+        r2a += pa * pa;
+        r2b += pb * pb;
     }
-    double r = sqrt(r2);
-    for (int k = 0; k < 3; k++)
-        along += (0.5 * ((double)e0.pos[k] + (double)e1.pos[k]) + c->origin[k]) * at[k];
-    along /= r;
-    double scale = (r + m * (along - r)) / r;
+    double r = sqrt(r2), target = 0.5 * (sqrt(r2a) + sqrt(r2b));
+    double scale = (r + m * (target - r)) / r;
     for (int k = 0; k < 3; k++)
         v.pos[k] = (float)(at[k] * scale - c->origin[k]);
     plod__blend_shading(v.nrm, v.det, e0.nrm, e0.det, e1.nrm, e1.det, m);

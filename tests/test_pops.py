@@ -160,6 +160,29 @@ def test_descending_fast_over_mountains_has_no_pops(earth):
     assert worst["max_px"] <= 0.25, worst
 
 
+def test_the_morph_keeps_land_above_the_sea_from_orbit(earth):
+    # 2,000 km above the Himalaya looking north over Tibet and the Tarim
+    # basin at a small render's size: 14 sectors of level 4, their
+    # ancestors' edges thousands of kilometres long.  Morphing vertices
+    # sank toward those edges' chords (an edge of 700 km sags 10 km) and
+    # rendered as bands of sea colour across the land; they move in height
+    # toward the mean of the edge ends' instead
+    radius = earth.radius
+    pose = (geo_pose(radius, 86.9, 27.9, altitude=2.0e6, heading=0.0, pitch=-60.0), 480, 270,
+            35.0)
+    earth.refine(bench_pops.camera(earth, *pose), **bench_pops.refine_kwargs(3))
+    heights = {}
+    for morph in (False, True):
+        mesh = earth.mesh(template_level=3, morph=morph, threads=2, cache=False)
+        pos = np.frombuffer(mesh.positions, np.float32).reshape(-1, 3).astype(np.float64)
+        heights[morph] = np.linalg.norm(pos + np.asarray(mesh.origin), axis=1) - radius
+    land = heights[False] > 500.0
+    sunk = land & (heights[True] <= 0.0)
+    assert land.sum() > 1000
+    assert sunk.sum() == 0, (int(sunk.sum()), float(np.min(heights[True][land])))
+    earth.reset()
+
+
 def welded_open_edges(mesh):
     """Edges used once after welding equal float32 positions (0: closed)."""
     pos = np.frombuffer(mesh.positions, np.float32).reshape(-1, 3)
