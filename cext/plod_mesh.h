@@ -64,10 +64,11 @@ typedef struct plod_mesh_sector {
      * own vertices off its parent's grid) blends by stage j's factor toward
      * the middle of that next ancestor's edge through it, whose ends blend
      * the same way first, as far up as the stages reach.  It moves along
-     * its own direction (to the edge middle's projection on its ray): the
-     * ancestors' grids do not nest on the sphere, and a whole-position
-     * blend would slide it sideways by the gap.  Normals and detail blend
-     * toward the edge middle's.  An edge's ends are evaluated from the
+     * its own direction, in height, toward the mean of the edge ends'
+     * distances from the centre: the ancestors' grids do not nest on the
+     * sphere, so a whole-position blend would slide it sideways by the gap,
+     * and the chords of an ancestor's long edges sag kilometres below the
+     * ground.  Normals and detail blend toward the edge middle's.  An edge's ends are evaluated from the
      * corners of the triangle of the ancestor's level that holds them (the
      * ancestor or its sibling), as that triangle's sector evaluates them,
      * so every sector holding a vertex computes the same bits.  Sectors
