@@ -1463,10 +1463,9 @@ static plod_status plod__split_morph_sector(const plod__emitter *e,
                              morph->stage[b].child, ancestor[b + 1], sibling[b]);
 
     for (int b = stages - 1; b >= 0; b--) {
-        size_t last = b + 1 < stages ? first[b + 1] : first[stages];
         plod__chain_evaluate(e, &c, (const double (*)[3])ancestor[b],
-                             (const double (*)[3])sibling[b], first[b], last);
-        for (size_t p = first[b]; p < last; p++)
+                             (const double (*)[3])sibling[b], first[b], first[b + 1]);
+        for (size_t p = first[b]; p < first[b + 1]; p++)
             if (c.points[p].birth > b)
                 plod__chain_blend(&c, (int32_t)p);
     }

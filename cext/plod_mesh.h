@@ -68,13 +68,13 @@ typedef struct plod_mesh_sector {
      * distances from the centre: the ancestors' grids do not nest on the
      * sphere, so a whole-position blend would slide it sideways by the gap,
      * and the chords of an ancestor's long edges sag kilometres below the
-     * ground.  Normals and detail blend toward the edge middle's.  An edge's ends are evaluated from the
-     * corners of the triangle of the ancestor's level that holds them (the
-     * ancestor or its sibling), as that triangle's sector evaluates them,
-     * so every sector holding a vertex computes the same bits.  Sectors
-     * whose factors are all 0 do not move.  NULL: the distance geomorph
-     * below (params.morph_*).  plod_mesh_emit sets it to NULL before each
-     * source call. */
+     * ground.  Normals and detail blend toward the edge middle's.  An
+     * edge's ends are evaluated from the corners of the triangle of the
+     * ancestor's level that holds them (the ancestor or its sibling), as
+     * that triangle's sector evaluates them, so every sector holding a
+     * vertex computes the same bits.  Sectors whose factors are all 0 do
+     * not move.  NULL: the distance geomorph below (params.morph_*).
+     * plod_mesh_emit sets it to NULL before each source call. */
     const struct plod_split_morph *split;
 } plod_mesh_sector;
 
